@@ -1,0 +1,1 @@
+"""gaitsmith command-line wiring: `gaitsmith` (plan / simulate / robots)."""

@@ -1,0 +1,123 @@
+"""Servo models from the catalogue `robots/servos.toml` (vendors' published figures)."""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from robots.errors import RobotConfigError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+CATALOGUE_PATH = Path(__file__).with_name("servos.toml")
+PROTOCOLS = ("dynamixel2", "dynamixel1", "feetech_sts")
+
+
+@dataclass(frozen=True)
+class ServoModel:
+    """One servo model at its nominal voltage.
+
+    The torque–speed envelope is the DC-motor line |τ| ≤ τ_stall·(1 − |q̇|/ω₀).
+    """
+
+    name: str
+    vendor: str
+    protocol: str
+    model_number: int
+    nominal_voltage_v: float
+    voltage_min_v: float
+    voltage_max_v: float
+    stall_torque_nm: float
+    no_load_speed_rad_s: float
+    ticks_per_rev: float
+    position_min_tick: int
+    position_max_tick: int
+    default_baud: int
+    mass_kg: float
+    max_temperature_c: float
+
+    @property
+    def ticks_per_rad(self) -> float:
+        return self.ticks_per_rev / (2.0 * math.pi)
+
+    def torque_limit_nm(self, speed_rad_s: float, margin: float = 1.0) -> float:
+        """Largest torque magnitude available at joint speed `speed_rad_s` (0 beyond ω₀)."""
+        frac = 1.0 - abs(speed_rad_s) / self.no_load_speed_rad_s
+        return max(0.0, self.stall_torque_nm * frac * margin)
+
+
+_FLOAT_FIELDS = (
+    "nominal_voltage_v",
+    "voltage_min_v",
+    "voltage_max_v",
+    "stall_torque_nm",
+    "no_load_speed_rad_s",
+    "ticks_per_rev",
+    "mass_kg",
+    "max_temperature_c",
+)
+_INT_FIELDS = ("model_number", "position_min_tick", "position_max_tick", "default_baud")
+
+
+def _parse_servo(file: str, name: str, table: Any) -> ServoModel:
+    where = f"[{name}]"
+    if not isinstance(table, dict):
+        raise RobotConfigError(file, where, "must be a table of servo figures")
+    known = {"vendor", "protocol", *_FLOAT_FIELDS, *_INT_FIELDS}
+    unknown = sorted(set(table) - known)
+    if unknown:
+        raise RobotConfigError(file, f"{where}.{unknown[0]}", f"unknown field; known: {sorted(known)}")
+    values: dict[str, Any] = {"name": name}
+    for key in ("vendor", "protocol"):
+        if not isinstance(table.get(key), str):
+            raise RobotConfigError(file, f"{where}.{key}", "missing or not a string")
+        values[key] = table[key]
+    if values["protocol"] not in PROTOCOLS:
+        raise RobotConfigError(file, f"{where}.protocol", f"must be one of {PROTOCOLS}")
+    for key in _FLOAT_FIELDS:
+        v = table.get(key)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+            raise RobotConfigError(file, f"{where}.{key}", "missing or not a positive number")
+        values[key] = float(v)
+    for key in _INT_FIELDS:
+        v = table.get(key)
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise RobotConfigError(file, f"{where}.{key}", "missing or not a non-negative integer")
+        values[key] = v
+    if values["position_max_tick"] <= values["position_min_tick"]:
+        raise RobotConfigError(file, f"{where}.position_max_tick", "must exceed position_min_tick")
+    if not values["voltage_min_v"] <= values["nominal_voltage_v"] <= values["voltage_max_v"]:
+        raise RobotConfigError(file, f"{where}.nominal_voltage_v", "outside voltage_min_v..max_v")
+    return ServoModel(**values)
+
+
+def parse_catalogue(text: str, file: str = str(CATALOGUE_PATH)) -> dict[str, ServoModel]:
+    """Parse a servo catalogue's TOML text; raises RobotConfigError naming the field at fault."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise RobotConfigError(file, "<toml>", f"not valid TOML: {exc}") from None
+    return {name: _parse_servo(file, name, table) for name, table in data.items()}
+
+
+@lru_cache(maxsize=1)
+def load_catalogue() -> dict[str, ServoModel]:
+    """The built-in servo catalogue, keyed by model name (e.g. "XL430_W250")."""
+    return parse_catalogue(CATALOGUE_PATH.read_text(encoding="utf-8"))
+
+
+def servo_model(name: str) -> ServoModel:
+    """Look up one catalogue entry; raises RobotConfigError listing the known models."""
+    catalogue = load_catalogue()
+    if name not in catalogue:
+        raise RobotConfigError(
+            str(CATALOGUE_PATH), name, f"unknown servo model; known: {sorted(catalogue)}"
+        )
+    return catalogue[name]
