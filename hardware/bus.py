@@ -1,0 +1,313 @@
+"""`ServoBus`: the abstract servo bus every driver (and the player) speaks.
+
+A concrete driver implements five single-shot primitives on raw bytes (`_ping_once`,
+`_read_once`, `_write_once`, `_sync_write_once`, `_sync_read_once`); this class adds register
+encoding from the family's `ControlTable`, fault decoding, and retries with a counted budget.
+
+Retries: every transaction is tried at most `1 + BusConfig.retries` times; only `NoResponse`
+and `CorruptPacket` are retried (a `ServoFault` is an answer, not a transmission error). Each
+attempt is bounded by the port's packet timeout (`BusConfig.timeout_s` beyond the wire time).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from types import TracebackType
+from typing import TypeVar
+
+from hardware.control_table import ControlTable, Register, decode_flags
+from hardware.errors import BusError, CorruptPacket, NoResponse, ServoFault
+
+T = TypeVar("T")
+
+MAX_SERVO_ID = 252
+
+
+@dataclass(frozen=True)
+class BusConfig:
+    """Transport settings shared by every driver.
+
+    timeout_s: reply deadline per attempt beyond the wire time of the expected reply [s].
+    retries: extra attempts after a NoResponse / CorruptPacket (0 = try once).
+    baudrate: serial speed [bit/s]; None = the port's current / the driver's default.
+    raise_on_fault: raise ServoFault when a reply carries hardware-error flags.
+    """
+
+    timeout_s: float = 0.010
+    retries: int = 1
+    baudrate: int | None = None
+    raise_on_fault: bool = True
+
+    def __post_init__(self) -> None:
+        if not self.timeout_s > 0:
+            raise ValueError("timeout_s must be positive")
+        if self.retries < 0:
+            raise ValueError("retries must be >= 0")
+
+
+@dataclass(frozen=True)
+class ServoInfo:
+    """What a ping tells about one servo."""
+
+    servo_id: int
+    model_number: int
+    firmware: str
+
+
+@dataclass(frozen=True)
+class ServoStatus:
+    """Health of one servo: load [% of max, signed], voltage [V], temperature [°C], error flags."""
+
+    servo_id: int
+    load_pct: float
+    voltage_v: float
+    temperature_c: float
+    error_flags: tuple[str, ...]
+    error_raw: int
+
+
+@dataclass(frozen=True)
+class BusStats:
+    """Counters since the bus was created (attempt-level: one retry = one more attempt)."""
+
+    transactions: int = 0
+    attempts: int = 0
+    retries: int = 0
+    no_response: int = 0
+    corrupt: int = 0
+    faults: int = 0
+    failures: int = 0  # transactions that raised after exhausting their retries
+
+
+class ServoBus(ABC):
+    """A half-duplex servo bus: open/close, ping/scan, torque, sync write/read, status."""
+
+    protocol: str = ""
+
+    def __init__(self, table: ControlTable, config: BusConfig | None = None) -> None:
+        self.table = table
+        self.config = config or BusConfig()
+        self._counts = {f: 0 for f in BusStats.__dataclass_fields__}
+
+    # -- lifecycle ------------------------------------------------------------------------
+    @abstractmethod
+    def open(self) -> None:
+        """Open the port (raises PortError)."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Close the port; idempotent."""
+
+    @property
+    @abstractmethod
+    def is_open(self) -> bool: ...
+
+    def __enter__(self) -> ServoBus:
+        if not self.is_open:
+            self.open()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # -- primitives (one attempt, raw bytes) -----------------------------------------------
+    @abstractmethod
+    def _ping_once(self, servo_id: int) -> ServoInfo: ...
+
+    @abstractmethod
+    def _read_once(self, servo_id: int, addr: int, length: int) -> tuple[bytes, int]:
+        """Read `length` bytes at `addr`; returns (data, status error byte)."""
+
+    @abstractmethod
+    def _write_once(self, servo_id: int, addr: int, data: bytes) -> int:
+        """Write `data` at `addr` and wait for the status; returns the status error byte."""
+
+    @abstractmethod
+    def _sync_write_once(self, addr: int, length: int, data: Mapping[int, bytes]) -> None:
+        """Broadcast one sync-write (no replies)."""
+
+    @abstractmethod
+    def _sync_read_once(
+        self, addr: int, length: int, ids: Sequence[int]
+    ) -> dict[int, tuple[bytes, int]]:
+        """Sync-read `length` bytes at `addr` from `ids`: {id: (data, status error byte)}."""
+
+    @abstractmethod
+    def _fault_flags(self, servo_id: int, error: int) -> tuple[str, ...]:
+        """Decode a non-zero status error byte into flag names (may query the servo)."""
+
+    # -- retry machinery --------------------------------------------------------------------
+    @property
+    def stats(self) -> BusStats:
+        return BusStats(**self._counts)
+
+    def _transact(self, attempt: Callable[[], T], retries: int | None = None) -> T:
+        budget = self.config.retries if retries is None else retries
+        self._counts["transactions"] += 1
+        last: BusError | None = None
+        for n in range(budget + 1):
+            self._counts["attempts"] += 1
+            if n:
+                self._counts["retries"] += 1
+            try:
+                return attempt()
+            except NoResponse as exc:
+                self._counts["no_response"] += 1
+                last = NoResponse(exc.servo_id, n + 1, exc.detail)
+            except CorruptPacket as exc:
+                self._counts["corrupt"] += 1
+                last = CorruptPacket(exc.detail, exc.servo_id, n + 1)
+            except ServoFault:
+                self._counts["faults"] += 1
+                self._counts["failures"] += 1
+                raise
+        self._counts["failures"] += 1
+        assert last is not None
+        raise last
+
+    def _check(self, servo_id: int, error: int) -> None:
+        if error and self.config.raise_on_fault:
+            flags = self._fault_flags(servo_id, error)
+            raise ServoFault(servo_id, flags, error)
+
+    # -- public API -------------------------------------------------------------------------
+    def ping(self, servo_id: int, retries: int | None = None) -> ServoInfo:
+        """Model number and firmware of `servo_id` (raises NoResponse when absent)."""
+        _check_id(servo_id)
+        return self._transact(lambda: self._ping_once(servo_id), retries)
+
+    def scan(self, ids: Iterable[int] = range(MAX_SERVO_ID + 1)) -> list[ServoInfo]:
+        """Ping every id in `ids` once (no retries); the servos that answered, by id."""
+        found = []
+        for servo_id in ids:
+            try:
+                found.append(self.ping(servo_id, retries=0))
+            except (NoResponse, CorruptPacket):
+                continue
+        return found
+
+    def read(self, servo_id: int, name: str) -> int:
+        """Decoded value of register `name` of one servo."""
+        reg = self.table[name]
+
+        def attempt() -> int:
+            data, error = self._read_once(servo_id, reg.addr, reg.size)
+            self._check(servo_id, error)
+            return reg.decode(data)
+
+        return self._transact(attempt)
+
+    def write(self, servo_id: int, name: str, value: int) -> None:
+        """Write register `name` of one servo and wait for its status."""
+        reg = self.table[name]
+        raw = reg.encode(value)
+
+        def attempt() -> None:
+            self._check(servo_id, self._write_once(servo_id, reg.addr, raw))
+
+        self._transact(attempt)
+
+    def sync_write(self, name: str, values: Mapping[int, int]) -> None:
+        """One broadcast sync-write of register `name` ({id: value})."""
+        if not values:
+            return
+        reg = self.table[name]
+        data = {i: reg.encode(v) for i, v in values.items()}
+        self._transact(lambda: self._sync_write_once(reg.addr, reg.size, data))
+
+    def sync_read(self, name: str, ids: Sequence[int]) -> dict[int, int]:
+        """One sync-read of register `name` from `ids` ({id: value})."""
+        reg = self.table[name]
+        raw = self._sync_read_span(reg.addr, reg.size, ids)
+        return {i: reg.decode(data) for i, data in raw.items()}
+
+    def set_torque(self, ids: Iterable[int], enabled: bool) -> None:
+        """Torque on/off for each servo (one acknowledged write each)."""
+        for servo_id in ids:
+            self.write(servo_id, "torque_enable", 1 if enabled else 0)
+
+    def torque_on(self, ids: Iterable[int]) -> None:
+        self.set_torque(ids, True)
+
+    def torque_off(self, ids: Iterable[int]) -> None:
+        self.set_torque(ids, False)
+
+    def sync_write_positions(self, goals_ticks: Mapping[int, int]) -> None:
+        """Goal positions [ticks] for several servos in one broadcast packet."""
+        self.sync_write("goal_position", goals_ticks)
+
+    def sync_read_positions(self, ids: Sequence[int]) -> dict[int, int]:
+        """Present positions [ticks] of `ids` in one sync-read."""
+        return self.sync_read("present_position", ids)
+
+    def read_status(self, ids: Sequence[int]) -> dict[int, ServoStatus]:
+        """Load, voltage, temperature and hardware-error flags of `ids` (never raises ServoFault:
+        the flags are the answer)."""
+        names = ("present_load", "present_voltage", "present_temperature", "hardware_error")
+        regs = [self.table[n] for n in names]
+        blocks: dict[int, dict[int, bytes]] = {}
+        for lo, hi in _spans(regs):
+            got = self._sync_read_span(lo, hi - lo, ids, check_faults=False)
+            for servo_id, data in got.items():
+                blocks.setdefault(servo_id, {})[lo] = data
+
+        def value(servo_id: int, reg: Register) -> int:
+            for lo, data in blocks[servo_id].items():
+                if lo <= reg.addr and reg.addr + reg.size <= lo + len(data):
+                    return reg.decode(data[reg.addr - lo : reg.addr - lo + reg.size])
+            raise AssertionError("register outside the spans read")  # pragma: no cover
+
+        out = {}
+        for servo_id in ids:
+            load, volt, temp, err = (value(servo_id, r) for r in regs)
+            out[servo_id] = ServoStatus(
+                servo_id=servo_id,
+                load_pct=regs[0].to_physical(load),
+                voltage_v=regs[1].to_physical(volt),
+                temperature_c=regs[2].to_physical(temp),
+                error_flags=decode_flags(err, self.table.hardware_error_bits),
+                error_raw=err,
+            )
+        return out
+
+    def _sync_read_span(
+        self, addr: int, length: int, ids: Sequence[int], check_faults: bool = True
+    ) -> dict[int, bytes]:
+        ids = list(ids)
+        if not ids:
+            return {}
+        for servo_id in ids:
+            _check_id(servo_id)
+
+        def attempt() -> dict[int, bytes]:
+            got = self._sync_read_once(addr, length, ids)
+            if check_faults:
+                for servo_id, (_, error) in got.items():
+                    self._check(servo_id, error)
+            return {i: data for i, (data, _) in got.items()}
+
+        return self._transact(attempt)
+
+
+def _check_id(servo_id: int) -> None:
+    if not 0 <= servo_id <= MAX_SERVO_ID:
+        raise ValueError(f"servo id {servo_id} outside 0..{MAX_SERVO_ID}")
+
+
+def _spans(regs: Sequence[Register], max_gap: int = 8) -> list[tuple[int, int]]:
+    """Merge registers into contiguous [lo, hi) address spans, bridging gaps <= max_gap bytes."""
+    spans: list[tuple[int, int]] = []
+    for reg in sorted(regs, key=lambda r: r.addr):
+        lo, hi = reg.addr, reg.addr + reg.size
+        if spans and lo - spans[-1][1] <= max_gap:
+            spans[-1] = (spans[-1][0], max(spans[-1][1], hi))
+        else:
+            spans.append((lo, hi))
+    return spans

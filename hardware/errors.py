@@ -1,0 +1,88 @@
+"""Typed errors of the `hardware` package.
+
+Hierarchy::
+
+    HardwareError
+    ├── BusError                 something went wrong on the serial bus
+    │   ├── PortError            the port cannot be opened / used
+    │   ├── NoResponse           a servo did not answer within the timeout
+    │   ├── CorruptPacket        a reply arrived but failed its CRC/checksum or framing
+    │   └── ServoFault           a servo answered with hardware-error flags set
+    ├── CalibrationError         calibration file missing, malformed or for another robot build
+    └── LimitError               a joint target lies outside the joint's limits
+"""
+
+from __future__ import annotations
+
+
+class HardwareError(Exception):
+    """Base class of every error raised by `hardware`."""
+
+
+class BusError(HardwareError):
+    """A transaction on the servo bus failed."""
+
+
+class PortError(BusError):
+    """The serial port (device path or injected port object) cannot be opened or used."""
+
+    def __init__(self, port: str, problem: str) -> None:
+        self.port = port
+        self.problem = problem
+        super().__init__(f"port {port!r}: {problem}")
+
+
+class NoResponse(BusError):
+    """Servo `servo_id` did not answer (after `attempts` tries, each bounded by the timeout)."""
+
+    def __init__(self, servo_id: int, attempts: int = 1, detail: str = "") -> None:
+        self.servo_id = servo_id
+        self.attempts = attempts
+        self.detail = detail
+        msg = f"servo {servo_id}: no response after {attempts} attempt(s)"
+        super().__init__(f"{msg}: {detail}" if detail else msg)
+
+
+class CorruptPacket(BusError):
+    """A packet failed its CRC/checksum or framing (`servo_id` is None when unknown)."""
+
+    def __init__(self, detail: str, servo_id: int | None = None, attempts: int = 1) -> None:
+        self.detail = detail
+        self.servo_id = servo_id
+        self.attempts = attempts
+        who = f"servo {servo_id}: " if servo_id is not None else ""
+        super().__init__(f"{who}corrupt packet ({detail}) after {attempts} attempt(s)")
+
+
+class ServoFault(BusError):
+    """Servo `servo_id` reports hardware-error flags (decoded names, e.g. ("overload",))."""
+
+    def __init__(self, servo_id: int, flags: tuple[str, ...], raw: int = 0) -> None:
+        self.servo_id = servo_id
+        self.flags = tuple(flags)
+        self.raw = raw
+        names = ", ".join(self.flags) if self.flags else f"raw 0x{raw:02X}"
+        super().__init__(f"servo {servo_id}: hardware fault: {names}")
+
+
+class CalibrationError(HardwareError):
+    """A calibration is missing, malformed, or belongs to another robot build."""
+
+    def __init__(self, source: str, problem: str) -> None:
+        self.source = source
+        self.problem = problem
+        super().__init__(f"{source}: {problem}")
+
+
+class LimitError(HardwareError):
+    """A joint target [rad] lies outside the joint's limits [rad] (or the servo's tick range)."""
+
+    def __init__(self, joint: str, value_rad: float, lower_rad: float, upper_rad: float) -> None:
+        self.joint = joint
+        self.value_rad = value_rad
+        self.lower_rad = lower_rad
+        self.upper_rad = upper_rad
+        super().__init__(
+            f"joint {joint!r}: target {value_rad:.4f} rad outside "
+            f"[{lower_rad:.4f}, {upper_rad:.4f}] rad"
+        )
