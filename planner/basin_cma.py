@@ -238,7 +238,7 @@ class BasinCma:
         c = np.asarray(costs, dtype=float)
         f = np.asarray(feasible, dtype=bool)
         v = np.full(c.size, np.nan) if violations is None else np.asarray(violations, float)
-        return sorted(range(c.size), key=lambda i: _rank_key(c[i], bool(f[i]), v[i]))
+        return sorted(range(c.size), key=lambda i: _rank_key(float(c[i]), bool(f[i]), float(v[i])))
 
     def tell(self, projected: ArrayLike, costs: ArrayLike, feasible: ArrayLike,
              violations: ArrayLike | None = None) -> None:

@@ -222,7 +222,7 @@ class CecLocalSolver:
         h = list(problem.h(xs, ca))
         self._lbg = [-math.inf] * len(g) + [-EQ_TOL] * len(h)
         self._ubg = [0.0] * len(g) + [EQ_TOL] * len(h)
-        opts = {"print_time": False, "show_eval_warnings": False,
+        opts: dict[str, Any] = {"print_time": False, "show_eval_warnings": False,
                 "ipopt.print_level": 0, "ipopt.sb": "yes",
                 "ipopt.hessian_approximation": "limited-memory", "ipopt.max_iter": max_iter,
                 "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-9}

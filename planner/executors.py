@@ -28,8 +28,9 @@ import pickle
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from functools import partial
 from types import TracebackType
-from typing import Any, Literal, Protocol, runtime_checkable
+from typing import Any, Literal, Protocol, TypeVar, runtime_checkable
 
 from planner.basin_cma import BasinCmaError
 
@@ -37,6 +38,7 @@ SolverFactory = Callable[[], Callable[[Any], Any]]
 ExecutorKind = Literal["serial", "process", "ray"]
 
 _WORKER_SOLVE: Callable[[Any], Any] | None = None
+_E = TypeVar("_E", bound="_Closable")
 
 
 class ExecutorError(BasinCmaError):
@@ -74,7 +76,7 @@ class _Closable:
     def close(self) -> None:  # pragma: no cover - overridden
         pass
 
-    def __enter__(self) -> _Closable:
+    def __enter__(self: _E) -> _E:
         return self
 
     def __exit__(self, et: type[BaseException] | None, ev: BaseException | None,
@@ -119,8 +121,7 @@ class ProcessExecutor(_Closable):
         ctx = mp.get_context(start_method)
         self._pool = ProcessPoolExecutor(
             max_workers=self.workers, mp_context=ctx,
-            initializer=_init_worker if factory is not None else None,
-            initargs=(factory,) if factory is not None else ())
+            initializer=partial(_init_worker, factory) if factory is not None else None)
 
     def map(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> list[Any]:
         items = list(xs)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -148,7 +149,7 @@ def test_callback_per_generation_and_stop() -> None:
     assert all(isinstance(rep, GenerationReport) for rep in reports)
     rep = reports[-1]
     assert rep.n_feasible == rep.popsize and rep.sigma > 0 and rep.mean.shape == (2,)
-    assert all(a.best_cost >= b.best_cost for a, b in zip(reports, reports[1:], strict=False))
+    assert all(a.best_cost >= b.best_cost for a, b in itertools.pairwise(reports))
     with pytest.raises(AttributeError):
         rep.generation = 3  # type: ignore[misc]  # frozen
     stopped = basin_cma(g, [3.0, 3.0], 1.0, None, seed=0, callback=lambda rp: rp.generation == 2)
