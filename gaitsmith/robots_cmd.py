@@ -26,29 +26,60 @@ def list_robots(ctx: typer.Context) -> None:
     for name in robots.builtin_names():
         r = robots.load(name)
         servos = ", ".join(f"{n}× {m}" for m, n in Counter(j.servo.name for j in r.joints).items())
-        table.add_row(r.name, str(len(r.legs)), str(r.dof), f"{r.mass_kg:.2f}", servos,
-                      f"{r.stance_base_height_m:.3f}", r.description)
+        table.add_row(
+            r.name,
+            str(len(r.legs)),
+            str(r.dof),
+            f"{r.mass_kg:.2f}",
+            servos,
+            f"{r.stance_base_height_m:.3f}",
+            r.description,
+        )
     console.print(table)
 
 
 @robots_app.command("show")
-def show(robot: str = typer.Argument(..., help="built-in name or a folder with robot.xml + robot.toml")) -> None:
+def show(
+    robot: str = typer.Argument(..., help="built-in name or a folder with robot.xml + robot.toml"),
+) -> None:
     """Print a robot's joints, limits and servos."""
     r = robots.load(robot)
     console.print(f"[bold]{r.name}[/] — {r.description}")
-    console.print(f"MJCF {r.mjcf_path}\nfingerprint {r.fingerprint}  mass {r.mass_kg:.3f} kg  "
-                  f"stance base height {r.stance_base_height_m:.3f} m  leg length {r.leg_length_m:.3f} m  "
-                  f"bus {r.servo_protocol} @ {r.bus_baud} baud")
+    console.print(
+        f"MJCF {r.mjcf_path}\nfingerprint {r.fingerprint}  mass {r.mass_kg:.3f} kg  "
+        f"stance base height {r.stance_base_height_m:.3f} m  leg length {r.leg_length_m:.3f} m  "
+        f"bus {r.servo_protocol} @ {r.bus_baud} baud"
+    )
     table = Table()
-    for col in ("joint", "leg", "lower [°]", "upper [°]", "stance [°]", "servo", "id", "dir",
-                "zero [tick]", "stall [N·m]", "ω₀ [rad/s]"):
+    for col in (
+        "joint",
+        "leg",
+        "lower [°]",
+        "upper [°]",
+        "stance [°]",
+        "servo",
+        "id",
+        "dir",
+        "zero [tick]",
+        "stall [N·m]",
+        "ω₀ [rad/s]",
+    ):
         table.add_column(col)
     leg_of = {j: leg.name for leg in r.legs for j in leg.joints}
     for j in r.joints:
-        table.add_row(j.name, leg_of[j.name], f"{math.degrees(j.lower_rad):.1f}",
-                      f"{math.degrees(j.upper_rad):.1f}", f"{math.degrees(j.stance_rad):.1f}",
-                      j.servo.name, str(j.bus_id), f"{j.direction:+d}", str(j.zero_offset_ticks),
-                      f"{j.servo.stall_torque_nm:.2f}", f"{j.servo.no_load_speed_rad_s:.2f}")
+        table.add_row(
+            j.name,
+            leg_of[j.name],
+            f"{math.degrees(j.lower_rad):.1f}",
+            f"{math.degrees(j.upper_rad):.1f}",
+            f"{math.degrees(j.stance_rad):.1f}",
+            j.servo.name,
+            str(j.bus_id),
+            f"{j.direction:+d}",
+            str(j.zero_offset_ticks),
+            f"{j.servo.stall_torque_nm:.2f}",
+            f"{j.servo.no_load_speed_rad_s:.2f}",
+        )
     console.print(table)
     console.print("feet: " + ", ".join(f"{leg.name} ({leg.foot_site})" for leg in r.legs))
 

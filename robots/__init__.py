@@ -18,7 +18,7 @@ __all__ = [
     "servo_model",
 ]
 
-from robots.gait import SCHEMA, Gait, Velocity  # noqa: E402
-from robots.schedule import ContactSchedule, ScheduleError  # noqa: E402
+from robots.gait import SCHEMA, Gait, Velocity
+from robots.schedule import ContactSchedule, ScheduleError
 
 __all__ += ["SCHEMA", "ContactSchedule", "Gait", "ScheduleError", "Velocity"]

@@ -40,9 +40,20 @@ if TYPE_CHECKING:
 SCHEMA = "gaitsmith.gait/1"
 PERIODIC_TOL_RAD = 1e-6
 _KEYS = {
-    "schema", "robot", "robot_fingerprint", "joint_names", "period_s", "velocity",
-    "joint_angles_rad", "schedule", "gait_label", "base_pose", "contact_forces_n",
-    "joint_torques_nm", "planner", "validation",
+    "schema",
+    "robot",
+    "robot_fingerprint",
+    "joint_names",
+    "period_s",
+    "velocity",
+    "joint_angles_rad",
+    "schedule",
+    "gait_label",
+    "base_pose",
+    "contact_forces_n",
+    "joint_torques_nm",
+    "planner",
+    "validation",
 }
 
 
@@ -127,20 +138,25 @@ class Gait:
         return replace(self, validation=dict(validation))
 
     def check_robot(self, robot: Robot, file: str = "<gait>") -> None:
-        """Raise GaitFileError unless this gait was planned for `robot` (fingerprint, joints, limits)."""
+        """Raise GaitFileError unless planned for `robot` (fingerprint, joints, limits)."""
         if self.robot_fingerprint != robot.fingerprint:
             raise GaitFileError(
-                file, "robot_fingerprint",
+                file,
+                "robot_fingerprint",
                 f"gait was planned for build {self.robot}@{self.robot_fingerprint}, robot is "
                 f"{robot.name}@{robot.fingerprint}; re-plan the gait for this robot",
             )
         if self.joint_names != robot.joint_names:
             raise GaitFileError(
-                file, "joint_names", f"{list(self.joint_names)} do not match robot {list(robot.joint_names)}"
+                file,
+                "joint_names",
+                f"{list(self.joint_names)} do not match robot {list(robot.joint_names)}",
             )
         if tuple(self.schedule.feet) != robot.foot_names:
             raise GaitFileError(
-                file, "schedule.feet", f"{list(self.schedule.feet)} do not match legs {list(robot.foot_names)}"
+                file,
+                "schedule.feet",
+                f"{list(self.schedule.feet)} do not match legs {list(robot.foot_names)}",
             )
         lo = np.array([j.lower_rad for j in robot.joints])
         hi = np.array([j.upper_rad for j in robot.joints])
@@ -148,7 +164,8 @@ class Gait:
         if bad.size:
             k, j = (int(x) for x in bad[0])
             raise GaitFileError(
-                file, f"joint_angles_rad[{k}][{j}]",
+                file,
+                f"joint_angles_rad[{k}][{j}]",
                 f"{self.joint_angles_rad[k, j]:.4f} rad is outside {robot.joint_names[j]}'s limits "
                 f"[{lo[j]:.4f}, {hi[j]:.4f}]",
             )
@@ -228,7 +245,9 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
     if not isinstance(d, dict):
         raise GaitFileError(file, "<root>", "must be a JSON object")
     if d.get("schema") != SCHEMA:
-        raise GaitFileError(file, "schema", f"unknown schema {d.get('schema')!r}; expected {SCHEMA!r}")
+        raise GaitFileError(
+            file, "schema", f"unknown schema {d.get('schema')!r}; expected {SCHEMA!r}"
+        )
     unknown = sorted(set(d) - _KEYS)
     if unknown:
         raise GaitFileError(file, unknown[0], "unknown field")
@@ -245,16 +264,21 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
     assert vel is not None
     if set(vel) != {"vx_m_s", "vy_m_s", "yaw_rate_rad_s"}:
         raise GaitFileError(file, "velocity", "needs exactly vx_m_s, vy_m_s, yaw_rate_rad_s")
-    velocity = Velocity(*(_num(file, f"velocity.{k}", vel[k]) for k in ("vx_m_s", "vy_m_s", "yaw_rate_rad_s")))
+    velocity = Velocity(
+        *(_num(file, f"velocity.{k}", vel[k]) for k in ("vx_m_s", "vy_m_s", "yaw_rate_rad_s"))
+    )
     raw = d.get("joint_angles_rad")
     if not isinstance(raw, list) or len(raw) < 4:
-        raise GaitFileError(file, "joint_angles_rad", "must be a list of at least 3 knots + the closing row")
+        raise GaitFileError(
+            file, "joint_angles_rad", "must be a list of at least 3 knots + the closing row"
+        )
     samples = _matrix(file, "joint_angles_rad", raw, (len(raw), n_j))
     gap = np.abs(samples[-1] - samples[0])
     if np.max(gap) > PERIODIC_TOL_RAD:
         j = int(np.argmax(gap))
         raise GaitFileError(
-            file, f"joint_angles_rad[{len(raw) - 1}][{j}]",
+            file,
+            f"joint_angles_rad[{len(raw) - 1}][{j}]",
             f"samples are not periodic: the closing row differs from the first by {gap[j]:.3g} rad "
             f"({names[j]})",
         )
@@ -266,16 +290,25 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
     feet = sch["feet"]
     if not isinstance(feet, list) or not feet or not all(isinstance(f, str) for f in feet):
         raise GaitFileError(file, "schedule.feet", "must be a non-empty list of foot names")
-    phases = [_num(file, f"schedule.touchdown_phase[{i}]", v) for i, v in enumerate(_list(file, "schedule.touchdown_phase", sch["touchdown_phase"]))]
-    duties = [_num(file, f"schedule.duty_factor[{i}]", v) for i, v in enumerate(_list(file, "schedule.duty_factor", sch["duty_factor"]))]
+    phases = [
+        _num(file, f"schedule.touchdown_phase[{i}]", v)
+        for i, v in enumerate(_list(file, "schedule.touchdown_phase", sch["touchdown_phase"]))
+    ]
+    duties = [
+        _num(file, f"schedule.duty_factor[{i}]", v)
+        for i, v in enumerate(_list(file, "schedule.duty_factor", sch["duty_factor"]))
+    ]
     try:
         schedule = ContactSchedule(period, tuple(feet), tuple(phases), tuple(duties))
     except ScheduleError as exc:
         raise GaitFileError(file, "schedule", str(exc)) from None
     n_f = len(feet)
     optional: dict[str, np.ndarray | None] = {}
-    for key, shape in (("base_pose", (n_k, 6)), ("contact_forces_n", (n_k, n_f, 3)),
-                       ("joint_torques_nm", (n_k, n_j))):
+    for key, shape in (
+        ("base_pose", (n_k, 6)),
+        ("contact_forces_n", (n_k, n_f, 3)),
+        ("joint_torques_nm", (n_k, n_j)),
+    ):
         optional[key] = None if d.get(key) is None else _matrix(file, key, d[key], shape)
     planner = _json_obj(file, "planner", d.get("planner", {}), nullable=False)
     validation = _json_obj(file, "validation", d.get("validation"), nullable=True)
@@ -300,13 +333,9 @@ def _list(file: str, where: str, v: Any) -> list[Any]:
     return v
 
 
-def _reject_constant(name: str) -> float:
-    raise ValueError(f"{name} is not allowed in a gait file")
-
-
 def loads(text: str, file: str = "<gait>") -> Gait:
     try:
-        doc = json.loads(text, parse_constant=_reject_constant)
+        doc = json.loads(text)  # NaN/Infinity parse; field checks reject them by name
     except (ValueError, RecursionError) as exc:
         raise GaitFileError(file, "<json>", f"not valid JSON: {exc}") from None
     return from_dict(doc, file)
@@ -329,11 +358,13 @@ def dumps(gait: Gait) -> str:
     try:
         return json.dumps(to_dict(gait), indent=1, allow_nan=False)
     except (TypeError, ValueError) as exc:
-        raise GaitFileError("<gait>", "planner/validation", f"not JSON-serialisable: {exc}") from None
+        raise GaitFileError(
+            "<gait>", "planner/validation", f"not JSON-serialisable: {exc}"
+        ) from None
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write `text` to `path` via a temp file in the same folder + os.replace (never half-written)."""
+    """Write `text` to `path` via a temp file + os.replace: never a half-written file."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)

@@ -139,7 +139,9 @@ def _table(file: str, data: dict[str, Any], key: str) -> dict[str, Any]:
 def _check_keys(file: str, where: str, table: dict[str, Any], allowed: set[str]) -> None:
     unknown = sorted(set(table) - allowed)
     if unknown:
-        raise RobotConfigError(file, f"{where}.{unknown[0]}", f"unknown field; allowed: {sorted(allowed)}")
+        raise RobotConfigError(
+            file, f"{where}.{unknown[0]}", f"unknown field; allowed: {sorted(allowed)}"
+        )
 
 
 def _number(file: str, where: str, value: Any, *, positive: bool = False) -> float:
@@ -167,7 +169,9 @@ def _parse_joint(file: str, name: str, table: Any) -> _JointSpec:
     catalogue = load_catalogue()
     if not isinstance(table["servo"], str) or table["servo"] not in catalogue:
         raise RobotConfigError(
-            file, f"{where}.servo", f"unknown servo model {table['servo']!r}; known: {sorted(catalogue)}"
+            file,
+            f"{where}.servo",
+            f"unknown servo model {table['servo']!r}; known: {sorted(catalogue)}",
         )
     servo = catalogue[table["servo"]]
     direction = table["direction"]
@@ -189,8 +193,11 @@ def _parse_joint(file: str, name: str, table: Any) -> _JointSpec:
         bus_id=_integer(file, f"{where}.bus_id", table["bus_id"], 0, 252),
         direction=int(direction),
         zero_offset_ticks=_integer(
-            file, f"{where}.zero_offset_ticks", table["zero_offset_ticks"],
-            servo.position_min_tick, servo.position_max_tick,
+            file,
+            f"{where}.zero_offset_ticks",
+            table["zero_offset_ticks"],
+            servo.position_min_tick,
+            servo.position_max_tick,
         ),
         stance_rad=math.radians(_number(file, f"{where}.stance_deg", table["stance_deg"])),
         limits_rad=limits_rad,
@@ -220,12 +227,15 @@ def parse_robot_toml(text: str, file: str) -> RobotSpec:
     for j in joints:
         if j.bus_id in seen:
             raise RobotConfigError(
-                file, f"[joints.{j.name}].bus_id", f"duplicate bus id {j.bus_id} (also {seen[j.bus_id]})"
+                file,
+                f"[joints.{j.name}].bus_id",
+                f"duplicate bus id {j.bus_id} (also {seen[j.bus_id]})",
             )
         seen[j.bus_id] = j.name
         if j.servo.protocol != first.protocol:
             raise RobotConfigError(
-                file, f"[joints.{j.name}].servo",
+                file,
+                f"[joints.{j.name}].servo",
                 f"protocol {j.servo.protocol} differs from {first.protocol}; one bus, one protocol",
             )
     legs: list[Leg] = []
@@ -240,12 +250,18 @@ def parse_robot_toml(text: str, file: str) -> RobotSpec:
             raise RobotConfigError(file, f"{where}.foot_site", "missing or not a string")
         chain = table.get("joints")
         if not isinstance(chain, list) or not chain or not all(isinstance(c, str) for c in chain):
-            raise RobotConfigError(file, f"{where}.joints", "must be a non-empty list of joint names")
+            raise RobotConfigError(
+                file, f"{where}.joints", "must be a non-empty list of joint names"
+            )
         for c in chain:
             if c not in {j.name for j in joints}:
-                raise RobotConfigError(file, f"{where}.joints", f"joint {c!r} has no [joints.{c}] table")
+                raise RobotConfigError(
+                    file, f"{where}.joints", f"joint {c!r} has no [joints.{c}] table"
+                )
             if c in used:
-                raise RobotConfigError(file, f"{where}.joints", f"joint {c!r} is already in leg {used[c]}")
+                raise RobotConfigError(
+                    file, f"{where}.joints", f"joint {c!r} is already in leg {used[c]}"
+                )
             used[c] = leg_name
         legs.append(Leg(leg_name, site, tuple(chain)))
     return RobotSpec(name.strip(), description, foot_radius, baud, joints, tuple(legs))
@@ -265,7 +281,8 @@ def _resolve_dir(name_or_path: str | Path) -> Path:
     if isinstance(name_or_path, str) and "/" not in name_or_path and builtin.is_dir():
         return builtin
     raise RobotConfigError(
-        str(name_or_path), "<robot>",
+        str(name_or_path),
+        "<robot>",
         f"no such robot folder; built-in robots: {', '.join(builtin_names())}, "
         "or give a folder holding robot.xml + robot.toml",
     )
@@ -281,7 +298,9 @@ def load(name_or_path: str | Path) -> Robot:
     toml_path, mjcf_path = root / "robot.toml", root / "robot.xml"
     for p in (toml_path, mjcf_path):
         if not p.is_file():
-            raise RobotConfigError(str(p), "<file>", "missing; a robot folder needs robot.xml and robot.toml")
+            raise RobotConfigError(
+                str(p), "<file>", "missing; a robot folder needs robot.xml and robot.toml"
+            )
     toml_bytes, mjcf_bytes = toml_path.read_bytes(), mjcf_path.read_bytes()
     try:
         toml_text = toml_bytes.decode("utf-8")
@@ -294,7 +313,9 @@ def load(name_or_path: str | Path) -> Robot:
     return _build(spec, root, mjcf_path, toml_path, fingerprint)
 
 
-def _build(spec: RobotSpec, root: Path, mjcf_path: Path, toml_path: Path, fingerprint: str) -> Robot:
+def _build(
+    spec: RobotSpec, root: Path, mjcf_path: Path, toml_path: Path, fingerprint: str
+) -> Robot:
     import mujoco  # lazy: only robot loading needs MJCF parsing
 
     tfile, mfile = str(toml_path), str(mjcf_path)
@@ -317,28 +338,46 @@ def _build(spec: RobotSpec, root: Path, mjcf_path: Path, toml_path: Path, finger
         lo, hi = (float(x) for x in model.jnt_range[jid])
         if js.limits_rad is not None:
             if js.limits_rad[0] < lo - 1e-9 or js.limits_rad[1] > hi + 1e-9:
-                raise RobotConfigError(tfile, f"{where}.limits_deg", "must lie inside the MJCF range")
+                raise RobotConfigError(
+                    tfile, f"{where}.limits_deg", "must lie inside the MJCF range"
+                )
             lo, hi = js.limits_rad
         for q in (lo, hi):
             tick = js.zero_offset_ticks + js.direction * q * js.servo.ticks_per_rad
             if not js.servo.position_min_tick <= tick <= js.servo.position_max_tick:
                 raise RobotConfigError(
-                    tfile, where,
+                    tfile,
+                    where,
                     f"limit {math.degrees(q):.1f}° maps to tick {tick:.0f}, outside the "
-                    f"{js.servo.name} range {js.servo.position_min_tick}..{js.servo.position_max_tick}; "
+                    f"{js.servo.name} range "
+                    f"{js.servo.position_min_tick}..{js.servo.position_max_tick}; "
                     "narrow the joint range or change zero_offset_ticks",
                 )
         if not lo <= js.stance_rad <= hi:
             raise RobotConfigError(tfile, f"{where}.stance_deg", "outside the joint limits")
-        axis = tuple(float(a) for a in model.jnt_axis[jid])
-        joints.append(Joint(js.name, axis, lo, hi, js.servo, js.bus_id, js.direction,  # type: ignore[arg-type]
-                            js.zero_offset_ticks, js.stance_rad))
+        ax = model.jnt_axis[jid]
+        axis = (float(ax[0]), float(ax[1]), float(ax[2]))
+        joints.append(
+            Joint(
+                js.name,
+                axis,
+                lo,
+                hi,
+                js.servo,
+                js.bus_id,
+                js.direction,
+                js.zero_offset_ticks,
+                js.stance_rad,
+            )
+        )
     hinge_ids = [i for i in range(model.njnt) if model.jnt_type[i] == mujoco.mjtJoint.mjJNT_HINGE]
     mapped = {j.name for j in joints}
     for i in hinge_ids:
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, i)
         if name not in mapped:
-            raise RobotConfigError(tfile, f"[joints.{name}]", f"MJCF joint {name!r} has no servo mapping")
+            raise RobotConfigError(
+                tfile, f"[joints.{name}]", f"MJCF joint {name!r} has no servo mapping"
+            )
 
     data = mujoco.MjData(model)
     data.qpos[:] = model.qpos0
@@ -352,7 +391,9 @@ def _build(spec: RobotSpec, root: Path, mjcf_path: Path, toml_path: Path, finger
     for leg in spec.legs:
         sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site)
         if sid < 0:
-            raise RobotConfigError(tfile, f"[legs.{leg.name}].foot_site", f"site {leg.foot_site!r} not in {mfile}")
+            raise RobotConfigError(
+                tfile, f"[legs.{leg.name}].foot_site", f"site {leg.foot_site!r} not in {mfile}"
+            )
         # the chain must be the joints from the root to the foot, in order
         body = int(model.site_bodyid[sid])
         ancestors: list[str] = []
@@ -365,7 +406,8 @@ def _build(spec: RobotSpec, root: Path, mjcf_path: Path, toml_path: Path, finger
         ancestors.reverse()
         if tuple(ancestors) != leg.joints:
             raise RobotConfigError(
-                tfile, f"[legs.{leg.name}].joints",
+                tfile,
+                f"[legs.{leg.name}].joints",
                 f"must list the joints from the body to {leg.foot_site} in order: {ancestors}",
             )
         first = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, leg.joints[0])

@@ -32,15 +32,18 @@ class ContactSchedule:
     duty_factor: tuple[float, ...]
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.period_s, (int, float)) and math.isfinite(self.period_s)
-                and self.period_s > 0):
+        if not (
+            isinstance(self.period_s, (int, float))
+            and math.isfinite(self.period_s)
+            and self.period_s > 0
+        ):
             raise ScheduleError(f"period_s must be a positive number, got {self.period_s!r}")
         n = len(self.feet)
         if n == 0 or len(set(self.feet)) != n:
             raise ScheduleError("feet must be a non-empty list of distinct names")
         if len(self.touchdown_phase) != n or len(self.duty_factor) != n:
             raise ScheduleError("touchdown_phase and duty_factor need one value per foot")
-        for f, (ph, d) in enumerate(zip(self.touchdown_phase, self.duty_factor)):
+        for f, (ph, d) in enumerate(zip(self.touchdown_phase, self.duty_factor, strict=True)):
             if not (math.isfinite(ph) and 0.0 <= ph < 1.0):
                 raise ScheduleError(f"touchdown_phase[{f}] must be in [0, 1), got {ph!r}")
             if not (math.isfinite(d) and 0.0 < d <= 1.0):

@@ -73,7 +73,9 @@ def _parse_servo(file: str, name: str, table: Any) -> ServoModel:
     known = {"vendor", "protocol", *_FLOAT_FIELDS, *_INT_FIELDS}
     unknown = sorted(set(table) - known)
     if unknown:
-        raise RobotConfigError(file, f"{where}.{unknown[0]}", f"unknown field; known: {sorted(known)}")
+        raise RobotConfigError(
+            file, f"{where}.{unknown[0]}", f"unknown field; known: {sorted(known)}"
+        )
     values: dict[str, Any] = {"name": name}
     for key in ("vendor", "protocol"):
         if not isinstance(table.get(key), str):

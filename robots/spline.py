@@ -41,8 +41,10 @@ class PeriodicSpline:
         h = 1.0 / self.values.shape[0]
         u = u[:, None]
         y, m = self.values, self.second
-        out = (1 - u) * y[i] + u * y[j] + h**2 / 6.0 * (
-            ((1 - u) ** 3 - (1 - u)) * m[i] + (u**3 - u) * m[j]
+        out = (
+            (1 - u) * y[i]
+            + u * y[j]
+            + h**2 / 6.0 * (((1 - u) ** 3 - (1 - u)) * m[i] + (u**3 - u) * m[j])
         )
         return out[0] if p.ndim == 0 else out
 

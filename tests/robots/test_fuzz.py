@@ -1,0 +1,146 @@
+"""Hypothesis-fuzzed gait files and robot.toml files: only the typed errors ever escape."""
+
+import copy
+import json
+import shutil
+import sys
+from pathlib import Path
+from typing import Any
+
+import hypothesis.strategies as st
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+
+import robots
+from robots import ContactSchedule, Gait, GaitFileError, RobotConfigError, Velocity
+from robots import gait as gaitfile
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+QUAD = robots.load("quad12")
+_N = 8
+_BASE_GAIT = gaitfile.to_dict(
+    Gait.create(
+        robot=QUAD,
+        knots_rad=np.tile(QUAD.nominal_stance_rad, (_N, 1)),
+        schedule=ContactSchedule(0.5, QUAD.foot_names, (0.0, 0.5, 0.5, 0.0), (0.6,) * 4),
+        velocity=Velocity(0.2),
+        gait_label="trot",
+        base_pose=np.zeros((_N, 6)),
+    )
+)
+
+json_leaf = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(10**6), 10**6),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=8),
+)
+json_value = st.recursive(
+    json_leaf,
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4), st.dictionaries(st.text(max_size=6), inner, max_size=4)
+    ),
+    max_leaves=12,
+)
+
+
+def _paths(node: Any, prefix: tuple = ()) -> list[tuple]:
+    out = [prefix]
+    if isinstance(node, dict):
+        for k, v in node.items():
+            out += _paths(v, (*prefix, k))
+    elif isinstance(node, list):
+        for i, v in enumerate(node[:3]):
+            out += _paths(v, (*prefix, i))
+    return out
+
+
+def _mutate(doc: Any, path: tuple, action: str, value: Any) -> Any:
+    if not path:
+        return value
+    parent = doc
+    for key in path[:-1]:
+        parent = parent[key]
+    key = path[-1]
+    if action == "delete":
+        del parent[key]
+    else:
+        parent[key] = value
+    return doc
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_fuzzed_gait_files_raise_only_gait_file_error(data: st.DataObject) -> None:
+    doc = copy.deepcopy(_BASE_GAIT)
+    for _ in range(data.draw(st.integers(1, 3))):
+        paths = _paths(doc)
+        path = data.draw(st.sampled_from(paths))
+        action = data.draw(st.sampled_from(["replace", "delete"])) if path else "replace"
+        doc = _mutate(doc, path, action, data.draw(json_value))
+    text = json.dumps(doc)
+    if data.draw(st.booleans()):
+        cut = data.draw(st.integers(0, len(text)))
+        text = text[:cut] + data.draw(st.text(max_size=3)) + text[cut:]
+    try:
+        g = gaitfile.loads(text, "fuzz.json")
+    except GaitFileError:
+        return
+    g.joint_targets(0.1)  # whatever loads must be usable
+    try:
+        g.check_robot(QUAD)
+    except GaitFileError:
+        pass
+
+
+_BASE_TOML = tomllib.loads((robots.robot.BUILTIN_DIR / "quad12" / "robot.toml").read_text())
+toml_leaf = st.one_of(
+    st.booleans(),
+    st.integers(-5000, 5000),
+    st.floats(allow_nan=True),
+    st.text(max_size=8),
+    st.lists(st.integers(-400, 400), max_size=3),
+)
+
+
+def _to_toml(node: dict) -> str:
+    import tomli_w
+
+    return tomli_w.dumps(node)
+
+
+@settings(
+    max_examples=120,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
+@given(data=st.data())
+def test_fuzzed_robot_toml_raises_only_robot_config_error(
+    tmp_path: Path, data: st.DataObject
+) -> None:
+    folder = tmp_path / "fuzzbot"
+    if not folder.exists():
+        shutil.copytree(robots.robot.BUILTIN_DIR / "quad12", folder)
+    doc = copy.deepcopy(_BASE_TOML)
+    for _ in range(data.draw(st.integers(1, 3))):
+        paths = [p for p in _paths(doc) if p]
+        path = data.draw(st.sampled_from(paths))
+        action = data.draw(st.sampled_from(["replace", "delete"]))
+        value = data.draw(toml_leaf)
+        if isinstance(value, float) and value != value and isinstance(path[-1], int):
+            value = 0.0
+        doc = _mutate(doc, path, action, value)
+    try:
+        text = _to_toml(doc)
+    except (TypeError, ValueError):
+        return
+    (folder / "robot.toml").write_text(text)
+    try:
+        robots.load(folder)
+    except RobotConfigError:
+        pass
