@@ -70,7 +70,7 @@ class Register:
 
     def to_physical(self, value: int) -> float:
         """Raw register value → physical value in `unit_name` units."""
-        return value * self.unit
+        return round(value * self.unit, 6)
 
 
 def encode_sign_magnitude(value: int, sign_bit: int) -> int:

@@ -1,0 +1,271 @@
+"""`VirtualServoBus`: byte-level emulator of a Dynamixel 2.0 or Feetech STS bus.
+
+`process(data, now_wall_s)` takes instruction bytes as written by the host (any chunking) and
+returns the status packets as (release wall-time [s], bytes), in bus order, after fault
+injection (drop / corrupt / delay / vanished servos). Servo physics run on the injectable
+`clock` (bus time); release times are wall-clock so a transport can honour delays.
+Reach it in-process with `VirtualPort` or on a pseudo-terminal with `PtyServer`.
+"""
+
+from __future__ import annotations
+
+import random
+import threading
+import time
+from collections.abc import Callable, Iterable, Mapping
+from typing import TYPE_CHECKING, Any
+
+from hardware.control_table import table_for_protocol
+from hardware.protocol import dynamixel2 as dxl
+from hardware.protocol import feetech as ft
+from hardware.protocol.common import (
+    ACTION,
+    BROADCAST_ID,
+    FACTORY_RESET,
+    PING,
+    READ,
+    REBOOT,
+    REG_WRITE,
+    SYNC_READ,
+    SYNC_WRITE,
+    WRITE,
+    Packet,
+)
+from hardware.virtual.faults import NO_FAULTS, FaultPlan
+from hardware.virtual.servo import VirtualServo
+from robots.servo import ServoModel
+
+if TYPE_CHECKING:
+    from hardware.bus import BusConfig, ServoBus
+
+ERR_INSTRUCTION = 2
+ERR_DATA_LENGTH = 5
+ERR_ACCESS = 7
+PROTOCOLS = ("dynamixel2", "feetech_sts")
+
+
+class VirtualServoBus:
+    """A bus of emulated servos speaking one wire protocol ("dynamixel2" or "feetech_sts")."""
+
+    def __init__(
+        self,
+        servos: Mapping[int, ServoModel],
+        protocol: str | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        faults: FaultPlan = NO_FAULTS,
+    ) -> None:
+        if not servos:
+            raise ValueError("a virtual bus needs at least one servo")
+        protocols = {m.protocol for m in servos.values()}
+        protocol = protocol or (protocols.pop() if len(protocols) == 1 else "")
+        if protocol not in PROTOCOLS:
+            raise ValueError(f"protocol must be one of {PROTOCOLS} (servos speak {protocols})")
+        self.protocol = protocol
+        self.table = table_for_protocol(protocol)
+        self.clock = clock
+        self._lock = threading.RLock()
+        now = clock()
+        self.servos = [VirtualServo(i, m, self.table, now) for i, m in sorted(servos.items())]
+        self._faults = faults
+        self._rng = random.Random(faults.seed)
+        self._parser: dxl.StreamParser | ft.StreamParser = (
+            dxl.StreamParser() if protocol == "dynamixel2" else ft.StreamParser("instruction")
+        )
+        self._registered: dict[int, tuple[int, bytes]] = {}  # Feetech REG WRITE buffer
+        self.instructions = 0  # packets handled (for tests and benchmarks)
+
+    @classmethod
+    def from_robot(cls, robot: Any, **kwargs: Any) -> VirtualServoBus:
+        """Servos at the robot's bus ids with the robot's servo models."""
+        return cls({j.bus_id: j.servo for j in robot.joints}, **kwargs)
+
+    # -- fault control (thread-safe, live) ----------------------------------------------------
+    @property
+    def faults(self) -> FaultPlan:
+        return self._faults
+
+    @faults.setter
+    def faults(self, plan: FaultPlan) -> None:
+        with self._lock:
+            self._faults = plan
+            self._rng = random.Random(plan.seed)
+
+    def vanish(self, servo_id: int) -> None:
+        """Make `servo_id` stop answering from now on."""
+        plan = self._faults
+        self.faults = _replace(plan, vanished=plan.vanished | {servo_id})
+
+    def servo(self, servo_id: int) -> VirtualServo:
+        for s in self.servos:
+            if s.servo_id == servo_id:
+                return s
+        raise KeyError(f"no virtual servo with id {servo_id}")
+
+    @property
+    def ids(self) -> list[int]:
+        return [s.servo_id for s in self.servos]
+
+    # -- the wire -----------------------------------------------------------------------------
+    def process(self, data: bytes, now_wall_s: float | None = None) -> list[tuple[float, bytes]]:
+        """Consume host bytes; return the replies as (release wall time [s], bytes)."""
+        wall = time.monotonic() if now_wall_s is None else now_wall_s
+        out: list[tuple[float, bytes]] = []
+        with self._lock:
+            now = self.clock()
+            for packet in self._parser.feed(bytes(data)):
+                self.instructions += 1
+                for servo, reply in self._dispatch(packet, now):
+                    injected = self._inject(servo, reply, now)
+                    if injected is not None:
+                        out.append((wall + injected[0], injected[1]))
+        return out
+
+    def _inject(self, servo: VirtualServo, reply: bytes, now: float) -> tuple[float, bytes] | None:
+        plan, rng = self._faults, self._rng
+        if plan.is_vanished(servo.servo_id, now):
+            return None
+        if plan.drop_probability and rng.random() < plan.drop_probability:
+            return None
+        if plan.corrupt_probability and rng.random() < plan.corrupt_probability:
+            head = 4 if self.protocol == "dynamixel2" else 2
+            buf = bytearray(reply)
+            i = rng.randrange(head, len(buf))
+            buf[i] ^= rng.randrange(1, 256)
+            reply = bytes(buf)
+        delay = 0.0
+        if plan.delay_s and rng.random() < plan.delay_probability:
+            delay = plan.delay_s
+        return delay, reply
+
+    def _targets(self, servo_id: int) -> list[VirtualServo]:
+        if servo_id == BROADCAST_ID:
+            return list(self.servos)
+        return [s for s in self.servos if s.servo_id == servo_id]
+
+    def _dispatch(self, p: Packet, now: float) -> list[tuple[VirtualServo, bytes]]:
+        for s in self.servos:
+            s.update(now, self._faults)
+        if self.protocol == "dynamixel2":
+            return self._dispatch_dxl(p, now)
+        return self._dispatch_ft(p, now)
+
+    # -- Dynamixel Protocol 2.0 -----------------------------------------------------------------
+    def _dispatch_dxl(self, p: Packet, now: float) -> list[tuple[VirtualServo, bytes]]:
+        inst, prm, bcast = p.instruction, p.params, p.servo_id == BROADCAST_ID
+        replies: list[tuple[VirtualServo, bytes]] = []
+
+        def status(s: VirtualServo, err: int = 0, params: bytes = b"") -> None:
+            replies.append((s, dxl.build_status(s.servo_id, err | s.status_error(), params)))
+
+        if inst == SYNC_WRITE and bcast and len(prm) >= 4:
+            addr, size = _u16(prm, 0), _u16(prm, 2)
+            for off in range(4, len(prm) - size, size + 1):
+                for s in self._targets(prm[off]):
+                    s.write(addr, prm[off + 1 : off + 1 + size])
+            return []
+        if inst == SYNC_READ and bcast and len(prm) >= 4:
+            addr, size = _u16(prm, 0), _u16(prm, 2)
+            for sid in prm[4:]:
+                for s in self._targets(sid):
+                    data = s.read(addr, size)
+                    status(s, 0 if data is not None else ERR_ACCESS, data or b"")
+            return replies
+        for s in self._targets(p.servo_id):
+            if inst == PING:
+                status(s, 0, _le16(s.get("model_number")) + bytes((s.get("firmware"),)))
+            elif inst == READ and len(prm) == 4 and not bcast:
+                data = s.read(_u16(prm, 0), _u16(prm, 2))
+                status(s, 0 if data is not None else ERR_ACCESS, data or b"")
+            elif inst == WRITE and len(prm) >= 2:
+                err = s.write(_u16(prm, 0), prm[2:])
+                if not bcast:
+                    status(s, err)
+            elif inst == REBOOT:
+                if not bcast:
+                    status(s)
+                s.reboot(self._faults, now)
+            elif inst == FACTORY_RESET and len(prm) == 1:
+                if not bcast:
+                    status(s)
+                s.factory_reset(prm[0])
+            elif not bcast:
+                status(s, ERR_INSTRUCTION)
+        return replies
+
+    # -- Feetech STS ------------------------------------------------------------------------------
+    def _dispatch_ft(self, p: Packet, now: float) -> list[tuple[VirtualServo, bytes]]:
+        inst, prm, bcast = p.instruction, p.params, p.servo_id == BROADCAST_ID
+        replies: list[tuple[VirtualServo, bytes]] = []
+
+        def status(s: VirtualServo, params: bytes = b"") -> None:
+            replies.append((s, ft.build_status(s.servo_id, s.status_error(), params)))
+
+        if inst == SYNC_WRITE and bcast and len(prm) >= 2:
+            addr, size = prm[0], prm[1]
+            for off in range(2, len(prm) - size, size + 1):
+                for s in self._targets(prm[off]):
+                    s.write(addr, prm[off + 1 : off + 1 + size])
+            return []
+        if inst == SYNC_READ and bcast and len(prm) >= 2:
+            for sid in prm[2:]:
+                for s in self._targets(sid):
+                    data = s.read(prm[0], prm[1])
+                    if data is not None:
+                        status(s, data)
+            return replies
+        if inst == ACTION:
+            for s in self._targets(p.servo_id):
+                pending = self._registered.pop(s.servo_id, None)
+                if pending is not None:
+                    s.write(*pending)
+                if not bcast:
+                    status(s)
+            return replies
+        for s in self._targets(p.servo_id):
+            if inst == PING:
+                status(s)
+            elif inst == READ and len(prm) == 2 and not bcast:
+                data = s.read(prm[0], prm[1])
+                if data is not None:
+                    status(s, data)
+            elif inst == WRITE and len(prm) >= 1:
+                s.write(prm[0], prm[1:])
+                if not bcast:
+                    status(s)
+            elif inst == REG_WRITE and len(prm) >= 1:
+                self._registered[s.servo_id] = (prm[0], prm[1:])
+                if not bcast:
+                    status(s)
+        return replies
+
+    # -- convenience -------------------------------------------------------------------------------
+    def connect(self, config: BusConfig | None = None) -> ServoBus:
+        """An opened driver (DynamixelBus / FeetechBus) talking to this bus in-process."""
+        from hardware.virtual.port import VirtualPort
+
+        port = VirtualPort(self)
+        bus: ServoBus
+        if self.protocol == "dynamixel2":
+            from hardware.dynamixel import DynamixelBus
+
+            bus = DynamixelBus(port, config)
+        else:
+            from hardware.feetech import FeetechBus
+
+            bus = FeetechBus(port, config)
+        bus.open()
+        return bus
+
+
+def _u16(b: bytes, i: int) -> int:
+    return b[i] | (b[i + 1] << 8)
+
+
+def _le16(v: int) -> bytes:
+    return bytes((v & 0xFF, (v >> 8) & 0xFF))
+
+
+def _replace(plan: FaultPlan, **changes: Iterable[int]) -> FaultPlan:
+    from dataclasses import replace
+
+    return replace(plan, **changes)  # type: ignore[arg-type]

@@ -1,0 +1,209 @@
+"""One emulated servo: a control-table memory image plus a simple, deterministic motion model.
+
+Motion: with torque enabled the present position moves toward the goal at the servo's no-load
+speed (catalogue `no_load_speed_rad_s` · `ticks_per_rad` [ticks/s]), evaluated lazily from the
+injected bus clock — the same clock readings always give the same positions.
+Load: 20 % in the direction of motion while moving, plus `external_load_pct`; ±100 % under an
+injected overload. Voltage: catalogue nominal minus the plan's sag. Temperature: `ambient_c`, or
+above the catalogue limit under an injected overheat.
+"""
+
+from __future__ import annotations
+
+import math
+
+from hardware.control_table import DYNAMIXEL_X, ControlTable, Register
+from hardware.virtual.faults import FaultPlan
+from robots.servo import ServoModel
+
+# Dynamixel X Shutdown (addr 63) default 0x34: overheating | electrical shock | overload.
+DXL_SHUTDOWN_DEFAULT = 0x34
+DXL_FIRMWARE = 46
+FEETECH_FIRMWARE = (3, 10)
+MOVING_LOAD_PCT = 20.0
+ERR_ACCESS = 7  # Dynamixel status error number "access error"
+ERR_DATA_LIMIT = 6
+
+
+class VirtualServo:
+    """A servo's memory image; `read`/`write` act on raw bytes like the real firmware."""
+
+    def __init__(
+        self,
+        servo_id: int,
+        model: ServoModel,
+        table: ControlTable,
+        now_s: float,
+        position_tick: int | None = None,
+        ambient_c: float = 30.0,
+    ) -> None:
+        self.model = model
+        self.table = table
+        self.is_dynamixel = table is DYNAMIXEL_X
+        self.mem = bytearray(table.size)
+        self.ambient_c = ambient_c
+        self.external_load_pct = 0.0
+        mid = (model.position_min_tick + model.position_max_tick + 1) // 2
+        self._pos = float(mid if position_tick is None else position_tick)
+        self._goal = round(self._pos)
+        self._t = now_s
+        self._latched_error = 0
+        self._readonly = [r for r in table.registers.values() if not r.writable]
+        self._factory_defaults(servo_id)
+
+    # -- register helpers --------------------------------------------------------------------
+    def get(self, name: str) -> int:
+        reg = self.table[name]
+        return reg.decode(bytes(self.mem[reg.addr : reg.addr + reg.size]))
+
+    def _set(self, name: str, value: int) -> None:
+        reg = self.table[name]
+        self.mem[reg.addr : reg.addr + reg.size] = reg.encode(value)
+
+    @property
+    def servo_id(self) -> int:
+        return self.get("id")
+
+    @property
+    def torque_enabled(self) -> bool:
+        return self.get("torque_enable") != 0
+
+    @property
+    def position_tick(self) -> float:
+        return self._pos
+
+    def _factory_defaults(self, servo_id: int, keep_baud: int | None = None) -> None:
+        self.mem[:] = bytes(self.table.size)
+        self._set("model_number", self.model.model_number)
+        self._set("id", servo_id)
+        self._set("min_position_limit", self.model.position_min_tick)
+        self._set("max_position_limit", self.model.position_max_tick)
+        if self.is_dynamixel:
+            self._set("firmware", DXL_FIRMWARE)
+            self._set("baud_rate", 1 if keep_baud is None else keep_baud)  # 1 = 57600 bps
+            self._set("operating_mode", 3)  # position control
+            self._set("temperature_limit", int(self.model.max_temperature_c))
+            self._set("max_voltage_limit", round(self.model.voltage_max_v * 10))
+            self._set("min_voltage_limit", round(self.model.voltage_min_v * 10))
+            self._set("shutdown", DXL_SHUTDOWN_DEFAULT)
+        else:
+            self._set("firmware_major", FEETECH_FIRMWARE[0])
+            self._set("firmware_minor", FEETECH_FIRMWARE[1])
+            self._set("baud_rate", 0 if keep_baud is None else keep_baud)  # 0 = 1 Mbps
+            self._set("max_temperature_limit", int(self.model.max_temperature_c))
+            self._set("max_voltage_limit", round(self.model.voltage_max_v * 10))
+            self._set("min_voltage_limit", round(self.model.voltage_min_v * 10))
+        self._goal = round(self._pos)
+        self._set("goal_position", self._goal)
+        self._latched_error = 0
+
+    # -- physics ------------------------------------------------------------------------------
+    def update(self, now_s: float, faults: FaultPlan) -> None:
+        """Advance the motion model to `now_s` and refresh the present-value registers."""
+        dt = max(0.0, now_s - self._t)
+        self._t = max(self._t, now_s)
+        velocity = 0.0
+        if self.torque_enabled:
+            speed = self.model.no_load_speed_rad_s * self.model.ticks_per_rad  # ticks/s
+            err = self._goal - self._pos
+            step = min(abs(err), speed * dt)
+            self._pos += math.copysign(step, err)
+            if abs(self._goal - self._pos) > 0.5 and dt > 0:
+                velocity = math.copysign(speed, err)
+        moving = velocity != 0.0
+        sid = self.servo_id
+        load = self.external_load_pct + (math.copysign(MOVING_LOAD_PCT, velocity) if moving else 0)
+        if sid in faults.overload:
+            load = math.copysign(100.0, load or 1.0)
+        volts = self.model.nominal_voltage_v - faults.voltage_sag_v
+        temp = self.ambient_c
+        if sid in faults.overheat:
+            temp = self.model.max_temperature_c + 5.0
+        bits = self.table.hardware_error_bits
+        inv = {name: bit for bit, name in bits.items()}
+        error = 0
+        if sid in faults.voltage_error or volts < self.model.voltage_min_v:
+            error |= inv["input_voltage" if self.is_dynamixel else "voltage"]
+        if sid in faults.overheat:
+            error |= inv["overheating" if self.is_dynamixel else "overheat"]
+        if sid in faults.overload:
+            error |= inv["overload"]
+        if self.is_dynamixel:  # X-series latch hardware errors until reboot; shutdown = torque off
+            self._latched_error |= error
+            error = self._latched_error
+            if error & self.get("shutdown") and self.torque_enabled:
+                self._set("torque_enable", 0)
+        self._set("present_position", round(self._pos))
+        self._set("present_load", _clamp_int(load * 10, 1000))
+        self._set("present_voltage", max(0, round(volts * 10)))
+        self._set("present_temperature", max(0, round(temp)))
+        self._set("present_velocity", _velocity_raw(self.table, velocity, self.model.ticks_per_rev))
+        self._set("moving", 1 if moving else 0)
+        self._set("hardware_error", error)
+
+    # -- firmware behaviour ---------------------------------------------------------------------
+    def status_error(self) -> int:
+        """The error/status byte this servo puts in its status packets."""
+        hw = self.get("hardware_error")
+        if self.is_dynamixel:
+            return 0x80 if hw else 0
+        return hw
+
+    def read(self, addr: int, length: int) -> bytes | None:
+        """Bytes at [addr, addr+length), or None when outside the table."""
+        if addr < 0 or length < 0 or addr + length > self.table.size:
+            return None
+        return bytes(self.mem[addr : addr + length])
+
+    def write(self, addr: int, data: bytes) -> int:
+        """Apply a write; returns a Dynamixel error number (0 = done)."""
+        end = addr + len(data)
+        if addr < 0 or end > self.table.size:
+            return ERR_ACCESS
+        if any(r.addr < end and addr < r.addr + r.size for r in self._readonly):
+            return ERR_ACCESS
+        if addr < self.table.ram_start and self.torque_enabled:
+            return ERR_ACCESS  # EEPROM is locked while torque is on
+        new = bytearray(self.mem)
+        new[addr:end] = data
+        goal_reg = self.table["goal_position"]
+        if addr < goal_reg.addr + goal_reg.size and goal_reg.addr < end:
+            goal = goal_reg.decode(bytes(new[goal_reg.addr : goal_reg.addr + goal_reg.size]))
+            lo, hi = self.get("min_position_limit"), self.get("max_position_limit")
+            if not lo <= goal <= hi:
+                if self.is_dynamixel:
+                    return ERR_DATA_LIMIT
+                goal = min(max(goal, lo), hi)  # Feetech clamps to its angle limits
+                new[goal_reg.addr : goal_reg.addr + goal_reg.size] = goal_reg.encode(goal)
+            self._goal = goal
+        torque = self.table["torque_enable"]
+        if addr <= torque.addr < end and new[torque.addr] and not self.torque_enabled:
+            if self.is_dynamixel and self._latched_error & self.get("shutdown"):
+                return ERR_ACCESS  # a shut-down X-series servo refuses torque until reboot
+            if not addr <= goal_reg.addr < end:  # torque on holds the present position
+                self._goal = round(self._pos)
+                new[goal_reg.addr : goal_reg.addr + goal_reg.size] = goal_reg.encode(self._goal)
+        self.mem[:] = new
+        return 0
+
+    def reboot(self, faults: FaultPlan, now_s: float) -> None:
+        """Dynamixel reboot: RAM back to defaults (torque off), latched errors cleared."""
+        self._set("torque_enable", 0)
+        self._latched_error = 0
+        self.update(now_s, faults)
+
+    def factory_reset(self, option: int) -> None:
+        """Dynamixel factory reset: 0xFF all, 0x01 all but ID, 0x02 all but ID and baud."""
+        sid, baud = self.servo_id, self.get("baud_rate")
+        self._factory_defaults(1 if option == 0xFF else sid, baud if option == 0x02 else None)
+
+
+def _clamp_int(value: float, limit: int) -> int:
+    return int(max(-limit, min(limit, round(value))))
+
+
+def _velocity_raw(table: ControlTable, ticks_per_s: float, ticks_per_rev: float) -> int:
+    reg: Register = table["present_velocity"]
+    if table is DYNAMIXEL_X:  # 0.229 rpm per LSB
+        return _clamp_int(ticks_per_s / ticks_per_rev * 60.0 / reg.unit, 1 << 30)
+    return _clamp_int(ticks_per_s, (1 << 15) - 1)  # Feetech: steps/s
