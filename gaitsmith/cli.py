@@ -10,8 +10,8 @@ import importlib
 import sys
 
 import typer
-from rich.console import Console
 
+from gaitsmith.console import err_console
 from robots.errors import RobotsError
 
 app = typer.Typer(
@@ -21,7 +21,6 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
-err_console = Console(stderr=True)
 
 # subcommand modules: each defines `register(app)`
 _COMMAND_MODULES = ("gaitsmith.robots_cmd", "gaitsmith.plan_cmd", "gaitsmith.simulate_cmd")

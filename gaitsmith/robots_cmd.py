@@ -6,12 +6,11 @@ import math
 from collections import Counter
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
 import robots
+from gaitsmith.console import console
 
-console = Console()
 robots_app = typer.Typer(help="List the built-in robots or show one.", invoke_without_command=True)
 
 
