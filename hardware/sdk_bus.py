@@ -7,6 +7,7 @@ to make the reply allowance configurable) or an already-built port object with t
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import serial
@@ -23,9 +24,7 @@ class LatencyMixin:
     packet_start_time: float
     packet_timeout: float
     tx_time_per_byte: float
-
-    def getCurrentTime(self) -> float:
-        raise NotImplementedError
+    getCurrentTime: Callable[[], float]  # provided by the SDK's PortHandler
 
     def set_latency_ms(self, ms: float) -> None:
         self.latency_ms = ms

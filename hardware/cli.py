@@ -1,0 +1,177 @@
+"""`gaitsmith-play`: servo-side commands (scan a bus, serve a virtual bus; the player adds more)."""
+
+from __future__ import annotations
+
+import signal
+import sys
+import time
+from enum import Enum
+from types import FrameType
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from hardware.bus import BusConfig, ServoBus
+from hardware.errors import HardwareError
+
+app = typer.Typer(
+    name="gaitsmith-play",
+    help="Play gaits on Dynamixel / Feetech servos; scan buses; run a virtual servo bus.",
+    no_args_is_help=True,
+    add_completion=False,
+)
+console = Console()
+err_console = Console(stderr=True)
+
+
+class ProtocolName(str, Enum):
+    dynamixel = "dynamixel"
+    feetech = "feetech"
+
+
+_CATALOGUE_PROTOCOL = {ProtocolName.dynamixel: "dynamixel2", ProtocolName.feetech: "feetech_sts"}
+
+
+def _fail(message: str, code: int = 1) -> typer.Exit:
+    err_console.print(f"[bold red]error:[/] {message}")
+    return typer.Exit(code)
+
+
+def _parse_ids(text: str) -> list[int]:
+    """ "1-12,15" → [1..12, 15]."""
+    ids: list[int] = []
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        lo, _, hi = part.partition("-")
+        try:
+            a, b = int(lo), int(hi or lo)
+        except ValueError:
+            raise typer.BadParameter(f"bad id range {part!r}") from None
+        if not 0 <= a <= b <= 252:
+            raise typer.BadParameter(f"ids must lie in 0..252: {part!r}")
+        ids.extend(range(a, b + 1))
+    if not ids:
+        raise typer.BadParameter("no ids given")
+    return sorted(set(ids))
+
+
+def make_bus(protocol: ProtocolName, port: str, config: BusConfig) -> ServoBus:
+    """A driver for `protocol` on device `port` (not yet opened)."""
+    if protocol is ProtocolName.dynamixel:
+        from hardware.dynamixel import DynamixelBus
+
+        return DynamixelBus(port, config)
+    from hardware.feetech import FeetechBus
+
+    return FeetechBus(port, config)
+
+
+def model_names(protocol: str, model_number: int) -> str:
+    """Catalogue model name(s) for a pinged model number ("?" when unknown)."""
+    from robots.servo import load_catalogue
+
+    names = [
+        m.name
+        for m in load_catalogue().values()
+        if m.model_number == model_number and m.protocol == protocol
+    ]
+    return " / ".join(names) if names else "?"
+
+
+@app.command()
+def scan(
+    port: str = typer.Option(..., "--port", "-p", help="Serial device, e.g. /dev/ttyUSB0."),
+    protocol: ProtocolName = typer.Option(..., "--protocol", help="Wire protocol."),
+    baud: int | None = typer.Option(None, "--baud", help="Baud rate [bit/s]; default: factory."),
+    ids: str = typer.Option("0-252", "--ids", help="Ids to ping, e.g. 1-12,20."),
+    timeout_ms: float = typer.Option(10.0, "--timeout-ms", help="Reply allowance per ping."),
+) -> None:
+    """List the servos that answer on a bus (id, model, firmware)."""
+    id_list = _parse_ids(ids)
+    bus = make_bus(protocol, port, BusConfig(timeout_s=timeout_ms / 1000.0, baudrate=baud))
+    try:
+        with bus:
+            found = bus.scan(id_list)
+    except HardwareError as exc:
+        raise _fail(str(exc)) from None
+    catalogue_protocol = _CATALOGUE_PROTOCOL[protocol]
+    table = Table(title=f"{protocol.value} servos on {port}")
+    table.add_column("id", justify="right")
+    table.add_column("model number", justify="right")
+    table.add_column("model")
+    table.add_column("firmware")
+    for info in found:
+        table.add_row(
+            str(info.servo_id),
+            str(info.model_number),
+            model_names(catalogue_protocol, info.model_number),
+            info.firmware,
+        )
+    console.print(table)
+    console.print(f"{len(found)} servo(s) found among {len(id_list)} id(s).")
+
+
+@app.command("virtual-bus")
+def virtual_bus(
+    robot: str | None = typer.Option(None, "--robot", help="Robot whose servos to emulate."),
+    protocol: ProtocolName | None = typer.Option(None, "--protocol", help="Without --robot."),
+    ids: str = typer.Option("1-12", "--ids", help="Servo ids (without --robot), e.g. 1-12."),
+    model: str | None = typer.Option(None, "--model", help="Catalogue servo model (no --robot)."),
+    duration_s: float | None = typer.Option(None, "--duration", help="Stop after this [s]."),
+) -> None:
+    """Emulate a servo bus on a pseudo-terminal; prints its device path; runs until Ctrl-C."""
+    from hardware.virtual import PtyServer, VirtualServoBus
+
+    try:
+        if robot is not None:
+            import robots
+
+            vbus = VirtualServoBus.from_robot(robots.load(robot))
+            label = robot
+        else:
+            if protocol is None:
+                raise _fail("give --robot, or --protocol (with --ids / --model)")
+            from robots.servo import servo_model
+
+            default = "XL430_W250" if protocol is ProtocolName.dynamixel else "STS3215_7V4"
+            sm = servo_model(model or default)
+            vbus = VirtualServoBus({i: sm for i in _parse_ids(ids)}, _CATALOGUE_PROTOCOL[protocol])
+            label = f"{len(vbus.servos)} x {sm.name}"
+    except (HardwareError, ValueError) as exc:
+        raise _fail(str(exc)) from None
+    except Exception as exc:  # robots' own typed errors (unknown robot, bad config)
+        if type(exc).__module__.startswith("robots"):
+            raise _fail(str(exc)) from None
+        raise
+
+    stop = {"now": False}
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop["now"] = True
+
+    signal.signal(signal.SIGTERM, on_signal)
+    server = PtyServer(vbus)
+    path = server.start()
+    console.print(f"virtual {vbus.protocol} bus ({label}), ids {vbus.ids}")
+    console.print(path, highlight=False, soft_wrap=True)
+    sys.stdout.flush()
+    deadline = None if duration_s is None else time.monotonic() + duration_s
+    try:
+        while not stop["now"] and (deadline is None or time.monotonic() < deadline):
+            time.sleep(0.1)
+            if server.error is not None:
+                raise _fail(f"virtual bus stopped: {server.error}")
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.stop()
+    console.print(f"served {vbus.instructions} instruction packet(s); bye")
+
+
+def main() -> None:
+    """Console-script entry point."""
+    app()
+
+
+if __name__ == "__main__":
+    main()
