@@ -1,0 +1,97 @@
+"""`hardware` stays light (no casadi / mujoco) and the gaitsmith-play commands behave."""
+
+from __future__ import annotations
+
+import pkgutil
+import subprocess
+import sys
+import time
+
+from typer.testing import CliRunner
+
+import hardware
+from hardware.cli import app
+from hardware.virtual import PtyServer, VirtualServoBus
+
+runner = CliRunner()
+
+
+def test_hardware_imports_neither_casadi_nor_mujoco() -> None:
+    modules = sorted(m.name for m in pkgutil.walk_packages(hardware.__path__, prefix="hardware."))
+    assert "hardware.virtual.pty" in modules and "hardware.cli" in modules
+    code = (
+        "import sys, importlib\n"
+        f"for name in {['hardware', *modules]!r}:\n"
+        "    importlib.import_module(name)\n"
+        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in ('casadi', 'mujoco'))\n"
+        "assert not heavy, heavy\n"
+        "print('ok')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok"
+
+
+def test_scan_unopenable_port_is_a_clear_error() -> None:
+    result = runner.invoke(app, ["scan", "--port", "/dev/does-not-exist", "--protocol", "feetech"])
+    assert result.exit_code == 1
+    assert "cannot open" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_scan_lists_virtual_servos_on_a_pty(make_vbus: object) -> None:
+    from robots.servo import servo_model
+
+    vbus = VirtualServoBus({i: servo_model("XL430_W250") for i in (1, 2, 7)})
+    with PtyServer(vbus) as server:
+        result = runner.invoke(
+            app,
+            [
+                "scan",
+                "--port",
+                server.path,
+                "--protocol",
+                "dynamixel",
+                "--ids",
+                "0-8",
+                "--baud",
+                "1000000",
+            ],
+        )
+    assert result.exit_code == 0, result.output
+    assert "XL430_W250" in result.output and "3 servo(s) found among 9 id(s)" in result.output
+
+
+def test_virtual_bus_command_serves_quad12() -> None:
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "from hardware.cli import main; main()",
+            "virtual-bus",
+            "--robot",
+            "quad12",
+            "--duration",
+            "20",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        path = ""
+        deadline = time.monotonic() + 20
+        while not path.startswith("/dev/") and time.monotonic() < deadline:
+            path = proc.stdout.readline().strip()
+        assert path.startswith("/dev/"), proc.stderr.read() if proc.stderr else ""
+        result = runner.invoke(
+            app, ["scan", "--port", path, "--protocol", "feetech", "--ids", "1-13"]
+        )
+        assert result.exit_code == 0, result.output
+        assert "12 servo(s) found among 13 id(s)" in result.output
+        assert "STS3215_7V4" in result.output
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+    assert proc.returncode == 0
