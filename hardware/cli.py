@@ -168,6 +168,11 @@ def virtual_bus(
     console.print(f"served {vbus.instructions} instruction packet(s); bye")
 
 
+from hardware.play_cmd import register as _register_player  # noqa: E402
+
+_register_player(app)
+
+
 def main() -> None:
     """Console-script entry point."""
     app()

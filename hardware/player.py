@@ -1,0 +1,405 @@
+"""The gait player: pre-flight, ramp-in, fixed-rate streaming, watchdog, safe stop.
+
+    Player(robot, gait, bus=bus, config=PlayerConfig(...)).run() -> PlayResult
+
+Timeline (all goal positions pass through one `SafetyGate`):
+
+1. pre-flight (`hardware.preflight`): build, calibration, speed scale, sim verdict; on the bus:
+   ping + model, voltage, temperature, flags, present pose within limits;
+2. torque on (the servos hold their present pose), then a min-jerk ramp (`robots.ramp`) from
+   the present pose to the gait's pose at phase 0, peak speed ≤ `ramp_speed_fraction` of the
+   allowed speed and at least `ramp_s` long;
+3. streaming at `rate_hz` with absolute deadlines t0 + k/rate (no drift; a tick that starts
+   more than one period late skips the missed deadlines, counted as overruns); the gait is
+   sampled at gait time = `speed_scale` · (scheduled time since the gait began);
+4. stop (completed cycles, watchdog, SIGINT/SIGTERM, bus error): ramp from the last goal to the
+   rest pose (stance, or where the robot is) over ≥ `stop_ramp_s`, then torque off or hold.
+   A second signal during the ramp skips straight to step 5;
+5. torque off: one broadcast sync-write of Torque Enable = 0 (reaches servos whose replies are
+   lost), then an acknowledged write per servo (failures reported).
+
+Allowed joint speed = `speed_margin` · the servo's no-load speed; the gate's step limit per tick
+is that speed / rate.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from hardware.bus import ServoBus, ServoStatus
+from hardware.calibration import Calibration
+from hardware.clock import Clock, MonotonicClock, VirtualClock
+from hardware.errors import BusError, CorruptPacket, HardwareError, NoResponse, ServoFault
+from hardware.play_errors import PlayerError
+from hardware.preflight import check_bus, check_offline
+from hardware.safety_gate import GateCommand, SafetyGate
+from hardware.telemetry import TelemetryWriter, TickRecord
+from hardware.watchdog import StopEvent, StopReason, Watchdog, WatchdogLimits, stop_on_signals
+from robots.gait import Gait
+from robots.ramp import MinJerkRamp, ramp_to
+from robots.robot import Robot
+
+TickHook = Callable[[int, float], None]
+
+
+class RestPose(str, Enum):
+    STANCE = "stance"
+    PRESENT = "present"
+
+
+class OnStop(str, Enum):
+    TORQUE_OFF = "torque-off"
+    HOLD = "hold"
+
+
+@dataclass(frozen=True)
+class PlayerConfig:
+    """Options of one run (CLI flags map one to one)."""
+
+    rate_hz: float = 100.0
+    cycles: float | None = 1.0  # None: until stopped
+    speed_scale: float = 1.0
+    ramp_s: float = 2.0
+    stop_ramp_s: float = 0.5
+    rest: RestPose = RestPose.STANCE
+    on_stop: OnStop = OnStop.TORQUE_OFF
+    speed_margin: float = 0.9
+    ramp_speed_fraction: float = 0.5
+    stop_speed_fraction: float = 0.8
+    dry_run: bool = False
+    force: bool = False
+    pose_tolerance_rad: float = 0.05
+    limits: WatchdogLimits = field(default_factory=WatchdogLimits)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 1000.0):
+            raise ValueError("rate_hz must lie in [1, 1000]")
+        if self.cycles is not None and not self.cycles > 0:
+            raise ValueError("cycles must be positive")
+        if not 0 < self.speed_margin <= 1.0:
+            raise ValueError("speed_margin must lie in (0, 1]")
+        for name in ("ramp_s", "stop_ramp_s", "ramp_speed_fraction", "stop_speed_fraction"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be positive")
+
+
+@dataclass(frozen=True)
+class PlayResult:
+    """How a run went (times [s] since the first deadline)."""
+
+    stop: StopEvent
+    ticks: int
+    ticks_by_phase: Mapping[str, int]
+    overruns: int
+    misses: int
+    max_consecutive_misses: int
+    jitter_p50_s: float
+    jitter_p99_s: float
+    jitter_max_s: float
+    achieved_rate_hz: float
+    limit_clips: int
+    step_clips: int
+    safe_at_s: float  # when the rest pose was reached (before torque off / hold)
+    torque_off_failures: tuple[int, ...]
+    warnings: tuple[str, ...]
+    dry_run: bool
+
+    @property
+    def exit_code(self) -> int:
+        return self.stop.reason.exit_code
+
+
+class Player:
+    """Plays `gait` on `bus` (None only with `dry_run`)."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        gait: Gait,
+        *,
+        bus: ServoBus | None,
+        calibration: Calibration | None = None,
+        config: PlayerConfig | None = None,
+        clock: Clock | None = None,
+        telemetry: TelemetryWriter | None = None,
+        on_tick: TickHook | None = None,
+    ) -> None:
+        self.robot, self.gait = robot, gait
+        self.config = cfg = config or PlayerConfig()
+        if bus is None and not cfg.dry_run:
+            raise PlayerError("no servo bus given (use --dry-run to play without one)")
+        self.bus = bus
+        self.calibration = calibration or Calibration.from_robot(robot)
+        self.clock: Clock = clock or (VirtualClock() if cfg.dry_run else MonotonicClock())
+        self.telemetry = telemetry
+        self.on_tick = on_tick
+        self.ids = [j.bus_id for j in robot.joints]
+        self.allowed_speed_rad_s = np.array(
+            [cfg.speed_margin * j.servo.no_load_speed_rad_s for j in robot.joints]
+        )
+        sink = None if cfg.dry_run or bus is None else bus.sync_write_positions
+        self.gate = SafetyGate(self.calibration, self.allowed_speed_rad_s, cfg.rate_hz, sink)
+        self.watchdog = Watchdog(
+            cfg.limits,
+            {j.bus_id: j.servo for j in robot.joints},
+            {j.bus_id: j.name for j in robot.joints},
+        )
+        self.period_s = 1.0 / cfg.rate_hz
+        self.ticks = 0
+        self._t0 = 0.0
+        self._jitter: list[float] = []
+        self._overruns = 0
+        self._phases: dict[str, int] = {}
+        self._clips = [0, 0]
+        self._last_present: tuple[int, np.ndarray] | None = None
+        self._actual_span_s: list[float] = []  # first and last tick start [s]
+
+    # -- public -----------------------------------------------------------------------------------
+    def request_stop(self, reason: StopReason, message: str) -> None:
+        self.watchdog.request(reason, message, self.ticks, self._now_rel())
+
+    def run(self) -> PlayResult:
+        """Pre-flight, then play until done or stopped; raises PlayerError if refused."""
+        cfg = self.config
+        warnings, _ = check_offline(
+            self.robot,
+            self.gait,
+            self.calibration,
+            cfg.speed_scale,
+            self.allowed_speed_rad_s,
+            cfg.force,
+        )
+        if self.bus is not None:
+            present = check_bus(
+                self.robot, self.calibration, self.bus, cfg.limits, cfg.pose_tolerance_rad
+            )
+        else:
+            present = self.calibration.rad_to_ticks(self.robot.nominal_stance_rad)
+        self.gate.seed(present)
+        safe_at = math.nan
+        torque_failures: tuple[int, ...] = ()
+        completed_cleanly = False
+        try:
+            with stop_on_signals(self.watchdog, lambda: (self.ticks, self._now_rel())):
+                self._t0 = self.clock.now_s() + self.period_s
+                if not cfg.dry_run and self.bus is not None:
+                    try:
+                        self.bus.torque_on(self.ids)
+                    except BusError as exc:
+                        self._stop_for(exc, StopReason.BUS_ERROR)
+                self._play()
+                self._ramp_to_rest()
+                safe_at = self._now_rel()
+                completed_cleanly = True
+        finally:
+            if not cfg.dry_run and self.bus is not None:
+                if cfg.on_stop is OnStop.TORQUE_OFF or not completed_cleanly:
+                    torque_failures = self._torque_off()
+            stop = self.watchdog.stop or StopEvent(
+                StopReason.BUS_ERROR,
+                "player aborted by an unexpected error",
+                self.ticks,
+                self._now_rel(),
+            )
+            if self.telemetry is not None:
+                self.telemetry.finish(stop.reason.value, stop.message, self.ticks, self._now_rel())
+        return self._result(stop, safe_at, torque_failures, tuple(warnings))
+
+    # -- the loop -------------------------------------------------------------------------------
+    def _now_rel(self) -> float:
+        return self.clock.now_s() - self._t0
+
+    def _stop_for(self, exc: BaseException, reason: StopReason) -> None:
+        self.watchdog.request(reason, f"bus: {exc}", self.ticks, self._now_rel())
+
+    def _play(self) -> None:
+        cfg = self.config
+        first_pose = self.gait.joint_targets(0.0)
+        ramp = ramp_to(
+            self.gate.last_rad,
+            first_pose,
+            self.allowed_speed_rad_s * cfg.ramp_speed_fraction,
+            cfg.ramp_s,
+        )
+        n_ramp = math.ceil(ramp.duration_s * cfg.rate_hz - 1e-9)
+        n_gait: int | None = None
+        if cfg.cycles is not None:
+            n_gait = round(cfg.cycles * self.gait.period_s / cfg.speed_scale * cfg.rate_hz)
+        k = 0
+        while self.watchdog.stop is None:
+            if k < n_ramp:
+                phase, target = "ramp_in", ramp.positions((k + 1) * self.period_s)
+            elif n_gait is not None and k - n_ramp > n_gait:
+                self.watchdog.request(
+                    StopReason.COMPLETED,
+                    f"played {cfg.cycles:g} cycle(s)",
+                    self.ticks,
+                    self._now_rel(),
+                )
+                break
+            else:
+                t_gait = (k - n_ramp) * self.period_s * cfg.speed_scale
+                phase, target = "gait", self.gait.joint_targets(t_gait)
+            k = self._tick(k, phase, target, watch=True)
+
+    def _ramp_to_rest(self) -> None:
+        cfg = self.config
+        stop = self.watchdog.stop
+        if stop is None or stop.reason is StopReason.BUS_ERROR or self.watchdog.urgent:
+            return
+        start = self.gate.last_rad
+        if cfg.rest is RestPose.STANCE:
+            rest = np.asarray(self.robot.nominal_stance_rad, float)
+        elif self._last_present is not None and self.ticks - self._last_present[0] <= 5:
+            rest = self._last_present[1]
+        else:
+            rest = start
+        ramp: MinJerkRamp = ramp_to(
+            start, rest, self.allowed_speed_rad_s * cfg.stop_speed_fraction, cfg.stop_ramp_s
+        )
+        n = math.ceil(ramp.duration_s * cfg.rate_hz - 1e-9)
+        k0 = self._next_k()
+        k = k0
+        while k - k0 < n and not self.watchdog.urgent:
+            k = self._tick(k, "ramp_out", ramp.positions((k - k0 + 1) * self.period_s), watch=False)
+            if self.watchdog.stop is not None and self.watchdog.stop.reason is StopReason.BUS_ERROR:
+                return
+
+    def _next_k(self) -> int:
+        """Index of the next deadline not yet passed."""
+        late = self._now_rel() / self.period_s
+        return max(self.ticks, math.floor(late) + 1 if late > 0 else 0)
+
+    def _tick(self, k: int, phase: str, target: np.ndarray, watch: bool) -> int:
+        """One tick at deadline k: send, read, check, log. Returns the next deadline index."""
+        deadline = self._t0 + k * self.period_s
+        self.clock.sleep_until(deadline)
+        actual = self.clock.now_s()
+        try:
+            cmd = self.gate.command(target)
+        except BusError as exc:
+            self._stop_for(exc, StopReason.BUS_ERROR)
+            return k + 1
+        present, status = self._read(watch)
+        t_rel = actual - self._t0
+        self._account(cmd, phase, actual - deadline)
+        self.ticks += 1
+        done = self.clock.now_s()
+        next_k = k + 1
+        overrun = done > self._t0 + next_k * self.period_s
+        if overrun:
+            self._overruns += 1
+            behind = math.floor((done - self._t0) / self.period_s)
+            if behind > next_k:  # skip deadlines already missed: no burst of catch-up ticks
+                self._overruns += behind - next_k
+                next_k = behind + 1 if done > self._t0 + behind * self.period_s else behind
+        if self.telemetry is not None:
+            self.telemetry.write(
+                TickRecord(
+                    self.ticks - 1,
+                    phase,
+                    k * self.period_s,
+                    t_rel,
+                    done - actual,
+                    overrun,
+                    cmd.target_rad,
+                    cmd.target_ticks,
+                    present,
+                    status,
+                )
+            )
+        if self.on_tick is not None:
+            self.on_tick(self.ticks - 1, t_rel)
+        return next_k
+
+    def _account(self, cmd: GateCommand, phase: str, jitter_s: float) -> None:
+        self._jitter.append(jitter_s)
+        now = self._now_rel()
+        self._actual_span_s[1:] = [now] if self._actual_span_s else []
+        if not self._actual_span_s:
+            self._actual_span_s.append(now)
+        self._phases[phase] = self._phases.get(phase, 0) + 1
+        self._clips[0] += cmd.limit_clipped
+        self._clips[1] += cmd.step_clipped
+
+    def _read(self, watch: bool) -> tuple[np.ndarray | None, Mapping[int, ServoStatus] | None]:
+        """Present pose (None if missed) and, on status ticks, the servos' health."""
+        if self.config.dry_run or self.bus is None:
+            return None, None
+        wd, t_rel = self.watchdog, self._now_rel()
+        present: np.ndarray | None = None
+        try:
+            ticks = self.bus.sync_read_positions(self.ids)
+            present = self.gate.ticks_to_rad([ticks[i] for i in self.ids])
+            self._last_present = (self.ticks, present)
+            if watch:
+                wd.read_ok()
+        except ServoFault as exc:
+            if watch:
+                wd.fault(exc, self.ticks, t_rel)
+        except (NoResponse, CorruptPacket) as exc:
+            if watch:
+                wd.read_missed(exc, self.ticks, t_rel)
+        except BusError as exc:
+            self._stop_for(exc, StopReason.BUS_ERROR)
+        status = None
+        if self.ticks % self.config.limits.status_every_ticks == 0:
+            try:
+                status = self.bus.read_status(self.ids)
+            except (NoResponse, CorruptPacket):
+                status = None  # a lost status read is not a missed position read
+            except BusError as exc:
+                self._stop_for(exc, StopReason.BUS_ERROR)
+            if status is not None and watch:
+                wd.status(status, self.ticks, t_rel)
+        return present, status
+
+    def _torque_off(self) -> tuple[int, ...]:
+        """Broadcast torque off, then confirm servo by servo; returns the ids not confirmed."""
+        assert self.bus is not None
+        try:
+            self.bus.sync_write("torque_enable", {i: 0 for i in self.ids})
+        except HardwareError:
+            pass
+        failed = []
+        for i in self.ids:
+            try:
+                self.bus.write(i, "torque_enable", 0)
+            except ServoFault:
+                continue  # it answered (with its error flags): the write arrived
+            except HardwareError:
+                failed.append(i)
+        return tuple(failed)
+
+    def _result(
+        self,
+        stop: StopEvent,
+        safe_at: float,
+        torque_failures: tuple[int, ...],
+        warnings: tuple[str, ...],
+    ) -> PlayResult:
+        jit = np.asarray(self._jitter) if self._jitter else np.zeros(1)
+        span = self._actual_span_s[-1] - self._actual_span_s[0] if self._actual_span_s else 0.0
+        return PlayResult(
+            stop=stop,
+            ticks=self.ticks,
+            ticks_by_phase=dict(self._phases),
+            overruns=self._overruns,
+            misses=self.watchdog.misses,
+            max_consecutive_misses=self.watchdog.max_consecutive_misses,
+            jitter_p50_s=float(np.percentile(jit, 50)),
+            jitter_p99_s=float(np.percentile(jit, 99)),
+            jitter_max_s=float(np.max(jit)),
+            achieved_rate_hz=(self.ticks - 1) / span if span > 0 else 0.0,
+            limit_clips=self._clips[0],
+            step_clips=self._clips[1],
+            safe_at_s=safe_at,
+            torque_off_failures=torque_failures,
+            warnings=warnings,
+            dry_run=self.config.dry_run,
+        )
