@@ -9,9 +9,9 @@ Timeline (all goal positions pass through one `SafetyGate`):
 2. torque on (the servos hold their present pose), then a min-jerk ramp (`robots.ramp`) from
    the present pose to the gait's pose at phase 0, peak speed ≤ `ramp_speed_fraction` of the
    allowed speed and at least `ramp_s` long;
-3. streaming at `rate_hz` with absolute deadlines t0 + k/rate (no drift; a tick that starts
-   more than one period late skips the missed deadlines, counted as overruns); the gait is
-   sampled at gait time = `speed_scale` · (scheduled time since the gait began);
+3. streaming at `rate_hz` with absolute deadlines t0 + k/rate (no drift). A tick whose work
+   ends past the next deadline is an overrun: the latest passed deadline runs at once, late,
+   and older passed deadlines are skipped (counted). The gait is sampled at gait time = `speed_scale` · (scheduled time since the gait began);
 4. stop (completed cycles, watchdog, SIGINT/SIGTERM, bus error): ramp from the last goal to the
    rest pose (stance, or where the robot is) over ≥ `stop_ramp_s`, then torque off or hold.
    A second signal during the ramp skips straight to step 5;
@@ -95,7 +95,8 @@ class PlayResult:
     stop: StopEvent
     ticks: int
     ticks_by_phase: Mapping[str, int]
-    overruns: int
+    overruns: int  # ticks whose work ran past the next deadline
+    skipped: int  # deadlines dropped to catch up after an overrun longer than a period
     misses: int
     max_consecutive_misses: int
     jitter_p50_s: float
@@ -154,6 +155,7 @@ class Player:
         self._t0 = 0.0
         self._jitter: list[float] = []
         self._overruns = 0
+        self._skipped = 0
         self._phases: dict[str, int] = {}
         self._clips = [0, 0]
         self._last_present: tuple[int, np.ndarray] | None = None
@@ -289,15 +291,17 @@ class Player:
         t_rel = actual - self._t0
         self._account(cmd, phase, actual - deadline)
         self.ticks += 1
+        if self.on_tick is not None:
+            self.on_tick(self.ticks - 1, t_rel)  # instrumentation: part of the tick's work
         done = self.clock.now_s()
         next_k = k + 1
         overrun = done > self._t0 + next_k * self.period_s
-        if overrun:
+        if overrun:  # run the latest passed deadline now (late); skip older ones: no burst
             self._overruns += 1
-            behind = math.floor((done - self._t0) / self.period_s)
-            if behind > next_k:  # skip deadlines already missed: no burst of catch-up ticks
-                self._overruns += behind - next_k
-                next_k = behind + 1 if done > self._t0 + behind * self.period_s else behind
+            passed = math.floor((done - self._t0) / self.period_s)
+            if passed > next_k:
+                self._skipped += passed - next_k
+                next_k = passed
         if self.telemetry is not None:
             self.telemetry.write(
                 TickRecord(
@@ -313,8 +317,6 @@ class Player:
                     status,
                 )
             )
-        if self.on_tick is not None:
-            self.on_tick(self.ticks - 1, t_rel)
         return next_k
 
     def _account(self, cmd: GateCommand, phase: str, jitter_s: float) -> None:
@@ -390,6 +392,7 @@ class Player:
             ticks=self.ticks,
             ticks_by_phase=dict(self._phases),
             overruns=self._overruns,
+            skipped=self._skipped,
             misses=self.watchdog.misses,
             max_consecutive_misses=self.watchdog.max_consecutive_misses,
             jitter_p50_s=float(np.percentile(jit, 50)),

@@ -79,8 +79,8 @@ class WatchdogLimits:
     """Budgets of the watchdog (see the module docstring)."""
 
     max_consecutive_misses: int = 3
-    window_ticks: int = 100
-    max_misses_in_window: int = 10
+    window_ticks: int = 50
+    max_misses_in_window: int = 5
     temperature_margin_c: float = 5.0
     voltage_margin_v: float = 0.0
     status_every_ticks: int = 10
