@@ -1,0 +1,164 @@
+"""Constraints of the spacetime NLP (TOWR-style "constraints" module), W&P 2009 eqs 1-10.
+
+Finite differences are cyclic over the N knots (h = T/N): q̇_k = (q_{k+1} − q_{k−1})/2h,
+q̈_k = (q_{k+1} − 2q_k + q_{k−1})/h². Treadmill convention (W&P §3): the robot stays in place on
+average and **stance feet move at −v** along x; the dynamics see the true base velocity ẋ + v
+(Galilean shift, so the torques are the ground-frame ones).
+
+Every group is a column of MX expressions with numeric bounds; the contact schedule switches rows
+on and off through the activity parameter C (stance rows are multiplied by C, the force bound is
+scaled by C), so the NLP is built once per (robot, N).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from planner.config import PlannerOptions
+from planner.model import RobotModel
+from planner.variables import Symbols
+
+
+@dataclass(frozen=True)
+class Group:
+    """One named block of constraint rows lb ≤ expr ≤ ub; `unit` scales violations for reports."""
+
+    name: str
+    expr: Any
+    lb: np.ndarray
+    ub: np.ndarray
+
+
+@dataclass(frozen=True)
+class KnotQuantities:
+    """Mapped per-knot expressions (each with N columns)."""
+
+    base_rows: Any  # 6 × N: residual of the whole-body Newton–Euler balance (scaled)
+    tau_nm: Any  # J × N joint torques (the lifted variables)
+    tau_rnea_nm: Any  # J × N joint torques by inverse dynamics
+    feet_m: Any  # 3F × N foot-sphere centres (treadmill frame)
+    body_z_m: Any  # B × N body-origin heights
+    qd: Any  # J × N
+    qdd: Any  # J × N
+    base_d: Any  # 6 × N base pose rates
+    omega_world: Any  # 3 × N
+
+
+def _shift(m: Any, k: int) -> Any:
+    """Cyclic column shift: column i of the result is column (i + k) mod N of m."""
+    n = m.shape[1]
+    k %= n
+    return m if k == 0 else ca.horzcat(m[:, k:], m[:, :k])
+
+
+def knot_function(model: RobotModel) -> ca.Function:
+    """SX function of one knot: dynamics residual, torques, feet, body heights, ω."""
+    nj, nf = model.n_joints, model.n_feet
+    b, bd, bdd = ca.SX.sym("b", 6), ca.SX.sym("bd", 6), ca.SX.sym("bdd", 6)
+    q, qd, qdd = ca.SX.sym("q", nj), ca.SX.sym("qd", nj), ca.SX.sym("qdd", nj)
+    f = ca.SX.sym("f", 3 * nf)
+    v = ca.SX.sym("v")
+    weight_n = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2))
+    w, dw = model.base_rates(b[3:], bd[3:], bdd[3:])
+    v_base = bd[:3] + ca.vertcat(v, 0, 0)
+    forces = ca.reshape(f, 3, nf) * weight_n
+    base_rows, tau = model.inverse_dynamics(b[:3], b[3:], q, v_base, w, qd, bdd[:3], dw, qdd, forces)
+    feet, origins, _ = model.fk(b[:3], b[3:], q)
+    scale = ca.DM([1, 1, 1, *[1.0 / model.robot.leg_length_m] * 3]) / weight_n
+    return ca.Function(
+        "knot", [b, q, bd, qd, bdd, qdd, f, v],
+        [base_rows * scale, tau, ca.reshape(feet, 3 * nf, 1), origins[2, :].T, w],
+        ["b", "q", "bd", "qd", "bdd", "qdd", "f", "v"],
+        ["base_rows", "tau", "feet", "body_z", "w"],
+    )
+
+
+def knot_quantities(model: RobotModel, sym: Symbols, n_knots: int) -> KnotQuantities:
+    bd, qd = sym.vel[:6, :], sym.vel[6:, :]
+    bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
+    fn = knot_function(model).map(n_knots)
+    base_rows, tau, feet, body_z, w = fn(sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s)
+    return KnotQuantities(base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w)
+
+
+def build_groups(model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: int,
+                 options: PlannerOptions) -> list[Group]:
+    """All constraint groups, in the order they appear in g."""
+    n, nf = n_knots, model.n_feet
+    r = model.foot_radius_m
+    c = sym.contact
+    feet_x = kq.feet_m[0::3, :]
+    feet_y = kq.feet_m[1::3, :]
+    feet_z = kq.feet_m[2::3, :]
+    stick = c * _shift(c, 1)  # foot in stance at k and k+1
+    step = sym.speed_m_s * sym.period_s / n
+    fx, fy, fz = sym.forces[0::3, :], sym.forces[1::3, :], sym.forces[2::3, :]
+    mu = options.mu / math.sqrt(2.0)  # inscribed pyramid of the cone (eq 9)
+    servos = [j.servo for j in model.robot.joints]
+    stall = ca.DM([s.stall_torque_nm for s in servos])
+    omega0 = ca.DM([s.no_load_speed_rad_s for s in servos])
+    tau_n = kq.tau_nm / ca.repmat(stall * options.torque_margin, 1, n)
+    qd_n = kq.qd / ca.repmat(omega0, 1, n)
+    nj = model.n_joints
+    zeros = np.zeros
+    inf = np.inf
+
+    def col(e: Any) -> Any:
+        return ca.vec(e)
+
+    pose = ca.vertcat(sym.base, sym.q)
+    inv_h = n / sym.period_s
+    n_rates = (6 + nj) * n
+    groups = [
+        # cyclic central differences tie the lifted rates to the poses (linear in x)
+        Group("finite differences",
+              ca.vertcat(col(sym.vel - (_shift(pose, 1) - _shift(pose, -1)) * (0.5 * inv_h)),
+                         col(sym.acc - (_shift(pose, 1) - 2 * pose + _shift(pose, -1)) * (inv_h * inv_h))),
+              zeros(2 * n_rates), zeros(2 * n_rates)),
+        # W&P eqs 7-8: the floating base is unactuated — whole-body linear/angular momentum rate
+        # equals gravity + contact forces (the six base rows of the inverse dynamics vanish).
+        Group("dynamics", col(kq.base_rows), zeros(6 * n), zeros(6 * n)),
+        # joint torques by inverse dynamics of the floating-base tree (scaled by τ_stall)
+        Group("inverse dynamics", col((kq.tau_nm - kq.tau_rnea_nm) / ca.repmat(stall, 1, n)),
+              zeros(nj * n), zeros(nj * n)),
+        # eq 2: stance foot-sphere centre at the sphere radius
+        Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n)),
+        # eq 3: stance feet move with the treadmill (−v along x) and do not slide sideways
+        Group("stance no-slip", ca.vertcat(col(stick * (_shift(feet_x, 1) - feet_x + step)),
+                                           col(stick * (_shift(feet_y, 1) - feet_y))),
+              zeros(2 * nf * n), zeros(2 * nf * n)),
+        # eq 1 for feet + anti-scuffing clearance profile in swing
+        Group("swing clearance", col(feet_z - r - sym.min_height_m), zeros(nf * n), np.full(nf * n, inf)),
+        # eq 1: the body stays clear of the ground
+        Group("body clearance", col(kq.body_z_m - options.body_clearance_m),
+              zeros(model.n_bodies * n), np.full(model.n_bodies * n, inf)),
+        # eq 9: friction pyramid inscribed in the cone µ
+        Group("friction", ca.vertcat(col(mu * fz - fx), col(mu * fz + fx), col(mu * fz - fy), col(mu * fz + fy)),
+              zeros(4 * nf * n), np.full(4 * nf * n, inf)),
+        # unilateral contact with zero force in swing: 0 ≤ f_z ≤ C·f_max (f_z ≥ 0 is a bound)
+        Group("swing force", col(c * options.max_force_body_weights - fz), zeros(nf * n), np.full(nf * n, inf)),
+        # servo no-load speed |q̇| ≤ margin·ω₀
+        Group("joint speed", col(qd_n), np.full(nj * n, -options.speed_margin), np.full(nj * n, options.speed_margin)),
+        # torque–speed envelope |τ| ≤ margin·τ_stall·(1 − |q̇|/ω₀), the four faces of the diamond
+        Group("torque envelope", ca.vertcat(col(tau_n + qd_n), col(tau_n - qd_n), col(-tau_n + qd_n), col(-tau_n - qd_n)),
+              np.full(4 * nj * n, -inf), np.ones(4 * nj * n)),
+        # eq 6: remove the treadmill's translation invariance (mean base x, y at the origin)
+        Group("drift", ca.vertcat(ca.sum2(sym.base[0, :]), ca.sum2(sym.base[1, :])) / n, zeros(2), zeros(2)),
+    ]
+    return groups
+
+
+def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
+    """Human-readable row labels for the groups that need them in reports."""
+    joints = model.robot.joint_names
+    feet = model.robot.foot_names
+    return {
+        "joint speed": [f"{joints[j]}@{k}" for k in range(n_knots) for j in range(len(joints))],
+        "torque envelope": [f"{joints[j]}@{k}" for _ in range(4) for k in range(n_knots) for j in range(len(joints))],
+        "friction": [f"{feet[f]}@{k}" for _ in range(4) for k in range(n_knots) for f in range(len(feet))],
+    }

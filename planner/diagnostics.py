@@ -1,0 +1,93 @@
+"""Which limits bind: constraint violations and multipliers by group at an iterate.
+
+Used to tell the user *why* a request is infeasible ("joint speed: fl_knee needs 1.4× the servo's
+limit …") and, for feasible solves, which limits are active (multiplier share by group).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: groups that are physical/servo limits (reported to the user); the rest are model equations
+LIMIT_GROUPS = (
+    "joint speed", "torque envelope", "friction", "joint limits", "swing clearance",
+    "body clearance", "swing force", "tilt",
+)
+
+FEASIBILITY_TOL = 1e-4
+
+
+@dataclass(frozen=True)
+class GroupReport:
+    """One constraint group at an iterate: worst violation (group units), where, multiplier sum."""
+
+    name: str
+    max_violation: float
+    worst_row: str
+    multiplier_sum: float
+
+
+def group_reports(
+    names_slices: list[tuple[str, slice]],
+    g: np.ndarray,
+    lbg: np.ndarray,
+    ubg: np.ndarray,
+    lam_g: np.ndarray,
+    labels: dict[str, list[str]],
+) -> list[GroupReport]:
+    """Violation and |λ| per constraint group (rows of g)."""
+    out = []
+    for name, sl in names_slices:
+        gv, lo, hi = g[sl], lbg[sl], ubg[sl]
+        viol = np.maximum(np.maximum(lo - gv, gv - hi), 0.0)
+        i = int(np.argmax(viol)) if viol.size else 0
+        row_labels = labels.get(name)
+        where = row_labels[i] if row_labels is not None and i < len(row_labels) else f"row {i}"
+        out.append(GroupReport(name, float(viol.max(initial=0.0)), where, float(np.abs(lam_g[sl]).sum())))
+    return out
+
+
+def bound_report(name: str, x: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, lam_x: np.ndarray,
+                 labels: list[str]) -> GroupReport:
+    """The same for a block of variable bounds (e.g. joint limits)."""
+    viol = np.maximum(np.maximum(lbx - x, x - ubx), 0.0)
+    near = np.minimum(np.abs(x - lbx), np.abs(ubx - x))
+    i = int(np.argmax(viol)) if viol.max(initial=0.0) > 0 else int(np.argmin(near))
+    return GroupReport(name, float(viol.max(initial=0.0)), labels[i] if i < len(labels) else f"row {i}",
+                       float(np.abs(lam_x).sum()))
+
+
+def binding_limits(reports: list[GroupReport], feasible: bool) -> tuple[tuple[str, float], ...]:
+    """The limit groups that bind, most binding first.
+
+    Infeasible: the limit groups violated at the last iterate (by violation). Otherwise (or when
+    nothing is violated): the limit groups with the largest share of the multipliers.
+    """
+    limits = [r for r in reports if r.name in LIMIT_GROUPS]
+    if not feasible:
+        violated = sorted((r for r in limits if r.max_violation > FEASIBILITY_TOL),
+                          key=lambda r: -r.max_violation)
+        if violated:
+            return tuple((r.name, r.max_violation) for r in violated)
+    total = sum(r.multiplier_sum for r in limits) or 1.0
+    active = sorted((r for r in limits if r.multiplier_sum > 1e-3 * total), key=lambda r: -r.multiplier_sum)
+    return tuple((r.name, r.multiplier_sum / total) for r in active)
+
+
+def explain(reports: list[GroupReport], binding: tuple[tuple[str, float], ...], status: str) -> str:
+    """One-line, user-facing explanation of an infeasible solve."""
+    by_name = {r.name: r for r in reports}
+    parts = []
+    for name, value in binding[:4]:
+        r = by_name[name]
+        if r.max_violation > FEASIBILITY_TOL:
+            parts.append(f"{name} (violated by {r.max_violation:.3g} at {r.worst_row})")
+        else:
+            parts.append(f"{name} ({100 * value:.0f}% of the limit multipliers, e.g. {r.worst_row})")
+    equations = [r for r in reports if r.name not in LIMIT_GROUPS and r.max_violation > FEASIBILITY_TOL]
+    if equations and not parts:
+        parts = [f"{r.name} (residual {r.max_violation:.3g})" for r in equations[:3]]
+    limits = "; ".join(parts) if parts else "no single limit stands out"
+    return f"no feasible gait (IPOPT: {status}); binding limits: {limits}"

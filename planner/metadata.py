@@ -1,0 +1,63 @@
+"""Planner metadata written into gait files: objective terms, solver stats, weights, versions."""
+
+from __future__ import annotations
+
+import platform
+from importlib import metadata as importlib_metadata
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from planner.spacetime import GaitPlanner, PlanResult
+
+
+def package_versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for dist in ("gaitsmith", "casadi", "mujoco", "numpy", "scipy"):
+        try:
+            out[dist] = importlib_metadata.version(dist)
+        except importlib_metadata.PackageNotFoundError:
+            out[dist] = "not installed"
+    return out
+
+
+def servo_load(planner: GaitPlanner, result: PlanResult) -> dict[str, dict[str, float]]:
+    """Per joint: peak |τ|/τ_stall and peak |q̇|/ω₀ over the cycle."""
+    out = {}
+    for j, joint in enumerate(planner.robot.joints):
+        out[joint.name] = {
+            "peak_torque_over_stall": float(np.max(np.abs(result.joint_torques_nm[:, j])) / joint.servo.stall_torque_nm),
+            "peak_speed_over_no_load": float(
+                np.max(np.abs(result.joint_speeds_rad_s[:, j])) / joint.servo.no_load_speed_rad_s),
+        }
+    return out
+
+
+def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]:
+    o = planner.options
+    weights = o.weights.as_dict()
+    return {
+        "method": "spacetime (Wampler & Popovic 2009 eqs 1-16), CasADi + IPOPT",
+        "n_knots": planner.n_knots,
+        "mu": o.mu,
+        "torque_margin": o.torque_margin,
+        "speed_margin": o.speed_margin,
+        "swing_clearance_m": o.swing_clearance_m,
+        "treadmill": "stance feet move at -v along x; base_pose x excludes the progress v*t",
+        "base_orientation": "R = Rz(yaw) Ry(pitch) Rx(roll)",
+        "weights": weights,
+        "objective": result.cost,
+        "objective_terms": dict(result.cost_terms),
+        "weighted_terms": {k: weights[k] * v for k, v in result.cost_terms.items()},
+        "solver": {
+            "status": result.status,
+            "iterations": result.iterations,
+            "solve_time_s": result.solve_time_s,
+            "build_time_s": planner.build_time_s,
+            "max_violation": result.max_violation,
+        },
+        "active_limits": [[name, float(v)] for name, v in result.binding],
+        "servo_load": servo_load(planner, result),
+        "versions": package_versions(),
+    }

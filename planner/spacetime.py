@@ -1,0 +1,216 @@
+"""The spacetime gait planner: a parametric NLP built once per (robot, N), solved by IPOPT.
+
+Usage (also what basin-CMA calls in its inner loop)::
+
+    planner = GaitPlanner(robot, n_knots=30)                 # builds the NLP once (~seconds)
+    result = planner.solve(schedule, speed_m_s=0.25)         # warm-starts from the last solve
+    gait = planner.to_gait(result, "trot")                   # raises InfeasibleGaitError
+
+The schedule (contact activity per knot, swing clearance profile), speed and period are NLP
+parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal and
+dual solution with IPOPT's ``warm_start_init_point``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from planner import diagnostics
+from planner.config import PlannerOptions
+from planner.constraints import build_groups, group_labels, knot_quantities
+from planner.costs import cost_terms, weighted_objective
+from planner.errors import InfeasibleGaitError, PlannerConfigError
+from planner.model import RobotModel
+from planner.variables import Layout, initial_guess, make_symbols, parameter_vector, variable_bounds
+from robots import ContactSchedule, Gait, Robot, Velocity
+
+_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+@dataclass(frozen=True)
+class WarmStart:
+    """A primal/dual point to start IPOPT from."""
+
+    x: np.ndarray
+    lam_x: np.ndarray
+    lam_g: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class PlanResult:
+    """One local solve: gait-ready arrays over the N knots plus cost and solver facts."""
+
+    schedule: ContactSchedule
+    speed_m_s: float
+    base_pose: np.ndarray  # N × 6 (x, y, z, roll, pitch, yaw), treadmill frame
+    joint_angles_rad: np.ndarray  # N × J
+    joint_speeds_rad_s: np.ndarray  # N × J (central differences)
+    contact_forces_n: np.ndarray  # N × F × 3, world frame
+    joint_torques_nm: np.ndarray  # N × J, inverse dynamics
+    cost: float
+    cost_terms: dict[str, float]
+    feasible: bool
+    status: str
+    iterations: int
+    solve_time_s: float
+    max_violation: float
+    binding: tuple[tuple[str, float], ...]
+    message: str
+    warm_start: WarmStart
+    stats: dict[str, Any] = field(default_factory=dict)
+
+
+class GaitPlanner:
+    """Spacetime gait optimisation for one robot at a fixed number of knots."""
+
+    def __init__(self, robot: Robot, n_knots: int = 30, options: PlannerOptions | None = None) -> None:
+        if not 8 <= n_knots <= 200:
+            raise PlannerConfigError(f"n_knots must be in [8, 200], got {n_knots}")
+        t0 = time.perf_counter()
+        self.robot = robot
+        self.n_knots = n_knots
+        self.options = options or PlannerOptions()
+        self.model = RobotModel(robot)
+        self.layout = Layout(n_knots, self.model.n_joints, self.model.n_feet)
+        sym = make_symbols(self.layout)
+        kq = knot_quantities(self.model, sym, n_knots)
+        groups = build_groups(self.model, sym, kq, n_knots, self.options)
+        terms = cost_terms(self.model, sym, kq, n_knots)
+        objective = weighted_objective(terms, self.options.weights)
+        g = ca.vertcat(*[grp.expr for grp in groups])
+        self._lbg = np.concatenate([grp.lb for grp in groups])
+        self._ubg = np.concatenate([grp.ub for grp in groups])
+        slices, start = [], 0
+        for grp in groups:
+            size = int(grp.expr.shape[0])
+            slices.append((grp.name, slice(start, start + size)))
+            start += size
+        self._slices = slices
+        self._labels = group_labels(self.model, n_knots)
+        self._lbx, self._ubx = variable_bounds(self.layout, self.model, self.options)
+        self._term_names = list(terms)
+        self._evaluate = ca.Function(
+            "evaluate", [sym.x, sym.p], [g, kq.tau_nm, kq.qd, *terms.values()]
+        )
+        self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g}
+        self._solver = self._make_solver()
+        self._last: WarmStart | None = None
+        self.build_time_s = time.perf_counter() - t0
+
+    def _make_solver(self) -> Any:
+        """One IPOPT instance for cold and warm solves (building the derivatives is the slow part).
+
+        It always takes the initial multipliers we pass (``warm_start_init_point``): the last
+        solution's for warm starts, zeros (pushed off the bounds) for cold starts.
+        """
+        o = self.options
+        ipopt: dict[str, Any] = {
+            "tol": o.tol,
+            "acceptable_tol": 1e-4,
+            "constr_viol_tol": 1e-5,
+            "max_iter": o.max_iter,
+            "print_level": o.print_level,
+            "linear_solver": o.linear_solver,
+            "mu_strategy": "adaptive",
+            "sb": "yes",
+            "print_timing_statistics": "yes" if o.print_level >= 5 else "no",
+        }
+        ipopt.update({
+            "warm_start_init_point": "yes",
+            "warm_start_bound_push": 1e-6,
+            "warm_start_slack_bound_push": 1e-6,
+            "warm_start_mult_bound_push": 1e-6,
+            "mu_init": 1e-2,
+        })
+        opts = {"ipopt": ipopt, "print_time": False, "expand": True, "error_on_fail": False}
+        return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)
+
+    # -- solving -----------------------------------------------------------------------------
+
+    def _check(self, schedule: ContactSchedule, speed_m_s: float) -> None:
+        if tuple(schedule.feet) != self.robot.foot_names:
+            raise PlannerConfigError(
+                f"schedule feet {list(schedule.feet)} do not match the robot's legs {list(self.robot.foot_names)}")
+        if not (np.isfinite(speed_m_s) and 0.0 <= speed_m_s <= 10.0):
+            raise PlannerConfigError(f"speed must be in [0, 10] m/s, got {speed_m_s!r}")
+        contact = schedule.contact_matrix(self.n_knots)
+        if not contact.any(axis=0).all():
+            raise PlannerConfigError(
+                f"with {self.n_knots} knots some foot never touches down; use more knots or longer duty factors")
+
+    def solve(self, schedule: ContactSchedule, speed_m_s: float,
+              warm_start: WarmStart | bool | None = None) -> PlanResult:
+        """Plan one gait cycle. `warm_start`: None → the last solution if any, False → cold."""
+        self._check(schedule, speed_m_s)
+        p = parameter_vector(schedule, self.n_knots, speed_m_s, self.options.swing_clearance_m)
+        start = self._last if warm_start is None or warm_start is True else warm_start or None
+        t0 = time.perf_counter()
+        if start is None:
+            x0 = initial_guess(self.layout, self.model, schedule)
+            start = WarmStart(x0, np.zeros_like(x0), np.zeros_like(self._lbg))
+        sol = self._solver(x0=start.x, lam_x0=start.lam_x, lam_g0=start.lam_g, p=p,
+                           lbx=self._lbx, ubx=self._ubx, lbg=self._lbg, ubg=self._ubg)
+        stats = self._solver.stats()
+        elapsed = time.perf_counter() - t0
+        result = self._result(schedule, speed_m_s, p, sol, stats, elapsed)
+        if result.feasible:
+            self._last = result.warm_start
+        return result
+
+    def _result(self, schedule: ContactSchedule, speed_m_s: float, p: np.ndarray, sol: dict[str, Any],
+                stats: dict[str, Any], elapsed: float) -> PlanResult:
+        x = np.asarray(sol["x"]).ravel()
+        lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
+        g, tau, qd, *terms = (np.asarray(v) for v in self._evaluate(x, p))
+        g = g.ravel()
+        reports = diagnostics.group_reports(self._slices, g, self._lbg, self._ubg, lam_g, self._labels)
+        nb, nq = self.layout.n_base, self.layout.n_q
+        names = [f"{n}@{k}" for k in range(self.n_knots) for n in self.robot.joint_names]
+        reports.append(diagnostics.bound_report("joint limits", x[nb:nb + nq], self._lbx[nb:nb + nq],
+                                                self._ubx[nb:nb + nq], lam_x[nb:nb + nq], names))
+        tilt = np.r_[[np.arange(6 * k + 3, 6 * k + 6) for k in range(self.n_knots)]].ravel()
+        reports.append(diagnostics.bound_report("tilt", x[tilt], self._lbx[tilt], self._ubx[tilt], lam_x[tilt],
+                                                [f"roll/pitch/yaw@{k}" for k in range(self.n_knots) for _ in range(3)]))
+        max_violation = max(r.max_violation for r in reports)
+        status = str(stats.get("return_status", "unknown"))
+        feasible = bool(status in _SUCCESS and max_violation <= diagnostics.FEASIBILITY_TOL)
+        binding = diagnostics.binding_limits(reports, feasible)
+        message = "ok" if feasible else diagnostics.explain(reports, binding, status)
+        base, q, f = self.layout.unpack(x)
+        weight_n = self.model.total_mass_kg * float(np.linalg.norm(self.model.gravity_m_s2))
+        term_values = {n: float(np.asarray(v).item()) for n, v in zip(self._term_names, terms, strict=True)}
+        return PlanResult(
+            schedule=schedule, speed_m_s=float(speed_m_s), base_pose=base.copy(), joint_angles_rad=q.copy(),
+            joint_speeds_rad_s=qd.T.copy(), contact_forces_n=f * weight_n, joint_torques_nm=tau.T.copy(),
+            cost=float(sol["f"]), cost_terms=term_values, feasible=feasible, status=status,
+            iterations=int(stats.get("iter_count", -1)), solve_time_s=elapsed, max_violation=max_violation,
+            binding=binding, message=message, warm_start=WarmStart(x, lam_x, lam_g),
+            stats={"return_status": status, "iter_count": int(stats.get("iter_count", -1)),
+                   "t_wall_total_s": elapsed, "iterations": _iteration_log(stats)},
+        )
+
+    # -- output ------------------------------------------------------------------------------
+
+    def to_gait(self, result: PlanResult, label: str, extra_metadata: dict[str, Any] | None = None) -> Gait:
+        """The gait file object for a feasible result; raises InfeasibleGaitError otherwise."""
+        if not result.feasible:
+            raise InfeasibleGaitError(result.message, result.binding)
+        from planner.metadata import planner_metadata
+
+        meta = planner_metadata(self, result)
+        meta.update(extra_metadata or {})
+        return Gait.create(
+            robot=self.robot, knots_rad=result.joint_angles_rad, schedule=result.schedule,
+            velocity=Velocity(vx_m_s=result.speed_m_s), gait_label=label, base_pose=result.base_pose,
+            contact_forces_n=result.contact_forces_n, joint_torques_nm=result.joint_torques_nm, planner=meta,
+        )
+
+
+def _iteration_log(stats: dict[str, Any]) -> dict[str, list[float]]:
+    it = stats.get("iterations") or {}
+    return {k: [float(v) for v in it.get(k, [])] for k in ("obj", "inf_pr", "inf_du")}

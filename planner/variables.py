@@ -1,0 +1,162 @@
+"""Decision variables and parameters of the spacetime NLP (TOWR-style "variables" module).
+
+Per knot k = 0…N−1 (phase k/N of one period, treadmill frame):
+
+- base pose ``b_k = (x, y, z, roll, pitch, yaw)`` [m, rad] — x with the forward progress v·t
+  removed, so every variable is N-periodic;
+- joint angles ``q_k`` [rad] in `Robot.joints` order;
+- contact forces ``f_k`` (3 per foot, world frame) in units of body weight m·g (W&P §3.2 mass
+  normalisation — keeps the NLP well scaled for any robot mass);
+- lifted rates ``v_k = (ḃ_k, q̇_k)`` and ``a_k = (b̈_k, q̈_k)``, tied to the poses by the cyclic
+  finite-difference equalities (a linear constraint group). Lifting makes every nonlinear term
+  depend on one knot only, so the Hessian of the Lagrangian is block-diagonal: cheaper to
+  evaluate and to factorise than the banded Hessian of the direct substitution;
+- lifted joint torques ``τ_k`` [N·m], tied to the inverse dynamics by an equality group, so the
+  servo-envelope rows are linear (2 non-zeros each instead of a dense RNEA row).
+
+Parameters (change between solves without rebuilding): contact activity C (F×N, 0/1), swing
+minimum foot height H (F×N) [m], speed v [m/s], period T [s].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from planner.config import PlannerOptions
+from planner.model import RobotModel
+from robots import ContactSchedule
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Sizes and the packing order of the decision vector: [vec(B), vec(Q), vec(F), vec(V), vec(A)]."""
+
+    n_knots: int
+    n_joints: int
+    n_feet: int
+
+    @property
+    def n_base(self) -> int:
+        return 6 * self.n_knots
+
+    @property
+    def n_q(self) -> int:
+        return self.n_joints * self.n_knots
+
+    @property
+    def n_f(self) -> int:
+        return 3 * self.n_feet * self.n_knots
+
+    @property
+    def n_rates(self) -> int:
+        return (6 + self.n_joints) * self.n_knots
+
+    @property
+    def size(self) -> int:
+        return self.n_base + self.n_q + self.n_f + 2 * self.n_rates + self.n_q
+
+    def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(base N×6, joints N×J, forces N×F×3 in units of m·g) from the flat vector."""
+        n = self.n_knots
+        x = np.asarray(x, dtype=float).ravel()
+        base = x[: self.n_base].reshape(n, 6)
+        q = x[self.n_base: self.n_base + self.n_q].reshape(n, self.n_joints)
+        f = x[self.n_base + self.n_q: self.n_base + self.n_q + self.n_f].reshape(n, self.n_feet, 3)
+        return base, q, f
+
+    def pack(self, base: np.ndarray, q: np.ndarray, f: np.ndarray, lifted: np.ndarray | None = None) -> np.ndarray:
+        """Flat vector; `lifted` = velocities, accelerations ((6+J)·N each) and torques (J·N),
+        zeros by default (consistent with a constant pose at rest)."""
+        if lifted is None:
+            lifted = np.zeros(2 * self.n_rates + self.n_q)
+        return np.concatenate([np.ravel(base), np.ravel(q), np.ravel(f), np.ravel(lifted)])
+
+
+@dataclass(frozen=True)
+class Symbols:
+    """The CasADi symbols: matrices with one column per knot."""
+
+    x: Any  # flat decision vector
+    base: Any  # 6 × N
+    q: Any  # J × N
+    forces: Any  # 3F × N (units of m·g)
+    vel: Any  # (6+J) × N: base pose rates then joint speeds
+    acc: Any  # (6+J) × N
+    tau: Any  # J × N joint torques [N·m]
+    p: Any  # flat parameter vector
+    contact: Any  # F × N
+    min_height_m: Any  # F × N
+    speed_m_s: Any
+    period_s: Any
+
+
+def make_symbols(layout: Layout) -> Symbols:
+    n, nj, nf = layout.n_knots, layout.n_joints, layout.n_feet
+    x = ca.MX.sym("x", layout.size)
+    # knot-major packing: column k holds knot k (reshape is column-major)
+    base = ca.reshape(x[: layout.n_base], 6, n)
+    q = ca.reshape(x[layout.n_base: layout.n_base + layout.n_q], nj, n)
+    start = layout.n_base + layout.n_q
+    forces = ca.reshape(x[start: start + layout.n_f], 3 * nf, n)
+    start += layout.n_f
+    vel = ca.reshape(x[start: start + layout.n_rates], 6 + nj, n)
+    acc = ca.reshape(x[start + layout.n_rates: start + 2 * layout.n_rates], 6 + nj, n)
+    tau = ca.reshape(x[start + 2 * layout.n_rates:], nj, n)
+    p = ca.MX.sym("p", 2 * nf * n + 2)
+    contact = ca.reshape(p[: nf * n], nf, n)
+    min_height = ca.reshape(p[nf * n: 2 * nf * n], nf, n)
+    return Symbols(x, base, q, forces, vel, acc, tau, p, contact, min_height, p[2 * nf * n], p[2 * nf * n + 1])
+
+
+def parameter_vector(schedule: ContactSchedule, n_knots: int, speed_m_s: float,
+                     swing_clearance_m: float) -> np.ndarray:
+    """Numeric p for a schedule: C (F×N), H (F×N) column-major, then v and T."""
+    contact = schedule.contact_matrix(n_knots).astype(float)  # N × F
+    return np.concatenate([contact.ravel(), swing_height_profile(schedule, n_knots, swing_clearance_m).ravel(),
+                           [speed_m_s, schedule.period_s]])
+
+
+def swing_height_profile(schedule: ContactSchedule, n_knots: int, clearance_m: float) -> np.ndarray:
+    """N × F minimum foot height above touching [m]: h·sin(π·swing progress), 0 in stance."""
+    phase = np.arange(n_knots)[:, None] / n_knots
+    td = np.asarray(schedule.touchdown_phase)[None, :]
+    duty = np.asarray(schedule.duty_factor)[None, :]
+    since_td = (phase - td) % 1.0
+    stance = schedule.contact_matrix(n_knots)
+    swing_len = np.maximum(1.0 - duty, 1e-9)
+    progress = np.clip((since_td - duty) / swing_len, 0.0, 1.0)
+    return np.where(stance, 0.0, clearance_m * np.sin(np.pi * progress))
+
+
+def variable_bounds(layout: Layout, model: RobotModel, options: PlannerOptions) -> tuple[np.ndarray, np.ndarray]:
+    """Box bounds: joint limits (minus a margin), tilt, unilateral normal force f_z ≥ 0."""
+    n = layout.n_knots
+    tilt, inf = options.max_tilt_rad, np.inf
+    base_lo = np.tile([-inf, -inf, 0.0, -tilt, -tilt, -tilt], (n, 1))
+    base_hi = np.tile([inf, inf, 2.0 * model.robot.leg_length_m + 0.5, tilt, tilt, tilt], (n, 1))
+    lo, hi = model.joint_limits_rad()
+    margin = np.minimum(options.joint_limit_margin_rad, 0.25 * (hi - lo))
+    q_lo, q_hi = np.tile(lo + margin, (n, 1)), np.tile(hi - margin, (n, 1))
+    f_lo = np.full((n, layout.n_feet, 3), -inf)
+    f_lo[:, :, 2] = 0.0
+    f_hi = np.full((n, layout.n_feet, 3), inf)
+    free = np.full(2 * layout.n_rates + layout.n_q, inf)
+    return layout.pack(base_lo, q_lo, f_lo, -free), layout.pack(base_hi, q_hi, f_hi, free)
+
+
+def initial_guess(layout: Layout, model: RobotModel, schedule: ContactSchedule) -> np.ndarray:
+    """Cold start: nominal stance at the nominal height, weight shared by the stance feet."""
+    n = layout.n_knots
+    base = np.zeros((n, 6))
+    base[:, 2] = model.robot.stance_base_height_m
+    q = np.tile(np.asarray(model.robot.nominal_stance_rad), (n, 1))
+    lo, hi = model.joint_limits_rad()
+    q = np.clip(q, lo + 0.05, hi - 0.05)
+    contact = schedule.contact_matrix(n).astype(float)
+    f = np.zeros((n, layout.n_feet, 3))
+    f[:, :, 2] = contact / np.maximum(contact.sum(axis=1, keepdims=True), 1.0)
+    return layout.pack(base, q, f)
