@@ -12,8 +12,8 @@ from __future__ import annotations
 import random
 import threading
 import time
-from collections.abc import Callable, Iterable, Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 from hardware.control_table import table_for_protocol
 from hardware.protocol import dynamixel2 as dxl
@@ -42,6 +42,15 @@ ERR_INSTRUCTION = 2
 ERR_DATA_LENGTH = 5
 ERR_ACCESS = 7
 PROTOCOLS = ("dynamixel2", "feetech_sts")
+
+
+class ServoPlant(Protocol):
+    """Drives the servos' present state from outside the bus (e.g. the MuJoCo twin, `sim.twin`).
+
+    Called with the bus clock before every packet is served; reads each servo's goal
+    (`goal_tick`, `torque_enabled`) and imposes its present state with `VirtualServo.drive`."""
+
+    def advance(self, now_s: float, servos: Sequence[VirtualServo]) -> None: ...
 
 
 class VirtualServoBus:
@@ -73,6 +82,7 @@ class VirtualServoBus:
         )
         self._registered: dict[int, tuple[int, bytes]] = {}  # Feetech REG WRITE buffer
         self.instructions = 0  # packets handled (for tests and benchmarks)
+        self.plant: ServoPlant | None = None  # optional external physics (see ServoPlant)
 
     @classmethod
     def from_robot(cls, robot: Any, **kwargs: Any) -> VirtualServoBus:
@@ -143,6 +153,8 @@ class VirtualServoBus:
         return [s for s in self.servos if s.servo_id == servo_id]
 
     def _dispatch(self, p: Packet, now: float) -> list[tuple[VirtualServo, bytes]]:
+        if self.plant is not None:
+            self.plant.advance(now, self.servos)
         for s in self.servos:
             s.update(now, self._faults)
         if self.protocol == "dynamixel2":

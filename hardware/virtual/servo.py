@@ -48,6 +48,7 @@ class VirtualServo:
         self._goal = round(self._pos)
         self._t = now_s
         self._latched_error = 0
+        self._driven: tuple[float, float] | None = None  # (ticks, ticks/s) imposed by a plant
         self._readonly = [r for r in table.registers.values() if not r.writable]
         self._factory_defaults(servo_id)
 
@@ -71,6 +72,17 @@ class VirtualServo:
     @property
     def position_tick(self) -> float:
         return self._pos
+
+    @property
+    def goal_tick(self) -> int:
+        """The goal position the servo is acting on [ticks] (after its own limit handling)."""
+        return self._goal
+
+    def drive(self, position_tick: float, velocity_ticks_s: float = 0.0) -> None:
+        """Impose the present position [ticks] and speed [ticks/s] from an external plant (e.g.
+        the MuJoCo twin `sim.twin`, via `VirtualServoBus.plant`); from then on the built-in
+        motion model is bypassed and `update` only refreshes the registers."""
+        self._driven = (float(position_tick), float(velocity_ticks_s))
 
     def _factory_defaults(self, servo_id: int, keep_baud: int | None = None) -> None:
         self.mem[:] = bytes(self.table.size)
@@ -103,7 +115,10 @@ class VirtualServo:
         dt = max(0.0, now_s - self._t)
         self._t = max(self._t, now_s)
         velocity = 0.0
-        if self.torque_enabled:
+        if self._driven is not None:
+            self._pos, velocity = self._driven
+            velocity = velocity if abs(velocity) > 1.0 else 0.0  # below 1 tick/s: at rest
+        elif self.torque_enabled:
             speed = self.model.no_load_speed_rad_s * self.model.ticks_per_rad  # ticks/s
             err = self._goal - self._pos
             step = min(abs(err), speed * dt)
