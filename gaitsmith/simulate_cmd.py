@@ -1,0 +1,192 @@
+"""`gaitsmith simulate gait.json`: prove a gait in MuJoCo with servo actuators.
+
+Prints the metrics and the verdict; exit code 0 when the gait passes, 1 when it fails (2 for a
+usage or input error, via `gaitsmith.cli.main`). Optional outputs: a video (MP4/GIF, offscreen),
+one HTML report with the plots, the verdict written back into the gait file, a robustness sweep.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco creates a GL context (headless video)
+
+from pathlib import Path
+
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+import robots
+import robots.gait as gait_io
+from gaitsmith.console import console
+from sim.errors import SimConfigError
+from sim.render import VIDEO_SUFFIXES
+from sim.validate import PassCriteria, ValidationResult, evaluate, simulate
+
+
+def _metrics_table(result: ValidationResult) -> Table:
+    m = result.metrics
+    table = Table(title="simulation metrics (steady cycles)")
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    deg = 180.0 / math.pi
+
+    def opt(v: float | None, fmt: str) -> str:
+        return "—" if v is None else format(v, fmt)
+
+    rows = (
+        (
+            "speed commanded / achieved",
+            f"{m.commanded_speed_m_s:.3f} / {m.achieved_speed_m_s:.3f} m/s",
+        ),
+        ("speed error", opt(m.speed_error_fraction, ".1%")),
+        ("lateral drift", opt(m.lateral_drift_per_m, ".3f") + " m/m"),
+        (
+            "yaw drift",
+            opt(None if m.yaw_drift_rad_per_m is None else m.yaw_drift_rad_per_m * deg, ".1f")
+            + " °/m",
+        ),
+        ("base height", f"{m.base_height_min_m * 100:.1f} … {m.base_height_max_m * 100:.1f} cm"),
+        ("max tilt", f"{m.tilt_max_rad * deg:.1f}°"),
+        ("fall", "no" if not m.fell else f"at {m.fall_time_s:.2f} s ({m.fall_reason})"),
+        (
+            "foot slip per stance",
+            f"mean {m.slip_mean_m * 1000:.1f} mm, max {m.slip_max_m * 1000:.1f} mm",
+        ),
+        (
+            "peak / RMS torque",
+            f"{m.peak_torque_fraction:.0%} / {m.rms_torque_fraction:.0%} of stall",
+        ),
+        ("time at full duty", f"{m.saturation_fraction:.1%}"),
+        (
+            "tracking error",
+            f"RMS {m.tracking_rms_rad * deg:.2f}°, max {m.tracking_max_rad * deg:.1f}°",
+        ),
+        ("mechanical power", f"{m.mechanical_power_w:.2f} W"),
+        ("cost of transport", opt(m.cost_of_transport, ".2f")),
+    )
+    for k, v in rows:
+        table.add_row(k, v)
+    return table
+
+
+def simulate_command(
+    gait_path: Path = typer.Argument(
+        ..., help="gait file (gaitsmith.gait/1 JSON)", metavar="GAIT.json"
+    ),
+    robot: str | None = typer.Option(
+        None, "--robot", help="robot name or folder (default: the gait's robot)"
+    ),
+    cycles: int = typer.Option(20, "--cycles", min=3, help="gait cycles to simulate"),
+    video: Path | None = typer.Option(None, "--video", help="write a video: out.mp4 or out.gif"),
+    report: Path | None = typer.Option(None, "--report", help="write an HTML report with plots"),
+    write_validation: bool = typer.Option(
+        False, "--write-validation", help="store the verdict in the gait file"
+    ),
+    rate_hz: float = typer.Option(100.0, "--rate-hz", help="target stream rate [Hz]"),
+    latency_ms: float = typer.Option(0.0, "--latency-ms", help="bus + servo latency [ms]"),
+    friction: float | None = typer.Option(
+        None, "--friction", help="ground friction µ (default: MJCF)"
+    ),
+    payload_kg: float = typer.Option(0.0, "--payload-kg", help="extra mass on the body [kg]"),
+    strength: float = typer.Option(1.0, "--strength", help="servo strength scale (1 = datasheet)"),
+    robustness: bool = typer.Option(False, "--robustness", help="also run the robustness sweep"),
+    video_seconds: float = typer.Option(
+        10.0, "--video-seconds", help="video length from the gait start [s]"
+    ),
+) -> None:
+    """Simulate a gait in MuJoCo with servo actuators; exit 0 if it passes, 1 if it fails."""
+    if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
+        raise SimConfigError(f"--video {video}: must end in .mp4 or .gif")
+    gait = gait_io.load(gait_path)
+    bot = robots.load(robot or gait.robot)
+    gait.check_robot(bot, str(gait_path))
+    criteria = PassCriteria()
+    with Progress(
+        TextColumn("[bold]simulating"),
+        BarColumn(),
+        TextColumn("{task.percentage:>3.0f}%"),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("sim", total=1.0)
+        sim, traj = simulate(
+            gait,
+            bot,
+            cycles,
+            rate_hz=rate_hz,
+            latency_s=latency_ms / 1000.0,
+            friction=friction,
+            payload_kg=payload_kg,
+            strength=strength,
+            progress=lambda done, total: bar.update(task, completed=done / total),
+            criteria=criteria,
+        )
+    result = evaluate(traj, gait, sim, criteria, rate_hz=rate_hz, latency_s=latency_ms / 1000.0)
+    console.print(_metrics_table(result))
+    for name, ok, detail in result.checks:
+        console.print(f"  {'[green]ok  [/]' if ok else '[red]FAIL[/]'} {name}: {detail}")
+    if video is not None:
+        from sim.render import render_video
+
+        with console.status("rendering video…"):
+            gif = video.suffix.lower() == ".gif"  # GIFs get small: palette files grow fast
+            render_video(
+                video,
+                sim,
+                traj,
+                start_s=max(0.0, traj.gait_start_s - 0.5),
+                duration_s=video_seconds,
+                width=320 if gif else 640,
+                height=240 if gif else 480,
+                fps=15.0 if gif else 30.0,
+            )
+        console.print(f"video → {video}")
+    if report is not None:
+        from sim.report import write_report
+
+        with console.status("writing report…"):
+            write_report(report, result, gait, sim)
+        console.print(f"report → {report}")
+    if robustness:
+        from sim.robustness import robustness_sweep
+
+        with console.status("robustness sweep…"):
+            sweep = robustness_sweep(
+                gait,
+                bot,
+                max(cycles // 2, criteria.warmup_cycles + 2),
+                rate_hz=rate_hz,
+                criteria=criteria,
+            )
+        table = Table(title=f"robustness: {sweep.pass_fraction:.0%} of perturbed runs pass")
+        for col in ("factor", "value", "verdict", "speed [m/s]", "peak τ/stall", "why"):
+            table.add_column(col)
+        for r in sweep.runs:
+            table.add_row(
+                r.factor,
+                f"{r.value:g}",
+                "pass" if r.passed else "FAIL",
+                f"{r.achieved_speed_m_s:.3f}",
+                f"{r.peak_torque_fraction:.0%}",
+                "; ".join(r.reasons)[:80],
+            )
+        console.print(table)
+    if write_validation:
+        gait_io.save(gait.with_validation(result.to_dict()), gait_path)
+        console.print(f"validation written to {gait_path}")
+    verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"
+    console.print(
+        f"verdict: {verdict}" + ("" if result.passed else " — " + "; ".join(result.reasons))
+    )
+    if not result.passed:
+        # SystemExit, not typer.Exit: gaitsmith.cli.main runs click with standalone_mode=False,
+        # where typer.Exit(1) becomes a return value that main() does not propagate.
+        raise SystemExit(1)
+
+
+def register(app: typer.Typer) -> None:
+    app.command("simulate")(simulate_command)

@@ -1,0 +1,259 @@
+"""The robot's MJCF turned into a simulation: servo actuators, perturbations and sensors.
+
+Everything is discovered from the `Robot` (joints, legs, foot sites); nothing here knows a leg
+count, a joint name or a link length. Sensors (prefixed ``gs_``) log per physics step, so a whole
+rollout runs natively in `mujoco.rollout`:
+
+- base: frame position, quaternion and linear velocity of the root (freejoint) body;
+- per joint: position, velocity, actuator force (the clipped drive of `sim.servo`);
+- per foot: foot-site position, linear and angular velocity, and a contact sensor between the
+  foot geom and the world body (number of contacts, net force);
+- one contact sensor between the whole robot and the world body: the number of robot–ground
+  contacts; any beyond the feet' count means the body (or a shin) touched the ground.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from robots.robot import Robot
+from sim.errors import SimConfigError, SimSetupError
+from sim.servo import ServoParams, servo_params
+
+CONTACT_FOUND = int(mujoco.mjtConDataField.mjCONDATA_FOUND)
+CONTACT_FORCE = int(mujoco.mjtConDataField.mjCONDATA_FORCE)
+REDUCE_NETFORCE = 3
+
+
+@dataclass(frozen=True)
+class SimConditions:
+    """Perturbations of the nominal build (robustness sweep axes, except stream latency)."""
+
+    friction: float | None = None  # sliding µ for every geom; None keeps the MJCF's
+    payload_kg: float = 0.0  # extra mass on the root body (inertia scaled with it)
+    strength: float = 1.0  # servo strength scale (1 = datasheet)
+
+    def __post_init__(self) -> None:
+        if self.friction is not None and not (math.isfinite(self.friction) and self.friction > 0):
+            raise SimConfigError(f"friction must be positive, got {self.friction!r}")
+        if not (math.isfinite(self.payload_kg) and self.payload_kg >= 0):
+            raise SimConfigError(f"payload must be ≥ 0 kg, got {self.payload_kg!r}")
+        if not (math.isfinite(self.strength) and self.strength > 0):
+            raise SimConfigError(f"servo strength scale must be positive, got {self.strength!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class SimModel:
+    """A compiled model plus the index maps the rollout and metrics need."""
+
+    robot: Robot
+    model: mujoco.MjModel
+    conditions: SimConditions
+    servos: tuple[ServoParams, ...]
+    qpos_adr: np.ndarray  # (J,) qpos index of each robot joint, in robot.joints order
+    dof_adr: np.ndarray  # (J,)
+    root_body: int
+    foot_geoms: tuple[int, ...]
+    mass_kg: float  # robot + payload
+    sensors: dict[str, slice] = field(default_factory=dict)
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.servos)
+
+    @property
+    def n_feet(self) -> int:
+        return len(self.foot_geoms)
+
+    @property
+    def back_emf_nm_s_per_rad(self) -> np.ndarray:
+        return np.array([s.back_emf_nm_s_per_rad for s in self.servos])
+
+    @property
+    def stall_torque_nm(self) -> np.ndarray:
+        """Datasheet stall torque per joint (not scaled by strength)."""
+        return np.array([s.stall_torque_nm for s in self.servos])
+
+    def sensor(self, sensordata: np.ndarray, name: str) -> np.ndarray:
+        """Columns of sensor `name` from a (…, nsensordata) array."""
+        return sensordata[..., self.sensors[name]]
+
+    def initial_state(self) -> np.ndarray:
+        """Full physics state at rest in the nominal stance, feet just touching the floor."""
+        data = mujoco.MjData(self.model)
+        data.qpos[:] = self.model.qpos0
+        data.qpos[0:3] = (0.0, 0.0, self.robot.stance_base_height_m + 5e-4)
+        data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
+        data.qpos[self.qpos_adr] = self.robot.nominal_stance_rad
+        state = np.empty(mujoco.mj_stateSize(self.model, STATE_SPEC))
+        mujoco.mj_getState(self.model, data, state, STATE_SPEC)
+        return state
+
+
+STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+def _foot_geom(model: mujoco.MjModel, site_id: int, site_name: str) -> int:
+    """The collidable geom nearest the foot site, on the site's body."""
+    body = int(model.site_bodyid[site_id])
+    best, best_d = -1, math.inf
+    for g in range(model.ngeom):
+        if model.geom_bodyid[g] != body or (
+            model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0
+        ):
+            continue
+        d = float(np.linalg.norm(model.geom_pos[g] - model.site_pos[site_id]))
+        if d < best_d:
+            best, best_d = g, d
+    if best < 0:
+        raise SimSetupError(
+            f"foot site {site_name!r}: its body has no collidable geom to touch the ground"
+        )
+    return best
+
+
+def build_sim_model(
+    robot: Robot,
+    conditions: SimConditions = SimConditions(),
+    *,
+    servos: tuple[ServoParams, ...] | None = None,
+    timestep_s: float | None = None,
+) -> SimModel:
+    """Compile the robot's MJCF with one servo per joint and the logging sensors."""
+    try:
+        spec = mujoco.MjSpec.from_file(str(robot.mjcf_path))
+        base = spec.compile()
+    except Exception as exc:  # mujoco raises ValueError with its parser's message
+        raise SimSetupError(f"{robot.mjcf_path}: MuJoCo cannot load it: {exc}") from None
+    if base.nu:
+        raise SimSetupError(
+            f"{robot.mjcf_path}: has {base.nu} actuators; gaitsmith adds the servos itself"
+        )
+    if servos is None:
+        servos = tuple(servo_params(j.servo, strength=conditions.strength) for j in robot.joints)
+    elif len(servos) != robot.dof:
+        raise SimConfigError(f"{len(servos)} servo parameter sets for {robot.dof} joints")
+    root_body = int(base.jnt_bodyid[0])
+    root_name = mujoco.mj_id2name(base, mujoco.mjtObj.mjOBJ_BODY, root_body)
+    if conditions.payload_kg > 0:
+        body = spec.body(root_name)
+        scale = (body.mass + conditions.payload_kg) / body.mass
+        body.mass = body.mass + conditions.payload_kg
+        body.inertia = np.asarray(body.inertia) * scale
+    for joint, sp in zip(robot.joints, servos, strict=True):
+        act = spec.add_actuator()
+        act.name = f"gs_servo_{joint.name}"
+        act.target = joint.name
+        act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        act.set_to_position(kp=sp.kp_nm_per_rad, kv=sp.kd_nm_s_per_rad)
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.forcerange = (-sp.drive_limit_nm, sp.drive_limit_nm)
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    names = _add_sensors(spec, base, robot, root_name)
+    try:
+        model = spec.compile()
+    except Exception as exc:
+        raise SimSetupError(f"{robot.mjcf_path}: cannot add servos/sensors: {exc}") from None
+    qpos_adr, dof_adr = [], []
+    for joint, sp in zip(robot.joints, servos, strict=True):
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.name)
+        qpos_adr.append(int(model.jnt_qposadr[jid]))
+        dof_adr.append(int(model.jnt_dofadr[jid]))
+        model.dof_damping[model.jnt_dofadr[jid]] += sp.back_emf_nm_s_per_rad
+    if timestep_s is not None:
+        model.opt.timestep = timestep_s
+    if conditions.friction is not None:
+        model.geom_friction[:, 0] = conditions.friction
+    foot_geoms = tuple(
+        _foot_geom(
+            model, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site), leg.foot_site
+        )
+        for leg in robot.legs
+    )
+    sensors = {}
+    for name in names:
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name)
+        adr = int(model.sensor_adr[sid])
+        sensors[name] = slice(adr, adr + int(model.sensor_dim[sid]))
+    return SimModel(
+        robot=robot,
+        model=model,
+        conditions=conditions,
+        servos=servos,
+        qpos_adr=np.array(qpos_adr),
+        dof_adr=np.array(dof_adr),
+        root_body=root_body,
+        foot_geoms=foot_geoms,
+        mass_kg=float(np.sum(model.body_mass)),
+        sensors=sensors,
+    )
+
+
+def _add_sensors(
+    spec: mujoco.MjSpec, base: mujoco.MjModel, robot: Robot, root_name: str
+) -> list[str]:
+    names: list[str] = []
+
+    def add(
+        name: str,
+        kind: mujoco.mjtSensor,
+        objtype: mujoco.mjtObj,
+        objname: str,
+        reftype: mujoco.mjtObj | None = None,
+        refname: str = "",
+        intprm: tuple[int, int, int] | None = None,
+    ) -> None:
+        s = spec.add_sensor()
+        s.name, s.type, s.objtype, s.objname = name, kind, objtype, objname
+        if reftype is not None:
+            s.reftype, s.refname = reftype, refname
+        if intprm is not None:
+            s.intprm = intprm
+        names.append(name)
+
+    world = mujoco.mj_id2name(base, mujoco.mjtObj.mjOBJ_BODY, 0) or "world"
+    xbody, site = mujoco.mjtObj.mjOBJ_XBODY, mujoco.mjtObj.mjOBJ_SITE
+    add("gs_base_pos", mujoco.mjtSensor.mjSENS_FRAMEPOS, xbody, root_name)
+    add("gs_base_quat", mujoco.mjtSensor.mjSENS_FRAMEQUAT, xbody, root_name)
+    add("gs_base_linvel", mujoco.mjtSensor.mjSENS_FRAMELINVEL, xbody, root_name)
+    for j in robot.joints:
+        add(f"gs_q_{j.name}", mujoco.mjtSensor.mjSENS_JOINTPOS, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+        add(f"gs_qd_{j.name}", mujoco.mjtSensor.mjSENS_JOINTVEL, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+        add(
+            f"gs_drive_{j.name}",
+            mujoco.mjtSensor.mjSENS_ACTUATORFRC,
+            mujoco.mjtObj.mjOBJ_ACTUATOR,
+            f"gs_servo_{j.name}",
+        )
+    for leg in robot.legs:
+        sid = mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site)
+        geom = _foot_geom(base, sid, leg.foot_site)
+        gname = mujoco.mj_id2name(base, mujoco.mjtObj.mjOBJ_GEOM, geom)
+        if not gname:
+            raise SimSetupError(f"foot {leg.name}: give the foot geom a name in the MJCF")
+        add(f"gs_foot_pos_{leg.name}", mujoco.mjtSensor.mjSENS_FRAMEPOS, site, leg.foot_site)
+        add(f"gs_foot_vel_{leg.name}", mujoco.mjtSensor.mjSENS_FRAMELINVEL, site, leg.foot_site)
+        add(f"gs_foot_angvel_{leg.name}", mujoco.mjtSensor.mjSENS_FRAMEANGVEL, site, leg.foot_site)
+        add(
+            f"gs_foot_contact_{leg.name}",
+            mujoco.mjtSensor.mjSENS_CONTACT,
+            mujoco.mjtObj.mjOBJ_GEOM,
+            gname,
+            mujoco.mjtObj.mjOBJ_BODY,
+            world,
+            (1 << CONTACT_FOUND | 1 << CONTACT_FORCE, REDUCE_NETFORCE, 1),
+        )
+    add(
+        "gs_robot_contacts",
+        mujoco.mjtSensor.mjSENS_CONTACT,
+        xbody,
+        root_name,
+        mujoco.mjtObj.mjOBJ_BODY,
+        world,
+        (1 << CONTACT_FOUND, REDUCE_NETFORCE, 1),
+    )
+    return names

@@ -1,0 +1,247 @@
+"""One validation run: rest → hold → min-jerk ramp-in → the gait's cycles, on flat ground.
+
+The player's target stream is open-loop (a function of time only), so the whole control sequence
+is computed up front: stance hold for `settle_s`, the shared `robots.ramp` move to the gait's
+phase-0 pose, then `gait.joint_targets(t)`; sampled at the stream rate, held and delayed by
+`sim.servo.held_targets`. The physics runs natively (`mujoco.rollout`) one gait cycle at a time so
+a fall can stop the run early and progress can be reported.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import mujoco
+import mujoco.rollout
+import numpy as np
+
+from robots.gait import Gait
+from robots.ramp import MinJerkRamp, ramp_to
+from sim.errors import SimConfigError, SimDivergedError
+from sim.model import SimModel
+from sim.servo import DEFAULT_RATE_HZ, held_targets
+
+Progress = Callable[[int, int], None]  # (steps done, steps total)
+RAMP_SPEED_FRACTION = 0.5  # ramp-in peak joint speed ≤ this fraction of the servo's no-load speed
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    cycles: int = 20
+    rate_hz: float = DEFAULT_RATE_HZ
+    latency_s: float = 0.0
+    settle_s: float = 0.25  # servos on, holding the stance, before the ramp starts
+    ramp_min_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.cycles, int) and self.cycles >= 1):
+            raise SimConfigError(f"cycles must be a positive integer, got {self.cycles!r}")
+        if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 10_000.0):
+            raise SimConfigError(f"stream rate must be in [1, 10000] Hz, got {self.rate_hz!r}")
+        if not (math.isfinite(self.latency_s) and 0.0 <= self.latency_s <= 1.0):
+            raise SimConfigError(f"latency must be in [0, 1] s, got {self.latency_s!r}")
+        if not (math.isfinite(self.settle_s) and self.settle_s >= 0):
+            raise SimConfigError("settle_s must be ≥ 0")
+        if not (math.isfinite(self.ramp_min_s) and self.ramp_min_s > 0):
+            raise SimConfigError("ramp_min_s must be positive")
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Per-physics-step log of one run (arrays have the step count T as first axis)."""
+
+    time_s: np.ndarray  # (T,) time at the end of each step
+    gait_start_s: float
+    ramp: MinJerkRamp
+    period_s: float
+    cycles_run: int
+    stopped_early: bool
+    goal_rad: np.ndarray  # (T, J) goal the servo held during the step (held + delayed)
+    planned_rad: np.ndarray  # (T, J) the stream's value at that time, undelayed
+    q_rad: np.ndarray  # (T, J)
+    qd_rad_s: np.ndarray  # (T, J)
+    drive_nm: np.ndarray  # (T, J) clipped position-loop torque
+    torque_nm: np.ndarray  # (T, J) servo output torque (drive − back-EMF)
+    base_pos_m: np.ndarray  # (T, 3)
+    base_quat: np.ndarray  # (T, 4) w, x, y, z
+    base_linvel_m_s: np.ndarray  # (T, 3) world frame
+    foot_pos_m: np.ndarray  # (T, F, 3)
+    foot_slip_speed_m_s: np.ndarray  # (T, F) horizontal speed of the foot sphere's lowest point
+    foot_force_n: np.ndarray  # (T, F) net contact force magnitude
+    foot_contacts: np.ndarray  # (T, F) number of foot–ground contacts
+    robot_contacts: np.ndarray  # (T,) number of robot–ground contacts (all geoms)
+    qpos: np.ndarray  # (T, nq) for rendering
+
+    @property
+    def dt_s(self) -> float:
+        return (
+            float(self.time_s[1] - self.time_s[0])
+            if len(self.time_s) > 1
+            else float(self.time_s[0])
+        )
+
+    @property
+    def n_steps(self) -> int:
+        return len(self.time_s)
+
+    def gait_phase(self) -> np.ndarray:
+        """Gait phase in cycles since the gait started (negative during hold and ramp)."""
+        return (self.time_s - self.gait_start_s) / self.period_s
+
+
+def stream_targets(
+    gait: Gait, sim: SimModel, settings: RunSettings
+) -> tuple[np.ndarray, MinJerkRamp, float]:
+    """The player's target stream at `rate_hz` for the whole run: (K, J), ramp, gait start [s]."""
+    robot = sim.robot
+    stance = np.asarray(robot.nominal_stance_rad, dtype=float)
+    first = gait.joint_targets(0.0)
+    speed = RAMP_SPEED_FRACTION * np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
+    ramp = ramp_to(stance, first, speed, settings.ramp_min_s)
+    tick = 1.0 / settings.rate_hz
+    gait_start = math.ceil((settings.settle_s + ramp.duration_s) / tick - 1e-9) * tick
+    end = gait_start + settings.cycles * gait.period_s
+    t = np.arange(math.ceil(end / tick - 1e-9) + 1) * tick
+    out = reference(gait, stance, ramp, settings.settle_s, gait_start, t)
+    return out, ramp, gait_start
+
+
+def reference(
+    gait: Gait,
+    stance_rad: np.ndarray,
+    ramp: MinJerkRamp,
+    settle_s: float,
+    gait_start_s: float,
+    t_s: np.ndarray,
+) -> np.ndarray:
+    """The player's targets at times `t_s`: stance hold, then the ramp, then the gait."""
+    t = np.asarray(t_s, dtype=float)
+    out = np.empty((len(t), len(stance_rad)))
+    hold = t < settle_s
+    in_ramp = (~hold) & (t < gait_start_s)
+    in_gait = t >= gait_start_s
+    out[hold] = stance_rad
+    out[in_ramp] = ramp.positions(t[in_ramp] - settle_s)
+    if np.any(in_gait):
+        out[in_gait] = gait.joint_targets(t[in_gait] - gait_start_s)
+    return out
+
+
+def run(
+    gait: Gait,
+    sim: SimModel,
+    settings: RunSettings = RunSettings(),
+    *,
+    progress: Progress | None = None,
+    stop: Callable[[np.ndarray, SimModel], bool] | None = None,
+) -> Trajectory:
+    """Simulate the run; `stop(sensordata_chunk, sim)` may end it after any cycle (e.g. a fall)."""
+    model = sim.model
+    dt = float(model.opt.timestep)
+    stream, ramp, gait_start = stream_targets(gait, sim, settings)
+    stance = np.asarray(sim.robot.nominal_stance_rad, dtype=float)
+    total = round((gait_start + settings.cycles * gait.period_s) / dt)
+    ramp_steps = round(gait_start / dt)
+    cycle_steps = max(1, round(gait.period_s / dt))
+    bounds = [0, ramp_steps] + [
+        min(total, ramp_steps + c * cycle_steps) for c in range(1, settings.cycles + 1)
+    ]
+    bounds[-1] = total
+    bounds = sorted(set(b for b in bounds if b > 0))
+    data = mujoco.MjData(model)
+    state = sim.initial_state()
+    states, sensors = [], []
+    start, stopped = 0, False
+    for end in bounds:
+        ctrl = held_targets(
+            stream,
+            rate_hz=settings.rate_hz,
+            latency_s=settings.latency_s,
+            dt_s=dt,
+            n_steps=end - start,
+            initial_rad=stance,
+            first_step=start,
+        )
+        st, sd = mujoco.rollout.rollout(model, data, state[None], ctrl[None])
+        st, sd = st[0], sd[0]
+        if not (np.all(np.isfinite(st[-1])) and np.all(np.isfinite(sd[-1]))):
+            raise SimDivergedError(f"physics diverged (NaN) near t = {st[-1, 0]:.3f} s")
+        states.append(st)
+        sensors.append(sd)
+        state = st[-1].copy()
+        start = end
+        if progress is not None:
+            progress(end, total)
+        if stop is not None and stop(sd, sim):
+            stopped = end < total
+            break
+    st_all, sd_all = np.concatenate(states), np.concatenate(sensors)
+    return _trajectory(gait, sim, settings, stream, ramp, gait_start, st_all, sd_all, stopped)
+
+
+def _trajectory(
+    gait: Gait,
+    sim: SimModel,
+    settings: RunSettings,
+    stream: np.ndarray,
+    ramp: MinJerkRamp,
+    gait_start: float,
+    st: np.ndarray,
+    sd: np.ndarray,
+    stopped: bool,
+) -> Trajectory:
+    robot, model = sim.robot, sim.model
+    n = len(st)
+    dt = float(model.opt.timestep)
+    time_s = st[:, 0]
+    qpos = st[:, 1 : 1 + model.nq]
+    stance = np.asarray(robot.nominal_stance_rad, dtype=float)
+    goal = held_targets(
+        stream,
+        rate_hz=settings.rate_hz,
+        latency_s=settings.latency_s,
+        dt_s=dt,
+        n_steps=n,
+        initial_rad=stance,
+    )
+    planned = reference(gait, stance, ramp, settings.settle_s, gait_start, time_s)
+
+    def cols(prefix: str, names: tuple[str, ...]) -> np.ndarray:
+        return np.stack([sim.sensor(sd, f"{prefix}{x}") for x in names], axis=1)
+
+    joints, feet = robot.joint_names, robot.foot_names
+    q, qd = cols("gs_q_", joints)[..., 0], cols("gs_qd_", joints)[..., 0]
+    drive = cols("gs_drive_", joints)[..., 0]
+    torque = drive - sim.back_emf_nm_s_per_rad * qd
+    foot_pos = cols("gs_foot_pos_", feet)
+    foot_vel = cols("gs_foot_vel_", feet)
+    foot_w = cols("gs_foot_angvel_", feet)
+    # velocity of the sphere's lowest point: v + ω × (−r ẑ) = v + r·(−ω_y, ω_x, 0)
+    r = robot.foot_radius_m
+    slip_xy = foot_vel[..., :2] + r * np.stack([-foot_w[..., 1], foot_w[..., 0]], axis=-1)
+    contact = cols("gs_foot_contact_", feet)
+    return Trajectory(
+        time_s=time_s,
+        gait_start_s=gait_start,
+        ramp=ramp,
+        period_s=gait.period_s,
+        cycles_run=int(max(0.0, math.floor((time_s[-1] - gait_start) / gait.period_s + 1e-6))),
+        stopped_early=stopped,
+        goal_rad=goal,
+        planned_rad=planned,
+        q_rad=q,
+        qd_rad_s=qd,
+        drive_nm=drive,
+        torque_nm=torque,
+        base_pos_m=sim.sensor(sd, "gs_base_pos"),
+        base_quat=sim.sensor(sd, "gs_base_quat"),
+        base_linvel_m_s=sim.sensor(sd, "gs_base_linvel"),
+        foot_pos_m=foot_pos,
+        foot_slip_speed_m_s=np.linalg.norm(slip_xy, axis=-1),
+        foot_force_n=np.linalg.norm(contact[..., 1:4], axis=-1),
+        foot_contacts=contact[..., 0],
+        robot_contacts=sim.sensor(sd, "gs_robot_contacts")[:, 0],
+        qpos=qpos,
+    )

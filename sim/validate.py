@@ -1,0 +1,273 @@
+"""`validate(gait, robot)`: run the gait in MuJoCo with servo actuators and judge it.
+
+The run starts at rest in the nominal stance on flat ground, holds, ramps in the way the player
+does (`robots.ramp`), then plays `cycles` gait cycles streamed at `rate_hz` with `latency_s`.
+Metrics (see `sim.metrics`) are taken over the steady cycles; the verdict applies `PassCriteria`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+
+import mujoco
+import numpy as np
+
+from robots.gait import Gait
+from robots.robot import Robot
+from sim.errors import SimConfigError
+from sim.metrics import FallThresholds, JointMetrics, Metrics, compute, detect_fall, tilt_of
+from sim.model import SimConditions, SimModel, build_sim_model
+from sim.rollout import Progress, RunSettings, Trajectory, run
+from sim.servo import DEFAULT_RATE_HZ
+
+VALIDATION_SCHEMA = "gaitsmith.validation/1"
+
+
+@dataclass(frozen=True)
+class PassCriteria:
+    """Thresholds of the verdict. A gait passes when every check holds."""
+
+    speed_rel_tol: float = 0.10  # |achieved − commanded| ≤ 10 % of commanded speed
+    speed_abs_tol_m_s: float = 0.01  # … or this, whichever is larger (standing gaits)
+    max_peak_torque_fraction: float = 0.80  # peak |τ| ≤ 80 % of stall on every joint
+    max_lateral_drift_per_m: float = 0.15  # sideways metres per metre walked
+    max_yaw_drift_rad_per_m: float = 0.35  # ≈ 20° of unwanted turn per metre walked
+    max_tilt_rad: float = math.radians(20.0)  # body tilt in the steady cycles
+    max_mean_slip_m: float = 0.02  # mean contact-point travel per stance
+    falls: FallThresholds = field(default_factory=FallThresholds)
+    warmup_cycles: int = 2  # cycles after the ramp not judged (start-up transient)
+
+
+@dataclass(frozen=True)
+class ValidationResult:
+    passed: bool
+    reasons: tuple[str, ...]  # why it failed (empty when it passed)
+    checks: tuple[tuple[str, bool, str], ...]  # (name, ok, detail) for every criterion
+    metrics: Metrics
+    joints: tuple[JointMetrics, ...]
+    conditions: dict[str, float | int | None]
+    criteria: PassCriteria
+    trajectory: Trajectory | None = field(default=None, repr=False, compare=False)
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe summary (no trajectory), as stored in the gait file's `validation` block."""
+        crit = asdict(self.criteria)
+        return {
+            "schema": VALIDATION_SCHEMA,
+            "passed": self.passed,
+            "reasons": list(self.reasons),
+            "checks": [{"name": n, "ok": ok, "detail": d} for n, ok, d in self.checks],
+            "conditions": dict(self.conditions),
+            "criteria": crit,
+            "metrics": self.metrics.to_dict(),
+            "joints": [asdict(j) for j in self.joints],
+            "simulator": {"engine": "mujoco", "version": mujoco.__version__},
+        }
+
+
+def judge(m: Metrics, c: PassCriteria) -> tuple[tuple[str, bool, str], ...]:
+    checks: list[tuple[str, bool, str]] = []
+    tol = max(c.speed_rel_tol * m.commanded_speed_m_s, c.speed_abs_tol_m_s)
+    checks.append(
+        (
+            "speed",
+            abs(m.achieved_speed_m_s - m.commanded_speed_m_s) <= tol,
+            f"achieved {m.achieved_speed_m_s:.3f} m/s vs commanded {m.commanded_speed_m_s:.3f} "
+            f"m/s (tolerance ±{tol:.3f})",
+        )
+    )
+    checks.append(
+        (
+            "no fall",
+            not m.fell,
+            "stayed up" if not m.fell else f"fell at t = {m.fall_time_s:.2f} s: {m.fall_reason}",
+        )
+    )
+    checks.append(
+        (
+            "peak torque",
+            m.peak_torque_fraction <= c.max_peak_torque_fraction,
+            f"peak |τ| = {m.peak_torque_fraction:.0%} of stall "
+            f"(limit {c.max_peak_torque_fraction:.0%})",
+        )
+    )
+    lat = m.lateral_drift_per_m
+    checks.append(
+        (
+            "lateral drift",
+            lat is None or lat <= c.max_lateral_drift_per_m,
+            "n/a (no distance)"
+            if lat is None
+            else f"{lat:.3f} m/m (limit {c.max_lateral_drift_per_m:.2f})",
+        )
+    )
+    yaw = m.yaw_drift_rad_per_m
+    checks.append(
+        (
+            "yaw drift",
+            yaw is None or yaw <= c.max_yaw_drift_rad_per_m,
+            "n/a (no distance)"
+            if yaw is None
+            else f"{math.degrees(yaw):.1f}°/m "
+            f"(limit {math.degrees(c.max_yaw_drift_rad_per_m):.0f}°/m)",
+        )
+    )
+    checks.append(
+        (
+            "tilt",
+            m.tilt_max_rad <= c.max_tilt_rad,
+            f"max {math.degrees(m.tilt_max_rad):.1f}° (limit {math.degrees(c.max_tilt_rad):.0f}°)",
+        )
+    )
+    checks.append(
+        (
+            "foot slip",
+            m.slip_mean_m <= c.max_mean_slip_m,
+            f"mean {m.slip_mean_m * 1000:.1f} mm per stance over {m.stances} stances "
+            f"(limit {c.max_mean_slip_m * 1000:.0f} mm)",
+        )
+    )
+    return tuple(checks)
+
+
+def simulate(
+    gait: Gait,
+    robot: Robot,
+    cycles: int = 20,
+    *,
+    rate_hz: float = DEFAULT_RATE_HZ,
+    latency_s: float = 0.0,
+    friction: float | None = None,
+    payload_kg: float = 0.0,
+    strength: float = 1.0,
+    progress: Progress | None = None,
+    criteria: PassCriteria = PassCriteria(),
+    stop_on_fall: bool = True,
+) -> tuple[SimModel, Trajectory]:
+    """Build the model and run the gait (no verdict); see `validate`."""
+    gait.check_robot(robot)
+    settings = RunSettings(cycles=cycles, rate_hz=rate_hz, latency_s=latency_s)
+    sim = build_sim_model(
+        robot, SimConditions(friction=friction, payload_kg=payload_kg, strength=strength)
+    )
+    stop = _fall_stop(criteria.falls) if stop_on_fall else None
+    return sim, run(gait, sim, settings, progress=progress, stop=stop)
+
+
+def _fall_stop(falls: FallThresholds) -> Callable[[np.ndarray, SimModel], bool]:
+    """Stop one chunk (≈ a cycle) after a fall is first seen: enough to show it, no more."""
+    seen = [False]
+
+    def stop(sd: np.ndarray, sim: SimModel) -> bool:
+        if seen[0]:
+            return True
+        feet = sum(sim.sensor(sd, f"gs_foot_contact_{f}")[:, 0] for f in sim.robot.foot_names)
+        body = sim.sensor(sd, "gs_robot_contacts")[:, 0] > feet + 0.5
+        low = (
+            sim.sensor(sd, "gs_base_pos")[:, 2]
+            < falls.min_height_fraction * sim.robot.stance_base_height_m
+        )
+        tipped = tilt_of(sim.sensor(sd, "gs_base_quat")) > falls.max_tilt_rad
+        seen[0] = bool(np.any(body | low | tipped))
+        return False
+
+    return stop
+
+
+def validate(
+    gait: Gait,
+    robot: Robot,
+    cycles: int = 20,
+    *,
+    rate_hz: float = DEFAULT_RATE_HZ,
+    latency_s: float = 0.0,
+    friction: float | None = None,
+    payload_kg: float = 0.0,
+    strength: float = 1.0,
+    progress: Progress | None = None,
+    criteria: PassCriteria = PassCriteria(),
+    keep_trajectory: bool = True,
+) -> ValidationResult:
+    """Simulate `cycles` cycles of `gait` on `robot` and return metrics + verdict."""
+    if cycles <= criteria.warmup_cycles:
+        raise SimConfigError(
+            f"cycles must exceed the {criteria.warmup_cycles} warm-up cycles, got {cycles}"
+        )
+    sim, traj = simulate(
+        gait,
+        robot,
+        cycles,
+        rate_hz=rate_hz,
+        latency_s=latency_s,
+        friction=friction,
+        payload_kg=payload_kg,
+        strength=strength,
+        progress=progress,
+        criteria=criteria,
+    )
+    return evaluate(
+        traj,
+        gait,
+        sim,
+        criteria,
+        rate_hz=rate_hz,
+        latency_s=latency_s,
+        keep_trajectory=keep_trajectory,
+    )
+
+
+def evaluate(
+    traj: Trajectory,
+    gait: Gait,
+    sim: SimModel,
+    criteria: PassCriteria = PassCriteria(),
+    *,
+    rate_hz: float = DEFAULT_RATE_HZ,
+    latency_s: float = 0.0,
+    keep_trajectory: bool = True,
+) -> ValidationResult:
+    metrics, joints = compute(
+        traj, gait, sim, warmup_cycles=criteria.warmup_cycles, falls=criteria.falls
+    )
+    checks = judge(metrics, criteria)
+    reasons = tuple(f"{name}: {detail}" for name, ok, detail in checks if not ok)
+    cond = sim.conditions
+    conditions: dict[str, float | int | None] = {
+        "cycles": traj.cycles_run,
+        "rate_hz": rate_hz,
+        "latency_s": latency_s,
+        "friction": cond.friction,
+        "payload_kg": cond.payload_kg,
+        "strength": cond.strength,
+        "timestep_s": float(sim.model.opt.timestep),
+    }
+    return ValidationResult(
+        passed=not reasons,
+        reasons=reasons,
+        checks=checks,
+        metrics=metrics,
+        joints=joints,
+        conditions=conditions,
+        criteria=criteria,
+        trajectory=traj if keep_trajectory else None,
+    )
+
+
+def validate_and_annotate(gait: Gait, robot: Robot, cycles: int = 20, **kwargs: object) -> Gait:
+    """`gait` with its `validation` block filled in (for `gaitsmith plan --simulate`)."""
+    result = validate(gait, robot, cycles, keep_trajectory=False, **kwargs)  # type: ignore[arg-type]
+    return gait.with_validation(result.to_dict())
+
+
+__all__ = [
+    "PassCriteria",
+    "ValidationResult",
+    "detect_fall",
+    "evaluate",
+    "judge",
+    "simulate",
+    "validate",
+    "validate_and_annotate",
+]
