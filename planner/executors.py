@@ -18,6 +18,14 @@ forked child inherits their locks in whatever state they were and can deadlock. 
 starts a clean interpreter, so ``factory`` must be picklable (a module-level function, a
 ``functools.partial`` of one, or an instance of a module-level class); ``forkserver`` is also
 accepted (faster start on Linux, same requirement).
+
+Threads: CasADi's IPOPT plugin loads its own OpenBLAS and libgomp, which by default start one
+thread per core *in every worker*; with ``workers = cores`` that oversubscribes the machine
+(measured in ``benchmarks/basin_cma_bench.py`` on 2 cores: the process pool ran 0.7× the speed
+of the serial loop).  Workers therefore set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/
+``MKL_NUM_THREADS`` to ``threads_per_worker`` (default 1) *before* unpickling the factory and
+calling it — those libraries read the variables when they are loaded, which for CasADi's
+plugins is when the first ``nlpsol`` is built.
 """
 
 from __future__ import annotations
@@ -52,10 +60,22 @@ class Executor(Protocol):
         ...
 
 
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
 def _init_worker(factory: SolverFactory) -> None:
-    """Build the worker's local solve once (pool initializer / actor constructor)."""
+    """Build this process's local solve once."""
     global _WORKER_SOLVE
     _WORKER_SOLVE = factory()
+
+
+def _init_remote_worker(payload: bytes, threads_per_worker: int | None) -> None:
+    """Pool initializer / actor constructor: cap native thread pools, then unpickle the factory
+    (which may import casadi) and build the local solve once."""
+    if threads_per_worker is not None:
+        for var in _THREAD_VARS:
+            os.environ[var] = str(threads_per_worker)
+    _init_worker(pickle.loads(payload))
 
 
 def worker_local_solve(x: Any) -> Any:
@@ -96,11 +116,12 @@ class SerialExecutor(_Closable):
         return [fn(x) for x in xs]
 
 
-def _check_picklable(obj: Any, what: str) -> None:
+def _pickle_factory(factory: SolverFactory, dumps: Callable[[Any], bytes] = pickle.dumps
+                    ) -> bytes:
     try:
-        pickle.dumps(obj)
+        return dumps(factory)
     except Exception as e:
-        raise ExecutorError(f"{what} must be picklable for spawn/forkserver workers "
+        raise ExecutorError(f"factory must be picklable for spawn/forkserver/Ray workers "
                             f"(use a module-level function or class): {e}") from e
 
 
@@ -109,19 +130,20 @@ class ProcessExecutor(_Closable):
     once with ``factory()`` (in the pool initializer)."""
 
     def __init__(self, factory: SolverFactory | None = None, workers: int | None = None, *,
-                 start_method: Literal["spawn", "forkserver"] = "spawn") -> None:
+                 start_method: Literal["spawn", "forkserver"] = "spawn",
+                 threads_per_worker: int | None = 1) -> None:
         if start_method not in ("spawn", "forkserver"):
             raise ExecutorError(f"start_method must be 'spawn' or 'forkserver' ('fork' is not "
                                 f"safe with CasADi/IPOPT threads), got {start_method!r}")
-        if factory is not None:
-            _check_picklable(factory, "factory")
+        payload = _pickle_factory(factory) if factory is not None else None
         self.workers = workers if workers is not None else max(1, os.cpu_count() or 1)
         if self.workers < 1:
             raise ExecutorError(f"workers must be >= 1, got {self.workers}")
         ctx = mp.get_context(start_method)
         self._pool = ProcessPoolExecutor(
             max_workers=self.workers, mp_context=ctx,
-            initializer=partial(_init_worker, factory) if factory is not None else None)
+            initializer=partial(_init_remote_worker, payload, threads_per_worker)
+            if payload is not None else None)
 
     def map(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> list[Any]:
         items = list(xs)
@@ -139,15 +161,21 @@ class RayExecutor(_Closable):
     """Ray actors, each building the local solve once in its constructor.
 
     ``address=None`` starts (or reuses) a local Ray runtime; otherwise ``ray.init(address=...)``
-    connects to a cluster.  Needs the optional extra ``gaitsmith[ray]``.
+    connects to a cluster.  Needs the optional extra ``gaitsmith[ray]``.  The factory is
+    serialised with Ray's cloudpickle (closures work); classes are still pickled by reference,
+    so their module must be importable on the workers (installed, or shipped with
+    ``runtime_env``/``cloudpickle.register_pickle_by_value``).
     """
 
     def __init__(self, factory: SolverFactory | None = None, workers: int | None = None, *,
-                 address: str | None = None) -> None:
+                 address: str | None = None, threads_per_worker: int | None = 1) -> None:
         try:
             import ray
         except ImportError as e:
             raise ExecutorError("RayExecutor needs ray: pip install 'gaitsmith[ray]'") from e
+        from ray import cloudpickle
+
+        payload = _pickle_factory(factory, cloudpickle.dumps) if factory is not None else None
         self._ray = ray
         self._owns_ray = not ray.is_initialized()
         if self._owns_ray:
@@ -155,9 +183,9 @@ class RayExecutor(_Closable):
 
         @ray.remote
         class _Worker:
-            def __init__(self, factory: SolverFactory | None) -> None:
-                if factory is not None:
-                    _init_worker(factory)
+            def __init__(self, payload: bytes | None, threads: int | None) -> None:
+                if payload is not None:
+                    _init_remote_worker(payload, threads)
 
             def run(self, fn: Callable[[Any], Any], x: Any) -> Any:
                 return fn(x)
@@ -167,7 +195,7 @@ class RayExecutor(_Closable):
         if n < 1:
             raise ExecutorError(f"workers must be >= 1, got {n}")
         self.workers = n
-        self._actors = [_Worker.remote(factory) for _ in range(n)]  # type: ignore[attr-defined]
+        self._actors = [_Worker.remote(payload, threads_per_worker) for _ in range(n)]  # type: ignore[attr-defined]
         from ray.util import ActorPool
         self._pool = ActorPool(self._actors)
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -100,8 +101,15 @@ def test_worker_local_solve_without_factory(monkeypatch: pytest.MonkeyPatch) -> 
 
 def test_ray_executor_builds_once_per_actor(tmp_path: Path) -> None:
     pytest.importorskip("ray", reason="ray is the optional extra gaitsmith[ray]; not installed")
-    with make_executor("ray", CountingFactory(str(tmp_path)), workers=2) as ex:
-        xs = [float(i) for i in range(20)]
-        out = ex.map(ex.local_solve, xs)
+    from ray import cloudpickle
+
+    # this test module is not importable inside Ray workers: ship CountingFactory by value
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    try:
+        with make_executor("ray", CountingFactory(str(tmp_path)), workers=2) as ex:
+            xs = [float(i) for i in range(20)]
+            out = ex.map(ex.local_solve, xs)
+    finally:
+        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
     assert [v for _, v in out] == [x * x for x in xs]
     assert 1 <= len(list(tmp_path.iterdir())) <= 2
