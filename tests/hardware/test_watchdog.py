@@ -1,0 +1,123 @@
+"""Watchdog budgets, flag classification, health limits and signal handling."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+import robots
+from hardware.bus import ServoStatus
+from hardware.errors import NoResponse, ServoFault
+from hardware.watchdog import (
+    EXIT_CODES,
+    StopReason,
+    Watchdog,
+    WatchdogLimits,
+    reason_for_flags,
+    stop_on_signals,
+)
+
+
+def _dog(**kw: int) -> Watchdog:
+    robot = robots.load("quad12")
+    return Watchdog(
+        WatchdogLimits(**kw),  # type: ignore[arg-type]
+        {j.bus_id: j.servo for j in robot.joints},
+        {j.bus_id: j.name for j in robot.joints},
+    )
+
+
+def _status(
+    sid: int, volts: float = 7.4, temp: float = 30.0, flags: tuple[str, ...] = ()
+) -> ServoStatus:
+    return ServoStatus(sid, 0.0, volts, temp, flags, 1 if flags else 0)
+
+
+def test_consecutive_miss_budget() -> None:
+    dog = _dog(max_consecutive_misses=3)
+    miss = NoResponse(4)
+    for tick in range(3):
+        assert dog.read_missed(miss, tick, tick * 0.01) is None
+    stop = dog.read_missed(miss, 3, 0.03)
+    assert stop is not None and stop.reason is StopReason.NO_RESPONSE
+    assert "servo 4 (fr_hip_roll)" in stop.message and "4 consecutive" in stop.message
+    assert stop.servo_id == 4
+
+
+def test_windowed_miss_budget_and_recovery() -> None:
+    dog = _dog(max_consecutive_misses=3, window_ticks=50, max_misses_in_window=5)
+    miss = NoResponse(1)
+    tick = 0
+    for _ in range(5):  # 5 isolated misses in 50 ticks: within budget
+        assert dog.read_missed(miss, tick, 0.0) is None
+        for _ in range(9):
+            tick += 1
+            dog.read_ok()
+        tick += 1
+    assert dog.stop is None
+    for _ in range(45):  # the old misses leave the window
+        dog.read_ok()
+    for _ in range(5):
+        assert dog.read_missed(miss, tick, 0.0) is None
+        dog.read_ok()
+    stop = dog.read_missed(miss, tick, 0.0)
+    assert stop is not None and "6 missed reads in the last 50 ticks" in stop.message
+
+
+def test_first_stop_wins_and_a_second_signal_is_urgent() -> None:
+    dog = _dog()
+    dog.fault(ServoFault(3, ("overload",)), 10, 0.1)
+    dog.request(StopReason.SIGINT, "ctrl-c", 11, 0.11)
+    assert dog.stop is not None and dog.stop.reason is StopReason.SERVO_FAULT
+    assert dog.urgent
+
+
+@pytest.mark.parametrize(
+    ("flags", "reason"),
+    [
+        (("overheat",), StopReason.OVER_TEMPERATURE),
+        (("overheating", "overload"), StopReason.OVER_TEMPERATURE),
+        (("input_voltage",), StopReason.LOW_VOLTAGE),
+        (("voltage",), StopReason.LOW_VOLTAGE),
+        (("overload",), StopReason.SERVO_FAULT),
+        (("alert",), StopReason.SERVO_FAULT),
+    ],
+)
+def test_flag_classification(flags: tuple[str, ...], reason: StopReason) -> None:
+    assert reason_for_flags(flags) is reason
+
+
+def test_status_limits() -> None:
+    dog = _dog()
+    assert dog.status({1: _status(1), 2: _status(2)}, 0, 0.0) is None
+    hot = _dog().status({5: _status(5, temp=66.0)}, 1, 0.01)  # STS3215 max 70 °C, margin 5
+    assert hot is not None and hot.reason is StopReason.OVER_TEMPERATURE
+    assert "servo 5 (fr_hip_pitch): temperature 66" in hot.message
+    low = _dog().status({7: _status(7, volts=5.9)}, 1, 0.01)
+    assert low is not None and low.reason is StopReason.LOW_VOLTAGE and "5.9 V" in low.message
+    flagged = _dog().status({9: _status(9, flags=("overload",))}, 1, 0.01)
+    assert flagged is not None and flagged.reason is StopReason.SERVO_FAULT
+
+
+def test_exit_codes_are_distinct_and_completed_is_zero() -> None:
+    assert EXIT_CODES[StopReason.COMPLETED] == 0
+    assert len(set(EXIT_CODES.values())) == len(StopReason)
+    assert StopReason.SIGINT.exit_code == 130 and StopReason.SIGTERM.exit_code == 143
+
+
+@pytest.mark.parametrize(
+    ("signum", "reason"), [(signal.SIGINT, StopReason.SIGINT), (signal.SIGTERM, StopReason.SIGTERM)]
+)
+def test_signals_become_stop_requests_and_handlers_are_restored(
+    signum: int, reason: StopReason
+) -> None:
+    dog = _dog()
+    before = signal.getsignal(signum)
+    with stop_on_signals(dog, lambda: (42, 0.42)):
+        os.kill(os.getpid(), signum)
+        assert dog.stop is not None and dog.stop.reason is reason and dog.stop.tick == 42
+        os.kill(os.getpid(), signum)  # a second signal: skip the ramp to rest
+        assert dog.urgent
+    assert signal.getsignal(signum) is before
