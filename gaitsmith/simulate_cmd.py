@@ -93,6 +93,9 @@ def simulate_command(
     payload_kg: float = typer.Option(0.0, "--payload-kg", help="extra mass on the body [kg]"),
     strength: float = typer.Option(1.0, "--strength", help="servo strength scale (1 = datasheet)"),
     robustness: bool = typer.Option(False, "--robustness", help="also run the robustness sweep"),
+    hq_video: bool = typer.Option(
+        False, "--hq-video", help="shadows, reflections, anti-aliasing (≈10× slower)"
+    ),
     video_seconds: float = typer.Option(
         10.0, "--video-seconds", help="video length from the gait start [s]"
     ),
@@ -143,6 +146,7 @@ def simulate_command(
                 width=320 if gif else 640,
                 height=240 if gif else 480,
                 fps=15.0 if gif else 30.0,
+                high_quality=hq_video,
             )
         console.print(f"video → {video}")
     if report is not None:
