@@ -11,7 +11,8 @@ Timeline (all goal positions pass through one `SafetyGate`):
    allowed speed and at least `ramp_s` long;
 3. streaming at `rate_hz` with absolute deadlines t0 + k/rate (no drift). A tick whose work
    ends past the next deadline is an overrun: the latest passed deadline runs at once, late,
-   and older passed deadlines are skipped (counted). The gait is sampled at gait time = `speed_scale` · (scheduled time since the gait began);
+   and older passed deadlines are skipped (counted). The gait is sampled at
+   gait time = `speed_scale` · (scheduled time since the gait began);
 4. stop (completed cycles, watchdog, SIGINT/SIGTERM, bus error): ramp from the last goal to the
    rest pose (stance, or where the robot is) over ≥ `stop_ramp_s`, then torque off or hold.
    A second signal during the ramp skips straight to step 5;
