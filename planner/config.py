@@ -66,6 +66,8 @@ class PlannerOptions:
     - `swing_clearance_m`: swing foot-sphere bottom ≥ h·sin(π·swing progress).
     - `body_clearance_m`: every body origin stays this high above the ground (W&P eq 1).
     - `max_tilt_rad`: bounds on base roll, pitch and yaw.
+    - `min_base_height_fraction`: base height ≥ this × the robot's nominal stance height, so
+      the optimiser cannot save torque by crouching the body onto the ground.
     - `joint_limit_margin_rad`: keep off the hard stops by this much.
     - `max_force_body_weights`: normal force bound in stance, in units of m·g.
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
@@ -77,11 +79,12 @@ class PlannerOptions:
     swing_clearance_m: float = 0.025
     body_clearance_m: float = 0.03
     max_tilt_rad: float = 0.35
+    min_base_height_fraction: float = 0.8
     joint_limit_margin_rad: float = 0.02
     max_force_body_weights: float = 3.0
     weights: CostWeights = field(default_factory=CostWeights)
     tol: float = 1e-6
-    max_iter: int = 500
+    max_iter: int = 150
     print_level: int = 0
     linear_solver: str = "mumps"
 
@@ -93,6 +96,7 @@ class PlannerOptions:
             "swing_clearance_m": 0 <= self.swing_clearance_m < 1,
             "body_clearance_m": 0 <= self.body_clearance_m < 1,
             "max_tilt_rad": 0 < self.max_tilt_rad < 1.5,
+            "min_base_height_fraction": 0 <= self.min_base_height_fraction < 1.5,
             "joint_limit_margin_rad": 0 <= self.joint_limit_margin_rad < 0.5,
             "max_force_body_weights": self.max_force_body_weights > 0,
             "tol": 0 < self.tol < 1,

@@ -157,8 +157,19 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
     """Human-readable row labels for the groups that need them in reports."""
     joints = model.robot.joint_names
     feet = model.robot.foot_names
+    per_joint = [f"{j}@knot {k}" for k in range(n_knots) for j in joints]
+    per_foot = [f"foot {f}@knot {k}" for k in range(n_knots) for f in feet]
+    dofs = ["x", "y", "z", "roll", "pitch", "yaw", *joints]
     return {
-        "joint speed": [f"{joints[j]}@{k}" for k in range(n_knots) for j in range(len(joints))],
-        "torque envelope": [f"{joints[j]}@{k}" for _ in range(4) for k in range(n_knots) for j in range(len(joints))],
-        "friction": [f"{feet[f]}@{k}" for _ in range(4) for k in range(n_knots) for f in range(len(feet))],
+        "finite differences": [f"{d}@knot {k}" for _ in range(2) for k in range(n_knots) for d in dofs],
+        "dynamics": [f"{a}@knot {k}" for k in range(n_knots) for a in ("fx", "fy", "fz", "mx", "my", "mz")],
+        "inverse dynamics": per_joint,
+        "stance height": per_foot,
+        "stance no-slip": per_foot * 2,
+        "swing clearance": per_foot,
+        "swing force": per_foot,
+        "friction": per_foot * 4,
+        "joint speed": per_joint,
+        "torque envelope": per_joint * 4,
+        "body clearance": [f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)],
     }

@@ -136,7 +136,8 @@ def variable_bounds(layout: Layout, model: RobotModel, options: PlannerOptions) 
     """Box bounds: joint limits (minus a margin), tilt, unilateral normal force f_z ≥ 0."""
     n = layout.n_knots
     tilt, inf = options.max_tilt_rad, np.inf
-    base_lo = np.tile([-inf, -inf, 0.0, -tilt, -tilt, -tilt], (n, 1))
+    z_min = options.min_base_height_fraction * model.robot.stance_base_height_m
+    base_lo = np.tile([-inf, -inf, z_min, -tilt, -tilt, -tilt], (n, 1))
     base_hi = np.tile([inf, inf, 2.0 * model.robot.leg_length_m + 0.5, tilt, tilt, tilt], (n, 1))
     lo, hi = model.joint_limits_rad()
     margin = np.minimum(options.joint_limit_margin_rad, 0.25 * (hi - lo))
