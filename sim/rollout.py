@@ -227,7 +227,7 @@ def _trajectory(
         gait_start_s=gait_start,
         ramp=ramp,
         period_s=gait.period_s,
-        cycles_run=int(max(0.0, math.floor((time_s[-1] - gait_start) / gait.period_s + 1e-6))),
+        cycles_run=int(max(0.0, math.floor((time_s[-1] + dt - gait_start) / gait.period_s))),
         stopped_early=stopped,
         goal_rad=goal,
         planned_rad=planned,
