@@ -41,7 +41,9 @@ class CostWeights:
     def __post_init__(self) -> None:
         for name, value in self.as_dict().items():
             if not (math.isfinite(value) and value >= 0):
-                raise PlannerConfigError(f"cost weight {name} must be a finite number ≥ 0, got {value!r}")
+                raise PlannerConfigError(
+                    f"cost weight {name} must be a finite number ≥ 0, got {value!r}"
+                )
 
     def as_dict(self) -> dict[str, float]:
         return {
@@ -104,4 +106,6 @@ class PlannerOptions:
         }
         for name, ok in checks.items():
             if not ok:
-                raise PlannerConfigError(f"planner option {name}={getattr(self, name)!r} is out of range")
+                raise PlannerConfigError(
+                    f"planner option {name}={getattr(self, name)!r} is out of range"
+                )

@@ -67,11 +67,14 @@ def knot_function(model: RobotModel) -> ca.Function:
     w, dw = model.base_rates(b[3:], bd[3:], bdd[3:])
     v_base = bd[:3] + ca.vertcat(v, 0, 0)
     forces = ca.reshape(f, 3, nf) * weight_n
-    base_rows, tau = model.inverse_dynamics(b[:3], b[3:], q, v_base, w, qd, bdd[:3], dw, qdd, forces)
+    base_rows, tau = model.inverse_dynamics(
+        b[:3], b[3:], q, v_base, w, qd, bdd[:3], dw, qdd, forces
+    )
     feet, origins, _ = model.fk(b[:3], b[3:], q)
     scale = ca.DM([1, 1, 1, *[1.0 / model.robot.leg_length_m] * 3]) / weight_n
     return ca.Function(
-        "knot", [b, q, bd, qd, bdd, qdd, f, v],
+        "knot",
+        [b, q, bd, qd, bdd, qdd, f, v],
         [base_rows * scale, tau, ca.reshape(feet, 3 * nf, 1), origins[2, :].T, w],
         ["b", "q", "bd", "qd", "bdd", "qdd", "f", "v"],
         ["base_rows", "tau", "feet", "body_z", "w"],
@@ -82,12 +85,15 @@ def knot_quantities(model: RobotModel, sym: Symbols, n_knots: int) -> KnotQuanti
     bd, qd = sym.vel[:6, :], sym.vel[6:, :]
     bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
     fn = knot_function(model).map(n_knots)
-    base_rows, tau, feet, body_z, w = fn(sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s)
+    base_rows, tau, feet, body_z, w = fn(
+        sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s
+    )
     return KnotQuantities(base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w)
 
 
-def build_groups(model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: int,
-                 options: PlannerOptions) -> list[Group]:
+def build_groups(
+    model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: int, options: PlannerOptions
+) -> list[Group]:
     """All constraint groups, in the order they appear in g."""
     n, nf = n_knots, model.n_feet
     r = model.foot_radius_m
@@ -116,39 +122,88 @@ def build_groups(model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: i
     n_rates = (6 + nj) * n
     groups = [
         # cyclic central differences tie the lifted rates to the poses (linear in x)
-        Group("finite differences",
-              ca.vertcat(col(sym.vel - (_shift(pose, 1) - _shift(pose, -1)) * (0.5 * inv_h)),
-                         col(sym.acc - (_shift(pose, 1) - 2 * pose + _shift(pose, -1)) * (inv_h * inv_h))),
-              zeros(2 * n_rates), zeros(2 * n_rates)),
+        Group(
+            "finite differences",
+            ca.vertcat(
+                col(sym.vel - (_shift(pose, 1) - _shift(pose, -1)) * (0.5 * inv_h)),
+                col(sym.acc - (_shift(pose, 1) - 2 * pose + _shift(pose, -1)) * (inv_h * inv_h)),
+            ),
+            zeros(2 * n_rates),
+            zeros(2 * n_rates),
+        ),
         # W&P eqs 7-8: the floating base is unactuated — whole-body linear/angular momentum rate
         # equals gravity + contact forces (the six base rows of the inverse dynamics vanish).
         Group("dynamics", col(kq.base_rows), zeros(6 * n), zeros(6 * n)),
         # joint torques by inverse dynamics of the floating-base tree (scaled by τ_stall)
-        Group("inverse dynamics", col((kq.tau_nm - kq.tau_rnea_nm) / ca.repmat(stall, 1, n)),
-              zeros(nj * n), zeros(nj * n)),
+        Group(
+            "inverse dynamics",
+            col((kq.tau_nm - kq.tau_rnea_nm) / ca.repmat(stall, 1, n)),
+            zeros(nj * n),
+            zeros(nj * n),
+        ),
         # eq 2: stance foot-sphere centre at the sphere radius
         Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n)),
         # eq 3: stance feet move with the treadmill (−v along x) and do not slide sideways
-        Group("stance no-slip", ca.vertcat(col(stick * (_shift(feet_x, 1) - feet_x + step)),
-                                           col(stick * (_shift(feet_y, 1) - feet_y))),
-              zeros(2 * nf * n), zeros(2 * nf * n)),
+        Group(
+            "stance no-slip",
+            ca.vertcat(
+                col(stick * (_shift(feet_x, 1) - feet_x + step)),
+                col(stick * (_shift(feet_y, 1) - feet_y)),
+            ),
+            zeros(2 * nf * n),
+            zeros(2 * nf * n),
+        ),
         # eq 1 for feet + anti-scuffing clearance profile in swing
-        Group("swing clearance", col(feet_z - r - sym.min_height_m), zeros(nf * n), np.full(nf * n, inf)),
+        Group(
+            "swing clearance",
+            col(feet_z - r - sym.min_height_m),
+            zeros(nf * n),
+            np.full(nf * n, inf),
+        ),
         # eq 1: the body stays clear of the ground
-        Group("body clearance", col(kq.body_z_m - options.body_clearance_m),
-              zeros(model.n_bodies * n), np.full(model.n_bodies * n, inf)),
+        Group(
+            "body clearance",
+            col(kq.body_z_m - options.body_clearance_m),
+            zeros(model.n_bodies * n),
+            np.full(model.n_bodies * n, inf),
+        ),
         # eq 9: friction pyramid inscribed in the cone µ
-        Group("friction", ca.vertcat(col(mu * fz - fx), col(mu * fz + fx), col(mu * fz - fy), col(mu * fz + fy)),
-              zeros(4 * nf * n), np.full(4 * nf * n, inf)),
+        Group(
+            "friction",
+            ca.vertcat(col(mu * fz - fx), col(mu * fz + fx), col(mu * fz - fy), col(mu * fz + fy)),
+            zeros(4 * nf * n),
+            np.full(4 * nf * n, inf),
+        ),
         # unilateral contact with zero force in swing: 0 ≤ f_z ≤ C·f_max (f_z ≥ 0 is a bound)
-        Group("swing force", col(c * options.max_force_body_weights - fz), zeros(nf * n), np.full(nf * n, inf)),
+        Group(
+            "swing force",
+            col(c * options.max_force_body_weights - fz),
+            zeros(nf * n),
+            np.full(nf * n, inf),
+        ),
         # servo no-load speed |q̇| ≤ margin·ω₀
-        Group("joint speed", col(qd_n), np.full(nj * n, -options.speed_margin), np.full(nj * n, options.speed_margin)),
+        Group(
+            "joint speed",
+            col(qd_n),
+            np.full(nj * n, -options.speed_margin),
+            np.full(nj * n, options.speed_margin),
+        ),
         # torque–speed envelope |τ| ≤ margin·τ_stall·(1 − |q̇|/ω₀), the four faces of the diamond
-        Group("torque envelope", ca.vertcat(col(tau_n + qd_n), col(tau_n - qd_n), col(-tau_n + qd_n), col(-tau_n - qd_n)),
-              np.full(4 * nj * n, -inf), np.ones(4 * nj * n)),
+        Group(
+            "torque envelope",
+            ca.vertcat(
+                col(tau_n + qd_n), col(tau_n - qd_n), col(-tau_n + qd_n), col(-tau_n - qd_n)
+            ),
+            np.full(4 * nj * n, -inf),
+            np.ones(4 * nj * n),
+        ),
         # eq 6: remove the treadmill's translation invariance (mean base x, y at the origin)
-        Group("drift", ca.vertcat(ca.sum2(sym.base[0, :]), ca.sum2(sym.base[1, :])) / n, zeros(2), zeros(2)),
+        Group(
+            "drift",
+            ca.vertcat(ca.sum2(sym.base[0, :]), ca.sum2(sym.base[1, :])) / n,
+            zeros(2),
+            zeros(2),
+        ),
     ]
     return groups
 
@@ -161,8 +216,12 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
     per_foot = [f"foot {f}@knot {k}" for k in range(n_knots) for f in feet]
     dofs = ["x", "y", "z", "roll", "pitch", "yaw", *joints]
     return {
-        "finite differences": [f"{d}@knot {k}" for _ in range(2) for k in range(n_knots) for d in dofs],
-        "dynamics": [f"{a}@knot {k}" for k in range(n_knots) for a in ("fx", "fy", "fz", "mx", "my", "mz")],
+        "finite differences": [
+            f"{d}@knot {k}" for _ in range(2) for k in range(n_knots) for d in dofs
+        ],
+        "dynamics": [
+            f"{a}@knot {k}" for k in range(n_knots) for a in ("fx", "fy", "fz", "mx", "my", "mz")
+        ],
         "inverse dynamics": per_joint,
         "stance height": per_foot,
         "stance no-slip": per_foot * 2,
@@ -171,5 +230,7 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         "friction": per_foot * 4,
         "joint speed": per_joint,
         "torque envelope": per_joint * 4,
-        "body clearance": [f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)],
+        "body clearance": [
+            f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)
+        ],
     }

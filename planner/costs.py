@@ -27,7 +27,7 @@ def cost_terms(model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: int
         "joint_speed_s2": ca.sumsqr(kq.qd) / n,
         # eq 15: base velocity perpendicular to the gait velocity (lateral + vertical bounce)
         "bounce_s2_m2": ca.sumsqr(kq.base_d[1:3, :]) / n,
-        # eq 16: ‖R − I‖² ≈ 2(roll² + pitch² + yaw²) for small angles (the factor 2 is in the weight)
+        # eq 16: ‖R − I‖² ≈ 2(roll² + pitch² + yaw²) for small angles (factor 2 in the weight)
         "orientation_rad2": ca.sumsqr(sym.base[3:6, :]) / n,
         "angular_velocity_s2": ca.sumsqr(kq.omega_world) / n,
         "joint_accel_s4": ca.sumsqr(kq.qdd) / n,

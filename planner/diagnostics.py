@@ -12,8 +12,14 @@ import numpy as np
 
 #: groups that are physical/servo limits (reported to the user); the rest are model equations
 LIMIT_GROUPS = (
-    "joint speed", "torque envelope", "friction", "joint limits", "swing clearance",
-    "body clearance", "swing force", "tilt",
+    "joint speed",
+    "torque envelope",
+    "friction",
+    "joint limits",
+    "swing clearance",
+    "body clearance",
+    "swing force",
+    "tilt",
 )
 #: limits that are not active in every gait (swing force/friction are trivially active in swing),
 #: so their active rows at an infeasible iterate say what ran out
@@ -52,22 +58,44 @@ def group_reports(
         row_labels = labels.get(name)
         where = row_labels[i] if row_labels is not None and i < len(row_labels) else f"row {i}"
         active = np.flatnonzero(np.minimum(np.abs(gv - lo), np.abs(gv - hi)) <= ACTIVE_TOL)
-        first = (row_labels[active[0]] if row_labels is not None and active[0] < len(row_labels)
-                 else f"row {active[0]}") if active.size else ""
-        out.append(GroupReport(name, float(viol.max(initial=0.0)), where, float(np.abs(lam_g[sl]).sum()),
-                               int(active.size), first))
+        first = (
+            (
+                row_labels[active[0]]
+                if row_labels is not None and active[0] < len(row_labels)
+                else f"row {active[0]}"
+            )
+            if active.size
+            else ""
+        )
+        out.append(
+            GroupReport(
+                name,
+                float(viol.max(initial=0.0)),
+                where,
+                float(np.abs(lam_g[sl]).sum()),
+                int(active.size),
+                first,
+            )
+        )
     return out
 
 
-def bound_report(name: str, x: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, lam_x: np.ndarray,
-                 labels: list[str]) -> GroupReport:
+def bound_report(
+    name: str, x: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, lam_x: np.ndarray, labels: list[str]
+) -> GroupReport:
     """The same for a block of variable bounds (e.g. joint limits)."""
     viol = np.maximum(np.maximum(lbx - x, x - ubx), 0.0)
     near = np.minimum(np.abs(x - lbx), np.abs(ubx - x))
     i = int(np.argmax(viol)) if viol.max(initial=0.0) > 0 else int(np.argmin(near))
     active = np.flatnonzero(near <= ACTIVE_TOL)
-    return GroupReport(name, float(viol.max(initial=0.0)), labels[i] if i < len(labels) else f"row {i}",
-                       float(np.abs(lam_x).sum()), int(active.size), labels[active[0]] if active.size else "")
+    return GroupReport(
+        name,
+        float(viol.max(initial=0.0)),
+        labels[i] if i < len(labels) else f"row {i}",
+        float(np.abs(lam_x).sum()),
+        int(active.size),
+        labels[active[0]] if active.size else "",
+    )
 
 
 def binding_limits(reports: list[GroupReport], feasible: bool) -> tuple[tuple[str, float], ...]:
@@ -78,15 +106,25 @@ def binding_limits(reports: list[GroupReport], feasible: bool) -> tuple[tuple[st
     """
     limits = [r for r in reports if r.name in LIMIT_GROUPS]
     if not feasible:
-        violated = sorted((r for r in limits if r.max_violation > FEASIBILITY_TOL),
-                          key=lambda r: -r.max_violation)
-        saturated = sorted((r for r in limits if r.name in SERVO_LIMITS and r.n_active
-                            and r.max_violation <= FEASIBILITY_TOL), key=lambda r: -r.n_active)
+        violated = sorted(
+            (r for r in limits if r.max_violation > FEASIBILITY_TOL), key=lambda r: -r.max_violation
+        )
+        saturated = sorted(
+            (
+                r
+                for r in limits
+                if r.name in SERVO_LIMITS and r.n_active and r.max_violation <= FEASIBILITY_TOL
+            ),
+            key=lambda r: -r.n_active,
+        )
         if violated or saturated:
             return tuple((r.name, r.max_violation) for r in violated) + tuple(
-                (r.name, float(r.n_active)) for r in saturated)
+                (r.name, float(r.n_active)) for r in saturated
+            )
     total = sum(r.multiplier_sum for r in limits) or 1.0
-    active = sorted((r for r in limits if r.multiplier_sum > 1e-3 * total), key=lambda r: -r.multiplier_sum)
+    active = sorted(
+        (r for r in limits if r.multiplier_sum > 1e-3 * total), key=lambda r: -r.multiplier_sum
+    )
     return tuple((r.name, r.multiplier_sum / total) for r in active)
 
 
@@ -101,10 +139,17 @@ def explain(reports: list[GroupReport], binding: tuple[tuple[str, float], ...], 
         elif r.name in SERVO_LIMITS and r.n_active:
             parts.append(f"{name} (at its limit in {r.n_active} rows, e.g. {r.first_active})")
         else:
-            parts.append(f"{name} ({100 * value:.0f}% of the limit multipliers, e.g. {r.worst_row})")
-    equations = sorted((r for r in reports if r.name not in LIMIT_GROUPS and r.max_violation > FEASIBILITY_TOL),
-                       key=lambda r: -r.max_violation)
+            parts.append(
+                f"{name} ({100 * value:.0f}% of the limit multipliers, e.g. {r.worst_row})"
+            )
+    equations = sorted(
+        (r for r in reports if r.name not in LIMIT_GROUPS and r.max_violation > FEASIBILITY_TOL),
+        key=lambda r: -r.max_violation,
+    )
     limits = "; ".join(parts) if parts else "no single limit stands out"
-    unmet = ", ".join(f"{r.name} (residual {r.max_violation:.2g} at {r.worst_row})" for r in equations[:2])
-    return (f"no feasible gait (IPOPT: {status}); binding limits: {limits}"
-            + (f"; left unsatisfied: {unmet}" if unmet else ""))
+    unmet = ", ".join(
+        f"{r.name} (residual {r.max_violation:.2g} at {r.worst_row})" for r in equations[:2]
+    )
+    return f"no feasible gait (IPOPT: {status}); binding limits: {limits}" + (
+        f"; left unsatisfied: {unmet}" if unmet else ""
+    )

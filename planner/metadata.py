@@ -27,9 +27,12 @@ def servo_load(planner: GaitPlanner, result: PlanResult) -> dict[str, dict[str, 
     out = {}
     for j, joint in enumerate(planner.robot.joints):
         out[joint.name] = {
-            "peak_torque_over_stall": float(np.max(np.abs(result.joint_torques_nm[:, j])) / joint.servo.stall_torque_nm),
+            "peak_torque_over_stall": float(
+                np.max(np.abs(result.joint_torques_nm[:, j])) / joint.servo.stall_torque_nm
+            ),
             "peak_speed_over_no_load": float(
-                np.max(np.abs(result.joint_speeds_rad_s[:, j])) / joint.servo.no_load_speed_rad_s),
+                np.max(np.abs(result.joint_speeds_rad_s[:, j])) / joint.servo.no_load_speed_rad_s
+            ),
         }
     return out
 

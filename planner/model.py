@@ -54,7 +54,9 @@ class _Body:
 
 
 def _hat(v: Any) -> Any:
-    return ca.vertcat(ca.horzcat(0, -v[2], v[1]), ca.horzcat(v[2], 0, -v[0]), ca.horzcat(-v[1], v[0], 0))
+    return ca.vertcat(
+        ca.horzcat(0, -v[2], v[1]), ca.horzcat(v[2], 0, -v[0]), ca.horzcat(-v[1], v[0], 0)
+    )
 
 
 def _axis_rotation(axis: np.ndarray, angle: Any) -> Any:
@@ -99,8 +101,8 @@ class RobotModel:
         self.joint_qposadr = np.zeros(self.n_joints, dtype=int)
         self.joint_dofadr = np.zeros(self.n_joints, dtype=int)
         free = 0  # the freejoint (checked by robots.load)
-        self.armature[:6] = mj.dof_armature[mj.jnt_dofadr[free]: mj.jnt_dofadr[free] + 6]
-        self.damping[:6] = mj.dof_damping[mj.jnt_dofadr[free]: mj.jnt_dofadr[free] + 6]
+        self.armature[:6] = mj.dof_armature[mj.jnt_dofadr[free] : mj.jnt_dofadr[free] + 6]
+        self.damping[:6] = mj.dof_damping[mj.jnt_dofadr[free] : mj.jnt_dofadr[free] + 6]
         for i, j in enumerate(robot.joints):
             jid = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_JOINT, j.name)
             dof, qadr = int(mj.jnt_dofadr[jid]), int(mj.jnt_qposadr[jid])
@@ -114,7 +116,9 @@ class RobotModel:
     # -- reading the MJCF --------------------------------------------------------------------
 
     @staticmethod
-    def _read_tree(mj: mujoco.MjModel, robot: Robot) -> tuple[list[_Body], list[tuple[int, np.ndarray]]]:
+    def _read_tree(
+        mj: mujoco.MjModel, robot: Robot
+    ) -> tuple[list[_Body], list[tuple[int, np.ndarray]]]:
         root = int(mj.jnt_bodyid[0])
         if int(mj.body_parentid[root]) != 0:
             raise ModelError(f"{robot.mjcf_path}: the freejoint body must be a child of the world")
@@ -129,37 +133,54 @@ class RobotModel:
             for jid in range(int(mj.body_jntadr[b]), int(mj.body_jntadr[b] + mj.body_jntnum[b])):
                 if b == root:
                     if mj.body_jntnum[b] != 1:
-                        raise ModelError(f"{robot.mjcf_path}: the root body may only have its freejoint")
+                        raise ModelError(
+                            f"{robot.mjcf_path}: the root body may only have its freejoint"
+                        )
                     continue
                 name = mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_JOINT, jid)
                 if mj.jnt_type[jid] != mujoco.mjtJoint.mjJNT_HINGE or name not in joint_index:
-                    raise ModelError(f"{robot.mjcf_path}: joint {name!r}: only servo hinge joints are supported")
+                    raise ModelError(
+                        f"{robot.mjcf_path}: joint {name!r}: only servo hinge joints are supported"
+                    )
                 axis = np.array(mj.jnt_axis[jid], dtype=float)
-                joints.append(_Joint(joint_index[name], np.array(mj.jnt_pos[jid], dtype=float),
-                                     axis / np.linalg.norm(axis), float(mj.qpos0[mj.jnt_qposadr[jid]])))
+                joints.append(
+                    _Joint(
+                        joint_index[name],
+                        np.array(mj.jnt_pos[jid], dtype=float),
+                        axis / np.linalg.norm(axis),
+                        float(mj.qpos0[mj.jnt_qposadr[jid]]),
+                    )
+                )
             index[b] = len(bodies)
-            bodies.append(_Body(
-                parent=-1 if b == root else index[parent],
-                pos=np.array(mj.body_pos[b], dtype=float),
-                rot=_quat_to_mat(mj.body_quat[b]),
-                joints=tuple(joints),
-                mass_kg=float(mj.body_mass[b]),
-                com_local=np.array(mj.body_ipos[b], dtype=float),
-                inertia_local=(lambda r, d: r @ np.diag(d) @ r.T)(_quat_to_mat(mj.body_iquat[b]),
-                                                                  np.array(mj.body_inertia[b], dtype=float)),
-            ))
+            bodies.append(
+                _Body(
+                    parent=-1 if b == root else index[parent],
+                    pos=np.array(mj.body_pos[b], dtype=float),
+                    rot=_quat_to_mat(mj.body_quat[b]),
+                    joints=tuple(joints),
+                    mass_kg=float(mj.body_mass[b]),
+                    com_local=np.array(mj.body_ipos[b], dtype=float),
+                    inertia_local=(lambda r, d: r @ np.diag(d) @ r.T)(
+                        _quat_to_mat(mj.body_iquat[b]), np.array(mj.body_inertia[b], dtype=float)
+                    ),
+                )
+            )
         sites: list[tuple[int, np.ndarray]] = []
         for leg in robot.legs:
             sid = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site)
             body = int(mj.site_bodyid[sid])
             if body not in index:
-                raise ModelError(f"{robot.mjcf_path}: foot site {leg.foot_site!r} is not on the robot")
+                raise ModelError(
+                    f"{robot.mjcf_path}: foot site {leg.foot_site!r} is not on the robot"
+                )
             sites.append((index[body], np.array(mj.site_pos[sid], dtype=float)))
         return bodies, sites
 
     # -- symbolic functions ------------------------------------------------------------------
 
-    def _frames(self, base_pos: Any, base_rpy: Any, qj: Any) -> tuple[list[Any], list[Any], list[list[tuple[Any, Any]]]]:
+    def _frames(
+        self, base_pos: Any, base_rpy: Any, qj: Any
+    ) -> tuple[list[Any], list[Any], list[list[tuple[Any, Any]]]]:
         """World rotation and origin of every body, and each hinge's (world anchor, world axis)."""
         rots: list[Any] = []
         origins: list[Any] = []
@@ -181,8 +202,17 @@ class RobotModel:
             hinges.append(axes)
         return rots, origins, hinges
 
-    def _velocities(self, base_pos: Any, rots_hinges: list[list[tuple[Any, Any]]], v_base: Any,
-                    w_base: Any, qdj: Any, a_base: Any, dw_base: Any, qddj: Any) -> tuple[list[Any], list[Any]]:
+    def _velocities(
+        self,
+        base_pos: Any,
+        rots_hinges: list[list[tuple[Any, Any]]],
+        v_base: Any,
+        w_base: Any,
+        qdj: Any,
+        a_base: Any,
+        dw_base: Any,
+        qddj: Any,
+    ) -> tuple[list[Any], list[Any]]:
         """Spatial velocity/acceleration (ω, v_O) per body, world-origin Plücker coordinates.
 
         The acceleration of the root includes −g (gravity as a fictitious upward acceleration).
@@ -193,10 +223,15 @@ class RobotModel:
         for i, body in enumerate(self._bodies):
             if body.parent < 0:
                 v = ca.vertcat(w_base, v_base - ca.cross(w_base, base_pos))
-                a = ca.vertcat(dw_base, a_base - ca.cross(dw_base, base_pos) - ca.cross(w_base, v_base)) + grav
+                a = (
+                    ca.vertcat(
+                        dw_base, a_base - ca.cross(dw_base, base_pos) - ca.cross(w_base, v_base)
+                    )
+                    + grav
+                )
             else:
                 v, a = vel[body.parent], acc[body.parent]
-            for jt, (anchor, axis) in zip(body.joints, rots_hinges[i]):
+            for jt, (anchor, axis) in zip(body.joints, rots_hinges[i], strict=False):
                 s = ca.vertcat(axis, ca.cross(anchor, axis))
                 v = v + s * qdj[jt.index]
                 a = a + s * qddj[jt.index] + _cross_motion(v, s * qdj[jt.index])
@@ -218,22 +253,38 @@ class RobotModel:
         rots, origins, hinges = self._frames(pos, rpy, qj)
         feet = ca.horzcat(*[origins[b] + rots[b] @ ca.DM(p) for b, p in self._sites])
         body_origins = ca.horzcat(*origins)
-        coms, inertias = zip(*(self._inertia_world(r, o, b) for r, o, b in zip(rots, origins, self._bodies)))
+        coms, inertias = zip(
+            *(
+                self._inertia_world(r, o, b)
+                for r, o, b in zip(rots, origins, self._bodies, strict=True)
+            ),
+            strict=True,
+        )
         mass = self.total_mass_kg
-        com = sum((b.mass_kg * c for b, c in zip(self._bodies, coms)), ca.SX.zeros(3)) / mass
+        weighted = (b.mass_kg * c for b, c in zip(self._bodies, coms, strict=True))
+        com = sum(weighted, ca.SX.zeros(3)) / mass
         #: fk(base_pos, base_rpy, q) -> (feet 3×F foot-site centres, body_origins 3×B, com 3)
-        self.fk = ca.Function("fk", [pos, rpy, qj], [feet, body_origins, com],
-                              ["base_pos", "base_rpy", "q"], ["feet", "body_origins", "com"])
+        self.fk = ca.Function(
+            "fk",
+            [pos, rpy, qj],
+            [feet, body_origins, com],
+            ["base_pos", "base_rpy", "q"],
+            ["feet", "body_origins", "com"],
+        )
         vel, acc = self._velocities(pos, hinges, v_b, w_b, qdj, a_b, dw_b, qddj)
         lin = ca.SX.zeros(3)
         ang_o = ca.SX.zeros(3)
         wrench: list[Any] = []
-        for body, c, inertia, v, a in zip(self._bodies, coms, inertias, vel, acc):
+        for body, c, inertia, v, a in zip(self._bodies, coms, inertias, vel, acc, strict=False):
             h_lin, h_ang = _momentum(body.mass_kg, c, inertia, v)
             lin, ang_o = lin + h_lin, ang_o + h_ang
             f_lin, f_ang = _momentum(body.mass_kg, c, inertia, a)  # I·A
             w, vo = v[:3], v[3:]
-            wrench.append(ca.vertcat(f_ang + ca.cross(w, h_ang) + ca.cross(vo, h_lin), f_lin + ca.cross(w, h_lin)))
+            wrench.append(
+                ca.vertcat(
+                    f_ang + ca.cross(w, h_ang) + ca.cross(vo, h_lin), f_lin + ca.cross(w, h_lin)
+                )
+            )
         for f, (b, _) in enumerate(self._sites):
             foot = feet[:, f]
             wrench[b] = wrench[b] - ca.vertcat(ca.cross(foot, forces[:, f]), forces[:, f])
@@ -243,36 +294,66 @@ class RobotModel:
                 wrench[parent] = wrench[parent] + wrench[i]
         tau = [ca.SX(0)] * nj
         for i, body in enumerate(self._bodies):
-            for jt, (anchor, axis) in zip(body.joints, hinges[i]):
+            for jt, (anchor, axis) in zip(body.joints, hinges[i], strict=False):
                 tau[jt.index] = ca.dot(ca.vertcat(axis, ca.cross(anchor, axis)), wrench[i])
         root = wrench[0]
         base_force = root[3:]
         base_torque = rots[0].T @ (root[:3] - ca.cross(pos, base_force))
         arm, damp = self.armature, self.damping
-        joint_rows = (ca.vertcat(*tau) + ca.DM(arm[6:]) * qddj + ca.DM(damp[6:]) * qdj
-                      + ca.DM(self.stiffness) * (qj - ca.DM(self.spring_ref_rad)))
+        joint_rows = (
+            ca.vertcat(*tau)
+            + ca.DM(arm[6:]) * qddj
+            + ca.DM(damp[6:]) * qdj
+            + ca.DM(self.stiffness) * (qj - ca.DM(self.spring_ref_rad))
+        )
         base_acc_body = ca.vertcat(a_b, rots[0].T @ dw_b)
         base_vel_body = ca.vertcat(v_b, rots[0].T @ w_b)
-        base_rows = ca.vertcat(base_force, base_torque) + ca.DM(arm[:6]) * base_acc_body + ca.DM(damp[:6]) * base_vel_body
+        base_rows = (
+            ca.vertcat(base_force, base_torque)
+            + ca.DM(arm[:6]) * base_acc_body
+            + ca.DM(damp[:6]) * base_vel_body
+        )
         args = [pos, rpy, qj, v_b, w_b, qdj, a_b, dw_b, qddj, forces]
-        names = ["base_pos", "base_rpy", "q", "v_base", "w_base", "qd", "a_base", "dw_base", "qdd", "f_feet"]
+        names = [
+            "base_pos",
+            "base_rpy",
+            "q",
+            "v_base",
+            "w_base",
+            "qd",
+            "a_base",
+            "dw_base",
+            "qdd",
+            "f_feet",
+        ]
         #: inverse_dynamics(...) -> (base_rows 6: world force + body-frame torque about the base
         #: origin, joint_rows J: joint torques [N·m]) — MuJoCo's qfrc_inverse minus Jᵀf
-        self.inverse_dynamics = ca.Function("inverse_dynamics", args, [base_rows, joint_rows],
-                                            names, ["base_rows", "tau"])
+        self.inverse_dynamics = ca.Function(
+            "inverse_dynamics", args, [base_rows, joint_rows], names, ["base_rows", "tau"]
+        )
         ang_com = ang_o - ca.cross(com, lin)
         #: momentum(base_pos, base_rpy, q, v_base, w_base, qd) -> (linear [kg·m/s], angular about
         #: the COM [kg·m²/s], com [m])
-        self.momentum = ca.Function("momentum", [pos, rpy, qj, v_b, w_b, qdj], [lin, ang_com, com],
-                                    names[:6], ["linear", "angular_com", "com"])
+        self.momentum = ca.Function(
+            "momentum",
+            [pos, rpy, qj, v_b, w_b, qdj],
+            [lin, ang_com, com],
+            names[:6],
+            ["linear", "angular_com", "com"],
+        )
         rdot = ca.SX.sym("rpy_dot", 3)
         rddot = ca.SX.sym("rpy_ddot", 3)
         e_w = omega_world_matrix(rpy)
         omega = e_w @ rdot
         domega = e_w @ rddot + ca.jtimes(omega, rpy, rdot)
         #: base_rates(rpy, rpy_dot, rpy_ddot) -> (ω_world, ω̇_world) for roll/pitch/yaw rates
-        self.base_rates = ca.Function("base_rates", [rpy, rdot, rddot], [omega, domega],
-                                      ["rpy", "rpy_dot", "rpy_ddot"], ["w_world", "dw_world"])
+        self.base_rates = ca.Function(
+            "base_rates",
+            [rpy, rdot, rddot],
+            [omega, domega],
+            ["rpy", "rpy_dot", "rpy_ddot"],
+            ["w_world", "dw_world"],
+        )
 
     # -- numeric helpers ---------------------------------------------------------------------
 
@@ -287,8 +368,10 @@ class RobotModel:
         return qpos
 
     def joint_limits_rad(self) -> tuple[np.ndarray, np.ndarray]:
-        return (np.array([j.lower_rad for j in self.robot.joints]),
-                np.array([j.upper_rad for j in self.robot.joints]))
+        return (
+            np.array([j.lower_rad for j in self.robot.joints]),
+            np.array([j.upper_rad for j in self.robot.joints]),
+        )
 
 
 def _cross_motion(v: Any, m: Any) -> Any:

@@ -48,7 +48,14 @@ def omega_world_matrix(rpy: Any) -> Any:
 
 def rpy_to_matrix_np(rpy: np.ndarray) -> np.ndarray:
     r, p, y = (float(v) for v in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(r),
+        math.sin(r),
+        math.cos(p),
+        math.sin(p),
+        math.cos(y),
+        math.sin(y),
+    )
     rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
     ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
     rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
@@ -58,13 +65,22 @@ def rpy_to_matrix_np(rpy: np.ndarray) -> np.ndarray:
 def rpy_to_quat_np(rpy: np.ndarray) -> np.ndarray:
     """MuJoCo quaternion (w, x, y, z) of R = Rz(yaw) Ry(pitch) Rx(roll)."""
     hr, hp, hy = (0.5 * float(v) for v in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(hr), math.sin(hr), math.cos(hp), math.sin(hp), math.cos(hy), math.sin(hy)
-    return np.array([
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    ])
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(hr),
+        math.sin(hr),
+        math.cos(hp),
+        math.sin(hp),
+        math.cos(hy),
+        math.sin(hy),
+    )
+    return np.array(
+        [
+            cr * cp * cy + sr * sp * sy,
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+        ]
+    )
 
 
 def omega_world_matrix_np(rpy: np.ndarray) -> np.ndarray:

@@ -68,7 +68,9 @@ class PlanResult:
 class GaitPlanner:
     """Spacetime gait optimisation for one robot at a fixed number of knots."""
 
-    def __init__(self, robot: Robot, n_knots: int = 30, options: PlannerOptions | None = None) -> None:
+    def __init__(
+        self, robot: Robot, n_knots: int = 30, options: PlannerOptions | None = None
+    ) -> None:
         if not 8 <= n_knots <= 200:
             raise PlannerConfigError(f"n_knots must be in [8, 200], got {n_knots}")
         t0 = time.perf_counter()
@@ -120,14 +122,21 @@ class GaitPlanner:
             "sb": "yes",
             "print_timing_statistics": "yes" if o.print_level >= 5 else "no",
         }
-        ipopt.update({
-            "warm_start_init_point": "yes",
-            "warm_start_bound_push": 1e-6,
-            "warm_start_slack_bound_push": 1e-6,
-            "warm_start_mult_bound_push": 1e-6,
-            "mu_init": 1e-2,
-        })
-        opts = {"ipopt": ipopt, "print_time": False, "expand": True, "error_on_fail": False}
+        ipopt.update(
+            {
+                "warm_start_init_point": "yes",
+                "warm_start_bound_push": 1e-6,
+                "warm_start_slack_bound_push": 1e-6,
+                "warm_start_mult_bound_push": 1e-6,
+                "mu_init": 1e-2,
+            }
+        )
+        opts: dict[str, Any] = {
+            "ipopt": ipopt,
+            "print_time": False,
+            "expand": True,
+            "error_on_fail": False,
+        }
         return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)
 
     # -- solving -----------------------------------------------------------------------------
@@ -135,16 +144,24 @@ class GaitPlanner:
     def _check(self, schedule: ContactSchedule, speed_m_s: float) -> None:
         if tuple(schedule.feet) != self.robot.foot_names:
             raise PlannerConfigError(
-                f"schedule feet {list(schedule.feet)} do not match the robot's legs {list(self.robot.foot_names)}")
+                f"schedule feet {list(schedule.feet)} do not match the robot's legs "
+                f"{list(self.robot.foot_names)}"
+            )
         if not (np.isfinite(speed_m_s) and 0.0 <= speed_m_s <= 10.0):
             raise PlannerConfigError(f"speed must be in [0, 10] m/s, got {speed_m_s!r}")
         contact = schedule.contact_matrix(self.n_knots)
         if not contact.any(axis=0).all():
             raise PlannerConfigError(
-                f"with {self.n_knots} knots some foot never touches down; use more knots or longer duty factors")
+                f"with {self.n_knots} knots some foot never touches down; "
+                "use more knots or longer duty factors"
+            )
 
-    def solve(self, schedule: ContactSchedule, speed_m_s: float,
-              warm_start: WarmStart | bool | None = None) -> PlanResult:
+    def solve(
+        self,
+        schedule: ContactSchedule,
+        speed_m_s: float,
+        warm_start: WarmStart | bool | None = None,
+    ) -> PlanResult:
         """Plan one gait cycle. `warm_start`: None → the last solution if any, False → cold."""
         self._check(schedule, speed_m_s)
         p = parameter_vector(schedule, self.n_knots, speed_m_s, self.options.swing_clearance_m)
@@ -153,8 +170,16 @@ class GaitPlanner:
         if start is None:
             x0 = initial_guess(self.layout, self.model, schedule)
             start = WarmStart(x0, np.zeros_like(x0), np.zeros_like(self._lbg))
-        sol = self._solver(x0=start.x, lam_x0=start.lam_x, lam_g0=start.lam_g, p=p,
-                           lbx=self._lbx, ubx=self._ubx, lbg=self._lbg, ubg=self._ubg)
+        sol = self._solver(
+            x0=start.x,
+            lam_x0=start.lam_x,
+            lam_g0=start.lam_g,
+            p=p,
+            lbx=self._lbx,
+            ubx=self._ubx,
+            lbg=self._lbg,
+            ubg=self._ubg,
+        )
         stats = self._solver.stats()
         elapsed = time.perf_counter() - t0
         result = self._result(schedule, speed_m_s, p, sol, stats, elapsed)
@@ -162,20 +187,45 @@ class GaitPlanner:
             self._last = result.warm_start
         return result
 
-    def _result(self, schedule: ContactSchedule, speed_m_s: float, p: np.ndarray, sol: dict[str, Any],
-                stats: dict[str, Any], elapsed: float) -> PlanResult:
+    def _result(
+        self,
+        schedule: ContactSchedule,
+        speed_m_s: float,
+        p: np.ndarray,
+        sol: dict[str, Any],
+        stats: dict[str, Any],
+        elapsed: float,
+    ) -> PlanResult:
         x = np.asarray(sol["x"]).ravel()
         lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
         g, tau, qd, *terms = (np.asarray(v) for v in self._evaluate(x, p))
         g = g.ravel()
-        reports = diagnostics.group_reports(self._slices, g, self._lbg, self._ubg, lam_g, self._labels)
+        reports = diagnostics.group_reports(
+            self._slices, g, self._lbg, self._ubg, lam_g, self._labels
+        )
         nb, nq = self.layout.n_base, self.layout.n_q
         names = [f"{n}@{k}" for k in range(self.n_knots) for n in self.robot.joint_names]
-        reports.append(diagnostics.bound_report("joint limits", x[nb:nb + nq], self._lbx[nb:nb + nq],
-                                                self._ubx[nb:nb + nq], lam_x[nb:nb + nq], names))
+        reports.append(
+            diagnostics.bound_report(
+                "joint limits",
+                x[nb : nb + nq],
+                self._lbx[nb : nb + nq],
+                self._ubx[nb : nb + nq],
+                lam_x[nb : nb + nq],
+                names,
+            )
+        )
         tilt = np.r_[[np.arange(6 * k + 3, 6 * k + 6) for k in range(self.n_knots)]].ravel()
-        reports.append(diagnostics.bound_report("tilt", x[tilt], self._lbx[tilt], self._ubx[tilt], lam_x[tilt],
-                                                [f"roll/pitch/yaw@{k}" for k in range(self.n_knots) for _ in range(3)]))
+        reports.append(
+            diagnostics.bound_report(
+                "tilt",
+                x[tilt],
+                self._lbx[tilt],
+                self._ubx[tilt],
+                lam_x[tilt],
+                [f"roll/pitch/yaw@{k}" for k in range(self.n_knots) for _ in range(3)],
+            )
+        )
         max_violation = max(r.max_violation for r in reports)
         status = str(stats.get("return_status", "unknown"))
         feasible = bool(status in _SUCCESS and max_violation <= diagnostics.FEASIBILITY_TOL)
@@ -183,20 +233,40 @@ class GaitPlanner:
         message = "ok" if feasible else diagnostics.explain(reports, binding, status)
         base, q, f = self.layout.unpack(x)
         weight_n = self.model.total_mass_kg * float(np.linalg.norm(self.model.gravity_m_s2))
-        term_values = {n: float(np.asarray(v).item()) for n, v in zip(self._term_names, terms, strict=True)}
+        term_values = {
+            n: float(np.asarray(v).item()) for n, v in zip(self._term_names, terms, strict=True)
+        }
         return PlanResult(
-            schedule=schedule, speed_m_s=float(speed_m_s), base_pose=base.copy(), joint_angles_rad=q.copy(),
-            joint_speeds_rad_s=qd.T.copy(), contact_forces_n=f * weight_n, joint_torques_nm=tau.T.copy(),
-            cost=float(sol["f"]), cost_terms=term_values, feasible=feasible, status=status,
-            iterations=int(stats.get("iter_count", -1)), solve_time_s=elapsed, max_violation=max_violation,
-            binding=binding, message=message, warm_start=WarmStart(x, lam_x, lam_g),
-            stats={"return_status": status, "iter_count": int(stats.get("iter_count", -1)),
-                   "t_wall_total_s": elapsed, "iterations": _iteration_log(stats)},
+            schedule=schedule,
+            speed_m_s=float(speed_m_s),
+            base_pose=base.copy(),
+            joint_angles_rad=q.copy(),
+            joint_speeds_rad_s=qd.T.copy(),
+            contact_forces_n=f * weight_n,
+            joint_torques_nm=tau.T.copy(),
+            cost=float(sol["f"]),
+            cost_terms=term_values,
+            feasible=feasible,
+            status=status,
+            iterations=int(stats.get("iter_count", -1)),
+            solve_time_s=elapsed,
+            max_violation=max_violation,
+            binding=binding,
+            message=message,
+            warm_start=WarmStart(x, lam_x, lam_g),
+            stats={
+                "return_status": status,
+                "iter_count": int(stats.get("iter_count", -1)),
+                "t_wall_total_s": elapsed,
+                "iterations": _iteration_log(stats),
+            },
         )
 
     # -- output ------------------------------------------------------------------------------
 
-    def to_gait(self, result: PlanResult, label: str, extra_metadata: dict[str, Any] | None = None) -> Gait:
+    def to_gait(
+        self, result: PlanResult, label: str, extra_metadata: dict[str, Any] | None = None
+    ) -> Gait:
         """The gait file object for a feasible result; raises InfeasibleGaitError otherwise."""
         if not result.feasible:
             raise InfeasibleGaitError(result.message, result.binding)
@@ -205,9 +275,15 @@ class GaitPlanner:
         meta = planner_metadata(self, result)
         meta.update(extra_metadata or {})
         return Gait.create(
-            robot=self.robot, knots_rad=result.joint_angles_rad, schedule=result.schedule,
-            velocity=Velocity(vx_m_s=result.speed_m_s), gait_label=label, base_pose=result.base_pose,
-            contact_forces_n=result.contact_forces_n, joint_torques_nm=result.joint_torques_nm, planner=meta,
+            robot=self.robot,
+            knots_rad=result.joint_angles_rad,
+            schedule=result.schedule,
+            velocity=Velocity(vx_m_s=result.speed_m_s),
+            gait_label=label,
+            base_pose=result.base_pose,
+            contact_forces_n=result.contact_forces_n,
+            joint_torques_nm=result.joint_torques_nm,
+            planner=meta,
         )
 
 

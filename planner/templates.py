@@ -39,23 +39,52 @@ _QUAD = ("LF", "RF", "LH", "RH")
 _HEX = ("LF", "LM", "LH", "RF", "RM", "RH")
 _BIPED = ("L", "R")
 
-TEMPLATES: dict[str, Template] = {t.name: t for t in (
-    # quadrupeds (phase of the left hind touchdown = 0)
-    Template("walk", 4, {"LH": 0.0, "LF": 0.25, "RH": 0.5, "RF": 0.75}, 0.75, 5.0),  # lateral sequence
-    Template("trot", 4, {"LF": 0.0, "RH": 0.0, "RF": 0.5, "LH": 0.5}, 0.6, 3.5),  # diagonal pairs
-    Template("pace", 4, {"LF": 0.0, "LH": 0.0, "RF": 0.5, "RH": 0.5}, 0.6, 3.5),  # lateral pairs
-    Template("bound", 4, {"LF": 0.5, "RF": 0.5, "LH": 0.0, "RH": 0.0}, 0.4, 3.0),  # fore/hind pairs
-    Template("gallop_rotary", 4, {"LH": 0.0, "RH": 0.1, "RF": 0.5, "LF": 0.6}, 0.35, 3.0),
-    Template("gallop_transverse", 4, {"LH": 0.0, "RH": 0.1, "LF": 0.5, "RF": 0.6}, 0.35, 3.0),
-    Template("pronk", 4, {"LF": 0.0, "RF": 0.0, "LH": 0.0, "RH": 0.0}, 0.4, 3.0),
-    # hexapods: alternating tripods; ripple (two 3-beat waves half a cycle apart); wave
-    Template("tripod", 6, {"LF": 0.0, "RM": 0.0, "LH": 0.0, "RF": 0.5, "LM": 0.5, "RH": 0.5}, 0.6, 6.5),
-    Template("ripple", 6, {"LH": 0.0, "LM": 1 / 3, "LF": 2 / 3, "RH": 0.5, "RM": 5 / 6, "RF": 1 / 6}, 0.65, 7.5),
-    Template("wave", 6, {"LH": 0.0, "LM": 1 / 6, "LF": 2 / 6, "RH": 3 / 6, "RM": 4 / 6, "RF": 5 / 6}, 0.8, 9.0),
-    # bipeds: walking has double support (duty > 0.5), running a flight phase (duty < 0.5)
-    Template("biped_walk", 2, {"L": 0.0, "R": 0.5}, 0.6, 4.0),
-    Template("biped_run", 2, {"L": 0.0, "R": 0.5}, 0.35, 3.0),
-)}
+TEMPLATES: dict[str, Template] = {
+    t.name: t
+    for t in (
+        # quadrupeds (phase of the left hind touchdown = 0)
+        Template(
+            "walk", 4, {"LH": 0.0, "LF": 0.25, "RH": 0.5, "RF": 0.75}, 0.75, 5.0
+        ),  # lateral sequence
+        Template(
+            "trot", 4, {"LF": 0.0, "RH": 0.0, "RF": 0.5, "LH": 0.5}, 0.6, 3.5
+        ),  # diagonal pairs
+        Template(
+            "pace", 4, {"LF": 0.0, "LH": 0.0, "RF": 0.5, "RH": 0.5}, 0.6, 3.5
+        ),  # lateral pairs
+        Template(
+            "bound", 4, {"LF": 0.5, "RF": 0.5, "LH": 0.0, "RH": 0.0}, 0.4, 3.0
+        ),  # fore/hind pairs
+        Template("gallop_rotary", 4, {"LH": 0.0, "RH": 0.1, "RF": 0.5, "LF": 0.6}, 0.35, 3.0),
+        Template("gallop_transverse", 4, {"LH": 0.0, "RH": 0.1, "LF": 0.5, "RF": 0.6}, 0.35, 3.0),
+        Template("pronk", 4, {"LF": 0.0, "RF": 0.0, "LH": 0.0, "RH": 0.0}, 0.4, 3.0),
+        # hexapods: alternating tripods; ripple (two 3-beat waves half a cycle apart); wave
+        Template(
+            "tripod",
+            6,
+            {"LF": 0.0, "RM": 0.0, "LH": 0.0, "RF": 0.5, "LM": 0.5, "RH": 0.5},
+            0.6,
+            6.5,
+        ),
+        Template(
+            "ripple",
+            6,
+            {"LH": 0.0, "LM": 1 / 3, "LF": 2 / 3, "RH": 0.5, "RM": 5 / 6, "RF": 1 / 6},
+            0.65,
+            7.5,
+        ),
+        Template(
+            "wave",
+            6,
+            {"LH": 0.0, "LM": 1 / 6, "LF": 2 / 6, "RH": 3 / 6, "RM": 4 / 6, "RF": 5 / 6},
+            0.8,
+            9.0,
+        ),
+        # bipeds: walking has double support (duty > 0.5), running a flight phase (duty < 0.5)
+        Template("biped_walk", 2, {"L": 0.0, "R": 0.5}, 0.6, 4.0),
+        Template("biped_run", 2, {"L": 0.0, "R": 0.5}, 0.35, 3.0),
+    )
+}
 
 
 def stance_foot_positions_m(robot: Robot) -> np.ndarray:
@@ -68,7 +97,9 @@ def stance_foot_positions_m(robot: Robot) -> np.ndarray:
         jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
         data.qpos[model.jnt_qposadr[jid]] = j.stance_rad
     mujoco.mj_kinematics(model, data)
-    sites = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site) for leg in robot.legs]
+    sites = [
+        mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site) for leg in robot.legs
+    ]
     return np.array(data.site_xpos[sites], dtype=float)
 
 
@@ -79,9 +110,11 @@ def leg_roles(robot: Robot) -> dict[str, int]:
     if n % 2:
         raise TemplateError(f"{robot.name}: {n} legs cannot be split into left/right pairs")
     order = np.argsort(-pos[:, 1], kind="stable")
-    left, right = order[: n // 2], order[n // 2:]
+    left, right = order[: n // 2], order[n // 2 :]
     if np.min(pos[left, 1]) <= np.max(pos[right, 1]) - 1e-9:
-        raise TemplateError(f"{robot.name}: feet are not separated into a left and a right side by y")
+        raise TemplateError(
+            f"{robot.name}: feet are not separated into a left and a right side by y"
+        )
     names = {1: ("",), 2: ("F", "H"), 3: ("F", "M", "H")}.get(n // 2)
     if names is None:
         raise TemplateError(f"{robot.name}: no templates for {n} legs (2, 4 or 6 supported)")
@@ -100,22 +133,27 @@ def default_period_s(robot: Robot, gait: str) -> float:
     return TEMPLATES[gait].period_sqrt_l_g * math.sqrt(robot.leg_length_m / 9.81)
 
 
-def make_schedule(robot: Robot, gait: str, period_s: float | None = None,
-                  duty_factor: float | None = None) -> ContactSchedule:
+def make_schedule(
+    robot: Robot, gait: str, period_s: float | None = None, duty_factor: float | None = None
+) -> ContactSchedule:
     """The template `gait` for this robot as a ContactSchedule (feet in `robot.legs` order)."""
     template = TEMPLATES.get(gait)
     if template is None:
         raise TemplateError(f"unknown gait {gait!r}; known: {', '.join(TEMPLATES)}")
     if template.n_legs != len(robot.legs):
-        raise TemplateError(f"gait {gait!r} needs {template.n_legs} legs, {robot.name} has {len(robot.legs)}; "
-                            f"try one of: {', '.join(templates_for(robot))}")
+        raise TemplateError(
+            f"gait {gait!r} needs {template.n_legs} legs, {robot.name} has {len(robot.legs)}; "
+            f"try one of: {', '.join(templates_for(robot))}"
+        )
     roles = leg_roles(robot)
     phases = [0.0] * len(robot.legs)
     for role, foot in roles.items():
         phases[foot] = template.phases[role] % 1.0
     duty = template.duty_factor if duty_factor is None else duty_factor
     period = default_period_s(robot, gait) if period_s is None else period_s
-    return ContactSchedule(float(period), robot.foot_names, tuple(phases), (float(duty),) * len(robot.legs))
+    return ContactSchedule(
+        float(period), robot.foot_names, tuple(phases), (float(duty),) * len(robot.legs)
+    )
 
 
 def _circular(d: np.ndarray) -> np.ndarray:
@@ -127,7 +165,9 @@ def schedule_distance(schedule: ContactSchedule, template: ContactSchedule) -> f
     best global phase shift, plus the mean absolute duty-factor difference."""
     a, b = np.asarray(schedule.touchdown_phase), np.asarray(template.touchdown_phase)
     best = min(float(np.sqrt(np.mean(_circular(a - b - s) ** 2))) for s in _circular(a - b))
-    return best + float(np.mean(np.abs(np.asarray(schedule.duty_factor) - np.asarray(template.duty_factor))))
+    return best + float(
+        np.mean(np.abs(np.asarray(schedule.duty_factor) - np.asarray(template.duty_factor)))
+    )
 
 
 def label_gait(schedule: ContactSchedule, robot: Robot) -> str:
@@ -143,8 +183,9 @@ def label_gait(schedule: ContactSchedule, robot: Robot) -> str:
             phases = [0.0] * len(robot.legs)
             for role, foot in mapping.items():
                 phases[foot] = t.phases[role] % 1.0
-            ref = ContactSchedule(schedule.period_s, schedule.feet, tuple(phases),
-                                  (t.duty_factor,) * len(robot.legs))
+            ref = ContactSchedule(
+                schedule.period_s, schedule.feet, tuple(phases), (t.duty_factor,) * len(robot.legs)
+            )
             d = schedule_distance(schedule, ref)
             if d < best_d - 1e-12:
                 best, best_d = name, d

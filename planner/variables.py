@@ -33,7 +33,10 @@ from robots import ContactSchedule
 
 @dataclass(frozen=True)
 class Layout:
-    """Sizes and the packing order of the decision vector: [vec(B), vec(Q), vec(F), vec(V), vec(A)]."""
+    """Sizes and packing order of the decision vector.
+
+    Order: [vec(B), vec(Q), vec(F), vec(V), vec(A), vec(τ)], each knot-major.
+    """
 
     n_knots: int
     n_joints: int
@@ -64,11 +67,13 @@ class Layout:
         n = self.n_knots
         x = np.asarray(x, dtype=float).ravel()
         base = x[: self.n_base].reshape(n, 6)
-        q = x[self.n_base: self.n_base + self.n_q].reshape(n, self.n_joints)
-        f = x[self.n_base + self.n_q: self.n_base + self.n_q + self.n_f].reshape(n, self.n_feet, 3)
+        q = x[self.n_base : self.n_base + self.n_q].reshape(n, self.n_joints)
+        f = x[self.n_base + self.n_q : self.n_base + self.n_q + self.n_f].reshape(n, self.n_feet, 3)
         return base, q, f
 
-    def pack(self, base: np.ndarray, q: np.ndarray, f: np.ndarray, lifted: np.ndarray | None = None) -> np.ndarray:
+    def pack(
+        self, base: np.ndarray, q: np.ndarray, f: np.ndarray, lifted: np.ndarray | None = None
+    ) -> np.ndarray:
         """Flat vector; `lifted` = velocities, accelerations ((6+J)·N each) and torques (J·N),
         zeros by default (consistent with a constant pose at rest)."""
         if lifted is None:
@@ -99,25 +104,33 @@ def make_symbols(layout: Layout) -> Symbols:
     x = ca.MX.sym("x", layout.size)
     # knot-major packing: column k holds knot k (reshape is column-major)
     base = ca.reshape(x[: layout.n_base], 6, n)
-    q = ca.reshape(x[layout.n_base: layout.n_base + layout.n_q], nj, n)
+    q = ca.reshape(x[layout.n_base : layout.n_base + layout.n_q], nj, n)
     start = layout.n_base + layout.n_q
-    forces = ca.reshape(x[start: start + layout.n_f], 3 * nf, n)
+    forces = ca.reshape(x[start : start + layout.n_f], 3 * nf, n)
     start += layout.n_f
-    vel = ca.reshape(x[start: start + layout.n_rates], 6 + nj, n)
-    acc = ca.reshape(x[start + layout.n_rates: start + 2 * layout.n_rates], 6 + nj, n)
-    tau = ca.reshape(x[start + 2 * layout.n_rates:], nj, n)
+    vel = ca.reshape(x[start : start + layout.n_rates], 6 + nj, n)
+    acc = ca.reshape(x[start + layout.n_rates : start + 2 * layout.n_rates], 6 + nj, n)
+    tau = ca.reshape(x[start + 2 * layout.n_rates :], nj, n)
     p = ca.MX.sym("p", 2 * nf * n + 2)
     contact = ca.reshape(p[: nf * n], nf, n)
-    min_height = ca.reshape(p[nf * n: 2 * nf * n], nf, n)
-    return Symbols(x, base, q, forces, vel, acc, tau, p, contact, min_height, p[2 * nf * n], p[2 * nf * n + 1])
+    min_height = ca.reshape(p[nf * n : 2 * nf * n], nf, n)
+    return Symbols(
+        x, base, q, forces, vel, acc, tau, p, contact, min_height, p[2 * nf * n], p[2 * nf * n + 1]
+    )
 
 
-def parameter_vector(schedule: ContactSchedule, n_knots: int, speed_m_s: float,
-                     swing_clearance_m: float) -> np.ndarray:
+def parameter_vector(
+    schedule: ContactSchedule, n_knots: int, speed_m_s: float, swing_clearance_m: float
+) -> np.ndarray:
     """Numeric p for a schedule: C (F×N), H (F×N) column-major, then v and T."""
     contact = schedule.contact_matrix(n_knots).astype(float)  # N × F
-    return np.concatenate([contact.ravel(), swing_height_profile(schedule, n_knots, swing_clearance_m).ravel(),
-                           [speed_m_s, schedule.period_s]])
+    return np.concatenate(
+        [
+            contact.ravel(),
+            swing_height_profile(schedule, n_knots, swing_clearance_m).ravel(),
+            [speed_m_s, schedule.period_s],
+        ]
+    )
 
 
 def swing_height_profile(schedule: ContactSchedule, n_knots: int, clearance_m: float) -> np.ndarray:
@@ -132,7 +145,9 @@ def swing_height_profile(schedule: ContactSchedule, n_knots: int, clearance_m: f
     return np.where(stance, 0.0, clearance_m * np.sin(np.pi * progress))
 
 
-def variable_bounds(layout: Layout, model: RobotModel, options: PlannerOptions) -> tuple[np.ndarray, np.ndarray]:
+def variable_bounds(
+    layout: Layout, model: RobotModel, options: PlannerOptions
+) -> tuple[np.ndarray, np.ndarray]:
     """Box bounds: joint limits (minus a margin), tilt, unilateral normal force f_z ≥ 0."""
     n = layout.n_knots
     tilt, inf = options.max_tilt_rad, np.inf

@@ -29,7 +29,9 @@ class GaitCheck:
     envelope_excess: float  # max of |τ|/(margin τ_s) + |q̇|/ω₀ − 1 (≤ 0 inside)
 
 
-def _qpos(model: mujoco.MjModel, robot: robots.Robot, base: np.ndarray, q: np.ndarray) -> np.ndarray:
+def _qpos(
+    model: mujoco.MjModel, robot: robots.Robot, base: np.ndarray, q: np.ndarray
+) -> np.ndarray:
     qpos = np.array(model.qpos0)
     qpos[0:3] = base[:3]
     # R = Rz(yaw) Ry(pitch) Rx(roll) via MuJoCo's own quaternion algebra
@@ -49,7 +51,9 @@ def _qpos(model: mujoco.MjModel, robot: robots.Robot, base: np.ndarray, q: np.nd
     return qpos
 
 
-def check_gait(gait: robots.Gait, robot: robots.Robot, mu: float, torque_margin: float) -> GaitCheck:
+def check_gait(
+    gait: robots.Gait, robot: robots.Robot, mu: float, torque_margin: float
+) -> GaitCheck:
     assert gait.base_pose is not None and gait.contact_forces_n is not None
     assert gait.joint_torques_nm is not None
     model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
@@ -58,9 +62,13 @@ def check_gait(gait: robots.Gait, robot: robots.Robot, mu: float, torque_margin:
     n, v, period = gait.n_knots, gait.velocity.vx_m_s, gait.period_s
     h = period / n
     r = robot.foot_radius_m
-    sites = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site) for leg in robot.legs]
-    jdofs = [int(model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)])
-             for j in robot.joints]
+    sites = [
+        mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site) for leg in robot.legs
+    ]
+    jdofs = [
+        int(model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)])
+        for j in robot.joints
+    ]
     qpos = []
     feet = np.zeros((n, len(sites), 3))
     for k in range(n):
@@ -106,7 +114,9 @@ def check_gait(gait: robots.Gait, robot: robots.Robot, mu: float, torque_margin:
         tau = qfrc[jdofs]
         tau_err = max(tau_err, float(np.max(np.abs(tau - gait.joint_torques_nm[k]) / stall)))
         qd = data.qvel[jdofs]
-        env = max(env, float(np.max(np.abs(tau) / (torque_margin * stall) + np.abs(qd) / omega0 - 1.0)))
+        env = max(
+            env, float(np.max(np.abs(tau) / (torque_margin * stall) + np.abs(qd) / omega0 - 1.0))
+        )
     return GaitCheck(
         stance_height_err_m=float(stance_z.max()),
         stance_slip_m=slip,

@@ -25,11 +25,20 @@ def _random_state(m: RobotModel, rng: np.random.Generator) -> tuple[np.ndarray, 
     base = np.r_[rng.normal(size=2) * 0.2, 0.15 + 0.05 * rng.normal(), rng.uniform(-0.5, 0.5, 3)]
     q = rng.uniform(*m.joint_limits_rad())
     nv = 6 + m.n_joints
-    return base, q, rng.normal(size=nv) * 2.0, rng.normal(size=nv) * 20.0, rng.normal(size=(3, m.n_feet)) * 8.0
+    return (
+        base,
+        q,
+        rng.normal(size=nv) * 2.0,
+        rng.normal(size=nv) * 20.0,
+        rng.normal(size=(3, m.n_feet)) * 8.0,
+    )
 
 
 def _site_ids(m: RobotModel) -> list[int]:
-    return [mujoco.mj_name2id(m.mj_model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site) for leg in m.robot.legs]
+    return [
+        mujoco.mj_name2id(m.mj_model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site)
+        for leg in m.robot.legs
+    ]
 
 
 def _mj_dofs(m: RobotModel) -> np.ndarray:
@@ -54,7 +63,17 @@ def test_inverse_dynamics_matches_mj_inverse(model: RobotModel) -> None:
             expected -= jac.T @ forces[:, f]
         rot = rpy_to_matrix_np(base[3:])
         base_rows, tau = model.inverse_dynamics(
-            base[:3], base[3:], q, vel[:3], rot @ vel[3:6], vel[6:], acc[:3], rot @ acc[3:6], acc[6:], forces)
+            base[:3],
+            base[3:],
+            q,
+            vel[:3],
+            rot @ vel[3:6],
+            vel[6:],
+            acc[:3],
+            rot @ acc[3:6],
+            acc[6:],
+            forces,
+        )
         ours = np.r_[np.asarray(base_rows).ravel(), np.asarray(tau).ravel()]
         ref = expected[dofs]
         assert np.max(np.abs(ours - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref)))
@@ -77,8 +96,9 @@ def test_fk_com_and_momentum_match_mujoco(model: RobotModel) -> None:
         np.testing.assert_allclose(np.asarray(com).ravel(), data.subtree_com[root], atol=1e-12)
         rot = rpy_to_matrix_np(base[3:])
         lin, ang, _ = model.momentum(base[:3], base[3:], q, vel[:3], rot @ vel[3:6], vel[6:])
-        np.testing.assert_allclose(np.asarray(lin).ravel(), data.subtree_linvel[root] * model.total_mass_kg,
-                                   atol=1e-10)
+        np.testing.assert_allclose(
+            np.asarray(lin).ravel(), data.subtree_linvel[root] * model.total_mass_kg, atol=1e-10
+        )
         np.testing.assert_allclose(np.asarray(ang).ravel(), data.subtree_angmom[root], atol=1e-10)
 
 
@@ -95,7 +115,9 @@ def test_rpy_conventions_match_mujoco_quaternion() -> None:
         w_hat = r_dot @ rpy_to_matrix_np(rpy).T
         w = np.array([w_hat[2, 1], w_hat[0, 2], w_hat[1, 0]])
         np.testing.assert_allclose(omega_world_matrix_np(rpy) @ rate, w, atol=1e-7)
-        np.testing.assert_allclose(rpy_rates_to_body_omega_np(rpy, rate), rpy_to_matrix_np(rpy).T @ w, atol=1e-7)
+        np.testing.assert_allclose(
+            rpy_rates_to_body_omega_np(rpy, rate), rpy_to_matrix_np(rpy).T @ w, atol=1e-7
+        )
 
 
 def test_base_rates_chain_rule(model: RobotModel) -> None:
@@ -104,5 +126,8 @@ def test_base_rates_chain_rule(model: RobotModel) -> None:
     _, dw = model.base_rates(rpy, rate, acc)
     w_plus, _ = model.base_rates(rpy + h * rate + 0.5 * h * h * acc, rate + h * acc, acc)
     w_minus, _ = model.base_rates(rpy - h * rate + 0.5 * h * h * acc, rate - h * acc, acc)
-    np.testing.assert_allclose(np.asarray(dw).ravel(), (np.asarray(w_plus) - np.asarray(w_minus)).ravel() / (2 * h),
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        np.asarray(dw).ravel(),
+        (np.asarray(w_plus) - np.asarray(w_minus)).ravel() / (2 * h),
+        atol=1e-6,
+    )

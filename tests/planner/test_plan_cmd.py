@@ -23,7 +23,9 @@ def reuse_planner(monkeypatch: pytest.MonkeyPatch, quad_planner: GaitPlanner) ->
     monkeypatch.setattr(plan_cmd, "GaitPlanner", factory)
 
 
-def test_plan_writes_a_gait_file(reuse_planner: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_plan_writes_a_gait_file(
+    reuse_planner: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "trot.json"
     assert cli.main(["plan", "quad12", "--gait", "trot", "--speed", "0.25", "-o", str(out)]) == 0
     gait = robots.gait.load(out, robots.load("quad12"))
@@ -32,8 +34,9 @@ def test_plan_writes_a_gait_file(reuse_planner: None, tmp_path: Path, capsys: py
     assert "servo load" in capsys.readouterr().out
 
 
-def test_infeasible_plan_exits_2_without_a_file(reuse_planner: None, tmp_path: Path,
-                                                capsys: pytest.CaptureFixture[str]) -> None:
+def test_infeasible_plan_exits_2_without_a_file(
+    reuse_planner: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "fast.json"
     assert cli.main(["plan", "quad12", "--gait", "trot", "--speed", "2.0", "-o", str(out)]) == 2
     assert not out.exists()

@@ -26,7 +26,9 @@ def _solve_and_check(planner: GaitPlanner, gait: str, speed: float, tmp_path: Pa
     c = check_gait(loaded, planner.robot, o.mu, o.torque_margin)
     weight = planner.model.total_mass_kg * 9.81
     assert c.stance_height_err_m < 1e-4
-    assert c.stance_slip_m < 1e-4  # stance feet stay put in the ground frame (move at −v on the treadmill)
+    assert (
+        c.stance_slip_m < 1e-4
+    )  # stance feet stay put in the ground frame (move at −v on the treadmill)
     assert c.min_swing_height_m > -1e-4
     assert c.max_swing_apex_m > 0.9 * o.swing_clearance_m
     assert c.friction_excess < 1e-3 * weight

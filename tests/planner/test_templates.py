@@ -39,13 +39,26 @@ def test_quadruped_phase_relations(quad: robots.Robot) -> None:
     def ph(gait: str, role: str) -> float:
         return _phase(make_schedule(quad, gait), roles, role)
 
-    assert _diff(ph("trot", "LF"), ph("trot", "RH")) == 0 and _diff(ph("trot", "LF"), ph("trot", "RF")) == 0.5
-    assert _diff(ph("pace", "LF"), ph("pace", "LH")) == 0 and _diff(ph("pace", "LF"), ph("pace", "RF")) == 0.5
-    assert _diff(ph("bound", "LF"), ph("bound", "RF")) == 0 and _diff(ph("bound", "LF"), ph("bound", "LH")) == 0.5
+    assert (
+        _diff(ph("trot", "LF"), ph("trot", "RH")) == 0
+        and _diff(ph("trot", "LF"), ph("trot", "RF")) == 0.5
+    )
+    assert (
+        _diff(ph("pace", "LF"), ph("pace", "LH")) == 0
+        and _diff(ph("pace", "LF"), ph("pace", "RF")) == 0.5
+    )
+    assert (
+        _diff(ph("bound", "LF"), ph("bound", "RF")) == 0
+        and _diff(ph("bound", "LF"), ph("bound", "LH")) == 0.5
+    )
     assert len({ph("pronk", r) for r in roles}) == 1
     walk = [ph("walk", r) for r in ("LH", "LF", "RH", "RF")]
     assert np.allclose(np.diff(walk), 0.25)
-    assert make_schedule(quad, "walk").duty_factor[0] > 0.5 > make_schedule(quad, "gallop_rotary").duty_factor[0]
+    assert (
+        make_schedule(quad, "walk").duty_factor[0]
+        > 0.5
+        > make_schedule(quad, "gallop_rotary").duty_factor[0]
+    )
     assert 0.4 <= make_schedule(quad, "trot").period_s <= 0.6
 
 
@@ -60,15 +73,21 @@ def test_hexapod_phase_relations(hexa: robots.Robot) -> None:
     assert 0.6 <= tri.period_s <= 1.0
 
 
-def test_templates_round_trip_through_the_classifier(quad: robots.Robot, hexa: robots.Robot) -> None:
+def test_templates_round_trip_through_the_classifier(
+    quad: robots.Robot, hexa: robots.Robot
+) -> None:
     rng = np.random.default_rng(0)
     for bot in (quad, hexa):
         for gait in templates_for(bot):
             s = make_schedule(bot, gait)
             noisy = robots.ContactSchedule(
-                s.period_s * 1.1, s.feet,
-                tuple((p + 0.3 + 0.02 * rng.normal()) % 1.0 for p in s.touchdown_phase),  # shifted + noise
-                tuple(min(1.0, d + 0.02 * rng.normal()) for d in s.duty_factor))
+                s.period_s * 1.1,
+                s.feet,
+                tuple(
+                    (p + 0.3 + 0.02 * rng.normal()) % 1.0 for p in s.touchdown_phase
+                ),  # shifted + noise
+                tuple(min(1.0, d + 0.02 * rng.normal()) for d in s.duty_factor),
+            )
             assert label_gait(noisy, bot) == gait
 
 
