@@ -187,9 +187,7 @@ def simulate_command(
         f"verdict: {verdict}" + ("" if result.passed else " — " + "; ".join(result.reasons))
     )
     if not result.passed:
-        # SystemExit, not typer.Exit: gaitsmith.cli.main runs click with standalone_mode=False,
-        # where typer.Exit(1) becomes a return value that main() does not propagate.
-        raise SystemExit(1)
+        raise typer.Exit(1)
 
 
 def register(app: typer.Typer) -> None:
