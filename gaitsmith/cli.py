@@ -23,7 +23,12 @@ app = typer.Typer(
 )
 
 # subcommand modules: each defines `register(app)`
-_COMMAND_MODULES = ("gaitsmith.robots_cmd", "gaitsmith.plan_cmd", "gaitsmith.simulate_cmd")
+_COMMAND_MODULES = (
+    "gaitsmith.robots_cmd",
+    "gaitsmith.plan_cmd",
+    "gaitsmith.simulate_cmd",
+    "gaitsmith.sweep_cmd",
+)
 for _name in _COMMAND_MODULES:
     try:
         _module = importlib.import_module(_name)

@@ -1,4 +1,9 @@
-"""`gaitsmith plan ROBOT --gait trot --speed 0.25 -o trot.json`: one spacetime solve → gait file."""
+"""`gaitsmith plan ROBOT --gait trot --speed 0.25 -o trot.json`: one spacetime solve → gait file.
+
+`--search` runs basin-CMA over the contact timings (starting from the templates) and writes the
+best gait plus a search log next to it; `--simulate` validates the gait in MuJoCo and writes the
+verdict into the file's `validation` block.
+"""
 
 from __future__ import annotations
 
@@ -7,23 +12,24 @@ from pathlib import Path
 
 import numpy as np
 import typer
-from rich.console import Console
 from rich.table import Table
 
 import robots
+from gaitsmith.console import console
 from planner.config import PlannerOptions
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES, make_schedule
-
-console = Console()
 
 
 def plan(
     robot: str = typer.Argument(
         ..., help="built-in robot name or a folder with robot.xml + robot.toml"
     ),
-    gait: str = typer.Option("trot", "--gait", "-g", help=f"gait template: {', '.join(TEMPLATES)}"),
+    gait: str | None = typer.Option(
+        None, "--gait", "-g",
+        help=f"gait template: {', '.join(TEMPLATES)} (default trot; with --search: all templates)",
+    ),
     speed: float = typer.Option(0.25, "--speed", help="forward speed [m/s]"),
     output: Path = typer.Option(..., "--output", "-o", help="gait file to write (JSON)"),
     knots: int = typer.Option(30, "--knots", help="knots per cycle (N)"),
@@ -33,9 +39,32 @@ def plan(
     duty: float | None = typer.Option(None, "--duty", help="duty factor (default: template)"),
     mu: float = typer.Option(0.5, "--mu", help="friction coefficient of the contact cone"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
+    search: bool = typer.Option(
+        False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
+    ),
+    generations: int = typer.Option(6, "--generations", help="basin-CMA generations (--search)"),
+    popsize: int | None = typer.Option(None, "--popsize", help="basin-CMA λ (--search)"),
+    seed: int = typer.Option(0, "--seed", help="random seed of the search"),
+    symmetric: bool = typer.Option(
+        True, "--symmetric/--no-symmetric",
+        help="right legs half a period after the left ones (walk/trot/pace); "
+        "--no-symmetric also reaches bound/gallop",
+    ),
+    executor: str = typer.Option("serial", "--executor", help="serial | process | ray"),
+    workers: int | None = typer.Option(None, "--workers", help="parallel workers (--executor)"),
+    address: str | None = typer.Option(None, "--address", help="Ray cluster address"),
+    simulate: bool = typer.Option(
+        False, "--simulate", help="validate in MuJoCo and write the verdict into the gait file"
+    ),
+    cycles: int = typer.Option(20, "--cycles", help="cycles to simulate (--simulate)"),
 ) -> None:
     """Plan one efficient cyclic gait (W&P 2009 spacetime optimisation) and write the gait file."""
     bot = robots.load(robot)
+    if search:
+        _plan_search(bot, gait, speed, output, knots, mu, generations, popsize, seed, symmetric,
+                     executor, workers, address, simulate, cycles)
+        return
+    gait = gait or "trot"
     if period is not None and not (math.isfinite(period) and period > 0):
         raise PlannerConfigError(f"--period must be positive, got {period}")
     schedule = make_schedule(bot, gait, period_s=period, duty_factor=duty)
@@ -60,8 +89,78 @@ def plan(
             result.binding,
         )
     gait_obj = planner.to_gait(result, gait)
+    _write(gait_obj, bot, output, simulate, cycles)
+
+
+def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,
+           cycles: int) -> None:
+    if simulate:
+        from sim.validate import validate_and_annotate  # lazy: MuJoCo rollout only on request
+
+        with console.status(f"validating in MuJoCo ({cycles} cycles)…"):
+            gait_obj = validate_and_annotate(gait_obj, bot, cycles)
+        v = gait_obj.validation or {}
+        verdict = "[bold green]PASS[/]" if v.get("passed") else "[bold red]FAIL[/]"
+        console.print(f"simulation verdict: {verdict} " + "; ".join(v.get("reasons", [])))
     robots.gait.save(gait_obj, output)
     console.print(f"wrote [bold]{output}[/]")
+
+
+def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
+                 mu: float, generations: int, popsize: int | None, seed: int, symmetric: bool,
+                 executor: str, workers: int | None, address: str | None, simulate: bool,
+                 cycles: int) -> None:
+    from planner.gait_search import SearchLogRow, search_gait, write_search_log
+
+    if executor not in ("serial", "process", "ray"):
+        raise PlannerConfigError(f"--executor must be serial, process or ray, got {executor!r}")
+    if gait is not None:
+        console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")
+    console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "
+                  f"(basin-CMA, {generations} generations, executor {executor})")
+
+    def progress(row: SearchLogRow) -> None:
+        if row.generation < 0:
+            console.print("  seeding with the gait templates…")
+            return
+        console.print(
+            f"  gen {row.generation:3d}  best cost {row.best_cost:.5g}  feasible "
+            f"{row.n_feasible}  solves {row.n_local_solves:4d}  {row.elapsed_s:6.1f} s  mean: "
+            f"{row.gait_label}, period {row.period_s:.3f} s, duty "
+            + "/".join(f"{d:.2f}" for d in row.duty_factor)
+        )
+
+    result = search_gait(
+        bot, speed, n_knots=knots, options=PlannerOptions(mu=mu), symmetric=symmetric,
+        max_generations=generations, popsize=popsize, seed=seed, executor=executor,
+        workers=workers, address=address, progress=progress,
+    )
+    for name, cost in result.template_costs.items():
+        console.print(f"  template {name:18s} cost {cost:.5g}")
+    best = result.best
+    if not best.feasible:
+        raise InfeasibleGaitError(
+            f"{bot.name} at {speed} m/s: no feasible gait found; {best.message}; "
+            "no gait file written", best.binding)
+    console.print(
+        f"best gait: [bold]{result.label}[/], cost {best.cost:.5g} (best template "
+        f"{result.best_template}: {result.template_costs[result.best_template]:.5g}), period "
+        f"{best.schedule.period_s:.3f} s, cost of transport {result.cost_of_transport:.3f}, "
+        f"Froude {result.froude:.3f}, {result.cma.n_local_solves} local solves in "
+        f"{result.elapsed_s:.1f} s"
+    )
+    meta = {"search": {
+        "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
+        "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s, "seed": seed,
+        "symmetric": symmetric, "template_costs": result.template_costs,
+        "best_template": result.best_template, "cost_of_transport": result.cost_of_transport,
+        "froude": result.froude,
+    }}
+    gait_obj = result.planner.to_gait(best, result.label, extra_metadata=meta)
+    log_path = output.with_suffix(".search.csv")
+    write_search_log(result, log_path)
+    console.print(f"search log: {log_path}")
+    _write(gait_obj, bot, output, simulate, cycles)
 
 
 def _print_progress(result: PlanResult) -> None:
