@@ -33,7 +33,8 @@ def test_timing_space_round_trips_the_symmetric_templates(name: str) -> None:
         sched = make_schedule(robot, gait)
         x = space.encode(sched)
         if x is None:  # bound, gallop, pronk break left/right half-period symmetry
-            assert gait in ("bound", "gallop_rotary", "gallop_transverse", "pronk", "ripple", "wave")
+            assert gait in ("bound", "gallop_rotary", "gallop_transverse", "pronk", "ripple",
+                            "wave")
             continue
         encoded += 1
         back = space.decode(x)
