@@ -13,13 +13,13 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from hardware.errors import CalibrationError, LimitError
+from robots.gait import atomic_write_text
 
 SCHEMA = "gaitsmith.calibration/1"
 ENV_DIR = "GAITSMITH_CALIBRATION_DIR"
@@ -168,17 +168,7 @@ class Calibration:
     def save(self, path: str | Path) -> Path:
         """Write atomically (temp file + os.replace); returns the path."""
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(self.to_json())
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        atomic_write_text(path, self.to_json())
         return path
 
     @classmethod
