@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 from typing import Any
 
 import dynamixel_sdk as sdk
@@ -33,23 +32,16 @@ class DynamixelBus(SdkServoBus):
 
     protocol = "dynamixel2"
     default_baudrate = 57_600  # X-series factory setting
+    sdk = sdk
 
     def __init__(self, port: Any, config: BusConfig | None = None) -> None:
         super().__init__(port, DYNAMIXEL_X, config)
-        self._sync_writers: dict[tuple[int, int], Any] = {}
 
     def _make_packet_handler(self) -> Any:
         return sdk.PacketHandler(2.0)
 
     def _make_port_handler(self, path: str) -> Any:
         return DynamixelPortHandler(path)
-
-    def _result_codes(self) -> dict[str, int]:
-        return {
-            "success": sdk.COMM_SUCCESS,
-            "timeout": sdk.COMM_RX_TIMEOUT,
-            "corrupt": sdk.COMM_RX_CORRUPT,
-        }
 
     def _ping_once(self, servo_id: int) -> ServoInfo:
         port = self._require_open()
@@ -63,43 +55,8 @@ class DynamixelBus(SdkServoBus):
         model = rx[p + 1] | (rx[p + 2] << 8)
         return ServoInfo(servo_id, model, str(rx[p + 3]))
 
-    def _read_once(self, servo_id: int, addr: int, length: int) -> tuple[bytes, int]:
-        port = self._require_open()
-        data, result, error = self.ph.readTxRx(port, servo_id, addr, length)
-        self._raise_for(result, servo_id, f"read {addr}+{length}")
-        return bytes(data), error
-
-    def _write_once(self, servo_id: int, addr: int, data: bytes) -> int:
-        port = self._require_open()
-        result, error = self.ph.writeTxRx(port, servo_id, addr, len(data), list(data))
-        self._raise_for(result, servo_id, f"write {addr}+{len(data)}")
-        return int(error)
-
-    def _sync_write_once(self, addr: int, length: int, data: Mapping[int, bytes]) -> None:
-        port = self._require_open()
-        group = self._sync_writers.get((addr, length))
-        if group is None or group.port is not port:
-            group = sdk.GroupSyncWrite(port, self.ph, addr, length)
-            self._sync_writers[(addr, length)] = group
-        group.clearParam()
-        for servo_id, raw in data.items():
-            group.addParam(servo_id, list(raw))
-        self._raise_for(group.txPacket(), None, f"sync write {addr}+{length}")
-
-    def _sync_read_once(
-        self, addr: int, length: int, ids: Sequence[int]
-    ) -> dict[int, tuple[bytes, int]]:
-        # The SDK's GroupSyncRead drops each reply's error byte; its packet handler keeps it.
-        port = self._require_open()
-        ids = list(ids)
-        result = self.ph.syncReadTx(port, addr, length, ids, len(ids), False)
-        self._raise_for(result, None, f"sync read {addr}+{length}")
-        out: dict[int, tuple[bytes, int]] = {}
-        for servo_id in ids:
-            data, result, error = self.ph.readRx(port, servo_id, length)
-            self._raise_for(result, servo_id, f"sync read {addr}+{length}")
-            out[servo_id] = (bytes(data), int(error))
-        return out
+    def _sync_read_tx(self, port: Any, addr: int, length: int, ids: list[int]) -> int:
+        return int(self.ph.syncReadTx(port, addr, length, ids, len(ids), False))
 
     def _fault_flags(self, servo_id: int, error: int) -> tuple[str, ...]:
         flags: list[str] = []

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 from typing import Any
 
 import scservo_sdk as sdk
@@ -28,6 +27,7 @@ class FeetechBus(SdkServoBus):
 
     protocol = "feetech_sts"
     default_baudrate = 1_000_000  # STS factory setting
+    sdk = sdk
 
     def __init__(self, port: Any, config: BusConfig | None = None) -> None:
         super().__init__(port, FEETECH_STS, config)
@@ -38,14 +38,7 @@ class FeetechBus(SdkServoBus):
     def _make_port_handler(self, path: str) -> Any:
         return FeetechPortHandler(path)
 
-    def _result_codes(self) -> dict[str, int]:
-        return {
-            "success": sdk.COMM_SUCCESS,
-            "timeout": sdk.COMM_RX_TIMEOUT,
-            "corrupt": sdk.COMM_RX_CORRUPT,
-        }
-
-    def _fresh_port(self) -> Any:
+    def _transaction_port(self) -> Any:
         port = self._require_open()
         ser = getattr(port, "ser", None)
         if ser is not None:
@@ -55,7 +48,7 @@ class FeetechBus(SdkServoBus):
         return port
 
     def _ping_once(self, servo_id: int) -> ServoInfo:
-        port = self._fresh_port()
+        port = self._transaction_port()
         model, result, _ = self.ph.ping(port, servo_id)  # ping + read of Model Number (addr 3)
         self._raise_for(result, servo_id, "ping")
         major = self.table["firmware_major"]
@@ -63,39 +56,8 @@ class FeetechBus(SdkServoBus):
         self._raise_for(result, servo_id, "read firmware")
         return ServoInfo(servo_id, int(model), f"{fw[0]}.{fw[1]}")
 
-    def _read_once(self, servo_id: int, addr: int, length: int) -> tuple[bytes, int]:
-        port = self._fresh_port()
-        data, result, error = self.ph.readTxRx(port, servo_id, addr, length)
-        self._raise_for(result, servo_id, f"read {addr}+{length}")
-        return bytes(data), int(error)
-
-    def _write_once(self, servo_id: int, addr: int, data: bytes) -> int:
-        port = self._fresh_port()
-        result, error = self.ph.writeTxRx(port, servo_id, addr, len(data), list(data))
-        self._raise_for(result, servo_id, f"write {addr}+{len(data)}")
-        return int(error)
-
-    def _sync_write_once(self, addr: int, length: int, data: Mapping[int, bytes]) -> None:
-        port = self._fresh_port()
-        group = sdk.GroupSyncWrite(port, self.ph, addr, length)
-        for servo_id, raw in data.items():
-            group.addParam(servo_id, list(raw))
-        self._raise_for(group.txPacket(), None, f"sync write {addr}+{length}")
-
-    def _sync_read_once(
-        self, addr: int, length: int, ids: Sequence[int]
-    ) -> dict[int, tuple[bytes, int]]:
-        # GroupSyncRead drops each reply's status byte; the packet handler keeps it.
-        port = self._fresh_port()
-        ids = list(ids)
-        result = self.ph.syncReadTx(port, addr, length, ids, len(ids))
-        self._raise_for(result, None, f"sync read {addr}+{length}")
-        out: dict[int, tuple[bytes, int]] = {}
-        for servo_id in ids:
-            data, result, error = self.ph.readRx(port, servo_id, length)
-            self._raise_for(result, servo_id, f"sync read {addr}+{length}")
-            out[servo_id] = (bytes(data), int(error))
-        return out
+    def _sync_read_tx(self, port: Any, addr: int, length: int, ids: list[int]) -> int:
+        return int(self.ph.syncReadTx(port, addr, length, ids, len(ids)))
 
     def _fault_flags(self, servo_id: int, error: int) -> tuple[str, ...]:
         return decode_flags(error, self.table.status_error_bits)

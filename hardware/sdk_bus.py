@@ -7,7 +7,7 @@ to make the reply allowance configurable) or an already-built port object with t
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import serial
@@ -38,6 +38,7 @@ class SdkServoBus(ServoBus):
     """Port lifecycle and error mapping common to DynamixelBus and FeetechBus."""
 
     default_baudrate = 1_000_000
+    sdk: Any  # the vendor SDK module (dynamixel_sdk or scservo_sdk): same group/result API
 
     def __init__(self, port: Any, table: ControlTable, config: BusConfig | None) -> None:
         super().__init__(table, config)
@@ -45,7 +46,12 @@ class SdkServoBus(ServoBus):
         self.port: Any = None
         self._open = False
         self.ph: Any = self._make_packet_handler()
-        self._codes = self._result_codes()
+        self._codes = {
+            "success": self.sdk.COMM_SUCCESS,
+            "timeout": self.sdk.COMM_RX_TIMEOUT,
+            "corrupt": self.sdk.COMM_RX_CORRUPT,
+        }
+        self._sync_writers: dict[tuple[int, int], Any] = {}
 
     # -- to provide ------------------------------------------------------------------------------
     def _make_packet_handler(self) -> Any:
@@ -54,9 +60,53 @@ class SdkServoBus(ServoBus):
     def _make_port_handler(self, path: str) -> Any:
         raise NotImplementedError
 
-    def _result_codes(self) -> dict[str, int]:
-        """SDK constants: success, timeout, corrupt (+ anything else maps to BusError)."""
+    def _sync_read_tx(self, port: Any, addr: int, length: int, ids: list[int]) -> int:
+        """Send the SDK's sync-read instruction (signatures differ per vendor)."""
         raise NotImplementedError
+
+    def _transaction_port(self) -> Any:
+        """The open port, ready for a request/reply transaction."""
+        return self._require_open()
+
+    # -- primitives shared by both SDKs ------------------------------------------------------------
+    def _read_once(self, servo_id: int, addr: int, length: int) -> tuple[bytes, int]:
+        port = self._transaction_port()
+        data, result, error = self.ph.readTxRx(port, servo_id, addr, length)
+        self._raise_for(result, servo_id, f"read {addr}+{length}")
+        return bytes(data), int(error)
+
+    def _write_once(self, servo_id: int, addr: int, data: bytes) -> int:
+        port = self._transaction_port()
+        result, error = self.ph.writeTxRx(port, servo_id, addr, len(data), list(data))
+        self._raise_for(result, servo_id, f"write {addr}+{len(data)}")
+        return int(error)
+
+    def _sync_write_once(self, addr: int, length: int, data: Mapping[int, bytes]) -> None:
+        port = self._transaction_port()
+        group = self._sync_writers.get((addr, length))
+        if group is None or group.port is not port:
+            group = self.sdk.GroupSyncWrite(port, self.ph, addr, length)
+            self._sync_writers[(addr, length)] = group
+        group.clearParam()
+        for servo_id, raw in data.items():
+            group.addParam(servo_id, list(raw))
+        self._raise_for(group.txPacket(), None, f"sync write {addr}+{length}")
+
+    def _sync_read_once(
+        self, addr: int, length: int, ids: Sequence[int]
+    ) -> dict[int, tuple[bytes, int]]:
+        # The SDKs' GroupSyncRead drops each reply's error/status byte; the packet handler
+        # keeps it, so the drivers send the instruction and receive each reply themselves.
+        port = self._transaction_port()
+        ids = list(ids)
+        self._raise_for(self._sync_read_tx(port, addr, length, ids), None,
+                        f"sync read {addr}+{length}")
+        out: dict[int, tuple[bytes, int]] = {}
+        for servo_id in ids:
+            data, result, error = self.ph.readRx(port, servo_id, length)
+            self._raise_for(result, servo_id, f"sync read {addr}+{length}")
+            out[servo_id] = (bytes(data), int(error))
+        return out
 
     # -- lifecycle -------------------------------------------------------------------------------
     @property
