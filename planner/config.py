@@ -72,6 +72,17 @@ class PlannerOptions:
       the optimiser cannot save torque by crouching the body onto the ground.
     - `joint_limit_margin_rad`: keep off the hard stops by this much.
     - `max_force_body_weights`: normal force bound in stance, in units of m·g.
+    - `servo_goals`: write servo *goal* positions to the gait file instead of the planned angles:
+      goal = q + (τ + d·q̇)/kp inverts the servo's proportional position loop (`planner.servo_loop`)
+      so the soft factory loop (STS3215: kp ≈ 10 N·m/rad) achieves the planned motion instead of
+      sagging and lagging behind it. Goals are kept inside the joint limits (same margin) and
+      below the player's step limit `speed_margin`·ω₀. False: the angles themselves (ideal servo).
+    - `vertical_contact_transitions`: a foot keeps its ground-frame x, y from the last swing knot
+      before touchdown to the first swing knot after lift-off, i.e. it sets down and lifts off
+      vertically over one knot interval T/N. Without it the optimiser lands the hind feet still
+      moving forward (≈ 0.3 m/s) and lifts the front feet while they already swing forward
+      (≈ 0.36 m/s) — in one knot interval nothing in the NLP sees the foot in between, but MuJoCo
+      does: impacts and scuffing that pitch the body nose-up and make the hind feet drag.
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     """
 
@@ -84,6 +95,8 @@ class PlannerOptions:
     min_base_height_fraction: float = 0.8
     joint_limit_margin_rad: float = 0.02
     max_force_body_weights: float = 3.0
+    servo_goals: bool = True
+    vertical_contact_transitions: bool = True
     weights: CostWeights = field(default_factory=CostWeights)
     tol: float = 1e-6
     max_iter: int = 150

@@ -102,6 +102,10 @@ def build_groups(
     feet_y = kq.feet_m[1::3, :]
     feet_z = kq.feet_m[2::3, :]
     stick = c * _shift(c, 1)  # foot in stance at k and k+1
+    if options.vertical_contact_transitions:
+        # stance at k or k+1 (C is 0/1): the foot is also still over the interval that ends at
+        # touchdown and the one that starts at lift-off, so it sets down / lifts off vertically
+        stick = c + _shift(c, 1) - stick
     step = sym.speed_m_s * sym.period_s / n
     fx, fy, fz = sym.forces[0::3, :], sym.forces[1::3, :], sym.forces[2::3, :]
     mu = options.mu / math.sqrt(2.0)  # inscribed pyramid of the cone (eq 9)
@@ -143,7 +147,9 @@ def build_groups(
         ),
         # eq 2: stance foot-sphere centre at the sphere radius
         Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n)),
-        # eq 3: stance feet move with the treadmill (−v along x) and do not slide sideways
+        # eq 3: stance feet move with the treadmill (−v along x) and do not slide sideways (with
+        # `vertical_contact_transitions` also over the last swing interval before touchdown and
+        # the first one after lift-off)
         Group(
             "stance no-slip",
             ca.vertcat(
@@ -167,6 +173,7 @@ def build_groups(
             zeros(model.n_bodies * n),
             np.full(model.n_bodies * n, inf),
         ),
+        *_servo_goal_groups(model, sym, kq, n, options, inv_h),
         # eq 9: friction pyramid inscribed in the cone µ
         Group(
             "friction",
@@ -208,6 +215,46 @@ def build_groups(
     return groups
 
 
+def _servo_goal_groups(
+    model: RobotModel,
+    sym: Symbols,
+    kq: KnotQuantities,
+    n: int,
+    options: PlannerOptions,
+    inv_h: Any,
+) -> list[Group]:
+    """Servo goals (`planner.servo_loop`) inside the joint limits and the player's step limit.
+
+    goal = q + (τ + d·q̇)/kp is linear in the lifted variables, so both groups are linear rows.
+    The player clips goals to the joint limits and their change to `speed_margin`·ω₀ per tick; a
+    goal the player clips is a torque the servo does not produce, so the plan must not need it.
+    """
+    if not options.servo_goals:
+        return []
+    from planner.servo_loop import factory_servo_loops, loop_arrays
+
+    kp, damping = loop_arrays(factory_servo_loops(model.robot))
+    nj = model.n_joints
+    goal = (
+        sym.q
+        + kq.tau_nm / ca.repmat(ca.DM(kp), 1, n)
+        + kq.qd * ca.repmat(ca.DM(damping / kp), 1, n)
+    )
+    lo, hi = model.joint_limits_rad()
+    margin = np.minimum(options.joint_limit_margin_rad, 0.25 * (hi - lo))
+    omega0 = ca.DM([j.servo.no_load_speed_rad_s for j in model.robot.joints])
+    rate = (_shift(goal, 1) - goal) * inv_h / ca.repmat(omega0, 1, n)
+    return [
+        Group("servo goal limits", ca.vec(goal), np.tile(lo + margin, n), np.tile(hi - margin, n)),
+        Group(
+            "servo goal speed",
+            ca.vec(rate),
+            np.full(nj * n, -options.speed_margin),
+            np.full(nj * n, options.speed_margin),
+        ),
+    ]
+
+
 def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
     """Human-readable row labels for the groups that need them in reports."""
     joints = model.robot.joint_names
@@ -229,6 +276,8 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         "swing force": per_foot,
         "friction": per_foot * 4,
         "joint speed": per_joint,
+        "servo goal limits": per_joint,
+        "servo goal speed": per_joint,
         "torque envelope": per_joint * 4,
         "body clearance": [
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)

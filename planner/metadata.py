@@ -37,6 +37,30 @@ def servo_load(planner: GaitPlanner, result: PlanResult) -> dict[str, dict[str, 
     return out
 
 
+def joint_angle_semantics(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]:
+    """What the gait file's joint samples mean, and what the consumer needs to check them.
+
+    ``joint_angles``: ``"servo_goal"`` — goals for the servos' position loops, which then achieve
+    ``achieved_joint_angles_rad`` (N × J, the planned motion that `base_pose`, the contact forces
+    and the joint torques belong to) through τ = kp·(goal − q) − damping·q̇ (`servo_loop`, per
+    joint in ``servo_loop``); ``"achieved"`` — the planned angles themselves (ideal servos).
+    """
+    if not planner.options.servo_goals:
+        return {"joint_angles": "achieved"}
+    from planner.servo_loop import factory_servo_loops
+
+    loops = factory_servo_loops(planner.robot)
+    return {
+        "joint_angles": "servo_goal",
+        "servo_loop": {
+            "law": "goal = q + (tau + damping*qd)/kp (servo: tau = kp*(goal - q) - damping*qd)",
+            "kp_nm_per_rad": [s.kp_nm_per_rad for s in loops],
+            "damping_nm_s_per_rad": [s.damping_nm_s_per_rad for s in loops],
+        },
+        "achieved_joint_angles_rad": np.asarray(result.joint_angles_rad).tolist(),
+    }
+
+
 def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]:
     o = planner.options
     weights = o.weights.as_dict()
@@ -62,5 +86,6 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
         },
         "active_limits": [[name, float(v)] for name, v in result.binding],
         "servo_load": servo_load(planner, result),
+        **joint_angle_semantics(planner, result),
         "versions": package_versions(),
     }

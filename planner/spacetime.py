@@ -267,16 +267,31 @@ class GaitPlanner:
     def to_gait(
         self, result: PlanResult, label: str, extra_metadata: dict[str, Any] | None = None
     ) -> Gait:
-        """The gait file object for a feasible result; raises InfeasibleGaitError otherwise."""
+        """The gait file object for a feasible result; raises InfeasibleGaitError otherwise.
+
+        With `PlannerOptions.servo_goals` (default) the joint samples are the servo goals that
+        achieve the planned motion; the planned (achieved) angles are in
+        ``planner["achieved_joint_angles_rad"]`` and ``planner["joint_angles"]`` says which.
+        """
         if not result.feasible:
             raise InfeasibleGaitError(result.message, result.binding)
         from planner.metadata import planner_metadata
 
         meta = planner_metadata(self, result)
         meta.update(extra_metadata or {})
+        knots = result.joint_angles_rad
+        if self.options.servo_goals:  # the file streams servo goals (see planner.servo_loop)
+            from planner.servo_loop import factory_servo_loops, servo_goals_rad
+
+            knots = servo_goals_rad(
+                knots,
+                result.joint_speeds_rad_s,
+                result.joint_torques_nm,
+                factory_servo_loops(self.robot),
+            )
         return Gait.create(
             robot=self.robot,
-            knots_rad=result.joint_angles_rad,
+            knots_rad=knots,
             schedule=result.schedule,
             velocity=Velocity(vx_m_s=result.speed_m_s),
             gait_label=label,
