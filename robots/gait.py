@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -31,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from robots.errors import GaitFileError
+from robots.files import atomic_write_text
 from robots.schedule import ContactSchedule, ScheduleError
 from robots.spline import PeriodicSpline
 
@@ -361,22 +360,6 @@ def dumps(gait: Gait) -> str:
         raise GaitFileError(
             "<gait>", "planner/validation", f"not JSON-serialisable: {exc}"
         ) from None
-
-
-def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write `text` to `path` via a temp file + os.replace: never a half-written file."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def save(gait: Gait, path: str | Path) -> None:

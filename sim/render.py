@@ -8,7 +8,6 @@ switches MuJoCo's renderer to EGL (then OSMesa) itself. Files are written atomic
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -17,6 +16,7 @@ import imageio.v2 as imageio
 import mujoco
 import numpy as np
 
+from robots.files import atomic_path
 from sim.errors import RenderError
 from sim.model import SimModel
 from sim.rollout import Trajectory
@@ -116,41 +116,34 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float = 30.
     suffix = p.suffix.lower()
     if suffix not in VIDEO_SUFFIXES:
         raise RenderError(f"{p}: video must end in {' or '.join(VIDEO_SUFFIXES)}")
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.stem}.", suffix=suffix, dir=p.parent)
-    os.close(fd)
     try:
-        kwargs: dict[str, Any]
-        if suffix == ".gif":
-            frames = list(frames)
-            kwargs = {"duration": 1.0 / fps, "loop": 0}
-            if not frames:
-                raise RenderError(f"{p}: no frames to write")
-            imageio.mimsave(tmp, frames, format="GIF", **kwargs)  # type: ignore[arg-type]
-        else:
-            count = 0
-            with imageio.get_writer(
-                tmp,
-                format="FFMPEG",
-                fps=fps,
-                codec="libx264",  # type: ignore[arg-type]
-                quality=7,
-                macro_block_size=1,
-                pixelformat="yuv420p",
-                ffmpeg_params=["-preset", "veryfast"],
-            ) as writer:
-                for f in frames:
-                    writer.append_data(f)  # type: ignore[attr-defined]
-                    count += 1
-            if not count:
-                raise RenderError(f"{p}: no frames to write")
-        os.replace(tmp, p)
+        with atomic_path(p) as tmp:
+            if suffix == ".gif":
+                frames = list(frames)
+                if not frames:
+                    raise RenderError(f"{p}: no frames to write")
+                imageio.mimsave(tmp, frames, format="GIF", duration=1.0 / fps, loop=0)  # type: ignore[arg-type]
+            else:
+                count = 0
+                with imageio.get_writer(
+                    tmp,
+                    format="FFMPEG",
+                    fps=fps,
+                    codec="libx264",  # type: ignore[arg-type]
+                    quality=7,
+                    macro_block_size=1,
+                    pixelformat="yuv420p",
+                    ffmpeg_params=["-preset", "veryfast"],
+                ) as writer:
+                    for f in frames:
+                        writer.append_data(f)  # type: ignore[attr-defined]
+                        count += 1
+                if not count:
+                    raise RenderError(f"{p}: no frames to write")
     except RenderError:
         raise
     except Exception as exc:
         raise RenderError(f"{p}: cannot write video: {exc}") from None
-    finally:
-        Path(tmp).unlink(missing_ok=True)
     return p
 
 

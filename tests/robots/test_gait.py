@@ -137,3 +137,17 @@ def test_unreadable_and_non_json_files(tmp_path: Path) -> None:
     with pytest.raises(GaitFileError, match="not valid JSON"):
         gaitfile.load(tmp_path / "x.json")
     assert math.isfinite(1.0)
+
+
+def test_saved_files_get_normal_permissions_not_mkstemp_private(
+    tmp_path: Path, quad: robots.Robot
+) -> None:
+    import os
+    import stat
+
+    old = os.umask(0o022)
+    try:
+        gaitfile.save(make_gait(quad), tmp_path / "g.json")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "g.json").stat().st_mode) == 0o644
