@@ -23,6 +23,9 @@ from planner.config import PlannerOptions
 from planner.model import RobotModel
 from planner.variables import Symbols
 
+GOAL_SPEED_SAMPLES_PER_KNOT = 8  # as the player's pre-flight (hardware.preflight)
+GOAL_SPEED_INSIDE = 0.98  # the slope is quadratic between samples: measured overshoot ≈ 0.6 %
+
 
 @dataclass(frozen=True)
 class Group:
@@ -223,11 +226,13 @@ def _servo_goal_groups(
     options: PlannerOptions,
     inv_h: Any,
 ) -> list[Group]:
-    """Servo goals (`planner.servo_loop`) inside the joint limits and the player's step limit.
+    """Servo goals (`planner.servo_loop`) inside the joint limits and the player's speed limit.
 
-    goal = q + (τ + d·q̇)/kp is linear in the lifted variables, so both groups are linear rows.
-    The player clips goals to the joint limits and their change to `speed_margin`·ω₀ per tick; a
-    goal the player clips is a torque the servo does not produce, so the plan must not need it.
+    goal = q + (τ + d·q̇)/kp is linear in the lifted variables, and so are the spline's knot
+    slopes (lifted too, see `planner.variables`) and its slope between knots: all rows are linear
+    and sparse. The player clips goals to the joint limits and their change to `speed_margin`·ω₀
+    per tick (and its pre-flight refuses a faster gait); a goal the player clips is a torque the
+    servo does not produce, so the plan must not need it.
     """
     if not options.servo_goals:
         return []
@@ -243,14 +248,36 @@ def _servo_goal_groups(
     lo, hi = model.joint_limits_rad()
     margin = np.minimum(options.joint_limit_margin_rad, 0.25 * (hi - lo))
     omega0 = ca.DM([j.servo.no_load_speed_rad_s for j in model.robot.joints])
-    rate = (_shift(goal, 1) - goal) * inv_h / ca.repmat(omega0, 1, n)
+    # the player streams the periodic cubic spline through the goals (`Gait.joint_targets`) and its
+    # pre-flight rejects a gait whose spline is faster than margin·ω₀ anywhere. Knot slopes s_k of
+    # the C² periodic spline [rad/s]: s_{k−1} + 4 s_k + s_{k+1} = 3 (g_{k+1} − g_{k−1}) N/T; on
+    # the interval k…k+1 at u ∈ [0, 1) the Hermite form gives the slope
+    # 6(u − u²)(g_{k+1} − g_k) N/T + (1 − 4u + 3u²) s_k + (3u² − 2u) s_{k+1}, sampled like the
+    # pre-flight (GOAL_SPEED_SAMPLES_PER_KNOT per interval).
+    slope = sym.goal_slope
+    tridiagonal = _shift(slope, -1) + 4 * slope + _shift(slope, 1)
+    spline = tridiagonal - 3 * (_shift(goal, 1) - _shift(goal, -1)) * inv_h
+    chord = (_shift(goal, 1) - goal) * inv_h
+    samples = []
+    for u in np.arange(GOAL_SPEED_SAMPLES_PER_KNOT) / GOAL_SPEED_SAMPLES_PER_KNOT:
+        d = 6 * (u - u * u) * chord + (1 - 4 * u + 3 * u * u) * slope
+        samples.append(d + (3 * u * u - 2 * u) * _shift(slope, 1))
+    # rows ordered (sample, knot, joint); labels in group_labels follow the same order
+    rate = ca.vertcat(*[ca.vec(d / ca.repmat(omega0, 1, n)) for d in samples])
+    rows = nj * n * GOAL_SPEED_SAMPLES_PER_KNOT
     return [
         Group("servo goal limits", ca.vec(goal), np.tile(lo + margin, n), np.tile(hi - margin, n)),
         Group(
+            "servo goal spline",
+            ca.vec(spline / ca.repmat(omega0, 1, n)),
+            np.zeros(nj * n),
+            np.zeros(nj * n),
+        ),
+        Group(
             "servo goal speed",
             ca.vec(rate),
-            np.full(nj * n, -options.speed_margin),
-            np.full(nj * n, options.speed_margin),
+            np.full(rows, -GOAL_SPEED_INSIDE * options.speed_margin),
+            np.full(rows, GOAL_SPEED_INSIDE * options.speed_margin),
         ),
     ]
 
@@ -277,7 +304,13 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         "friction": per_foot * 4,
         "joint speed": per_joint,
         "servo goal limits": per_joint,
-        "servo goal speed": per_joint,
+        "servo goal spline": per_joint,
+        "servo goal speed": [
+            f"{j}@knot {k + i / GOAL_SPEED_SAMPLES_PER_KNOT:g}"
+            for i in range(GOAL_SPEED_SAMPLES_PER_KNOT)
+            for k in range(n_knots)
+            for j in joints
+        ],
         "torque envelope": per_joint * 4,
         "body clearance": [
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)

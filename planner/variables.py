@@ -12,7 +12,11 @@ Per knot k = 0…N−1 (phase k/N of one period, treadmill frame):
   depend on one knot only, so the Hessian of the Lagrangian is block-diagonal: cheaper to
   evaluate and to factorise than the banded Hessian of the direct substitution;
 - lifted joint torques ``τ_k`` [N·m], tied to the inverse dynamics by an equality group, so the
-  servo-envelope rows are linear (2 non-zeros each instead of a dense RNEA row).
+  servo-envelope rows are linear (2 non-zeros each instead of a dense RNEA row);
+- lifted servo-goal spline slopes ``s_k`` [rad/s]: the knot slopes of the periodic cubic spline
+  the player streams through the servo goals (`planner.servo_loop`), tied to the goals by the
+  spline's cyclic tridiagonal equations; its speed anywhere in an interval is then a sparse row
+  (two goals, two slopes) instead of a dense one. Fixed at 0 when `servo_goals` is off.
 
 Parameters (change between solves without rebuilding): contact activity C (F×N, 0/1), swing
 minimum foot height H (F×N) [m], speed v [m/s], period T [s].
@@ -35,7 +39,7 @@ from robots import ContactSchedule
 class Layout:
     """Sizes and packing order of the decision vector.
 
-    Order: [vec(B), vec(Q), vec(F), vec(V), vec(A), vec(τ)], each knot-major.
+    Order: [vec(B), vec(Q), vec(F), vec(V), vec(A), vec(τ), vec(S)], each knot-major.
     """
 
     n_knots: int
@@ -60,7 +64,7 @@ class Layout:
 
     @property
     def size(self) -> int:
-        return self.n_base + self.n_q + self.n_f + 2 * self.n_rates + self.n_q
+        return self.n_base + self.n_q + self.n_f + 2 * self.n_rates + 2 * self.n_q
 
     def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(base N×6, joints N×J, forces N×F×3 in units of m·g) from the flat vector."""
@@ -74,10 +78,10 @@ class Layout:
     def pack(
         self, base: np.ndarray, q: np.ndarray, f: np.ndarray, lifted: np.ndarray | None = None
     ) -> np.ndarray:
-        """Flat vector; `lifted` = velocities, accelerations ((6+J)·N each) and torques (J·N),
-        zeros by default (consistent with a constant pose at rest)."""
+        """Flat vector; `lifted` = velocities, accelerations ((6+J)·N each), torques and goal
+        slopes (J·N each), zeros by default (consistent with a constant pose at rest)."""
         if lifted is None:
-            lifted = np.zeros(2 * self.n_rates + self.n_q)
+            lifted = np.zeros(2 * self.n_rates + 2 * self.n_q)
         return np.concatenate([np.ravel(base), np.ravel(q), np.ravel(f), np.ravel(lifted)])
 
 
@@ -92,6 +96,7 @@ class Symbols:
     vel: Any  # (6+J) × N: base pose rates then joint speeds
     acc: Any  # (6+J) × N
     tau: Any  # J × N joint torques [N·m]
+    goal_slope: Any  # J × N servo-goal spline slopes at the knots [rad/s]
     p: Any  # flat parameter vector
     contact: Any  # F × N
     min_height_m: Any  # F × N
@@ -110,12 +115,26 @@ def make_symbols(layout: Layout) -> Symbols:
     start += layout.n_f
     vel = ca.reshape(x[start : start + layout.n_rates], 6 + nj, n)
     acc = ca.reshape(x[start + layout.n_rates : start + 2 * layout.n_rates], 6 + nj, n)
-    tau = ca.reshape(x[start + 2 * layout.n_rates :], nj, n)
+    start += 2 * layout.n_rates
+    tau = ca.reshape(x[start : start + layout.n_q], nj, n)
+    goal_slope = ca.reshape(x[start + layout.n_q :], nj, n)
     p = ca.MX.sym("p", 2 * nf * n + 2)
     contact = ca.reshape(p[: nf * n], nf, n)
     min_height = ca.reshape(p[nf * n : 2 * nf * n], nf, n)
     return Symbols(
-        x, base, q, forces, vel, acc, tau, p, contact, min_height, p[2 * nf * n], p[2 * nf * n + 1]
+        x,
+        base,
+        q,
+        forces,
+        vel,
+        acc,
+        tau,
+        goal_slope,
+        p,
+        contact,
+        min_height,
+        p[2 * nf * n],
+        p[2 * nf * n + 1],
     )
 
 
@@ -160,7 +179,9 @@ def variable_bounds(
     f_lo = np.full((n, layout.n_feet, 3), -inf)
     f_lo[:, :, 2] = 0.0
     f_hi = np.full((n, layout.n_feet, 3), inf)
-    free = np.full(2 * layout.n_rates + layout.n_q, inf)
+    free = np.full(2 * layout.n_rates + 2 * layout.n_q, inf)
+    if not options.servo_goals:
+        free[2 * layout.n_rates + layout.n_q :] = 0.0  # no goals: slopes fixed (IPOPT drops them)
     return layout.pack(base_lo, q_lo, f_lo, -free), layout.pack(base_hi, q_hi, f_hi, free)
 
 

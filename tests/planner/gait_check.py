@@ -3,6 +3,12 @@
 Kinematics from `mj_kinematics` at the file's base pose + joint angles (base x shifted by v·t back
 to the ground frame); velocities/accelerations by cyclic finite differences of MuJoCo's qpos with
 `mj_differentiatePos`; torques by `mj_inverse` minus Jᵀf (`mj_jacSite`) with the file's forces.
+
+Servo goals: when the file says ``planner["joint_angles"] == "servo_goal"`` its joint samples are
+goals for the servos' position loops and the motion is ``planner["achieved_joint_angles_rad"]``.
+Kinematics and dynamics are checked on the achieved motion, and the goals independently: the
+simulator's servo law (`sim.servo.ServoParams.torque_nm`, factory gains) driven by the file's goal
+at the achieved angle and MuJoCo's finite-difference speed must produce the `mj_inverse` torque.
 """
 
 from __future__ import annotations
@@ -13,12 +19,14 @@ import mujoco
 import numpy as np
 
 import robots
+from sim.servo import servo_params
 
 
 @dataclass(frozen=True)
 class GaitCheck:
     stance_height_err_m: float  # max |z − r| of stance feet
     stance_slip_m: float  # max ground-frame displacement of a stance foot between stance knots
+    transition_slip_m: float  # same over the interval into touchdown / out of lift-off
     min_swing_height_m: float  # min z − r of swing feet
     max_swing_apex_m: float  # smallest per-foot swing apex (z − r)
     friction_excess: float  # max of |f_t| − µ f_z over stance (≤ 0 inside the cone)
@@ -27,6 +35,8 @@ class GaitCheck:
     base_residual_n: float  # max |base rows| of mj_inverse − Jᵀf (whole-body balance)
     torque_err_over_stall: float  # max |τ_mj − τ_file| / stall
     envelope_excess: float  # max of |τ|/(margin τ_s) + |q̇|/ω₀ − 1 (≤ 0 inside)
+    servo_torque_err_over_stall: float  # max |τ_servo(goal, q, q̇) − τ_mj| / stall (0: no goals)
+    servo_drive_over_stall: float  # max |clipped drive| / (s·τ_stall): 1 means saturated
 
 
 def _qpos(
@@ -69,12 +79,19 @@ def check_gait(
         int(model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)])
         for j in robot.joints
     ]
+    goals = gait.planner.get("joint_angles") == "servo_goal"
+    angles = (
+        np.asarray(gait.planner["achieved_joint_angles_rad"], dtype=float)
+        if goals
+        else gait.knots_rad
+    )
+    assert angles.shape == gait.knots_rad.shape
     qpos = []
     feet = np.zeros((n, len(sites), 3))
     for k in range(n):
         base = gait.base_pose[k].copy()
         base[0] += v * k * h  # ground frame: the base advances, feet stay put
-        qpos.append(_qpos(model, robot, base, gait.knots_rad[k]))
+        qpos.append(_qpos(model, robot, base, angles[k]))
         data.qpos[:] = qpos[-1]
         mujoco.mj_kinematics(model, data)
         feet[k] = data.site_xpos[sites]
@@ -87,12 +104,16 @@ def check_gait(
         mujoco.mj_differentiatePos(model, vel_half[k], h, qpos_ext[k], qpos_ext[k + 1])
     contact = gait.schedule.contact_matrix(n)
     stance_z = np.abs(feet[..., 2] - r)[contact]
-    slip = 0.0
+    slip, transition_slip = 0.0, 0.0
     for k in range(n):
         both = contact[k] & contact[(k + 1) % n]
+        switch = contact[k] ^ contact[(k + 1) % n]
         nxt = feet[(k + 1) % n] + (np.array([v * period, 0, 0]) if k == n - 1 else 0.0)
+        moved = np.linalg.norm((nxt - feet[k])[:, :2], axis=1)
         if both.any():
-            slip = max(slip, float(np.max(np.linalg.norm((nxt - feet[k])[both, :2], axis=1))))
+            slip = max(slip, float(np.max(moved[both])))
+        if switch.any():
+            transition_slip = max(transition_slip, float(np.max(moved[switch])))
     swing_h = (feet[..., 2] - r)[~contact]
     apex = min(float(np.max((feet[:, f, 2] - r)[~contact[:, f]])) for f in range(len(sites)))
     forces = gait.contact_forces_n
@@ -100,6 +121,8 @@ def check_gait(
     stall = np.array([j.servo.stall_torque_nm for j in robot.joints])
     omega0 = np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
     base_res, tau_err, env = 0.0, 0.0, -np.inf
+    servo_err, drive_max = 0.0, 0.0
+    servos = [servo_params(j.servo) for j in robot.joints]
     for k in range(n):
         data.qpos[:] = qpos[k]
         data.qvel[:] = 0.5 * (vel_half[k] + vel_half[k - 1])
@@ -114,12 +137,19 @@ def check_gait(
         tau = qfrc[jdofs]
         tau_err = max(tau_err, float(np.max(np.abs(tau - gait.joint_torques_nm[k]) / stall)))
         qd = data.qvel[jdofs]
+        if goals:
+            for j, sp in enumerate(servos):
+                tq = sp.torque_nm(gait.knots_rad[k, j], angles[k, j], qd[j])
+                servo_err = max(servo_err, float(abs(tq - tau[j]) / stall[j]))
+                drive = sp.drive_nm(gait.knots_rad[k, j], angles[k, j], qd[j])
+                drive_max = max(drive_max, float(abs(drive) / sp.drive_limit_nm))
         env = max(
             env, float(np.max(np.abs(tau) / (torque_margin * stall) + np.abs(qd) / omega0 - 1.0))
         )
     return GaitCheck(
         stance_height_err_m=float(stance_z.max()),
         stance_slip_m=slip,
+        transition_slip_m=transition_slip,
         min_swing_height_m=float(swing_h.min()),
         max_swing_apex_m=apex,
         friction_excess=float(np.max((tangential - mu * forces[..., 2])[contact])),
@@ -128,4 +158,6 @@ def check_gait(
         base_residual_n=base_res,
         torque_err_over_stall=tau_err,
         envelope_excess=env,
+        servo_torque_err_over_stall=servo_err,
+        servo_drive_over_stall=drive_max,
     )

@@ -37,6 +37,19 @@ def _solve_and_check(planner: GaitPlanner, gait: str, speed: float, tmp_path: Pa
     assert c.base_residual_n < 0.05 * weight  # O(h²) finite-difference mismatch only
     assert c.torque_err_over_stall < 0.02
     assert c.envelope_excess < 0.02
+    # feet set down and lift off vertically (PlannerOptions.vertical_contact_transitions)
+    assert o.vertical_contact_transitions and c.transition_slip_m < 1e-4
+    # the samples are servo goals: the simulator's servo law at the achieved motion gives the
+    # inverse-dynamics torque, without saturating (goal limits are checked by Gait loading)
+    assert loaded.planner["joint_angles"] == "servo_goal"
+    assert c.servo_torque_err_over_stall < 0.02
+    assert c.servo_drive_over_stall < 1.0
+    achieved = np.asarray(loaded.planner["achieved_joint_angles_rad"])
+    assert np.max(np.abs(loaded.knots_rad - achieved)) > 0.01  # goals ≠ angles: sag is real
+    # the streamed goal spline stays below the player's speed limit (its pre-flight samples it)
+    t = np.arange(16 * loaded.n_knots) * loaded.period_s / (16 * loaded.n_knots)
+    omega0 = np.array([j.servo.no_load_speed_rad_s for j in planner.robot.joints])
+    assert np.max(np.abs(loaded.joint_velocities(t)) / omega0) <= o.speed_margin
     assert loaded.planner["n_knots"] == planner.n_knots and "casadi" in loaded.planner["versions"]
     assert 0.35 < loaded.period_s < 1.05
 

@@ -1,10 +1,12 @@
 """Acceptance (issue 6): planner gaits validated in MuJoCo with the servo model.
 
-hex18 tripod at 0.15 m/s must pass: speed within 10 %, no fall over 20 cycles, peak torque ≤ 80 %
-of stall. quad12 trot at 0.25 m/s currently does not (xfail, see the reason): the planner assumes
-perfect position tracking, but the STS3215's factory P loop (≈ 10 N·m/rad) sags ≈ 1 cm and lags
-3-5°, so the hind feet barely clear the ground (≈ 2 mm of the planned 25 mm) and drag through
-≈ 45 % of their swing.
+hex18 tripod at 0.15 m/s and quad12 trot at 0.25 m/s (template defaults) must pass: speed within
+10 %, no fall over 20 cycles, peak torque ≤ 80 % of stall. quad12 trot used to reach only
+≈ 0.15 m/s: the planner assumed perfect position tracking, but the STS3215's factory P loop
+(≈ 10 N·m/rad) sagged the body ≈ 1 cm and lagged, and the optimiser landed the hind feet still
+moving forward and lifted the front feet while swinging — the hind feet dragged through ≈ 45 %
+of their swing. The planner now writes servo goals that invert the position loop and sets feet
+down / lifts them off vertically (`planner.servo_loop`, `PlannerOptions`).
 """
 
 from __future__ import annotations
@@ -38,12 +40,12 @@ def test_hex18_tripod_planner_gait_passes(hex18: Robot) -> None:
     assert m.peak_torque_fraction <= 0.8
 
 
-@pytest.mark.xfail(
-    reason="planner/servo mismatch: factory P-gain compliance sags the body and the hind feet "
-    "drag in swing (achieved ≈ 0.15 of 0.25 m/s); see the module docstring",
-    strict=False,
-)
 def test_quad12_trot_planner_gait_passes(quad: Robot) -> None:
     gait = _plan(quad, "trot", 0.25)
+    assert gait.planner["joint_angles"] == "servo_goal"
     res = validate(gait, quad, cycles=20)
     assert res.passed, res.reasons
+    m = res.metrics
+    assert abs(m.achieved_speed_m_s - 0.25) <= 0.025
+    assert not m.fell and m.cycles_run == 20
+    assert m.peak_torque_fraction <= 0.8
