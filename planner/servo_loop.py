@@ -1,7 +1,7 @@
 """The servo's position loop inside the planner: plan the motion, output the servo *goals*.
 
 A hobby/smart servo is not a position source. Its firmware runs a proportional position loop whose
-torque at the output shaft is (`sim.servo`, the single source of truth for the physical servo)::
+torque at the output shaft is (gains: `robots.servo.factory_gains`; model: `sim.servo`)::
 
     τ = kp·(goal − q) − kd·q̇ − b·q̇          (unsaturated: |kp·(goal − q) − kd·q̇| < τ_stall)
 
@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robots import Robot
+from robots.servo import factory_gains
 
 
 @dataclass(frozen=True)
@@ -46,21 +47,17 @@ class ServoLoop:
 
 
 def factory_servo_loops(robot: Robot) -> tuple[ServoLoop, ...]:
-    """Each joint's servo at its factory gains, in `Robot.joints` order.
-
-    The gains (vendor control tables, BAM measurements) live in `sim.servo`; reading them here
-    keeps one source of truth for the physical servo instead of a copy that could drift. Import is
-    lazy (sim.servo itself only needs numpy and `robots`).
-    """
-    from sim.servo import servo_params
-
+    """Each joint's servo at its factory gains (`robots.servo.factory_gains`, the same source
+    `sim` builds its actuators from), in `Robot.joints` order."""
     loops = []
     for joint in robot.joints:
-        sp = servo_params(joint.servo)
+        servo = joint.servo
+        duty_p, duty_d = factory_gains(servo)
         loops.append(
             ServoLoop(
-                kp_nm_per_rad=sp.kp_nm_per_rad,
-                damping_nm_s_per_rad=sp.kd_nm_s_per_rad + sp.back_emf_nm_s_per_rad,
+                kp_nm_per_rad=duty_p * servo.stall_torque_nm,
+                damping_nm_s_per_rad=duty_d * servo.stall_torque_nm
+                + servo.stall_torque_nm / servo.no_load_speed_rad_s,
             )
         )
     return tuple(loops)

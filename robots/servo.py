@@ -123,3 +123,45 @@ def servo_model(name: str) -> ServoModel:
             str(CATALOGUE_PATH), name, f"unknown servo model; known: {sorted(catalogue)}"
         )
     return catalogue[name]
+
+
+# ---------------------------------------------------------------------------------------------
+# Factory position-loop gains (what the servo's firmware does with a goal position)
+
+DYNAMIXEL_X_PWM_FULL = 885.0  # e-Manual: Goal PWM range ±885 = ±100 % duty
+DYNAMIXEL_X_KPP_DEFAULT = 800.0  # e-Manual: Position P Gain default (XL430-W250)
+DYNAMIXEL_X_KPP_SCALE = 128.0  # e-Manual: K_PP = KPP(TBL) / 128
+DYNAMIXEL_1_COMPLIANCE_SLOPE_TICKS = 32.0  # AX-12A e-Manual: CW/CCW compliance slope default
+FEETECH_STS_P_DEFAULT = 32.0  # STS memory table: P coefficient default
+FEETECH_STS_DUTY_PER_P_RAD = 0.166  # BAM (Duclusaud & Passault 2025): duty per (P · rad)
+
+
+def factory_gains(servo: ServoModel) -> tuple[float, float]:
+    """(duty_per_rad, duty_s_per_rad) of the servo's factory position loop, by protocol.
+
+    The loop drives the motor at PWM duty u = clip(g_p·(goal − q) − g_d·q̇, −1, 1); at full duty
+    the output torque is τ_stall·(1 − q̇/ω₀). Sources:
+
+    - Dynamixel X (Protocol 2.0): e-Manual "Position PID Gain": K_P = KPP(TBL)/128, default
+      Position P Gain 800 (XL430-W250), output in PWM units with 885 = 100 % duty, error in
+      ticks → g_p = 800/128 · ticks_per_rad / 885 ≈ 4.60 /rad; D gain default 0.
+    - Dynamixel Protocol 1.0 (AX-12A): compliance slope default 32 ticks from zero to full torque
+      → g_p = ticks_per_rad / 32.
+    - Feetech STS: P coefficient default 32; Duclusaud & Passault, "Extended friction models for
+      the physics simulation of servo actuators" (2025, BAM), measured on an STS3215:
+      duty = 0.166 · P · error[rad] → g_p = 5.31 /rad; no D term.
+
+    Used by `sim` (the servo actuator model) and `planner` (servo-goal output), so both see the
+    same servo.
+    """
+    if servo.protocol == "dynamixel2":
+        kpp = DYNAMIXEL_X_KPP_DEFAULT / DYNAMIXEL_X_KPP_SCALE
+        return kpp * servo.ticks_per_rad / DYNAMIXEL_X_PWM_FULL, 0.0
+    if servo.protocol == "dynamixel1":
+        return servo.ticks_per_rad / DYNAMIXEL_1_COMPLIANCE_SLOPE_TICKS, 0.0
+    if servo.protocol == "feetech_sts":
+        return FEETECH_STS_P_DEFAULT * FEETECH_STS_DUTY_PER_P_RAD, 0.0
+    raise RobotConfigError(
+        str(CATALOGUE_PATH), f"[{servo.name}].protocol",
+        f"no factory position-loop gains known for protocol {servo.protocol!r}",
+    )

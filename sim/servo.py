@@ -47,15 +47,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from robots.servo import ServoModel
+from robots.errors import RobotConfigError
+from robots.servo import ServoModel, factory_gains
 from sim.errors import SimConfigError, SimSetupError
 
-DYNAMIXEL_X_PWM_FULL = 885.0  # e-Manual: Goal PWM range ±885 = ±100 % duty
-DYNAMIXEL_X_KPP_DEFAULT = 800.0  # e-Manual: Position P Gain default (XL430-W250)
-DYNAMIXEL_X_KPP_SCALE = 128.0  # e-Manual: K_PP = KPP(TBL) / 128
-DYNAMIXEL_1_COMPLIANCE_SLOPE_TICKS = 32.0  # AX-12A e-Manual: CW/CCW compliance slope default
-FEETECH_STS_P_DEFAULT = 32.0  # STS memory table: P coefficient default
-FEETECH_STS_DUTY_PER_P_RAD = 0.166  # BAM (Duclusaud & Passault 2025): duty per (P · rad)
 DEFAULT_RATE_HZ = 100.0
 
 
@@ -125,17 +120,11 @@ class ServoParams:
 
 
 def default_gains(servo: ServoModel) -> tuple[float, float]:
-    """(duty_per_rad, duty_s_per_rad) of the servo's factory position loop, by protocol."""
-    if servo.protocol == "dynamixel2":
-        kpp = DYNAMIXEL_X_KPP_DEFAULT / DYNAMIXEL_X_KPP_SCALE
-        return kpp * servo.ticks_per_rad / DYNAMIXEL_X_PWM_FULL, 0.0
-    if servo.protocol == "dynamixel1":
-        return servo.ticks_per_rad / DYNAMIXEL_1_COMPLIANCE_SLOPE_TICKS, 0.0
-    if servo.protocol == "feetech_sts":
-        return FEETECH_STS_P_DEFAULT * FEETECH_STS_DUTY_PER_P_RAD, 0.0
-    raise SimSetupError(
-        f"servo {servo.name}: no default position-loop gains for protocol {servo.protocol!r}"
-    )
+    """(duty_per_rad, duty_s_per_rad) of the servo's factory position loop (`robots.servo`)."""
+    try:
+        return factory_gains(servo)
+    except RobotConfigError as exc:
+        raise SimSetupError(f"servo {servo.name}: {exc.problem}") from None
 
 
 def servo_params(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import robots
 from planner.config import PlannerOptions
@@ -29,3 +30,14 @@ def test_goals_make_the_sim_servo_produce_the_planned_torque() -> None:
 def test_ideal_servo_option_keeps_the_planned_angles() -> None:
     assert PlannerOptions().servo_goals and PlannerOptions().vertical_contact_transitions
     assert not PlannerOptions(servo_goals=False).servo_goals
+
+
+def test_planner_and_sim_see_the_same_servo_loop() -> None:
+    for name in ("quad12", "hex18"):
+        robot = robots.load(name)
+        for joint, loop in zip(robot.joints, factory_servo_loops(robot), strict=True):
+            sp = servo_params(joint.servo)
+            assert loop.kp_nm_per_rad == pytest.approx(sp.kp_nm_per_rad)
+            assert loop.damping_nm_s_per_rad == pytest.approx(
+                sp.kd_nm_s_per_rad + sp.back_emf_nm_s_per_rad
+            )
