@@ -40,10 +40,11 @@ def servo_load(planner: GaitPlanner, result: PlanResult) -> dict[str, dict[str, 
 def joint_angle_semantics(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]:
     """What the gait file's joint samples mean, and what the consumer needs to check them.
 
-    ``joint_angles``: ``"servo_goal"`` — goals for the servos' position loops, which then achieve
-    ``achieved_joint_angles_rad`` (N × J, the planned motion that `base_pose`, the contact forces
-    and the joint torques belong to) through τ = kp·(goal − q) − damping·q̇ (`servo_loop`, per
-    joint in ``servo_loop``); ``"achieved"`` — the planned angles themselves (ideal servos).
+    ``joint_angles``: ``"servo_goal"`` — goals for the servos' position loops, which then
+    achieve the gait file's ``expected_joint_angles_rad`` (N × J, the planned motion that
+    `base_pose`, the contact forces and the joint torques belong to) through
+    τ = kp·(goal − q) − damping·q̇ (per joint in ``servo_loop``); ``"achieved"`` — the planned
+    angles themselves (ideal servos).
     """
     if not planner.options.servo_goals:
         return {"joint_angles": "achieved"}
@@ -57,7 +58,6 @@ def joint_angle_semantics(planner: GaitPlanner, result: PlanResult) -> dict[str,
             "kp_nm_per_rad": [s.kp_nm_per_rad for s in loops],
             "damping_nm_s_per_rad": [s.damping_nm_s_per_rad for s in loops],
         },
-        "achieved_joint_angles_rad": np.asarray(result.joint_angles_rad).tolist(),
     }
 
 

@@ -270,8 +270,8 @@ class GaitPlanner:
         """The gait file object for a feasible result; raises InfeasibleGaitError otherwise.
 
         With `PlannerOptions.servo_goals` (default) the joint samples are the servo goals that
-        achieve the planned motion; the planned (achieved) angles are in
-        ``planner["achieved_joint_angles_rad"]`` and ``planner["joint_angles"]`` says which.
+        achieve the planned motion; the planned angles are the file's
+        ``expected_joint_angles_rad`` and ``planner["joint_angles"]`` says which.
         """
         if not result.feasible:
             raise InfeasibleGaitError(result.message, result.binding)
@@ -299,6 +299,7 @@ class GaitPlanner:
             contact_forces_n=result.contact_forces_n,
             joint_torques_nm=result.joint_torques_nm,
             planner=meta,
+            expected_knots_rad=result.joint_angles_rad if self.options.servo_goals else None,
         )
 
 

@@ -10,6 +10,10 @@ JSON with ``"schema": "gaitsmith.gait/1"``. Layout (all angles in radians, SI un
   interpolate the first N rows with a periodic cubic spline (`Gait.joint_targets`).
 - ``schedule``: ``{"feet", "touchdown_phase", "duty_factor"}`` (see `ContactSchedule`).
 - ``gait_label``: "trot", "tripod", ….
+- ``expected_joint_angles_rad`` (optional, N × J over the N knots): when the samples are servo
+  *goals* (a servo's position loop sags and lags, so the planner commands goals that make it
+  reach the planned motion), the joint angles the robot is expected to reach. Absent: the
+  samples are themselves the expected angles. `Gait.expected_joint_angles` interpolates either.
 - optional per-knot arrays over the N knots: ``base_pose`` (N × 6: x, y, z [m], roll, pitch, yaw
   [rad], treadmill frame — the forward progress v·t removed), ``contact_forces_n`` (N × feet × 3,
   world frame), ``joint_torques_nm`` (N × joints).
@@ -51,6 +55,7 @@ _KEYS = {
     "base_pose",
     "contact_forces_n",
     "joint_torques_nm",
+    "expected_joint_angles_rad",
     "planner",
     "validation",
 }
@@ -80,6 +85,7 @@ class Gait:
     joint_torques_nm: np.ndarray | None = None  # (N, J)
     planner: dict[str, Any] = field(default_factory=dict)
     validation: dict[str, Any] | None = None
+    expected_joint_angles_rad: np.ndarray | None = None  # (N, J), see the module docstring
 
     @staticmethod
     def create(
@@ -93,6 +99,7 @@ class Gait:
         contact_forces_n: np.ndarray | None = None,
         joint_torques_nm: np.ndarray | None = None,
         planner: dict[str, Any] | None = None,
+        expected_knots_rad: np.ndarray | None = None,
     ) -> Gait:
         """Build a gait from N knots (N × J, phases k/N); the closing row is appended here."""
         knots = np.asarray(knots_rad, dtype=float)
@@ -109,6 +116,7 @@ class Gait:
             contact_forces_n=contact_forces_n,
             joint_torques_nm=joint_torques_nm,
             planner=dict(planner or {}),
+            expected_joint_angles_rad=expected_knots_rad,
         )
         return from_dict(to_dict(gait), "<new gait>")  # one validation path for all gaits
 
@@ -128,6 +136,17 @@ class Gait:
     def joint_targets(self, t_s: float | np.ndarray) -> np.ndarray:
         """Joint angles [rad] at time `t_s` (periodic cubic spline; (J,) or (K, J))."""
         return self._spline(np.asarray(t_s, dtype=float) / self.period_s)
+
+    @cached_property
+    def _expected_spline(self) -> PeriodicSpline:
+        if self.expected_joint_angles_rad is None:
+            return self._spline
+        return PeriodicSpline(self.expected_joint_angles_rad)
+
+    def expected_joint_angles(self, t_s: float | np.ndarray) -> np.ndarray:
+        """Joint angles [rad] the robot should reach at `t_s` (the samples, or the expected
+        angles when the samples are servo goals; see the module docstring)."""
+        return self._expected_spline(np.asarray(t_s, dtype=float) / self.period_s)
 
     def joint_velocities(self, t_s: float | np.ndarray) -> np.ndarray:
         """Joint speeds [rad/s] of the same spline at time `t_s`."""
@@ -200,6 +219,7 @@ def to_dict(gait: Gait) -> dict[str, Any]:
         "base_pose": _arr(gait.base_pose),
         "contact_forces_n": _arr(gait.contact_forces_n),
         "joint_torques_nm": _arr(gait.joint_torques_nm),
+        "expected_joint_angles_rad": _arr(gait.expected_joint_angles_rad),
         "planner": gait.planner,
         "validation": gait.validation,
     }
@@ -307,6 +327,7 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
         ("base_pose", (n_k, 6)),
         ("contact_forces_n", (n_k, n_f, 3)),
         ("joint_torques_nm", (n_k, n_j)),
+        ("expected_joint_angles_rad", (n_k, n_j)),
     ):
         optional[key] = None if d.get(key) is None else _matrix(file, key, d[key], shape)
     planner = _json_obj(file, "planner", d.get("planner", {}), nullable=False)

@@ -192,7 +192,7 @@ def compute(
     tau_frac = np.abs(traj.torque_nm[w]) / stall
     drive_lim = np.array([sp.drive_limit_nm for sp in sim.servos])
     saturated = np.abs(traj.drive_nm[w]) >= drive_lim * (1 - 1e-6)
-    err = traj.q_rad[w] - traj.planned_rad[w]
+    err = traj.q_rad[w] - traj.expected_rad[w]  # vs the motion the goals should achieve
     power = float(np.mean(np.sum(np.abs(traj.torque_nm[w] * traj.qd_rad_s[w]), axis=1)))
     cot = power / (sim.mass_kg * GRAVITY_M_S2 * abs(achieved)) if abs(achieved) > 1e-3 else None
     z = traj.base_pos_m[w, 2]

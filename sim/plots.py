@@ -42,7 +42,8 @@ def _last_cycles(traj: Trajectory, n: int = SHOW_CYCLES) -> np.ndarray:
 
 
 def joints_plot(traj: Trajectory, sim: SimModel) -> bytes:
-    """One panel per joint: planned target vs simulated angle over the last cycles."""
+    """One panel per joint: planned motion (and the servo goals, where they differ) vs simulated
+    angle over the last cycles."""
     names = sim.robot.joint_names
     cols = max(1, min(len(sim.robot.legs), 6))
     rows = math.ceil(len(names) / cols)
@@ -54,8 +55,11 @@ def joints_plot(traj: Trajectory, sim: SimModel) -> bytes:
     for j, name in enumerate(names):
         ax = axes[j % rows][j // rows]
         ax.plot(
-            phase, np.degrees(traj.planned_rad[w, j]), "--", color="0.35", lw=1.2, label="planned"
+            phase, np.degrees(traj.expected_rad[w, j]), "--", color="0.35", lw=1.2, label="planned"
         )
+        if not np.allclose(traj.expected_rad[w, j], traj.planned_rad[w, j]):
+            ax.plot(phase, np.degrees(traj.planned_rad[w, j]), ":", color="tab:orange", lw=1.0,
+                    label="servo goal")
         ax.plot(phase, np.degrees(traj.q_rad[w, j]), color="tab:blue", lw=1.2, label="simulated")
         ax.set_title(name, fontsize=8)
         ax.tick_params(labelsize=7)

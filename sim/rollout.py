@@ -60,6 +60,7 @@ class Trajectory:
     stopped_early: bool
     goal_rad: np.ndarray  # (T, J) goal the servo held during the step (held + delayed)
     planned_rad: np.ndarray  # (T, J) the stream's value at that time, undelayed
+    expected_rad: np.ndarray  # (T, J) angles the servos should reach (≠ stream for servo goals)
     q_rad: np.ndarray  # (T, J)
     qd_rad_s: np.ndarray  # (T, J)
     drive_nm: np.ndarray  # (T, J) clipped position-loop torque
@@ -115,8 +116,13 @@ def reference(
     settle_s: float,
     gait_start_s: float,
     t_s: np.ndarray,
+    expected: bool = False,
 ) -> np.ndarray:
-    """The player's targets at times `t_s`: stance hold, then the ramp, then the gait."""
+    """The player's targets at times `t_s`: stance hold, then the ramp, then the gait.
+
+    With `expected`, the gait part is the angles the servos should reach
+    (`Gait.expected_joint_angles`) instead of the goals streamed to them.
+    """
     t = np.asarray(t_s, dtype=float)
     out = np.empty((len(t), len(stance_rad)))
     hold = t < settle_s
@@ -125,7 +131,8 @@ def reference(
     out[hold] = stance_rad
     out[in_ramp] = ramp.positions(t[in_ramp] - settle_s)
     if np.any(in_gait):
-        out[in_gait] = gait.joint_targets(t[in_gait] - gait_start_s)
+        curve = gait.expected_joint_angles if expected else gait.joint_targets
+        out[in_gait] = curve(t[in_gait] - gait_start_s)
     return out
 
 
@@ -207,6 +214,7 @@ def _trajectory(
         initial_rad=stance,
     )
     planned = reference(gait, stance, ramp, settings.settle_s, gait_start, time_s)
+    expected = reference(gait, stance, ramp, settings.settle_s, gait_start, time_s, expected=True)
 
     def cols(prefix: str, names: tuple[str, ...]) -> np.ndarray:
         return np.stack([sim.sensor(sd, f"{prefix}{x}") for x in names], axis=1)
@@ -231,6 +239,7 @@ def _trajectory(
         stopped_early=stopped,
         goal_rad=goal,
         planned_rad=planned,
+        expected_rad=expected,
         q_rad=q,
         qd_rad_s=qd,
         drive_nm=drive,

@@ -5,7 +5,7 @@ to the ground frame); velocities/accelerations by cyclic finite differences of M
 `mj_differentiatePos`; torques by `mj_inverse` minus Jᵀf (`mj_jacSite`) with the file's forces.
 
 Servo goals: when the file says ``planner["joint_angles"] == "servo_goal"`` its joint samples are
-goals for the servos' position loops and the motion is ``planner["achieved_joint_angles_rad"]``.
+goals for the servos' position loops and the motion is ``expected_joint_angles_rad``.
 Kinematics and dynamics are checked on the achieved motion, and the goals independently: the
 simulator's servo law (`sim.servo.ServoParams.torque_nm`, factory gains) driven by the file's goal
 at the achieved angle and MuJoCo's finite-difference speed must produce the `mj_inverse` torque.
@@ -81,7 +81,7 @@ def check_gait(
     ]
     goals = gait.planner.get("joint_angles") == "servo_goal"
     angles = (
-        np.asarray(gait.planner["achieved_joint_angles_rad"], dtype=float)
+        np.asarray(gait.expected_joint_angles_rad, dtype=float)
         if goals
         else gait.knots_rad
     )

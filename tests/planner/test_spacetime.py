@@ -44,7 +44,7 @@ def _solve_and_check(planner: GaitPlanner, gait: str, speed: float, tmp_path: Pa
     assert loaded.planner["joint_angles"] == "servo_goal"
     assert c.servo_torque_err_over_stall < 0.02
     assert c.servo_drive_over_stall < 1.0
-    achieved = np.asarray(loaded.planner["achieved_joint_angles_rad"])
+    achieved = np.asarray(loaded.expected_joint_angles_rad)
     assert np.max(np.abs(loaded.knots_rad - achieved)) > 0.01  # goals ≠ angles: sag is real
     # the streamed goal spline stays below the player's speed limit (its pre-flight samples it)
     t = np.arange(16 * loaded.n_knots) * loaded.period_s / (16 * loaded.n_knots)
