@@ -3,8 +3,9 @@
     python benchmarks/planner_bench.py            # quad12 trot N=30 and hex18 tripod N=30
 
 Each warm solve starts from the previous solution with a perturbed schedule (touchdown phases
-±0.03, duty ±0.03, period ±5 %) — what basin-CMA's inner loop does. Prints times and the
-warm/cold ratio.
+±0.03, duty ±0.03, period ±5 %) — what basin-CMA's inner loop does. Prints times, the
+warm/cold ratio and the ratio against the previous warm-start policy (last multipliers reused),
+measured in the same run on the same schedules.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np
 
 import robots
-from planner.spacetime import GaitPlanner
+from planner import spacetime
+from planner.spacetime import GaitPlanner, PlanResult
 from planner.templates import make_schedule
 
 
@@ -34,6 +36,21 @@ def perturbed(schedule: robots.ContactSchedule, rng: np.random.Generator) -> rob
     )
 
 
+def warm_pass(
+    planner: GaitPlanner, cold: PlanResult, schedules: list[robots.ContactSchedule], speed: float
+) -> tuple[float, float, int, float]:
+    """Chained warm solves from the cold solution: (median s, median it, feasible, ms/it)."""
+    planner._last = cold.warm_start
+    times, iters, ok = [], [], 0
+    for schedule in schedules:
+        res = planner.solve(schedule, speed)
+        times.append(res.solve_time_s)
+        iters.append(res.iterations)
+        ok += res.feasible
+    per_it = 1e3 * sum(times) / max(1, sum(iters))
+    return statistics.median(times), statistics.median(iters), ok, per_it
+
+
 def bench(robot_name: str, gait: str, speed: float, n_knots: int, n_warm: int, seed: int) -> None:
     robot = robots.load(robot_name)
     t0 = time.perf_counter()
@@ -42,19 +59,21 @@ def bench(robot_name: str, gait: str, speed: float, n_knots: int, n_warm: int, s
     base = make_schedule(robot, gait)
     cold = planner.solve(base, speed, warm_start=False)
     rng = np.random.default_rng(seed)
-    times, iters, ok = [], [], 0
-    for _ in range(n_warm):
-        res = planner.solve(perturbed(base, rng), speed)
-        times.append(res.solve_time_s)
-        iters.append(res.iterations)
-        ok += res.feasible
-    med = statistics.median(times)
+    schedules = [perturbed(base, rng) for _ in range(n_warm)]
+    med, its, ok, per_it = warm_pass(planner, cold, schedules, speed)
+    # baseline in the same run: the previous policy (warm start with the last multipliers)
+    spacetime.WARM_START_DUALS = True
+    try:
+        b_med, b_its, b_ok, _ = warm_pass(planner, cold, schedules, speed)
+    finally:
+        spacetime.WARM_START_DUALS = False
     print(
         f"{robot_name} {gait} {speed} m/s N={n_knots}: build {build:.2f} s | "
-        f"cold {cold.solve_time_s:.3f} s ({cold.iterations} it) | warm median {med:.3f} s "
-        f"(median {statistics.median(iters):.0f} it, "
-        f"{ok}/{n_warm} feasible) | warm/cold {med / cold.solve_time_s:.2f} | "
-        f"per-iteration {1e3 * sum(times) / max(1, sum(iters)):.1f} ms"
+        f"cold {cold.solve_time_s:.3f} s ({cold.iterations} it) | "
+        f"warm median {med:.3f} s ({its:.0f} it, {ok}/{n_warm} feasible, {per_it:.1f} ms/it) | "
+        f"warm/cold {med / cold.solve_time_s:.2f} | "
+        f"baseline warm (with duals) {b_med:.3f} s ({b_its:.0f} it, {b_ok}/{n_warm} feasible) | "
+        f"warm/baseline {med / b_med:.2f}"
     )
 
 
