@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from hardware.errors import CorruptPacket
+
 BROADCAST_ID = 0xFE
 
 # Instruction codes common to Dynamixel Protocol 2.0 and Feetech STS/SCS.
@@ -36,3 +38,61 @@ class Packet:
     @property
     def is_status(self) -> bool:
         return self.error is not None
+
+
+class FrameStream:
+    """Incremental frame extractor shared by both wire protocols: feed bytes, get whole packets.
+
+    A protocol supplies its `header`, how many bytes it needs to read the length field
+    (`prefix_len`), the frame length from that prefix (`_frame_length`, None when the length is
+    impossible) and the frame parser (`_parse`). Corrupt frames are skipped and counted in
+    `corrupt`; the stream resynchronises on the next header.
+    """
+
+    header: bytes = b""
+    prefix_len: int = 0
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+        self.corrupt = 0
+
+    def _frame_length(self, buf: bytearray) -> int | None:
+        raise NotImplementedError
+
+    def _parse(self, frame: bytes) -> Packet:
+        raise NotImplementedError
+
+    def _resync(self, buf: bytearray) -> bool:
+        """Drop bytes that look like a header but are not one; True if something was dropped."""
+        return False
+
+    def feed(self, data: bytes) -> list[Packet]:
+        buf = self._buf
+        buf.extend(data)
+        out: list[Packet] = []
+        while True:
+            idx = buf.find(self.header)
+            if idx < 0:
+                del buf[: max(0, len(buf) - (len(self.header) - 1))]  # keep a partial header
+                return out
+            if idx:
+                del buf[:idx]
+            if len(buf) < self.prefix_len:
+                return out
+            if self._resync(buf):
+                continue
+            total = self._frame_length(buf)
+            if total is None:
+                self.corrupt += 1
+                del buf[:1]
+                continue
+            if len(buf) < total:
+                return out
+            frame = bytes(buf[:total])
+            try:
+                out.append(self._parse(frame))
+            except CorruptPacket:
+                self.corrupt += 1
+                del buf[:1]
+                continue
+            del buf[:total]

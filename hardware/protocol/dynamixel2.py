@@ -22,6 +22,7 @@ from hardware.protocol.common import (
     SYNC_READ,
     SYNC_WRITE,
     WRITE,
+    FrameStream,
     Packet,
 )
 
@@ -121,42 +122,18 @@ def parse_packet(raw: bytes) -> Packet:
     return Packet(servo_id, instruction, body[1:])
 
 
-class StreamParser:
-    """Incremental frame extractor: feed bytes, get whole packets; corrupt frames are skipped
-    (counted in `corrupt`) and the parser resynchronises on the next header."""
+class StreamParser(FrameStream):
+    """Incremental Protocol 2.0 frame extractor (see `FrameStream`)."""
 
-    def __init__(self) -> None:
-        self._buf = bytearray()
-        self.corrupt = 0
+    header = HEADER
+    prefix_len = 7  # header, id, length (2 bytes)
 
-    def feed(self, data: bytes) -> list[Packet]:
-        self._buf.extend(data)
-        out: list[Packet] = []
-        buf = self._buf
-        while True:
-            idx = buf.find(HEADER)
-            if idx < 0:
-                del buf[: max(0, len(buf) - 3)]  # keep a possible partial header
-                return out
-            if idx:
-                del buf[:idx]
-            if len(buf) < 7:
-                return out
-            length = buf[5] | (buf[6] << 8)
-            if length < 3 or length > MAX_LENGTH:
-                self.corrupt += 1
-                del buf[:1]
-                continue
-            if len(buf) < 7 + length:
-                return out
-            frame = bytes(buf[: 7 + length])
-            try:
-                out.append(parse_packet(frame))
-            except CorruptPacket:
-                self.corrupt += 1
-                del buf[:1]
-                continue
-            del buf[: 7 + length]
+    def _frame_length(self, buf: bytearray) -> int | None:
+        length = buf[5] | (buf[6] << 8)
+        return 7 + length if 3 <= length <= MAX_LENGTH else None
+
+    def _parse(self, frame: bytes) -> Packet:
+        return parse_packet(frame)
 
 
 # -- instruction builders (e-Manual "Instruction Details") ------------------------------------

@@ -22,6 +22,7 @@ from hardware.protocol.common import (
     SYNC_READ,
     SYNC_WRITE,
     WRITE,
+    FrameStream,
     Packet,
 )
 
@@ -71,46 +72,28 @@ def parse_packet(raw: bytes, direction: Direction) -> Packet:
     return Packet(servo_id, code, params)
 
 
-class StreamParser:
-    """Incremental frame extractor for one direction; corrupt frames are skipped (counted in
-    `corrupt`) and the parser resynchronises on the next FF FF."""
+class StreamParser(FrameStream):
+    """Incremental frame extractor for one direction (see `FrameStream`)."""
+
+    header = HEADER
+    prefix_len = 4  # header, id, length
 
     def __init__(self, direction: Direction) -> None:
+        super().__init__()
         self.direction: Direction = direction
-        self._buf = bytearray()
-        self.corrupt = 0
 
-    def feed(self, data: bytes) -> list[Packet]:
-        self._buf.extend(data)
-        out: list[Packet] = []
-        buf = self._buf
-        while True:
-            idx = buf.find(HEADER)
-            if idx < 0:
-                del buf[: max(0, len(buf) - 1)]
-                return out
-            if idx:
-                del buf[:idx]
-            if len(buf) < 4:
-                return out
-            if buf[2] == 0xFF:  # FF FF FF ...: the header starts one byte later
-                del buf[:1]
-                continue
-            length = buf[3]
-            if length < 2 or length + 4 > MAX_LENGTH:
-                self.corrupt += 1
-                del buf[:1]
-                continue
-            if len(buf) < 4 + length:
-                return out
-            frame = bytes(buf[: 4 + length])
-            try:
-                out.append(parse_packet(frame, self.direction))
-            except CorruptPacket:
-                self.corrupt += 1
-                del buf[:1]
-                continue
-            del buf[: 4 + length]
+    def _resync(self, buf: bytearray) -> bool:
+        if buf[2] == 0xFF:  # FF FF FF ...: the header starts one byte later
+            del buf[:1]
+            return True
+        return False
+
+    def _frame_length(self, buf: bytearray) -> int | None:
+        length = buf[3]
+        return 4 + length if 2 <= length and length + 4 <= MAX_LENGTH else None
+
+    def _parse(self, frame: bytes) -> Packet:
+        return parse_packet(frame, self.direction)
 
 
 # -- instruction builders (protocol manual §4) -------------------------------------------------
