@@ -32,7 +32,7 @@ from planner.config import PlannerOptions
 from planner.errors import PlannerConfigError
 from planner.executors import make_executor
 from planner.spacetime import GaitPlanner, PlanResult
-from planner.templates import TEMPLATES, label_gait, leg_roles, make_schedule, templates_for
+from planner.templates import label_gait, leg_roles, make_schedule, templates_for
 from robots import ContactSchedule, Robot
 from robots import load as load_robot
 
@@ -289,7 +289,6 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
 
 
 __all__ = [
-    "TEMPLATES",
     "GaitSearchResult",
     "SearchLogRow",
     "TimingSolver",

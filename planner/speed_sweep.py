@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -155,6 +154,3 @@ def write_sweep(rows: Sequence[SweepRow], out_dir: str | Path, robot: Robot) -> 
     plot(rows, paths["png"], f"{robot.name}: gait from speed (basin-CMA)")
     return paths
 
-
-def froude_number(speed_m_s: float, robot: Robot) -> float:
-    return speed_m_s**2 / (9.81 * robot.leg_length_m) if math.isfinite(speed_m_s) else math.nan
