@@ -10,8 +10,8 @@ import robots
 from gaitsmith.console import console
 from planner.config import PlannerOptions
 from planner.errors import PlannerConfigError
-from planner.gait_search import SearchLogRow
-from planner.speed_sweep import SweepRow, sweep_speeds, to_markdown, write_sweep
+from planner.gait_search import DEFAULT_TIPPING_WEIGHT, GaitSearchResult, SearchLogRow
+from planner.speed_sweep import SweepRow, Validator, sweep_speeds, to_markdown, write_sweep
 
 
 def sweep(
@@ -24,6 +24,14 @@ def sweep(
     seed: int = typer.Option(0, "--seed"),
     symmetric: bool = typer.Option(True, "--symmetric/--no-symmetric"),
     mu: float = typer.Option(0.5, "--mu", help="friction coefficient"),
+    executor: str = typer.Option("process", "--executor", help="serial | process | ray"),
+    workers: int | None = typer.Option(None, "--workers", help="parallel workers"),
+    tipping_weight: float = typer.Option(
+        DEFAULT_TIPPING_WEIGHT, "--tipping-weight",
+        help="weight of the open-loop tipping (support) term; 0: the pure W&P objective"),
+    simulate: bool = typer.Option(
+        False, "--simulate", help="validate each speed's gait in MuJoCo (pass/fail column)"),
+    cycles: int = typer.Option(12, "--cycles", help="cycles to simulate (--simulate)"),
 ) -> None:
     """Search the best gait at each speed; table + plot of gait, duty factor and CoT vs Froude."""
     bot = robots.load(robot)
@@ -37,24 +45,42 @@ def sweep(
         raise PlannerConfigError(f"--speeds must be in (0, 10] m/s, got {speeds!r}")
 
     def on_row(row: SweepRow) -> None:
+        sim = "" if row.sim_passed is None else \
+            f", sim {'pass' if row.sim_passed else 'FAIL'} at {row.sim_speed_m_s:.3f} m/s"
         console.print(f"[bold]{row.speed_m_s:.3f} m/s[/] (Fr {row.froude:.3f}): {row.gait_label}, "
-                      f"duty {row.mean_duty_factor:.2f}, period {row.period_s:.3f} s, cost "
-                      f"{row.cost:.4g} vs template {row.best_template} "
-                      f"{row.best_template_cost:.4g}, "
-                      f"CoT {row.cost_of_transport:.3f} ({row.elapsed_s:.0f} s)")
+                      f"duty {row.mean_duty_factor:.2f}, period {row.period_s:.3f} s, search cost "
+                      f"{row.search_cost:.4g} vs template {row.best_template} "
+                      f"{row.best_template_cost:.4g}, tipping {row.tipping_amplification:.3g}, "
+                      f"CoT {row.cost_of_transport:.3f}{sim} ({row.elapsed_s:.0f} s)")
 
     def progress(row: SearchLogRow) -> None:
         if row.generation >= 0:
             console.print(f"    gen {row.generation}: best {row.best_cost:.4g}, mean "
                           f"{row.gait_label} {row.period_s:.3f} s", highlight=False)
 
+    if executor not in ("serial", "process", "ray"):
+        raise PlannerConfigError(f"--executor must be serial, process or ray, got {executor!r}")
     console.print(f"gait-from-speed sweep for [bold]{bot.name}[/] over {values} m/s")
     rows = sweep_speeds(bot, values, n_knots=knots, options=PlannerOptions(mu=mu),
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
-                        seed=seed, on_row=on_row, progress=progress)
+                        seed=seed, executor=executor, workers=workers,
+                        tipping_weight=tipping_weight,
+                        validator=_sim_validator(cycles) if simulate else None,
+                        on_row=on_row, progress=progress)
     paths = write_sweep(rows, output, bot)
     console.print(to_markdown(rows))
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))
+
+
+def _sim_validator(cycles: int) -> Validator:
+    def validate_result(result: GaitSearchResult) -> tuple[bool, float]:
+        from sim.validate import validate  # lazy: MuJoCo rollouts only on request
+
+        gait = result.planner.to_gait(result.best, result.label)
+        v = validate(gait, result.robot, cycles, keep_trajectory=False)
+        return v.passed, v.metrics.achieved_speed_m_s
+
+    return validate_result
 
 
 def register(app: typer.Typer) -> None:

@@ -15,6 +15,25 @@ wrapped modulo 1 when decoded.
 The search starts from the hand templates: every template that fits the encoding is solved
 first, and the best becomes the initial CMA mean — so the search result is never worse than the
 best template and, where timing matters, better.
+
+Fitness = spacetime cost + the support term (`planner.support.TippingCost`): the open-loop
+tipping of the timing's line-support phases, which the NLP (exact dynamics, knife-edge balance
+allowed) does not see. Without it the W&P objective picks a trot at every quad12 speed,
+including slow trots whose two-foot phases tip over in MuJoCo.
+
+Acceptance (optional, `acceptance=`): a picklable factory of a check `Gait → verdict` (with
+`.passed`, `.badness`), built once per worker. Every feasible projected sample is written as a
+gait and checked; one that does not walk is ranked as infeasible (W&P rank infeasible samples
+last). The command line passes `sim.acceptance.SimAcceptance` (MuJoCo, the servo model, ramp-in
+from rest), so the search optimises over gaits that walk open loop, not only over plans that
+satisfy the NLP: optimised timings exploit the model (feet that barely touch, knife-edge
+balance) in ways the templates do not. `planner` never imports `sim`; the CLI wires them.
+
+Resolution: the search projects each sample with a coarse NLP (`search_knots`, default 12, and
+IPOPT capped at `search_max_iter`; a sample that does not converge in that budget counts as
+infeasible), then re-solves the best timings at the full `n_knots` for the gait file. The coarse
+NLP is 3-4× cheaper per solve; costs at 12 and 30 knots rank timings alike (the final solve is
+reported next to the search cost so the difference stays visible).
 """
 
 from __future__ import annotations
@@ -22,23 +41,44 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
 from planner.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
 from planner.config import PlannerOptions
 from planner.errors import PlannerConfigError
-from planner.executors import make_executor
+from planner.executors import Executor, make_executor
 from planner.spacetime import GaitPlanner, PlanResult
+from planner.support import TippingCost
 from planner.templates import label_gait, leg_roles, make_schedule, templates_for
-from robots import ContactSchedule, Robot
+from robots import ContactSchedule, Gait, Robot
 from robots import load as load_robot
 
 #: Period bounds in units of √(L/g) (dynamic similarity, Murphy et al. 2008 / Alexander).
 PERIOD_BOUNDS_SQRT_L_G = (2.0, 9.0)
 DUTY_BOUNDS = (0.35, 0.9)
+#: Weight of the support term (cost units per unit of open-loop error amplification). A
+#: template trot at quad12's default period (two 0.19 s line phases, amplification 2.1) pays
+#: 0.11, about half the spacetime cost of a trot at 0.25 m/s.
+DEFAULT_TIPPING_WEIGHT = 0.05
+#: Coarse NLP of the search (see the module docstring) and the final solves it hands on.
+DEFAULT_SEARCH_KNOTS = 12
+DEFAULT_SEARCH_MAX_ITER = 60
+FINAL_CANDIDATES = 4
+#: Violation reported for a sample whose plan is feasible but fails acceptance, per unit of the
+#: check's badness: ranks it after the feasible samples and ahead of NLP-infeasible ones.
+REJECTED_VIOLATION = 1e-9
+
+
+class AcceptanceVerdict(Protocol):
+    passed: bool
+    badness: float
+
+
+GaitAcceptance = Callable[[Gait], AcceptanceVerdict]
 
 
 @dataclass(frozen=True)
@@ -120,11 +160,16 @@ def cost_of_transport(result: PlanResult, robot: Robot) -> float:
 
 @dataclass
 class TimingSolver:
-    """The local solve g(x) of basin-CMA: one spacetime solve for the decoded timing."""
+    """The local solve g(x) of basin-CMA: one spacetime solve for the decoded timing.
+
+    The returned cost is the NLP's cost plus the support term of the timing (if any).
+    """
 
     planner: GaitPlanner
     space: TimingSpace
     speed_m_s: float
+    tipping: TippingCost | None = None
+    acceptance: GaitAcceptance | None = None
 
     def __call__(self, x: np.ndarray) -> LocalResult:
         x = np.clip(np.asarray(x, dtype=float), *self.space.bounds())
@@ -137,7 +182,13 @@ class TimingSolver:
         except PlannerConfigError:  # e.g. a foot never lands on any knot
             return LocalResult(x, math.inf, False, 0, math.inf)
         evals = int(result.iterations) + 1
-        return LocalResult(x, result.cost, result.feasible, evals, result.max_violation)
+        cost = result.cost + (self.tipping(schedule) if self.tipping is not None else 0.0)
+        if result.feasible and self.acceptance is not None:
+            verdict = self.acceptance(self.planner.to_gait(result, "search sample"))
+            if not verdict.passed:
+                return LocalResult(x, cost, False, evals,
+                                   REJECTED_VIOLATION * (1.0 + verdict.badness))
+        return LocalResult(x, cost, result.feasible, evals, result.max_violation)
 
 
 @dataclass(frozen=True)
@@ -149,11 +200,42 @@ class TimingSolverFactory:
     speed_m_s: float
     symmetric: bool
     options: PlannerOptions = field(default_factory=PlannerOptions)
+    tipping_weight: float = 0.0
+    acceptance: Callable[[], GaitAcceptance] | None = None
 
     def __call__(self) -> TimingSolver:
         robot = load_robot(self.robot_dir)
         planner = GaitPlanner(robot, self.n_knots, self.options)
-        return TimingSolver(planner, TimingSpace.for_robot(robot, self.symmetric), self.speed_m_s)
+        tipping = TippingCost.for_robot(robot, self.tipping_weight) if self.tipping_weight else None
+        check = self.acceptance() if self.acceptance is not None else None
+        return TimingSolver(planner, TimingSpace.for_robot(robot, self.symmetric), self.speed_m_s,
+                            tipping, check)
+
+
+class RecordingExecutor:
+    """Delegates to an executor and keeps every (sample, local result) pair it evaluated."""
+
+    def __init__(self, inner: Executor) -> None:
+        self.inner = inner
+        self.records: list[tuple[np.ndarray, LocalResult]] = []
+
+    def map(self, fn: Callable[[np.ndarray], LocalResult], xs: object) -> list[LocalResult]:
+        items = [np.asarray(x, dtype=float) for x in xs]  # type: ignore[attr-defined]
+        out = self.inner.map(fn, items)
+        self.records.extend(zip(items, out, strict=True))
+        return out
+
+    def best_feasible(self, k: int) -> list[tuple[np.ndarray, LocalResult]]:
+        """The k cheapest feasible distinct samples, cheapest first."""
+        feasible = sorted((r for r in self.records if r[1].feasible and math.isfinite(r[1].cost)),
+                          key=lambda r: r[1].cost)
+        picked: list[tuple[np.ndarray, LocalResult]] = []
+        for x, res in feasible:
+            if all(not np.allclose(x, y) for y, _ in picked):
+                picked.append((x, res))
+            if len(picked) == k:
+                break
+        return picked
 
 
 @dataclass(frozen=True)
@@ -172,21 +254,42 @@ class SearchLogRow:
 
 @dataclass(frozen=True, eq=False)
 class GaitSearchResult:
+    """The searched gait: `best` is the final solve at `n_knots` (the gait file's resolution).
+
+    Costs named `search_*` and `template_costs` come from the coarse search NLP and include the
+    support term, so they compare with each other; `best.cost` is the final NLP's objective
+    without it and `support_cost` the support term of the winning timing.
+    """
+
     robot: Robot
     speed_m_s: float
     best: PlanResult
     label: str
-    template_costs: dict[str, float]  # template → cost (inf if infeasible)
+    template_costs: dict[str, float]  # template → search cost (inf if infeasible)
     best_template: str
+    search_cost: float  # search cost of the timing that won (template or CMA sample)
+    support_cost: float  # support term of that timing
+    tipping_amplification: float
     log: tuple[SearchLogRow, ...]
     cma: BasinCmaResult
     elapsed_s: float
     cost_of_transport: float
-    planner: GaitPlanner  # the main process's planner (builds the gait file from `best`)
+    search_knots: int
+    accepted: bool | None  # the final gait passed the acceptance check (None: no check)
+    planner: GaitPlanner  # the final planner (builds the gait file from `best`)
 
     @property
     def froude(self) -> float:
         return self.speed_m_s**2 / (9.81 * self.robot.leg_length_m)
+
+    @property
+    def best_template_cost(self) -> float:
+        return self.template_costs[self.best_template]
+
+    @property
+    def total_cost(self) -> float:
+        """Final NLP cost + support term: the quantity the search minimised, at full resolution."""
+        return self.best.cost + self.support_cost
 
 
 def search_gait(
@@ -196,7 +299,7 @@ def search_gait(
     n_knots: int = 30,
     options: PlannerOptions | None = None,
     symmetric: bool = True,
-    max_generations: int = 6,
+    max_generations: int = 4,
     popsize: int | None = None,
     restarts: int = 0,
     max_local_solves: int | None = None,
@@ -205,34 +308,28 @@ def search_gait(
     workers: int | None = None,
     address: str | None = None,
     planner: GaitPlanner | None = None,
+    search_knots: int = DEFAULT_SEARCH_KNOTS,
+    search_max_iter: int = DEFAULT_SEARCH_MAX_ITER,
+    tipping_weight: float = DEFAULT_TIPPING_WEIGHT,
+    acceptance: Callable[[], GaitAcceptance] | None = None,
     progress: Callable[[SearchLogRow], None] | None = None,
 ) -> GaitSearchResult:
-    """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates."""
+    """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
+
+    `planner` is the final planner (n_knots, options); pass one to reuse its NLP across speeds.
+    The executor's workers each build the coarse search NLP once (`search_knots`).
+    """
     t0 = time.perf_counter()
     options = options or PlannerOptions()
+    if planner is not None and planner.n_knots != n_knots:
+        raise PlannerConfigError(f"planner has {planner.n_knots} knots, search asked for {n_knots}")
+    if search_max_iter < 1:
+        raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
     space = TimingSpace.for_robot(robot, symmetric)
-    local = planner or GaitPlanner(robot, n_knots, options)
-    solver = TimingSolver(local, space, speed_m_s)
-
-    # 1. seed with the hand templates that fit the encoding
-    template_costs: dict[str, float] = {}
-    if progress is not None:
-        progress(SearchLogRow(-1, math.inf, math.inf, 0, 0, time.perf_counter() - t0, 0.0, (), (),
-                              "seeding with the templates"))
-    seeds: list[tuple[float, np.ndarray, str]] = []
-    for name in templates_for(robot):
-        x = space.encode(make_schedule(robot, name))
-        if x is None:
-            continue
-        r = solver(x)
-        template_costs[name] = r.cost if r.feasible else math.inf
-        seeds.append((template_costs[name], x, name))
-    if not seeds:
-        raise PlannerConfigError(f"no template of {robot.name} fits the search encoding")
-    seeds.sort(key=lambda s: s[0])
-    best_template_cost, x0, best_template = seeds[0]
-
-    # 2. basin-CMA over the timings (projection = spacetime solve)
+    tipping = TippingCost.for_robot(robot, tipping_weight)
+    search_options = replace(options, max_iter=min(options.max_iter, search_max_iter))
+    factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
+                                  search_options, tipping_weight, acceptance)
     log: list[SearchLogRow] = []
 
     def on_generation(rep: GenerationReport) -> None:
@@ -245,26 +342,54 @@ def search_gait(
             progress(row)
 
     lo, hi = space.bounds()
-    factory = TimingSolverFactory(str(robot.root_dir), n_knots, speed_m_s, symmetric, options)
-    if executor == "serial":
-        cma = basin_cma(solver, x0, space.sigma0(), (lo, hi), popsize=popsize,
+    with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
+        pool = RecordingExecutor(ex)
+        # 1. seed with the hand templates that fit the encoding (one parallel batch)
+        if progress is not None:
+            progress(SearchLogRow(-1, math.inf, math.inf, 0, 0, time.perf_counter() - t0, 0.0,
+                                  (), (), "seeding with the templates"))
+        named = [(name, space.encode(make_schedule(robot, name))) for name in templates_for(robot)]
+        named_x = [(name, x) for name, x in named if x is not None]
+        if not named_x:
+            raise PlannerConfigError(f"no template of {robot.name} fits the search encoding")
+        seeded = pool.map(ex.local_solve, [x for _, x in named_x])
+        seed_results = {name: r for (name, _), r in zip(named_x, seeded, strict=True)}
+        template_costs = {name: (r.cost if r.feasible else math.inf)
+                          for name, r in seed_results.items()}
+        best_template = min(template_costs, key=lambda n: template_costs[n])
+        x0 = dict(named_x)[best_template]
+        # 2. basin-CMA over the timings (projection = coarse spacetime solve)
+        cma = basin_cma(ex.local_solve, x0, space.sigma0(), (lo, hi), popsize=popsize,
                         max_generations=max_generations, restarts=restarts,
-                        max_local_solves=max_local_solves, seed=seed, callback=on_generation)
-    else:
-        with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
-            cma = basin_cma(ex.local_solve, x0, space.sigma0(), (lo, hi), popsize=popsize,  # type: ignore[attr-defined]
-                            max_generations=max_generations, restarts=restarts,
-                            max_local_solves=max_local_solves, seed=seed, executor=ex,
-                            callback=on_generation)
-
-    # 3. the winner (template or CMA point), re-solved here for its full trajectories
-    x_best = cma.x if cma.feasible and cma.cost < best_template_cost else x0
-    best = local.solve(space.decode(x_best), speed_m_s, warm_start=False)
-    label = label_gait(best.schedule, robot)
+                        max_local_solves=max_local_solves, seed=seed, executor=pool,
+                        callback=on_generation)
+    # 3. the cheapest timings, re-solved at full resolution; the first feasible (and accepted)
+    #    one wins, else the first feasible one (reported as not accepted)
+    final = planner or GaitPlanner(robot, n_knots, options)
+    check = acceptance() if acceptance is not None else None
+    candidates = pool.best_feasible(FINAL_CANDIDATES) or [(x0, seed_results[best_template])]
+    chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
+    for x, searched in candidates:
+        solved = final.solve(space.decode(x), speed_m_s, warm_start=False)
+        if not solved.feasible:
+            chosen = chosen or (solved, searched, None)
+            continue
+        ok = None if check is None else bool(check(final.to_gait(solved, "search")).passed)
+        if ok is not False:
+            chosen = (solved, searched, ok)
+            break
+        if chosen is None or not chosen[0].feasible:
+            chosen = (solved, searched, False)
+    assert chosen is not None
+    best, won, accepted = chosen
+    schedule = best.schedule
     return GaitSearchResult(
-        robot=robot, speed_m_s=speed_m_s, best=best, label=label, template_costs=template_costs,
-        best_template=best_template, log=tuple(log), cma=cma, elapsed_s=time.perf_counter() - t0,
-        cost_of_transport=cost_of_transport(best, robot), planner=local,
+        robot=robot, speed_m_s=speed_m_s, best=best, label=label_gait(schedule, robot),
+        template_costs=template_costs, best_template=best_template, search_cost=won.cost,
+        support_cost=tipping(schedule), tipping_amplification=tipping.amplification(schedule),
+        log=tuple(log), cma=cma, elapsed_s=time.perf_counter() - t0,
+        cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
+        accepted=accepted, planner=final,
     )
 
 
@@ -284,12 +409,25 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
                  r.gait_label]
         lines.append(",".join(str(c) for c in cells))
     for name, cost in result.template_costs.items():
-        lines.append(f"# template {name}: cost {cost:.6g}")
+        lines.append(f"# template {name}: search cost {cost:.6g}")
+    lines.append(f"# search: {result.search_knots} knots; winner search cost "
+                 f"{result.search_cost:.6g} (support term {result.support_cost:.6g}, open-loop "
+                 f"tipping amplification {result.tipping_amplification:.4g})")
+    lines.append(f"# final solve: {result.planner.n_knots} knots, {result.label}, cost "
+                 f"{result.best.cost:.6g} + support {result.support_cost:.6g} = "
+                 f"{result.total_cost:.6g}, feasible {result.best.feasible}, accepted "
+                 f"{'-' if result.accepted is None else result.accepted}")
     atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 __all__ = [
+    "DEFAULT_SEARCH_KNOTS",
+    "DEFAULT_SEARCH_MAX_ITER",
+    "DEFAULT_TIPPING_WEIGHT",
+    "AcceptanceVerdict",
+    "GaitAcceptance",
     "GaitSearchResult",
+    "RecordingExecutor",
     "SearchLogRow",
     "TimingSolver",
     "TimingSolverFactory",

@@ -284,13 +284,18 @@ class GaitPlanner:
     ) -> Gait:
         """The gait file object for a feasible result; raises InfeasibleGaitError otherwise.
 
+        The cycle is re-indexed to start at its most static-like knot (`planner.cycle_start`).
         With `PlannerOptions.servo_goals` (default) the joint samples are the servo goals that
         achieve the planned motion; the planned angles are the file's
         ``expected_joint_angles_rad`` and ``planner["joint_angles"]`` says which.
         """
         if not result.feasible:
             raise InfeasibleGaitError(result.message, result.binding)
+        from planner.cycle_start import start_from_rest_like_knot
         from planner.metadata import planner_metadata
+
+        # phase 0 is where the player ramps in from rest: start at the most evenly loaded knot
+        result = start_from_rest_like_knot(result)
 
         meta = planner_metadata(self, result)
         meta.update(extra_metadata or {})

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,8 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from planner.config import PlannerOptions
-from planner.gait_search import GaitSearchResult, SearchLogRow, search_gait
+from planner.gait_search import (
+    DEFAULT_TIPPING_WEIGHT,
+    GaitSearchResult,
+    SearchLogRow,
+    search_gait,
+)
 from planner.spacetime import GaitPlanner
+from planner.templates import gait_family
 from robots import Robot
 from robots.gait import atomic_write_text
 
@@ -38,17 +45,32 @@ class SweepRow:
     feasible: bool
     local_solves: int
     elapsed_s: float
+    family: str = ""
+    search_cost: float = math.nan  # coarse-NLP cost incl. the support term (vs the template's)
+    tipping_amplification: float = math.nan
+    sim_passed: bool | None = None  # MuJoCo verdict of the written gait (None: not simulated)
+    sim_speed_m_s: float = math.nan
 
 
-def row_from(result: GaitSearchResult) -> SweepRow:
+#: (passed, achieved speed) of a search result's gait in simulation; supplied by the caller so
+#: that the planner package does not import the simulator.
+Validator = Callable[[GaitSearchResult], tuple[bool, float]]
+
+
+def row_from(result: GaitSearchResult, validator: Validator | None = None) -> SweepRow:
     best = result.best
+    passed, achieved = validator(result) if validator is not None and best.feasible \
+        else (None, math.nan)
     return SweepRow(
         speed_m_s=result.speed_m_s, froude=result.froude, gait_label=result.label,
         best_template=result.best_template, period_s=best.schedule.period_s,
         mean_duty_factor=float(np.mean(best.schedule.duty_factor)), cost=best.cost,
-        best_template_cost=result.template_costs[result.best_template],
+        best_template_cost=result.best_template_cost,
         cost_of_transport=result.cost_of_transport, feasible=best.feasible,
         local_solves=result.cma.n_local_solves, elapsed_s=result.elapsed_s,
+        family=gait_family(result.label), search_cost=result.search_cost,
+        tipping_amplification=result.tipping_amplification, sim_passed=passed,
+        sim_speed_m_s=achieved,
     )
 
 
@@ -62,18 +84,23 @@ def sweep_speeds(
     max_generations: int = 4,
     popsize: int | None = None,
     seed: int = 0,
+    executor: str = "serial",
+    workers: int | None = None,
+    tipping_weight: float = DEFAULT_TIPPING_WEIGHT,
+    validator: Validator | None = None,
     on_row: Callable[[SweepRow], None] | None = None,
     progress: Callable[[SearchLogRow], None] | None = None,
 ) -> tuple[SweepRow, ...]:
-    """Search the best gait at each speed; one planner (one NLP build) serves every search."""
+    """Search the best gait at each speed; one final planner (one NLP build) serves every speed."""
     options = options or PlannerOptions()
     planner = GaitPlanner(robot, n_knots, options)
     rows = []
     for speed in speeds_m_s:
         result = search_gait(robot, float(speed), n_knots=n_knots, options=options,
                              symmetric=symmetric, max_generations=max_generations,
-                             popsize=popsize, seed=seed, planner=planner, progress=progress)
-        row = row_from(result)
+                             popsize=popsize, seed=seed, executor=executor, workers=workers,
+                             tipping_weight=tipping_weight, planner=planner, progress=progress)
+        row = row_from(result, validator)
         rows.append(row)
         if on_row is not None:
             on_row(row)
@@ -94,14 +121,17 @@ def to_csv(rows: Sequence[SweepRow]) -> str:
 
 
 def to_markdown(rows: Sequence[SweepRow]) -> str:
-    head = ("| speed [m/s] | Froude | gait | duty | period [s] | cost | best template (cost) "
-            "| CoT | solves |")
-    lines = [head, "|" + "---|" * 9]
+    head = ("| speed [m/s] | Froude | gait | duty | period [s] | search cost | best template "
+            "(cost) | final cost | tipping | CoT | sim | solves |")
+    lines = [head, "|" + "---|" * 12]
     for r in rows:
+        sim = "-" if r.sim_passed is None else \
+            f"{'pass' if r.sim_passed else 'FAIL'} {r.sim_speed_m_s:.3f} m/s"
         lines.append(
             f"| {r.speed_m_s:.3f} | {r.froude:.3f} | {r.gait_label} | {r.mean_duty_factor:.2f} | "
-            f"{r.period_s:.3f} | {r.cost:.4g} | {r.best_template} ({r.best_template_cost:.4g}) | "
-            f"{r.cost_of_transport:.3f} | {r.local_solves} |"
+            f"{r.period_s:.3f} | {r.search_cost:.4g} | {r.best_template} "
+            f"({r.best_template_cost:.4g}) | {r.cost:.4g} | {r.tipping_amplification:.3g} | "
+            f"{r.cost_of_transport:.3f} | {sim} | {r.local_solves} |"
         )
     return "\n".join(lines) + "\n"
 

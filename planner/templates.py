@@ -47,6 +47,9 @@ TEMPLATES: dict[str, Template] = {
             "walk", 4, {"LH": 0.0, "LF": 0.25, "RH": 0.5, "RF": 0.75}, 0.75, 5.0
         ),  # lateral sequence
         Template(
+            "diagonal_walk", 4, {"LH": 0.0, "RF": 0.25, "RH": 0.5, "LF": 0.75}, 0.75, 5.0
+        ),  # diagonal sequence (Hildebrand 1976): each hind foot followed by the opposite fore
+        Template(
             "trot", 4, {"LF": 0.0, "RH": 0.0, "RF": 0.5, "LH": 0.5}, 0.6, 3.5
         ),  # diagonal pairs
         Template(
@@ -154,6 +157,15 @@ def make_schedule(
     return ContactSchedule(
         float(period), robot.foot_names, tuple(phases), (float(duty),) * len(robot.legs)
     )
+
+
+def gait_family(label: str) -> str:
+    """The family of a template label: both walk sequences are walks, both gallops gallops."""
+    if label.endswith("walk"):
+        return "walk"
+    if label.startswith("gallop"):
+        return "gallop"
+    return label.removeprefix("biped_")
 
 
 def _circular(d: np.ndarray) -> np.ndarray:

@@ -10,7 +10,11 @@ import numpy as np
 import pytest
 
 import robots
+from planner.basin_cma import LocalResult
+from planner.executors import SerialExecutor
 from planner.gait_search import (
+    DEFAULT_TIPPING_WEIGHT,
+    RecordingExecutor,
     TimingSolver,
     TimingSolverFactory,
     TimingSpace,
@@ -20,6 +24,7 @@ from planner.gait_search import (
 )
 from planner.spacetime import GaitPlanner
 from planner.speed_sweep import row_from, to_csv, to_markdown, write_sweep
+from planner.support import TippingCost
 from planner.templates import TEMPLATES, make_schedule, templates_for
 
 
@@ -82,6 +87,31 @@ def test_timing_solver_is_a_cma_only_projection(small_quad_planner: GaitPlanner)
     assert r.feasible and math.isfinite(r.cost) and r.n_fevals > 0
 
 
+def test_timing_solver_adds_the_support_term_of_the_timing(
+    small_quad_planner: GaitPlanner,
+) -> None:
+    robot = small_quad_planner.robot
+    space = TimingSpace.for_robot(robot)
+    tipping = TippingCost.for_robot(robot, 0.05)
+    x = space.encode(make_schedule(robot, "trot"))
+    assert x is not None
+    plain = TimingSolver(small_quad_planner, space, 0.2)(x)
+    with_support = TimingSolver(small_quad_planner, space, 0.2, tipping)(x)
+    assert tipping(space.decode(x)) > 0
+    assert with_support.cost == pytest.approx(plain.cost + tipping(space.decode(x)), rel=1e-6)
+
+
+def test_recording_executor_ranks_distinct_feasible_samples() -> None:
+    def fake(x: np.ndarray) -> LocalResult:
+        return LocalResult(x, float(x[0]), bool(x[0] < 3))
+
+    rec = RecordingExecutor(SerialExecutor())
+    xs = [np.array([v]) for v in (2.0, 1.0, 4.0, 1.0, 0.5)]
+    assert [r.cost for r in rec.map(fake, xs)] == [2.0, 1.0, 4.0, 1.0, 0.5]
+    best = rec.best_feasible(3)
+    assert [float(x[0]) for x, _ in best] == [0.5, 1.0, 2.0]  # 4.0 infeasible, 1.0 once
+
+
 def test_factory_is_picklable_for_process_and_ray_workers() -> None:
     f = TimingSolverFactory(str(robots.load("quad12").root_dir), 20, 0.2, True)
     assert pickle.loads(pickle.dumps(f)) == f
@@ -96,9 +126,14 @@ def test_search_beats_or_matches_the_best_template_and_logs(
                          planner=small_quad_planner, progress=rows.append)
     assert result.best.feasible
     best_template_cost = result.template_costs[result.best_template]
-    assert math.isfinite(best_template_cost)
-    assert result.best.cost <= best_template_cost * (1 + 1e-6)
+    assert math.isfinite(best_template_cost) and best_template_cost == result.best_template_cost
+    assert result.search_cost <= best_template_cost * (1 + 1e-6)
     assert result.label in TEMPLATES
+    # the final solve is at the gait file's resolution; the support term is the winner's
+    assert result.best.warm_start.x.size == small_quad_planner.layout.size
+    assert result.support_cost == pytest.approx(
+        TippingCost.for_robot(robot, DEFAULT_TIPPING_WEIGHT)(result.best.schedule))
+    assert result.total_cost == pytest.approx(result.best.cost + result.support_cost)
     assert [r.generation for r in result.log] == [0, 1]
     assert len(rows) == 3  # the seeding notice + one per generation
     assert result.cost_of_transport == pytest.approx(cost_of_transport(result.best, robot))
@@ -107,6 +142,7 @@ def test_search_beats_or_matches_the_best_template_and_logs(
     write_search_log(result, log)
     text = log.read_text().splitlines()
     assert text[0].startswith("generation,best_cost") and len(text) >= 3
+    assert any(line.startswith("# final solve: 20 knots") for line in text)
     # the sweep table/plot writers work on search results
     row = row_from(result)
     assert row.gait_label == result.label and row.feasible

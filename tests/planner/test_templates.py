@@ -7,7 +7,7 @@ import pytest
 
 import robots
 from planner.errors import TemplateError
-from planner.templates import label_gait, leg_roles, make_schedule, templates_for
+from planner.templates import gait_family, label_gait, leg_roles, make_schedule, templates_for
 
 
 @pytest.fixture(scope="module")
@@ -98,3 +98,14 @@ def test_template_errors(quad: robots.Robot, hexa: robots.Robot) -> None:
         make_schedule(quad, "tripod")
     with pytest.raises(TemplateError):
         make_schedule(quad, "moonwalk")
+
+
+def test_walk_sequences_and_gait_families(quad: robots.Robot) -> None:
+    """Hildebrand's limb phase (LF touchdown after LH): 0.25 lateral, 0.75 diagonal sequence."""
+    roles = leg_roles(quad)
+    for gait, limb_phase in (("walk", 0.25), ("diagonal_walk", 0.75), ("trot", 0.5), ("pace", 0.0)):
+        s = make_schedule(quad, gait)
+        assert (_phase(s, roles, "LF") - _phase(s, roles, "LH")) % 1.0 == pytest.approx(limb_phase)
+    assert gait_family("walk") == gait_family("diagonal_walk") == "walk"
+    assert gait_family("gallop_rotary") == "gallop" and gait_family("trot") == "trot"
+    assert gait_family("biped_run") == "run"

@@ -1,0 +1,58 @@
+"""MuJoCo acceptance of a gait as a picklable check, for search loops that must not import sim.
+
+`planner.gait_search` can reject timings whose planned gait does not walk under the servo model
+(basin-CMA ranks them as infeasible); the command line wires this check in, so that `planner`
+never imports `sim` (DESIGN: the CLI wires the packages). `SimAcceptance` is a frozen, picklable
+factory — each executor worker calls it once and gets a `GaitCheck` bound to its robot.
+
+The check runs `sim.validate.validate` (ramp-in from rest, `cycles` cycles, the default
+`PassCriteria`, stopping one chunk after a fall). Its "badness" is the number of failed criteria,
+so a gait that only misses the speed tolerance ranks ahead of one that falls.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from robots import Gait, Robot
+from robots import load as load_robot
+from sim.validate import validate
+
+#: Cycles per acceptance run: 2 warm-up + 6 judged keeps a check ≈ 0.1 s at ~80× real time.
+DEFAULT_ACCEPTANCE_CYCLES = 8
+
+
+@dataclass(frozen=True)
+class GaitVerdict:
+    passed: bool
+    badness: float  # 0 when passed, else the number of failed criteria
+    achieved_speed_m_s: float
+    reasons: tuple[str, ...]
+
+
+@dataclass
+class GaitCheck:
+    """Validate one gait on `robot` in MuJoCo."""
+
+    robot: Robot
+    cycles: int = DEFAULT_ACCEPTANCE_CYCLES
+
+    def __call__(self, gait: Gait) -> GaitVerdict:
+        result = validate(gait, self.robot, self.cycles, keep_trajectory=False)
+        failed = sum(1 for _, ok, _ in result.checks if not ok)
+        return GaitVerdict(result.passed, 0.0 if result.passed else float(max(failed, 1)),
+                           result.metrics.achieved_speed_m_s, result.reasons)
+
+
+@dataclass(frozen=True)
+class SimAcceptance:
+    """Picklable factory of a `GaitCheck` (built once per worker)."""
+
+    robot_dir: str
+    cycles: int = DEFAULT_ACCEPTANCE_CYCLES
+
+    def __call__(self) -> GaitCheck:
+        return GaitCheck(load_robot(self.robot_dir), self.cycles)
+
+
+__all__ = ["DEFAULT_ACCEPTANCE_CYCLES", "GaitCheck", "GaitVerdict", "SimAcceptance"]
