@@ -8,6 +8,7 @@ verdict into the file's `validation` block.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ import robots
 from gaitsmith.console import console
 from planner.config import PlannerOptions
 from planner.errors import InfeasibleGaitError, PlannerConfigError
+from planner.gait_search import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
 from planner.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES, make_schedule
 
@@ -42,7 +44,7 @@ def plan(
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
-    generations: int = typer.Option(6, "--generations", help="basin-CMA generations (--search)"),
+    generations: int = typer.Option(4, "--generations", help="basin-CMA generations (--search)"),
     popsize: int | None = typer.Option(None, "--popsize", help="basin-CMA λ (--search)"),
     seed: int = typer.Option(0, "--seed", help="random seed of the search"),
     symmetric: bool = typer.Option(
@@ -50,9 +52,18 @@ def plan(
         help="right legs half a period after the left ones (walk/trot/pace); "
         "--no-symmetric also reaches bound/gallop",
     ),
-    executor: str = typer.Option("serial", "--executor", help="serial | process | ray"),
+    executor: str = typer.Option("process", "--executor", help="serial | process | ray"),
     workers: int | None = typer.Option(None, "--workers", help="parallel workers (--executor)"),
     address: str | None = typer.Option(None, "--address", help="Ray cluster address"),
+    search_knots: int = typer.Option(
+        DEFAULT_SEARCH_KNOTS, "--search-knots",
+        help="knots of the coarse NLP scoring each sample (--search); the file uses --knots"),
+    tipping_weight: float = typer.Option(
+        DEFAULT_TIPPING_WEIGHT, "--tipping-weight",
+        help="weight of the open-loop tipping term (--search); 0: the pure W&P objective"),
+    sim_accept: bool = typer.Option(
+        False, "--sim-accept/--no-sim-accept",
+        help="reject search samples whose gait does not walk in MuJoCo (--search; slower)"),
     simulate: bool = typer.Option(
         False, "--simulate", help="validate in MuJoCo and write the verdict into the gait file"
     ),
@@ -61,8 +72,9 @@ def plan(
     """Plan one efficient cyclic gait (W&P 2009 spacetime optimisation) and write the gait file."""
     bot = robots.load(robot)
     if search:
-        _plan_search(bot, gait, speed, output, knots, mu, generations, popsize, seed, symmetric,
-                     executor, workers, address, simulate, cycles)
+        settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
+                                  address, search_knots, tipping_weight, sim_accept)
+        _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles)
         return
     gait = gait or "trot"
     if period is not None and not (math.isfinite(period) and period > 0):
@@ -106,18 +118,40 @@ def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: boo
     console.print(f"wrote [bold]{output}[/]")
 
 
+@dataclass(frozen=True)
+class SearchSettings:
+    """The `--search` options, as given on the command line."""
+
+    generations: int
+    popsize: int | None
+    seed: int
+    symmetric: bool
+    executor: str
+    workers: int | None
+    address: str | None
+    search_knots: int
+    tipping_weight: float
+    sim_accept: bool
+
+
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
-                 mu: float, generations: int, popsize: int | None, seed: int, symmetric: bool,
-                 executor: str, workers: int | None, address: str | None, simulate: bool,
-                 cycles: int) -> None:
+                 mu: float, st: SearchSettings, simulate: bool, cycles: int) -> None:
     from planner.gait_search import SearchLogRow, search_gait, write_search_log
 
-    if executor not in ("serial", "process", "ray"):
-        raise PlannerConfigError(f"--executor must be serial, process or ray, got {executor!r}")
+    if st.executor not in ("serial", "process", "ray"):
+        raise PlannerConfigError(
+            f"--executor must be serial, process or ray, got {st.executor!r}")
     if gait is not None:
         console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")
     console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "
-                  f"(basin-CMA, {generations} generations, executor {executor})")
+                  f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
+                  f"samples scored at {st.search_knots} knots"
+                  + (", MuJoCo acceptance" if st.sim_accept else "") + ")")
+    acceptance = None
+    if st.sim_accept:
+        from sim.acceptance import SimAcceptance  # lazy: MuJoCo only on request
+
+        acceptance = SimAcceptance(str(bot.root_dir))
 
     def progress(row: SearchLogRow) -> None:
         if row.generation < 0:
@@ -131,9 +165,10 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         )
 
     result = search_gait(
-        bot, speed, n_knots=knots, options=PlannerOptions(mu=mu), symmetric=symmetric,
-        max_generations=generations, popsize=popsize, seed=seed, executor=executor,
-        workers=workers, address=address, progress=progress,
+        bot, speed, n_knots=knots, options=PlannerOptions(mu=mu), symmetric=st.symmetric,
+        max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
+        workers=st.workers, address=st.address, search_knots=st.search_knots,
+        tipping_weight=st.tipping_weight, acceptance=acceptance, progress=progress,
     )
     for name, cost in result.template_costs.items():
         console.print(f"  template {name:18s} cost {cost:.5g}")
@@ -143,17 +178,26 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
             f"{bot.name} at {speed} m/s: no feasible gait found; {best.message}; "
             "no gait file written", best.binding)
     console.print(
-        f"best gait: [bold]{result.label}[/], cost {best.cost:.5g} (best template "
-        f"{result.best_template}: {result.template_costs[result.best_template]:.5g}), period "
-        f"{best.schedule.period_s:.3f} s, cost of transport {result.cost_of_transport:.3f}, "
-        f"Froude {result.froude:.3f}, {result.cma.n_local_solves} local solves in "
-        f"{result.elapsed_s:.1f} s"
+        f"best gait: [bold]{result.label}[/], search cost {result.search_cost:.5g} (best "
+        f"template {result.best_template}: {result.best_template_cost:.5g}; both at "
+        f"{result.search_knots} knots incl. the tipping term), final cost at {knots} knots "
+        f"{best.cost:.5g} + tipping {result.support_cost:.4g}, period "
+        f"{best.schedule.period_s:.3f} s, duty "
+        + "/".join(f"{d:.2f}" for d in best.schedule.duty_factor)
+        + f", cost of transport {result.cost_of_transport:.3f}, Froude {result.froude:.3f}, "
+        f"{result.cma.n_local_solves} local solves in {result.elapsed_s:.1f} s"
     )
+    if result.accepted is False:
+        console.print("[yellow]no searched candidate passed the MuJoCo acceptance check; "
+                      "writing the cheapest feasible one[/]")
     meta = {"search": {
         "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
-        "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s, "seed": seed,
-        "symmetric": symmetric, "template_costs": result.template_costs,
-        "best_template": result.best_template, "cost_of_transport": result.cost_of_transport,
+        "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
+        "seed": st.seed, "symmetric": st.symmetric, "template_costs": result.template_costs,
+        "best_template": result.best_template, "search_cost": result.search_cost,
+        "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
+        "tipping_amplification": result.tipping_amplification,
+        "sim_accepted": result.accepted, "cost_of_transport": result.cost_of_transport,
         "froude": result.froude,
     }}
     gait_obj = result.planner.to_gait(best, result.label, extra_metadata=meta)

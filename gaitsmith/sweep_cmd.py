@@ -29,6 +29,9 @@ def sweep(
     tipping_weight: float = typer.Option(
         DEFAULT_TIPPING_WEIGHT, "--tipping-weight",
         help="weight of the open-loop tipping (support) term; 0: the pure W&P objective"),
+    sim_accept: bool = typer.Option(
+        False, "--sim-accept/--no-sim-accept",
+        help="reject search samples whose gait does not walk in MuJoCo (slower)"),
     simulate: bool = typer.Option(
         False, "--simulate", help="validate each speed's gait in MuJoCo (pass/fail column)"),
     cycles: int = typer.Option(12, "--cycles", help="cycles to simulate (--simulate)"),
@@ -61,10 +64,16 @@ def sweep(
     if executor not in ("serial", "process", "ray"):
         raise PlannerConfigError(f"--executor must be serial, process or ray, got {executor!r}")
     console.print(f"gait-from-speed sweep for [bold]{bot.name}[/] over {values} m/s")
+    acceptance = None
+    if sim_accept:
+        from sim.acceptance import SimAcceptance  # lazy: MuJoCo only on request
+
+        acceptance = SimAcceptance(str(bot.root_dir))
     rows = sweep_speeds(bot, values, n_knots=knots, options=PlannerOptions(mu=mu),
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
                         seed=seed, executor=executor, workers=workers,
                         tipping_weight=tipping_weight,
+                        acceptance=acceptance,
                         validator=_sim_validator(cycles) if simulate else None,
                         on_row=on_row, progress=progress)
     paths = write_sweep(rows, output, bot)

@@ -74,8 +74,11 @@ REJECTED_VIOLATION = 1e-9
 
 
 class AcceptanceVerdict(Protocol):
-    passed: bool
-    badness: float
+    @property
+    def passed(self) -> bool: ...
+
+    @property
+    def badness(self) -> float: ...
 
 
 GaitAcceptance = Callable[[Gait], AcceptanceVerdict]

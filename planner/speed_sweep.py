@@ -21,6 +21,7 @@ import numpy as np
 from planner.config import PlannerOptions
 from planner.gait_search import (
     DEFAULT_TIPPING_WEIGHT,
+    GaitAcceptance,
     GaitSearchResult,
     SearchLogRow,
     search_gait,
@@ -87,6 +88,7 @@ def sweep_speeds(
     executor: str = "serial",
     workers: int | None = None,
     tipping_weight: float = DEFAULT_TIPPING_WEIGHT,
+    acceptance: Callable[[], GaitAcceptance] | None = None,
     validator: Validator | None = None,
     on_row: Callable[[SweepRow], None] | None = None,
     progress: Callable[[SearchLogRow], None] | None = None,
@@ -99,7 +101,8 @@ def sweep_speeds(
         result = search_gait(robot, float(speed), n_knots=n_knots, options=options,
                              symmetric=symmetric, max_generations=max_generations,
                              popsize=popsize, seed=seed, executor=executor, workers=workers,
-                             tipping_weight=tipping_weight, planner=planner, progress=progress)
+                             tipping_weight=tipping_weight, acceptance=acceptance,
+                             planner=planner, progress=progress)
         row = row_from(result, validator)
         rows.append(row)
         if on_row is not None:

@@ -16,7 +16,6 @@ import pytest
 from robots.robot import Robot
 from sim.validate import validate
 
-pytest.importorskip("casadi")
 pytestmark = pytest.mark.slow
 
 

@@ -1,0 +1,38 @@
+"""`gaitsmith plan ROBOT --search` end to end: a gait file, its search log, the gait it names."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+
+def test_plan_search_writes_the_gait_and_its_log(tmp_path: Path) -> None:
+    out = tmp_path / "best.json"
+    argv = [sys.executable, "-m", "gaitsmith.cli", "plan", "quad12", "--speed", "0.2", "--search",
+            "--generations", "1", "--popsize", "4", "--executor", "serial", "--knots", "20",
+            "-o", str(out)]
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=900, check=False, env=env)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "best gait:" in proc.stdout and "gen   0" in proc.stdout
+    gait = json.loads(out.read_text())
+    search = gait["planner"]["search"]
+    assert search["search_knots"] == 12 and search["sim_accepted"] is None
+    assert search["search_cost"] <= min(search["template_costs"].values()) + 1e-9
+    assert gait["gait_label"] in search["template_costs"] or gait["gait_label"] in (
+        "bound", "gallop_rotary", "gallop_transverse", "pronk")
+    log = out.with_suffix(".search.csv").read_text().splitlines()
+    assert log[0].startswith("generation,best_cost") and log[1].startswith("0,")
+    assert any(line.startswith("# final solve: 20 knots") for line in log)
+
+
+def test_plan_search_rejects_a_bad_executor(tmp_path: Path) -> None:
+    argv = [sys.executable, "-m", "gaitsmith.cli", "plan", "quad12", "--search", "--executor",
+            "gpu", "-o", str(tmp_path / "x.json")]
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode != 0 and "--executor must be serial, process or ray" in (
+        proc.stdout + proc.stderr)
+    assert not (tmp_path / "x.json").exists()
