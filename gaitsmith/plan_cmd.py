@@ -17,9 +17,17 @@ from rich.table import Table
 
 import robots
 from gaitsmith.console import console
+from gaitsmith.search_options import (
+    check_executor,
+    executor_option,
+    search_knots_option,
+    sim_accept_option,
+    sim_acceptance,
+    tipping_weight_option,
+    workers_option,
+)
 from planner.config import PlannerOptions
 from planner.errors import InfeasibleGaitError, PlannerConfigError
-from planner.gait_search import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
 from planner.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES, make_schedule
 
@@ -52,18 +60,12 @@ def plan(
         help="right legs half a period after the left ones (walk/trot/pace); "
         "--no-symmetric also reaches bound/gallop",
     ),
-    executor: str = typer.Option("process", "--executor", help="serial | process | ray"),
-    workers: int | None = typer.Option(None, "--workers", help="parallel workers (--executor)"),
+    executor: str = executor_option(),
+    workers: int | None = workers_option(),
     address: str | None = typer.Option(None, "--address", help="Ray cluster address"),
-    search_knots: int = typer.Option(
-        DEFAULT_SEARCH_KNOTS, "--search-knots",
-        help="knots of the coarse NLP scoring each sample (--search); the file uses --knots"),
-    tipping_weight: float = typer.Option(
-        DEFAULT_TIPPING_WEIGHT, "--tipping-weight",
-        help="weight of the open-loop tipping term (--search); 0: the pure W&P objective"),
-    sim_accept: bool = typer.Option(
-        False, "--sim-accept/--no-sim-accept",
-        help="reject search samples whose gait does not walk in MuJoCo (--search; slower)"),
+    search_knots: int = search_knots_option(),
+    tipping_weight: float = tipping_weight_option(),
+    sim_accept: bool = sim_accept_option(),
     simulate: bool = typer.Option(
         False, "--simulate", help="validate in MuJoCo and write the verdict into the gait file"
     ),
@@ -138,20 +140,14 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
                  mu: float, st: SearchSettings, simulate: bool, cycles: int) -> None:
     from planner.gait_search import SearchLogRow, search_gait, write_search_log
 
-    if st.executor not in ("serial", "process", "ray"):
-        raise PlannerConfigError(
-            f"--executor must be serial, process or ray, got {st.executor!r}")
+    check_executor(st.executor)
     if gait is not None:
         console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")
     console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "
                   f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
                   f"samples scored at {st.search_knots} knots"
                   + (", MuJoCo acceptance" if st.sim_accept else "") + ")")
-    acceptance = None
-    if st.sim_accept:
-        from sim.acceptance import SimAcceptance  # lazy: MuJoCo only on request
-
-        acceptance = SimAcceptance(str(bot.root_dir))
+    acceptance = sim_acceptance(bot, st.sim_accept)
 
     def progress(row: SearchLogRow) -> None:
         if row.generation < 0:
@@ -193,7 +189,10 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
     meta = {"search": {
         "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
-        "seed": st.seed, "symmetric": st.symmetric, "template_costs": result.template_costs,
+        "seed": st.seed, "symmetric": st.symmetric,
+        "template_costs": {  # JSON has no inf: null = infeasible or rejected
+            name: cost if math.isfinite(cost) else None
+            for name, cost in result.template_costs.items()},
         "best_template": result.best_template, "search_cost": result.search_cost,
         "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
         "tipping_amplification": result.tipping_amplification,

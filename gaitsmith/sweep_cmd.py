@@ -8,9 +8,18 @@ import typer
 
 import robots
 from gaitsmith.console import console
+from gaitsmith.search_options import (
+    check_executor,
+    executor_option,
+    search_knots_option,
+    sim_accept_option,
+    sim_acceptance,
+    tipping_weight_option,
+    workers_option,
+)
 from planner.config import PlannerOptions
 from planner.errors import PlannerConfigError
-from planner.gait_search import DEFAULT_TIPPING_WEIGHT, GaitSearchResult, SearchLogRow
+from planner.gait_search import GaitSearchResult, SearchLogRow
 from planner.speed_sweep import SweepRow, Validator, sweep_speeds, to_markdown, write_sweep
 
 
@@ -24,14 +33,11 @@ def sweep(
     seed: int = typer.Option(0, "--seed"),
     symmetric: bool = typer.Option(True, "--symmetric/--no-symmetric"),
     mu: float = typer.Option(0.5, "--mu", help="friction coefficient"),
-    executor: str = typer.Option("process", "--executor", help="serial | process | ray"),
-    workers: int | None = typer.Option(None, "--workers", help="parallel workers"),
-    tipping_weight: float = typer.Option(
-        DEFAULT_TIPPING_WEIGHT, "--tipping-weight",
-        help="weight of the open-loop tipping (support) term; 0: the pure W&P objective"),
-    sim_accept: bool = typer.Option(
-        False, "--sim-accept/--no-sim-accept",
-        help="reject search samples whose gait does not walk in MuJoCo (slower)"),
+    executor: str = executor_option(),
+    workers: int | None = workers_option(),
+    search_knots: int = search_knots_option(),
+    tipping_weight: float = tipping_weight_option(),
+    sim_accept: bool = sim_accept_option(),
     simulate: bool = typer.Option(
         False, "--simulate", help="validate each speed's gait in MuJoCo (pass/fail column)"),
     cycles: int = typer.Option(12, "--cycles", help="cycles to simulate (--simulate)"),
@@ -61,19 +67,13 @@ def sweep(
             console.print(f"    gen {row.generation}: best {row.best_cost:.4g}, mean "
                           f"{row.gait_label} {row.period_s:.3f} s", highlight=False)
 
-    if executor not in ("serial", "process", "ray"):
-        raise PlannerConfigError(f"--executor must be serial, process or ray, got {executor!r}")
+    check_executor(executor)
     console.print(f"gait-from-speed sweep for [bold]{bot.name}[/] over {values} m/s")
-    acceptance = None
-    if sim_accept:
-        from sim.acceptance import SimAcceptance  # lazy: MuJoCo only on request
-
-        acceptance = SimAcceptance(str(bot.root_dir))
     rows = sweep_speeds(bot, values, n_knots=knots, options=PlannerOptions(mu=mu),
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
                         seed=seed, executor=executor, workers=workers,
-                        tipping_weight=tipping_weight,
-                        acceptance=acceptance,
+                        search_knots=search_knots, tipping_weight=tipping_weight,
+                        acceptance=sim_acceptance(bot, sim_accept),
                         validator=_sim_validator(cycles) if simulate else None,
                         on_row=on_row, progress=progress)
     paths = write_sweep(rows, output, bot)

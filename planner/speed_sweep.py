@@ -20,6 +20,7 @@ import numpy as np
 
 from planner.config import PlannerOptions
 from planner.gait_search import (
+    DEFAULT_SEARCH_KNOTS,
     DEFAULT_TIPPING_WEIGHT,
     GaitAcceptance,
     GaitSearchResult,
@@ -87,6 +88,7 @@ def sweep_speeds(
     seed: int = 0,
     executor: str = "serial",
     workers: int | None = None,
+    search_knots: int = DEFAULT_SEARCH_KNOTS,
     tipping_weight: float = DEFAULT_TIPPING_WEIGHT,
     acceptance: Callable[[], GaitAcceptance] | None = None,
     validator: Validator | None = None,
@@ -101,7 +103,8 @@ def sweep_speeds(
         result = search_gait(robot, float(speed), n_knots=n_knots, options=options,
                              symmetric=symmetric, max_generations=max_generations,
                              popsize=popsize, seed=seed, executor=executor, workers=workers,
-                             tipping_weight=tipping_weight, acceptance=acceptance,
+                             search_knots=search_knots, tipping_weight=tipping_weight,
+                             acceptance=acceptance,
                              planner=planner, progress=progress)
         row = row_from(result, validator)
         rows.append(row)
@@ -156,8 +159,9 @@ def plot(rows: Sequence[SweepRow], path: str | Path, title: str) -> None:
         values = np.array([getattr(r, key) for r in rows])
         ax.plot(speeds, values, "-", color="0.6", zorder=1)
         for r, v in zip(rows, values, strict=True):
+            # a cross: the gait fell or missed a criterion in MuJoCo
             ax.scatter([r.speed_m_s], [v], color=colours[r.gait_label], s=60, zorder=2,
-                       label=r.gait_label)
+                       label=r.gait_label, marker="X" if r.sim_passed is False else "o")
         ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
     axes[0].axhline(0.5, color="0.3", lw=0.8, ls="--")
@@ -184,6 +188,6 @@ def write_sweep(rows: Sequence[SweepRow], out_dir: str | Path, robot: Robot) -> 
     paths = {"csv": out / "sweep.csv", "md": out / "sweep.md", "png": out / "sweep.png"}
     atomic_write_text(paths["csv"], to_csv(rows))
     atomic_write_text(paths["md"], f"# {robot.name}: best gait vs speed\n\n" + to_markdown(rows))
-    plot(rows, paths["png"], f"{robot.name}: gait from speed (basin-CMA)")
+    plot(rows, paths["png"], f"{robot.name}: gait from speed (basin-CMA; × = fails in MuJoCo)")
     return paths
 

@@ -13,15 +13,17 @@ def test_plan_search_writes_the_gait_and_its_log(tmp_path: Path) -> None:
     out = tmp_path / "best.json"
     argv = [sys.executable, "-m", "gaitsmith.cli", "plan", "quad12", "--speed", "0.2", "--search",
             "--generations", "1", "--popsize", "4", "--executor", "serial", "--knots", "20",
-            "-o", str(out)]
+            "--simulate", "--cycles", "8", "-o", str(out)]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     proc = subprocess.run(argv, capture_output=True, text=True, timeout=900, check=False, env=env)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     assert "best gait:" in proc.stdout and "gen   0" in proc.stdout
     gait = json.loads(out.read_text())
     search = gait["planner"]["search"]
-    assert search["search_knots"] == 12 and search["sim_accepted"] is None
-    assert search["search_cost"] <= min(search["template_costs"].values()) + 1e-9
+    assert search["search_knots"] == 12 and search["sim_accepted"] is True  # --sim-accept default
+    assert gait["validation"]["passed"] is True  # --simulate: the written gait walks
+    finite = [c for c in search["template_costs"].values() if c is not None]  # null: rejected
+    assert finite and search["search_cost"] <= min(finite) + 1e-9
     assert gait["gait_label"] in search["template_costs"] or gait["gait_label"] in (
         "bound", "gallop_rotary", "gallop_transverse", "pronk")
     log = out.with_suffix(".search.csv").read_text().splitlines()

@@ -1,0 +1,51 @@
+"""Command-line options shared by `gaitsmith plan --search` and `gaitsmith sweep`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import typer
+
+import robots
+from planner.errors import PlannerConfigError
+from planner.gait_search import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
+
+EXECUTORS = ("serial", "process", "ray")
+
+
+def executor_option() -> Any:
+    return typer.Option("process", "--executor", help="serial | process | ray")
+
+
+def workers_option() -> Any:
+    return typer.Option(None, "--workers", help="parallel workers (default: one per core)")
+
+
+def search_knots_option() -> Any:
+    return typer.Option(DEFAULT_SEARCH_KNOTS, "--search-knots",
+                        help="knots of the coarse NLP scoring each sample; the gait uses --knots")
+
+
+def tipping_weight_option() -> Any:
+    return typer.Option(DEFAULT_TIPPING_WEIGHT, "--tipping-weight",
+                        help="weight of the open-loop tipping term; 0: the pure W&P objective")
+
+
+def sim_accept_option() -> Any:
+    return typer.Option(True, "--sim-accept/--no-sim-accept",
+                        help="reject samples whose gait does not walk in MuJoCo (slower)")
+
+
+def check_executor(executor: str) -> None:
+    if executor not in EXECUTORS:
+        raise PlannerConfigError(
+            f"--executor must be {', '.join(EXECUTORS[:-1])} or {EXECUTORS[-1]}, got {executor!r}")
+
+
+def sim_acceptance(robot: robots.Robot, enabled: bool) -> Any:
+    """The MuJoCo acceptance factory for the search, or None (sim is imported only if used)."""
+    if not enabled:
+        return None
+    from sim.acceptance import SimAcceptance
+
+    return SimAcceptance(str(robot.root_dir))
