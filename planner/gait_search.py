@@ -118,10 +118,10 @@ class TimingSpace:
         hi = np.r_[self.period_bounds_s[1], np.full(k - 1, 1.5), np.full(k, DUTY_BOUNDS[1])]
         return lo, hi
 
-    def sigma0(self) -> np.ndarray:
-        """Initial standard deviations: a third of each box width (W&P §5 cover the box)."""
+    def sigma0(self, fraction: float = 1.0 / 3.0) -> np.ndarray:
+        """Initial standard deviations: `fraction` of each box width (W&P §5 cover the box: ⅓)."""
         lo, hi = self.bounds()
-        return (hi - lo) / 3.0
+        return (hi - lo) * fraction
 
     def decode(self, x: np.ndarray) -> ContactSchedule:
         x = np.asarray(x, dtype=float)
@@ -315,6 +315,7 @@ def search_gait(
     search_max_iter: int = DEFAULT_SEARCH_MAX_ITER,
     tipping_weight: float = DEFAULT_TIPPING_WEIGHT,
     acceptance: Callable[[], GaitAcceptance] | None = None,
+    sigma_fraction: float = 1.0 / 3.0,
     progress: Callable[[SearchLogRow], None] | None = None,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
@@ -328,6 +329,8 @@ def search_gait(
         raise PlannerConfigError(f"planner has {planner.n_knots} knots, search asked for {n_knots}")
     if search_max_iter < 1:
         raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
+    if not 0 < sigma_fraction <= 1:
+        raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
     space = TimingSpace.for_robot(robot, symmetric)
     tipping = TippingCost.for_robot(robot, tipping_weight)
     search_options = replace(options, max_iter=min(options.max_iter, search_max_iter))
@@ -362,7 +365,8 @@ def search_gait(
         best_template = min(template_costs, key=lambda n: template_costs[n])
         x0 = dict(named_x)[best_template]
         # 2. basin-CMA over the timings (projection = coarse spacetime solve)
-        cma = basin_cma(ex.local_solve, x0, space.sigma0(), (lo, hi), popsize=popsize,
+        cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),
+                        popsize=popsize,
                         max_generations=max_generations, restarts=restarts,
                         max_local_solves=max_local_solves, seed=seed, executor=pool,
                         callback=on_generation)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import pickle
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +27,7 @@ from planner.spacetime import GaitPlanner
 from planner.speed_sweep import row_from, to_csv, to_markdown, write_sweep
 from planner.support import TippingCost
 from planner.templates import TEMPLATES, make_schedule, templates_for
+from robots import Gait
 
 
 @pytest.mark.parametrize("name", ["quad12", "hex18"])
@@ -99,6 +101,34 @@ def test_timing_solver_adds_the_support_term_of_the_timing(
     with_support = TimingSolver(small_quad_planner, space, 0.2, tipping)(x)
     assert tipping(space.decode(x)) > 0
     assert with_support.cost == pytest.approx(plain.cost + tipping(space.decode(x)), rel=1e-6)
+
+
+@dataclass(frozen=True)
+class _Verdict:
+    passed: bool
+    badness: float
+
+
+def test_rejected_samples_rank_after_feasible_and_before_infeasible_ones(
+    small_quad_planner: GaitPlanner,
+) -> None:
+    """A feasible plan whose gait fails acceptance becomes infeasible with a tiny violation."""
+    robot = small_quad_planner.robot
+    space = TimingSpace.for_robot(robot)
+    x = space.encode(make_schedule(robot, "trot"))
+    assert x is not None
+    seen: list[Gait] = []
+
+    def reject(gait: Gait) -> _Verdict:
+        seen.append(gait)
+        return _Verdict(False, 2.0)
+
+    r = TimingSolver(small_quad_planner, space, 0.2, None, reject)(x)
+    assert len(seen) == 1 and seen[0].n_knots == small_quad_planner.n_knots
+    assert not r.feasible and math.isfinite(r.cost)
+    assert 0 < r.violation < 1e-6  # ranks ahead of plans that violate the NLP (≥ 1e-4)
+    ok = TimingSolver(small_quad_planner, space, 0.2, None, lambda g: _Verdict(True, 0.0))(x)
+    assert ok.feasible and ok.cost == pytest.approx(r.cost)
 
 
 def test_recording_executor_ranks_distinct_feasible_samples() -> None:
