@@ -22,17 +22,22 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import robots
 from planner.gait_search import search_gait
 from sim.acceptance import SimAcceptance
+from sim.validate import PassCriteria
 
 
 def run(
     executor: str, speed: float, generations: int, workers: int, seed: int, sim_accept: bool
 ) -> tuple[float, int, str, float]:
     robot = robots.load("quad12")
-    acceptance = SimAcceptance(str(robot.root_dir)) if sim_accept else None
+    root = str(robot.root_dir)
+    acceptance = (
+        {"acceptance": SimAcceptance(root), "final_acceptance": SimAcceptance(root, PassCriteria())}
+        if sim_accept else {}
+    )
     t0 = time.perf_counter()
     result = search_gait(
         robot, speed, max_generations=generations, seed=seed, executor=executor, workers=workers,
-        acceptance=acceptance,
+        **acceptance,  # type: ignore[arg-type]
     )
     wall = time.perf_counter() - t0
     return (

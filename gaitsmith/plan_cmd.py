@@ -147,7 +147,6 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
                   f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
                   f"samples scored at {st.search_knots} knots"
                   + (", MuJoCo acceptance" if st.sim_accept else "") + ")")
-    acceptance = sim_acceptance(bot, st.sim_accept)
 
     def progress(row: SearchLogRow) -> None:
         if row.generation < 0:
@@ -164,7 +163,7 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         bot, speed, n_knots=knots, options=PlannerOptions(mu=mu), symmetric=st.symmetric,
         max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
-        tipping_weight=st.tipping_weight, acceptance=acceptance, progress=progress,
+        tipping_weight=st.tipping_weight, progress=progress, **sim_acceptance(bot, st.sim_accept),
     )
     for name, cost in result.template_costs.items():
         console.print(f"  template {name:18s} cost {cost:.5g}")
@@ -194,6 +193,7 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
             name: cost if math.isfinite(cost) else None
             for name, cost in result.template_costs.items()},
         "best_template": result.best_template, "search_cost": result.search_cost,
+        "search_feasible": result.search_feasible,
         "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
         "tipping_amplification": result.tipping_amplification,
         "sim_accepted": result.accepted, "cost_of_transport": result.cost_of_transport,

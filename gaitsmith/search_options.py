@@ -42,10 +42,15 @@ def check_executor(executor: str) -> None:
             f"--executor must be {', '.join(EXECUTORS[:-1])} or {EXECUTORS[-1]}, got {executor!r}")
 
 
-def sim_acceptance(robot: robots.Robot, enabled: bool) -> Any:
-    """The MuJoCo acceptance factory for the search, or None (sim is imported only if used)."""
+def sim_acceptance(robot: robots.Robot, enabled: bool) -> dict[str, Any]:
+    """`search_gait` keyword arguments for MuJoCo acceptance: samples are judged with the search
+    criteria, the full-resolution candidates with the default ones (sim is imported only if
+    enabled)."""
     if not enabled:
-        return None
+        return {}
     from sim.acceptance import SimAcceptance
+    from sim.validate import PassCriteria
 
-    return SimAcceptance(str(robot.root_dir))
+    root = str(robot.root_dir)
+    return {"acceptance": SimAcceptance(root),
+            "final_acceptance": SimAcceptance(root, criteria=PassCriteria())}

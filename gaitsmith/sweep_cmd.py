@@ -73,7 +73,7 @@ def sweep(
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
                         seed=seed, executor=executor, workers=workers,
                         search_knots=search_knots, tipping_weight=tipping_weight,
-                        acceptance=sim_acceptance(bot, sim_accept),
+                        **sim_acceptance(bot, sim_accept),
                         validator=_sim_validator(cycles) if simulate else None,
                         on_row=on_row, progress=progress)
     paths = write_sweep(rows, output, bot)

@@ -161,6 +161,13 @@ def cost_of_transport(result: PlanResult, robot: Robot) -> float:
     return power_w / (robot.mass_kg * 9.81 * result.speed_m_s)
 
 
+@dataclass(frozen=True)
+class TimingResult(LocalResult):
+    """A local solve of the search; `plan_feasible`: the NLP solved, whatever acceptance said."""
+
+    plan_feasible: bool = False
+
+
 @dataclass
 class TimingSolver:
     """The local solve g(x) of basin-CMA: one spacetime solve for the decoded timing.
@@ -183,15 +190,15 @@ class TimingSolver:
             # independent of which samples a worker solved before (executor-invariant search)
             result = self.planner.solve(schedule, self.speed_m_s, warm_start=False)
         except PlannerConfigError:  # e.g. a foot never lands on any knot
-            return LocalResult(x, math.inf, False, 0, math.inf)
+            return TimingResult(x, math.inf, False, 0, math.inf)
         evals = int(result.iterations) + 1
         cost = result.cost + (self.tipping(schedule) if self.tipping is not None else 0.0)
         if result.feasible and self.acceptance is not None:
             verdict = self.acceptance(self.planner.to_gait(result, "search sample"))
             if not verdict.passed:
-                return LocalResult(x, cost, False, evals,
-                                   REJECTED_VIOLATION * (1.0 + verdict.badness))
-        return LocalResult(x, cost, result.feasible, evals, result.max_violation)
+                return TimingResult(x, cost, False, evals,
+                                    REJECTED_VIOLATION * (1.0 + verdict.badness), True)
+        return TimingResult(x, cost, result.feasible, evals, result.max_violation, result.feasible)
 
 
 @dataclass(frozen=True)
@@ -229,11 +236,17 @@ class RecordingExecutor:
         return out
 
     def best_feasible(self, k: int) -> list[tuple[np.ndarray, LocalResult]]:
-        """The k cheapest feasible distinct samples, cheapest first."""
-        feasible = sorted((r for r in self.records if r[1].feasible and math.isfinite(r[1].cost)),
-                          key=lambda r: r[1].cost)
+        """Up to k distinct samples to re-solve at full resolution, best first: the feasible
+        ones by cost, then those whose plan solved but whose gait failed acceptance (at the
+        coarse resolution of the search; they may pass at the final one), by cost."""
+
+        def rank(record: tuple[np.ndarray, LocalResult]) -> tuple[int, float]:
+            return (0 if record[1].feasible else 1, record[1].cost)
+
+        usable = sorted((r for r in self.records if math.isfinite(r[1].cost) and (
+            r[1].feasible or getattr(r[1], "plan_feasible", False))), key=rank)
         picked: list[tuple[np.ndarray, LocalResult]] = []
-        for x, res in feasible:
+        for x, res in usable:
             if all(not np.allclose(x, y) for y, _ in picked):
                 picked.append((x, res))
             if len(picked) == k:
@@ -271,6 +284,7 @@ class GaitSearchResult:
     template_costs: dict[str, float]  # template → search cost (inf if infeasible)
     best_template: str
     search_cost: float  # search cost of the timing that won (template or CMA sample)
+    search_feasible: bool  # it was feasible and accepted at the search resolution too
     support_cost: float  # support term of that timing
     tipping_amplification: float
     log: tuple[SearchLogRow, ...]
@@ -315,6 +329,7 @@ def search_gait(
     search_max_iter: int = DEFAULT_SEARCH_MAX_ITER,
     tipping_weight: float = DEFAULT_TIPPING_WEIGHT,
     acceptance: Callable[[], GaitAcceptance] | None = None,
+    final_acceptance: Callable[[], GaitAcceptance] | None = None,
     sigma_fraction: float = 1.0 / 3.0,
     progress: Callable[[SearchLogRow], None] | None = None,
 ) -> GaitSearchResult:
@@ -322,6 +337,8 @@ def search_gait(
 
     `planner` is the final planner (n_knots, options); pass one to reuse its NLP across speeds.
     The executor's workers each build the coarse search NLP once (`search_knots`).
+    `acceptance` judges every feasible sample, `final_acceptance` (default: `acceptance`) the
+    full-resolution candidates — the final judge may be stricter than the coarse one.
     """
     t0 = time.perf_counter()
     options = options or PlannerOptions()
@@ -373,7 +390,8 @@ def search_gait(
     # 3. the cheapest timings, re-solved at full resolution; the first feasible (and accepted)
     #    one wins, else the first feasible one (reported as not accepted)
     final = planner or GaitPlanner(robot, n_knots, options)
-    check = acceptance() if acceptance is not None else None
+    final_check = final_acceptance or acceptance
+    check = final_check() if final_check is not None else None
     candidates = pool.best_feasible(FINAL_CANDIDATES) or [(x0, seed_results[best_template])]
     chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
     for x, searched in candidates:
@@ -393,6 +411,7 @@ def search_gait(
     return GaitSearchResult(
         robot=robot, speed_m_s=speed_m_s, best=best, label=label_gait(schedule, robot),
         template_costs=template_costs, best_template=best_template, search_cost=won.cost,
+        search_feasible=won.feasible,
         support_cost=tipping(schedule), tipping_amplification=tipping.amplification(schedule),
         log=tuple(log), cma=cma, elapsed_s=time.perf_counter() - t0,
         cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
@@ -436,6 +455,7 @@ __all__ = [
     "GaitSearchResult",
     "RecordingExecutor",
     "SearchLogRow",
+    "TimingResult",
     "TimingSolver",
     "TimingSolverFactory",
     "TimingSpace",

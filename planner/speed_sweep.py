@@ -49,6 +49,7 @@ class SweepRow:
     elapsed_s: float
     family: str = ""
     search_cost: float = math.nan  # coarse-NLP cost incl. the support term (vs the template's)
+    search_feasible: bool = True  # False: the winner failed at the search resolution (fallback)
     tipping_amplification: float = math.nan
     sim_passed: bool | None = None  # MuJoCo verdict of the written gait (None: not simulated)
     sim_speed_m_s: float = math.nan
@@ -71,6 +72,7 @@ def row_from(result: GaitSearchResult, validator: Validator | None = None) -> Sw
         cost_of_transport=result.cost_of_transport, feasible=best.feasible,
         local_solves=result.cma.n_local_solves, elapsed_s=result.elapsed_s,
         family=gait_family(result.label), search_cost=result.search_cost,
+        search_feasible=result.search_feasible,
         tipping_amplification=result.tipping_amplification, sim_passed=passed,
         sim_speed_m_s=achieved,
     )
@@ -91,6 +93,7 @@ def sweep_speeds(
     search_knots: int = DEFAULT_SEARCH_KNOTS,
     tipping_weight: float = DEFAULT_TIPPING_WEIGHT,
     acceptance: Callable[[], GaitAcceptance] | None = None,
+    final_acceptance: Callable[[], GaitAcceptance] | None = None,
     validator: Validator | None = None,
     on_row: Callable[[SweepRow], None] | None = None,
     progress: Callable[[SearchLogRow], None] | None = None,
@@ -104,7 +107,7 @@ def sweep_speeds(
                              symmetric=symmetric, max_generations=max_generations,
                              popsize=popsize, seed=seed, executor=executor, workers=workers,
                              search_knots=search_knots, tipping_weight=tipping_weight,
-                             acceptance=acceptance,
+                             acceptance=acceptance, final_acceptance=final_acceptance,
                              planner=planner, progress=progress)
         row = row_from(result, validator)
         rows.append(row)
@@ -135,10 +138,15 @@ def to_markdown(rows: Sequence[SweepRow]) -> str:
             f"{'pass' if r.sim_passed else 'FAIL'} {r.sim_speed_m_s:.3f} m/s"
         lines.append(
             f"| {r.speed_m_s:.3f} | {r.froude:.3f} | {r.gait_label} | {r.mean_duty_factor:.2f} | "
-            f"{r.period_s:.3f} | {r.search_cost:.4g} | {r.best_template} "
+            f"{r.period_s:.3f} | {r.search_cost:.4g}{'' if r.search_feasible else ' †'} | "
+            f"{r.best_template} "
             f"({r.best_template_cost:.4g}) | {r.cost:.4g} | {r.tipping_amplification:.3g} | "
             f"{r.cost_of_transport:.3f} | {sim} | {r.local_solves} |"
         )
+    if not all(r.search_feasible for r in rows):
+        lines.append("\n† no sample was feasible and accepted at the search resolution; the row "
+                     "shows the cheapest plan that solved, re-solved (and judged) at full "
+                     "resolution.")
     return "\n".join(lines) + "\n"
 
 

@@ -16,6 +16,7 @@ from planner.executors import SerialExecutor
 from planner.gait_search import (
     DEFAULT_TIPPING_WEIGHT,
     RecordingExecutor,
+    TimingResult,
     TimingSolver,
     TimingSolverFactory,
     TimingSpace,
@@ -140,6 +141,10 @@ def test_recording_executor_ranks_distinct_feasible_samples() -> None:
     assert [r.cost for r in rec.map(fake, xs)] == [2.0, 1.0, 4.0, 1.0, 0.5]
     best = rec.best_feasible(3)
     assert [float(x[0]) for x, _ in best] == [0.5, 1.0, 2.0]  # 4.0 infeasible, 1.0 once
+    # plans that solved but failed acceptance come after every feasible sample, by cost
+    rec.map(lambda x: TimingResult(x, 0.1, False, 0, 1e-9, True), [np.array([9.0])])
+    rec.map(lambda x: TimingResult(x, 0.2, False, 0, 1.0, False), [np.array([8.0])])
+    assert [float(x[0]) for x, _ in rec.best_feasible(5)] == [0.5, 1.0, 2.0, 9.0]
 
 
 def test_factory_is_picklable_for_process_and_ray_workers() -> None:
