@@ -31,7 +31,8 @@ def run(
     robot = robots.load("quad12")
     root = str(robot.root_dir)
     acceptance = (
-        {"acceptance": SimAcceptance(root), "final_acceptance": SimAcceptance(root, PassCriteria())}
+        {"acceptance": SimAcceptance(root),
+         "final_acceptance": SimAcceptance(root, criteria=PassCriteria())}
         if sim_accept else {}
     )
     t0 = time.perf_counter()
