@@ -2,8 +2,9 @@
 
 `process(data, now_wall_s)` takes instruction bytes as written by the host (any chunking) and
 returns the status packets as (release wall-time [s], bytes), in bus order, after fault
-injection (drop / corrupt / delay / vanished servos). Servo physics run on the injectable
-`clock` (bus time); release times are wall-clock so a transport can honour delays.
+injection (drop / corrupt / delay / vanished servos / no reply to reads of given registers).
+Servo physics run on the injectable `clock` (bus time); release times are wall-clock so a
+transport can honour delays.
 Reach it in-process with `VirtualPort` or on a pseudo-terminal with `PtyServer`.
 """
 
@@ -75,6 +76,7 @@ class VirtualServoBus:
         self._lock = threading.RLock()
         now = clock()
         self.servos = [VirtualServo(i, m, self.table, now) for i, m in sorted(servos.items())]
+        self._check_plan(faults)
         self._faults = faults
         self._rng = random.Random(faults.seed)
         self._parser: dxl.StreamParser | ft.StreamParser = (
@@ -96,9 +98,18 @@ class VirtualServoBus:
 
     @faults.setter
     def faults(self, plan: FaultPlan) -> None:
+        self._check_plan(plan)
         with self._lock:
             self._faults = plan
             self._rng = random.Random(plan.seed)
+
+    def _check_plan(self, plan: FaultPlan) -> None:
+        unknown = sorted(n for n in plan.drop_reads_of if n not in self.table.registers)
+        if unknown:
+            raise ValueError(
+                f"drop_reads_of: no register {', '.join(map(repr, unknown))} in the "
+                f"{self.protocol} control table"
+            )
 
     def vanish(self, servo_id: int) -> None:
         """Make `servo_id` stop answering from now on."""
@@ -124,11 +135,26 @@ class VirtualServoBus:
             now = self.clock()
             for packet in self._parser.feed(bytes(data)):
                 self.instructions += 1
+                lost = self._read_lost(packet)
                 for servo, reply in self._dispatch(packet, now):
+                    if lost:
+                        continue
                     injected = self._inject(servo, reply, now)
                     if injected is not None:
                         out.append((wall + injected[0], injected[1]))
         return out
+
+    def _read_lost(self, p: Packet) -> bool:
+        """Whether `p` is a READ / SYNC_READ of a register in the plan's `drop_reads_of`."""
+        names = self._faults.drop_reads_of
+        if not names or p.instruction not in (READ, SYNC_READ):
+            return False
+        prm, dxl2 = p.params, self.protocol == "dynamixel2"
+        if len(prm) < (4 if dxl2 else 2):
+            return False
+        addr, size = (_u16(prm, 0), _u16(prm, 2)) if dxl2 else (prm[0], prm[1])
+        regs = (self.table[n] for n in names)
+        return any(r.addr < addr + size and addr < r.addr + r.size for r in regs)
 
     def _inject(self, servo: VirtualServo, reply: bytes, now: float) -> tuple[float, bytes] | None:
         plan, rng = self._faults, self._rng

@@ -17,6 +17,11 @@ class FaultPlan:
     vanished: servo ids that never answer (a cut cable).
     vanish_at_s: {servo id: bus-clock time [s]} from which that servo stops answering.
     overload / overheat / voltage_error: servo ids that report that hardware error.
+    drop_reads_of: register names (e.g. {"present_temperature"}): every reply to a READ or
+        SYNC_READ whose address range overlaps one of them is lost, whatever the servo; other
+        packets are untouched. Lets a test lose the periodic status reads (load, voltage,
+        temperature, error flags) while position reads still succeed. Names are checked against
+        the bus's control table when the plan is set.
     voltage_sag_v: the supply droops by this much [V]; a servo whose present voltage falls below
         its catalogue minimum reports a voltage error by itself.
     seed: seeds the RNG used for drop / corrupt / delay decisions (reset when the plan is set).
@@ -31,6 +36,7 @@ class FaultPlan:
     overload: frozenset[int] = frozenset()
     overheat: frozenset[int] = frozenset()
     voltage_error: frozenset[int] = frozenset()
+    drop_reads_of: frozenset[str] = frozenset()
     voltage_sag_v: float = 0.0
     seed: int = 0
 
@@ -41,7 +47,7 @@ class FaultPlan:
                 raise ValueError(f"{name} must lie in [0, 1], got {p}")
         if self.delay_s < 0 or self.voltage_sag_v < 0:
             raise ValueError("delay_s and voltage_sag_v must be >= 0")
-        for name in ("vanished", "overload", "overheat", "voltage_error"):
+        for name in ("vanished", "overload", "overheat", "voltage_error", "drop_reads_of"):
             object.__setattr__(self, name, frozenset(getattr(self, name)))
 
     def is_vanished(self, servo_id: int, now_s: float) -> bool:

@@ -181,3 +181,25 @@ def test_dynamixel_latched_error_cleared_by_reboot(make_vbus: Any) -> None:
         assert vbus.servo(3).torque_enabled is False  # Shutdown: torque off on overload
         bus.reboot(3)
         assert bus.read(3, "hardware_error") == 0
+
+
+def test_dropped_register_reads_lose_status_but_not_positions(
+    make_vbus: Any, protocol: str
+) -> None:
+    """`FaultPlan.drop_reads_of`: no reply to (sync-)reads touching those registers, on the wire;
+    other reads and writes are answered."""
+    vbus = make_vbus(protocol)
+    vbus.faults = FaultPlan(drop_reads_of=frozenset({"present_temperature"}))
+    with _connect(vbus, retries=1) as bus:
+        assert bus.sync_read_positions(IDS) == {i: 2048 for i in IDS}
+        bus.torque_on(IDS)
+        with pytest.raises(NoResponse) as info:
+            bus.read_status(IDS)
+        assert info.value.attempts == 2
+        with pytest.raises(NoResponse):
+            bus.read(3, "present_temperature")
+        assert bus.read(3, "present_position") == 2048
+        vbus.faults = FaultPlan()
+        assert bus.read_status(IDS)[3].temperature_c == 30.0
+    with pytest.raises(ValueError, match="no register 'nope'"):
+        vbus.faults = FaultPlan(drop_reads_of=frozenset({"nope"}))
