@@ -1,7 +1,8 @@
 """`gaitsmith-play run | calibrate | plot`: the player's commands, registered onto hardware.cli.
 
 Exit codes: 0 completed, 2 refused (pre-flight, bad file or option), 3 no response,
-4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 130 SIGINT, 143 SIGTERM.
+4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 8 status lost (servo health
+unreadable), 130 SIGINT, 143 SIGTERM.
 """
 
 from __future__ import annotations
@@ -99,7 +100,8 @@ def _summary(result: PlayResult, twin: Any) -> None:
         f"{result.ticks} ticks ({phases}); rate {result.achieved_rate_hz:.1f} Hz; jitter p50 "
         f"{result.jitter_p50_s * 1e3:.3f} ms, p99 {result.jitter_p99_s * 1e3:.3f} ms, max "
         f"{result.jitter_max_s * 1e3:.3f} ms; overruns {result.overruns}; missed reads "
-        f"{result.misses}; clipped: limits {result.limit_clips}, steps {result.step_clips}",
+        f"{result.misses} (status {result.status_misses}); clipped: limits "
+        f"{result.limit_clips}, steps {result.step_clips}",
         highlight=False,
     )
     if result.torque_off_failures:

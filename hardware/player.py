@@ -100,6 +100,7 @@ class PlayResult:
     skipped: int  # deadlines dropped to catch up after an overrun longer than a period
     misses: int
     max_consecutive_misses: int
+    status_misses: int  # failed status reads (health unknown on those ticks)
     jitter_p50_s: float
     jitter_p99_s: float
     jitter_max_s: float
@@ -354,8 +355,11 @@ class Player:
         if self.ticks % self.config.limits.status_every_ticks == 0:
             try:
                 status = self.bus.read_status(self.ids)
-            except (NoResponse, CorruptPacket):
-                status = None  # a lost status read is not a missed position read
+            except (NoResponse, CorruptPacket) as exc:
+                # not a missed position read (the gait can go on), but health unseen for long
+                # enough stops the run: an overheating servo must not go unnoticed
+                if watch:
+                    wd.status_missed(exc, self.ticks, t_rel)
             except BusError as exc:
                 self._stop_for(exc, StopReason.BUS_ERROR)
             if status is not None and watch:
@@ -396,6 +400,7 @@ class Player:
             skipped=self._skipped,
             misses=self.watchdog.misses,
             max_consecutive_misses=self.watchdog.max_consecutive_misses,
+            status_misses=self.watchdog.status_misses,
             jitter_p50_s=float(np.percentile(jit, 50)),
             jitter_p99_s=float(np.percentile(jit, 99)),
             jitter_max_s=float(np.max(jit)),

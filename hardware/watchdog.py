@@ -11,7 +11,15 @@ message, tick, time, servo id). Budgets:
 - hardware-error flags (`ServoFault` or flags in a status read): overheat → OVER_TEMPERATURE,
   voltage → LOW_VOLTAGE, anything else → SERVO_FAULT;
 - temperature ≥ the servo's max_temperature_c − `temperature_margin_c`;
-- voltage < the servo's voltage_min_v + `voltage_margin_v`.
+- voltage < the servo's voltage_min_v + `voltage_margin_v`;
+- failed status reads (no reply / corrupt after the bus's retries): the
+  `max_consecutive_status_misses`-th in a row → STATUS_LOST. Position reads alone keep the gait
+  going but say nothing about heat or supply, so a servo whose health cannot be read must not
+  run on unwatched; one successful status read resets the count.
+
+Exit codes (`EXIT_CODES`, also the CLI's): 0 completed, 2 refused to start, 3 no response,
+4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 8 status lost, 130 SIGINT,
+143 SIGTERM.
 """
 
 from __future__ import annotations
@@ -41,6 +49,7 @@ class StopReason(str, Enum):
     OVER_TEMPERATURE = "over_temperature"
     LOW_VOLTAGE = "low_voltage"
     BUS_ERROR = "bus_error"
+    STATUS_LOST = "status_lost"
 
     @property
     def exit_code(self) -> int:
@@ -54,6 +63,7 @@ EXIT_CODES: Mapping[StopReason, int] = {
     StopReason.OVER_TEMPERATURE: 5,
     StopReason.LOW_VOLTAGE: 6,
     StopReason.BUS_ERROR: 7,
+    StopReason.STATUS_LOST: 8,
     StopReason.SIGINT: 130,  # 128 + SIGINT, the shell convention
     StopReason.SIGTERM: 143,  # 128 + SIGTERM
 }
@@ -84,10 +94,15 @@ class WatchdogLimits:
     temperature_margin_c: float = 5.0
     voltage_margin_v: float = 0.0
     status_every_ticks: int = 10
+    # Unlike max_consecutive_misses (misses tolerated), this many failed status reads in a row
+    # stop the run: 3 at status_every_ticks = 10 and 100 Hz → health unknown for 0.3 s at most.
+    max_consecutive_status_misses: int = 3
 
     def __post_init__(self) -> None:
         if self.max_consecutive_misses < 1 or self.max_misses_in_window < 1:
             raise ValueError("miss budgets must be >= 1")
+        if self.max_consecutive_status_misses < 1:
+            raise ValueError("max_consecutive_status_misses must be >= 1")
         if self.window_ticks < self.max_misses_in_window:
             raise ValueError("window_ticks must be >= max_misses_in_window")
         if self.status_every_ticks < 1:
@@ -116,6 +131,9 @@ class Watchdog:
         self.consecutive_misses = 0
         self.max_consecutive_misses = 0
         self.misses = 0
+        self.consecutive_status_misses = 0
+        self.status_misses = 0
+        self._status_missed_by: list[int | None] = []  # servo ids blamed in the current streak
         self.stop: StopEvent | None = None
         self.urgent = False  # a second signal: skip the ramp to rest
 
@@ -182,10 +200,39 @@ class Watchdog:
             fault.servo_id,
         )
 
+    def status_missed(self, error: BusError, tick: int, t_s: float) -> StopEvent | None:
+        """A status read failed (after the bus's retries); returns the stop it raised, if any.
+
+        Not a missed position read: the gait can go on, but only while the servos' temperature,
+        voltage and error flags stay known; the `max_consecutive_status_misses`-th failure in a
+        row stops the run (STATUS_LOST), naming the servo(s) that did not answer."""
+        self.status_misses += 1
+        self.consecutive_status_misses += 1
+        servo_id = getattr(error, "servo_id", None)
+        if servo_id not in self._status_missed_by:
+            self._status_missed_by.append(servo_id)
+        lim = self.limits
+        n = self.consecutive_status_misses
+        if n < lim.max_consecutive_status_misses:
+            return None
+        who = ", ".join(self._who(s) for s in self._status_missed_by)
+        return self.request(
+            StopReason.STATUS_LOST,
+            f"{who}: {n} consecutive failed status reads (limit "
+            f"{lim.max_consecutive_status_misses}): temperature, voltage and error flags unknown "
+            f"for {n * lim.status_every_ticks} ticks; last: {error}",
+            tick,
+            t_s,
+            servo_id,
+        )
+
     def status(
         self, statuses: Mapping[int, ServoStatus], tick: int, t_s: float
     ) -> StopEvent | None:
-        """Check one status read of every servo; returns the stop it raised, if any."""
+        """Check one status read of every servo; returns the stop it raised, if any.
+        A status read that arrived resets the failed-status-read count."""
+        self.consecutive_status_misses = 0
+        self._status_missed_by.clear()
         lim = self.limits
         for sid, st in statuses.items():
             model = self.servos.get(sid)

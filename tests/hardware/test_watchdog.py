@@ -9,7 +9,7 @@ import pytest
 
 import robots
 from hardware.bus import ServoStatus
-from hardware.errors import NoResponse, ServoFault
+from hardware.errors import CorruptPacket, NoResponse, ServoFault
 from hardware.watchdog import (
     EXIT_CODES,
     StopReason,
@@ -121,3 +121,31 @@ def test_signals_become_stop_requests_and_handlers_are_restored(
         os.kill(os.getpid(), signum)  # a second signal: skip the ramp to rest
         assert dog.urgent
     assert signal.getsignal(signum) is before
+
+
+def test_status_read_budget_stops_at_the_limit_and_names_the_servos() -> None:
+    dog = _dog(max_consecutive_status_misses=3, status_every_ticks=10)
+    assert dog.status_missed(NoResponse(4), 10, 0.1) is None
+    assert dog.status_missed(CorruptPacket("bad CRC", None), 20, 0.2) is None
+    stop = dog.status_missed(NoResponse(4), 30, 0.3)
+    assert stop is not None and stop.reason is StopReason.STATUS_LOST and stop.tick == 30
+    assert stop.message.startswith("servo 4 (fr_hip_roll), bus: 3 consecutive failed status reads")
+    assert "unknown for 30 ticks" in stop.message and stop.servo_id == 4
+    assert StopReason.STATUS_LOST.exit_code == 8
+    assert dog.consecutive_misses == 0 and dog.misses == 0  # not a missed position read
+
+
+def test_a_status_read_that_arrives_resets_the_count() -> None:
+    dog = _dog(max_consecutive_status_misses=3)
+    for tick in range(0, 200, 30):
+        assert dog.status_missed(NoResponse(1), tick, 0.0) is None
+        assert dog.status_missed(NoResponse(2), tick + 10, 0.0) is None
+        assert dog.status({1: _status(1)}, tick + 20, 0.0) is None
+    assert dog.stop is None and dog.status_misses == 14
+    stop = _dog(max_consecutive_status_misses=1).status_missed(NoResponse(2), 0, 0.0)
+    assert stop is not None and stop.reason is StopReason.STATUS_LOST
+
+
+def test_status_budget_must_be_at_least_one() -> None:
+    with pytest.raises(ValueError, match="max_consecutive_status_misses"):
+        WatchdogLimits(max_consecutive_status_misses=0)
