@@ -11,9 +11,10 @@ absorb the error; flight phases are ballistic and tip nothing.
 
 `tipping_amplification` sums (cosh(T_i/τ) − 1) over the line-support runs i of one cycle: 0 for
 a gait that always stands on a polygon (a walk with duty ≥ 0.75), about 2·(T/τ)²/2 for a trot
-with short swings, and it grows exponentially once a swing outlasts τ. The MuJoCo validation
-measured exactly that failure: quad12 trots whose two-foot phases last longer than τ ≈ 0.14 s
-tip over under open-loop servo playback, while those with shorter ones walk.
+with short swings, and it grows exponentially once a swing outlasts τ (quad12: τ ≈ 0.14 s).
+MuJoCo with the servo model shows the cost of long line phases as lost speed rather than falls:
+a quad12 duty-0.6 trot planned for 0.2 m/s achieves 0.212, 0.202, 0.181, 0.162 and 0.162 m/s
+with two-foot phases of 0.14, 0.19, 0.28, 0.36 and 0.48 s (12 cycles each, 2026-11-25).
 
 Simplifications (documented, deliberate): the polygon is judged from the feet's *nominal* stance
 positions (a foot's stance position moves by half a stride, which does not make three quad12
