@@ -3,16 +3,20 @@
 Exit codes: 0 completed, 2 refused (pre-flight, bad file or option), 3 no response,
 4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 8 status lost (servo health
 unreadable), 130 SIGINT, 143 SIGTERM.
+
+`run --virtual --fault KIND=VALUE[@T]` (repeatable) injects faults into the virtual bus to
+rehearse the safe stop without hardware; the syntax is in `hardware.fault_spec`.
 """
 
 from __future__ import annotations
 
 from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from typer.core import TyperCommand
 
 from hardware.bus import BusConfig, ServoBus
@@ -20,6 +24,9 @@ from hardware.clock import Clock, MonotonicClock, VirtualClock
 from hardware.errors import HardwareError
 from hardware.player import OnStop, Player, PlayerConfig, PlayResult, RestPose
 from hardware.watchdog import EXIT_PREFLIGHT, StopReason
+
+if TYPE_CHECKING:
+    from hardware.fault_spec import FaultSchedule
 
 console = Console()
 err_console = Console(stderr=True)
@@ -44,7 +51,7 @@ class _RunCommand(TyperCommand):
 
 
 def _fail(message: str, code: int = EXIT_PREFLIGHT) -> typer.Exit:
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
     return typer.Exit(code)
 
 
@@ -64,18 +71,28 @@ def _load_inputs(robot_name: str, gait_path: Path | None, calibration: Path | No
 
 
 def _open_bus(
-    robot: Any, port: str | None, virtual: VirtualMode | None, config: BusConfig, clock: Clock
+    robot: Any,
+    port: str | None,
+    virtual: VirtualMode | None,
+    config: BusConfig,
+    clock: Clock,
+    faults: FaultSchedule | None = None,
 ) -> tuple[ServoBus, Any]:
-    """An opened bus: a real port, the in-process virtual bus, or the MuJoCo twin."""
+    """An opened bus: a real port, the in-process virtual bus, or the MuJoCo twin (`faults`:
+    put on the virtual bus before anything is sent)."""
     if virtual is VirtualMode.sim:
         from sim.twin import MujocoTwin  # lazy: hardware never imports mujoco at import time
 
         twin = MujocoTwin(robot, clock=clock.now_s)
+        if faults is not None:
+            faults.attach(twin.vbus)
         return twin.vbus.connect(config), twin
     if virtual is VirtualMode.bus:
         from hardware.virtual_rig import virtual_robot_bus
 
         vbus = virtual_robot_bus(robot, clock=clock.now_s)
+        if faults is not None:
+            faults.attach(vbus)
         return vbus.connect(config), vbus
     if port is None:
         raise _fail("give --port DEVICE, --virtual [bus|sim], or --dry-run")
@@ -94,7 +111,9 @@ def _open_bus(
 def _summary(result: PlayResult, twin: Any) -> None:
     stop = result.stop
     colour = "green" if stop.reason is StopReason.COMPLETED else "bold red"
-    console.print(f"[{colour}]stopped: {stop.reason.value}[/] — {stop.message}", highlight=False)
+    console.print(
+        f"[{colour}]stopped: {stop.reason.value}[/] — {escape(stop.message)}", highlight=False
+    )
     phases = ", ".join(f"{k} {v}" for k, v in result.ticks_by_phase.items())
     console.print(
         f"{result.ticks} ticks ({phases}); rate {result.achieved_rate_hz:.1f} Hz; jitter p50 "
@@ -133,9 +152,25 @@ def run(
     timeout_ms: float = typer.Option(3.0, "--timeout-ms", help="Reply allowance per packet."),
     baud: int | None = typer.Option(None, "--baud", help="Baud rate; default: the robot's."),
     realtime: bool = typer.Option(True, "--realtime/--no-realtime", help="Virtual: real time."),
+    fault: list[str] | None = typer.Option(
+        None,
+        "--fault",
+        metavar="KIND=VALUE@T",
+        help="Virtual bus only, repeatable: inject a fault to rehearse the safe stop. "
+        "KIND=VALUE is one of drop=P, corrupt=P, delay=S, sag=V, vanish=ID, overload=ID, "
+        "overheat=ID, voltage-error=ID, or status-lost (no value); an optional @T starts it "
+        "T seconds into the run (without it: from the start, pre-flight included). "
+        "E.g. --fault drop=0.01 --fault vanish=3@2.0",
+    ),
 ) -> None:
     """Play a gait on the servos: pre-flight, ramp-in, stream, watchdog, safe stop."""
+    if fault and virtual is None:
+        raise _fail(
+            "--fault injects faults into the virtual bus only: add --virtual (or --virtual sim) "
+            "to rehearse on it, or drop --fault to play on real servos"
+        )
     rob, gait_obj, cal = _load_inputs(robot, gait, calibration)
+    faults = _fault_schedule(fault or [], [j.bus_id for j in rob.joints])
     try:
         config = PlayerConfig(
             rate_hz=rate_hz,
@@ -158,7 +193,7 @@ def run(
     writer = None
     try:
         if not dry_run or port is not None or virtual is not None:
-            bus, twin = _open_bus(rob, port, virtual, bus_config, clock)
+            bus, twin = _open_bus(rob, port, virtual, bus_config, clock, faults)
         if telemetry is not None:
             from hardware.telemetry import TelemetryWriter
 
@@ -171,7 +206,10 @@ def run(
             config=config,
             clock=VirtualClock() if dry_run else clock,
             telemetry=writer,
+            on_tick=faults.on_tick if faults is not None and faults.timed else None,
         )
+        if faults is not None:
+            console.print(f"[bold]virtual bus faults[/]: {faults.describe()}", highlight=False)
         if dry_run:
             console.print("[bold]dry run[/]: nothing is sent to the servos")
         result = player.run()
@@ -191,6 +229,18 @@ def run(
         console.print(f"telemetry: {telemetry}", highlight=False)
     if result.exit_code:
         raise typer.Exit(result.exit_code)
+
+
+def _fault_schedule(texts: list[str], servo_ids: list[int]) -> FaultSchedule | None:
+    """The `--fault` options as a schedule (None without any), or a one-line failure."""
+    if not texts:
+        return None
+    from hardware.fault_spec import FaultSchedule, FaultSpecError, parse_fault
+
+    try:
+        return FaultSchedule([parse_fault(t, servo_ids) for t in texts])
+    except FaultSpecError as exc:
+        raise _fail(str(exc)) from None
 
 
 def calibrate(

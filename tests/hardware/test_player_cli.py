@@ -115,3 +115,77 @@ def test_calibrate_abort_saves_nothing(tmp_path: Path) -> None:
     )
     assert res.exit_code == 2 and "aborted" in res.output
     assert not out_path.exists()
+
+
+VIRTUAL = ("--robot", "quad12", "--virtual", "--force", "--no-realtime", "--ramp-s", "0.5")
+
+
+@pytest.mark.parametrize(
+    ("faults", "reason", "code"),
+    [
+        (("status-lost@0.8",), "status_lost", 8),
+        (("overheat=5@0.8",), "over_temperature", 5),
+        (("drop=0.01", "vanish=3@0.8"), "no_response", 3),
+        (("sag=1.6@0.8",), "low_voltage", 6),
+        (("drop=0.01", "status-lost@0.8", "overload=2@0.79"), "servo_fault", 4),
+    ],
+)
+def test_run_virtual_with_injected_faults_stops_safely(
+    gait_file: Path, tmp_path: Path, faults: tuple[str, ...], reason: str, code: int
+) -> None:
+    tel = tmp_path / "tel.csv"
+    fault_args = [a for f in faults for a in ("--fault", f)]
+    exit_code, out = _run("run", str(gait_file), *VIRTUAL, "--telemetry", str(tel), *fault_args)
+    assert exit_code == code, out
+    assert f"stopped: {reason}" in out and "virtual bus faults:" in out
+    t = read_telemetry(tel)
+    assert t.stop_reason == reason
+    assert t.phase[-1] == "ramp_out"  # the rest ramp ran to its end
+    stop_rows = [i for i, p in enumerate(t.phase) if p == "ramp_out"]
+    assert t.t_actual_s[stop_rows[0]] >= 0.79  # nothing went wrong before the injection time
+
+
+def test_run_virtual_with_a_fault_from_the_start_is_refused_by_preflight(gait_file: Path) -> None:
+    code, out = _run("run", str(gait_file), *VIRTUAL, "--fault", "vanish=3")
+    assert code == 2, out
+    assert "pre-flight: servo 3" in out and "Traceback" not in out
+
+
+def test_run_virtual_with_one_percent_drops_completes(gait_file: Path) -> None:
+    code, out = _run("run", str(gait_file), *VIRTUAL, "--fault", "drop=0.01", "--fault", "delay=0")
+    assert code == 0, out
+    assert "stopped: completed" in out
+
+
+@pytest.mark.parametrize(
+    ("fault", "needle"),
+    [
+        ("drop=2", "drop is a probability in [0, 1], got 2"),
+        ("corrupt=-0.1", "probability in [0, 1]"),
+        ("nope=1", "unknown fault 'nope'"),
+        ("vanish=99", "no servo 99 on this bus (ids 1-12)"),
+        ("vanish=x", "servo id 'x' is not an integer"),
+        ("overheat", "overheat needs a value"),
+        ("drop=0.1@soon", "start time 'soon' is not a number"),
+        ("drop=0.1@-1", "start time must be >= 0 s"),
+        ("status-lost=3", "status-lost takes no value"),
+        ("delay=inf", "delay must be finite"),
+        ("", "no fault named"),
+    ],
+)
+def test_bad_fault_values_are_one_clear_line(gait_file: Path, fault: str, needle: str) -> None:
+    code, out = _run("run", str(gait_file), *VIRTUAL, "--fault", fault)
+    assert code == 2, out
+    assert f"--fault {fault!r}" in out and needle in out, out
+    assert "accepted: drop=P" in out and "vanish=3@2.0" in out  # the accepted forms
+    assert "Traceback" not in out
+
+
+@pytest.mark.parametrize("where", [("--port", "/dev/nonexistent-gaitsmith"), ("--dry-run",), ()])
+def test_fault_needs_the_virtual_bus(gait_file: Path, where: tuple[str, ...]) -> None:
+    code, out = _run(
+        "run", str(gait_file), "--robot", "quad12", "--force", *where, "--fault", "drop=0.1"
+    )
+    assert code == 2, out
+    assert "--fault" in out and "--virtual" in out and "virtual bus only" in out
+    assert "Traceback" not in out
