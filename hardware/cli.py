@@ -82,7 +82,7 @@ def model_names(protocol: str, model_number: int) -> str:
 def scan(
     port: str = typer.Option(..., "--port", "-p", help="Serial device, e.g. /dev/ttyUSB0."),
     protocol: ProtocolName = typer.Option(..., "--protocol", help="Wire protocol."),
-    baud: int | None = typer.Option(None, "--baud", help="Baud rate [bit/s]; default: factory."),
+    baud: int | None = typer.Option(None, "--baud", help="Baud rate \\[bit/s]; default: factory."),
     ids: str = typer.Option("0-252", "--ids", help="Ids to ping, e.g. 1-12,20."),
     timeout_ms: float = typer.Option(10.0, "--timeout-ms", help="Reply allowance per ping."),
 ) -> None:
@@ -117,7 +117,7 @@ def virtual_bus(
     protocol: ProtocolName | None = typer.Option(None, "--protocol", help="Without --robot."),
     ids: str = typer.Option("1-12", "--ids", help="Servo ids (without --robot), e.g. 1-12."),
     model: str | None = typer.Option(None, "--model", help="Catalogue servo model (no --robot)."),
-    duration_s: float | None = typer.Option(None, "--duration", help="Stop after this [s]."),
+    duration_s: float | None = typer.Option(None, "--duration", help="Stop after this \\[s]."),
 ) -> None:
     """Emulate a servo bus on a pseudo-terminal; prints its device path; runs until Ctrl-C."""
     from hardware.virtual import PtyServer, VirtualServoBus

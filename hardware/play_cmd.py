@@ -145,7 +145,7 @@ def run(
     speed_scale: float = typer.Option(1.0, "--speed-scale", help="Gait time scaling (<1 slower)."),
     dry_run: bool = typer.Option(False, "--dry-run", help="Check and compute; send nothing."),
     telemetry: Path | None = typer.Option(None, "--telemetry", help="Write per-tick CSV here."),
-    ramp_s: float = typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time [s]."),
+    ramp_s: float = typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time \\[s]."),
     rest: RestPose = typer.Option(RestPose.STANCE, "--rest", help="Pose to ramp to on stop."),
     on_stop: OnStop = typer.Option(OnStop.TORQUE_OFF, "--on-stop", help="After the rest ramp."),
     force: bool = typer.Option(False, "--force", help="Play a gait that did not pass sim."),
