@@ -69,12 +69,38 @@ def _init_worker(factory: SolverFactory) -> None:
     _WORKER_SOLVE = factory()
 
 
+#: glibc mallopt parameters for worker processes: no mmap'd chunks (M_MMAP_MAX = 0) and keep up
+#: to 1 GiB of freed heap (M_TRIM_THRESHOLD). MUMPS allocates its factorisation workspace (tens
+#: of MB, above glibc's mmap threshold) afresh in every IPOPT iteration; served by mmap, every page
+#: is faulted in and zeroed by the kernel again (≈ 8 % of a solve's `perf` samples). Reusing heap
+#: pages: quad12 cold solves in a fresh process 103 → 97 ms per iteration at 30 knots and
+#: 39.5 → 37.0 ms at 12 knots, bit-identical results, peak RSS 755 → 769 MB. Applied only in
+#: pool/Ray workers, which exist to run local solves; a library should not retune the allocator
+#: of a user's own process.
+_WORKER_MALLOPT = ((-4, 0), (-1, 1 << 30))
+
+
+def _tune_worker_malloc() -> None:
+    """Apply `_WORKER_MALLOPT` (glibc only; elsewhere a no-op)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        mallopt = ctypes.CDLL(ctypes.util.find_library("c")).mallopt
+    except (OSError, AttributeError, TypeError):  # not glibc (musl, macOS, Windows)
+        return
+    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
+    for param, value in _WORKER_MALLOPT:
+        mallopt(param, value)
+
+
 def _init_remote_worker(payload: bytes, threads_per_worker: int | None) -> None:
-    """Pool initializer / actor constructor: cap native thread pools, then unpickle the factory
-    (which may import casadi) and build the local solve once."""
+    """Pool initializer / actor constructor: cap native thread pools, tune the allocator, then
+    unpickle the factory (which may import casadi) and build the local solve once."""
     if threads_per_worker is not None:
         for var in _THREAD_VARS:
             os.environ[var] = str(threads_per_worker)
+    _tune_worker_malloc()
     _init_worker(pickle.loads(payload))
 
 
