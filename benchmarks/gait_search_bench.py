@@ -1,10 +1,10 @@
 """Gait-search benchmark: one full basin-CMA search for quad12 at one speed, serial vs process pool.
 
-    python benchmarks/gait_search_bench.py [--speed 0.25] [--generations 4] [--workers 2]
+    python benchmarks/gait_search_bench.py [--speed 0.25] [--generations 6] [--workers 2]
                                            [--sim-accept]
 
 Target (issue 5): a full search finishes in ≤60 s on 2 cores. "Full" is what `gaitsmith plan
-ROBOT --speed V --search` runs by default: template seeds, 4 basin-CMA generations of the coarse
+ROBOT --speed V --search` runs by default: template seeds, 6 basin-CMA generations of the coarse
 (12-knot) NLP, then the final 30-knot solve of the best timings; `--sim-accept` adds the MuJoCo
 acceptance check of every feasible sample and of the final gait (the command line's default).
 Prints wall time (process start-up and every NLP build included), local solves, solves per
@@ -32,7 +32,7 @@ def run(
     root = str(robot.root_dir)
     acceptance = (
         {"acceptance": SimAcceptance(root),
-         "final_acceptance": SimAcceptance(root, criteria=PassCriteria())}
+         "final_acceptance": SimAcceptance(root, 20, PassCriteria())}
         if sim_accept else {}
     )
     t0 = time.perf_counter()
@@ -52,7 +52,7 @@ def run(
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--speed", type=float, default=0.25)
-    ap.add_argument("--generations", type=int, default=4)
+    ap.add_argument("--generations", type=int, default=6)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--sim-accept", action="store_true", help="MuJoCo acceptance of samples")

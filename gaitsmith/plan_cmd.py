@@ -52,7 +52,7 @@ def plan(
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
-    generations: int = typer.Option(4, "--generations", help="basin-CMA generations (--search)"),
+    generations: int = typer.Option(6, "--generations", help="basin-CMA generations (--search)"),
     popsize: int | None = typer.Option(None, "--popsize", help="basin-CMA λ (--search)"),
     seed: int = typer.Option(0, "--seed", help="random seed of the search"),
     symmetric: bool = typer.Option(
@@ -163,7 +163,8 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         bot, speed, n_knots=knots, options=PlannerOptions(mu=mu), symmetric=st.symmetric,
         max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
-        tipping_weight=st.tipping_weight, progress=progress, **sim_acceptance(bot, st.sim_accept),
+        tipping_weight=st.tipping_weight, progress=progress,
+        **sim_acceptance(bot, st.sim_accept, cycles),
     )
     for name, cost in result.template_costs.items():
         console.print(f"  template {name:18s} cost {cost:.5g}")

@@ -42,10 +42,11 @@ def check_executor(executor: str) -> None:
             f"--executor must be {', '.join(EXECUTORS[:-1])} or {EXECUTORS[-1]}, got {executor!r}")
 
 
-def sim_acceptance(robot: robots.Robot, enabled: bool) -> dict[str, Any]:
+def sim_acceptance(robot: robots.Robot, enabled: bool, final_cycles: int) -> dict[str, Any]:
     """`search_gait` keyword arguments for MuJoCo acceptance: samples are judged with the search
-    criteria, the full-resolution candidates with the default ones (sim is imported only if
-    enabled)."""
+    criteria, the full-resolution candidates with the default ones over `final_cycles` — the
+    cycles of the command's own `--simulate` validation, so that a gait that passed acceptance
+    passes it too (sim is imported only if enabled)."""
     if not enabled:
         return {}
     from sim.acceptance import SimAcceptance
@@ -53,4 +54,4 @@ def sim_acceptance(robot: robots.Robot, enabled: bool) -> dict[str, Any]:
 
     root = str(robot.root_dir)
     return {"acceptance": SimAcceptance(root),
-            "final_acceptance": SimAcceptance(root, criteria=PassCriteria())}
+            "final_acceptance": SimAcceptance(root, final_cycles, PassCriteria())}

@@ -28,7 +28,7 @@ def sweep(
     speeds: str = typer.Option("0.05,0.1,0.2,0.3", "--speeds", help="comma-separated speeds [m/s]"),
     output: Path = typer.Option(..., "--output", "-o", help="folder for sweep.csv/.md/.png"),
     knots: int = typer.Option(30, "--knots", help="knots per cycle (N)"),
-    generations: int = typer.Option(4, "--generations", help="basin-CMA generations per speed"),
+    generations: int = typer.Option(6, "--generations", help="basin-CMA generations per speed"),
     popsize: int | None = typer.Option(None, "--popsize", help="basin-CMA λ"),
     seed: int = typer.Option(0, "--seed"),
     symmetric: bool = typer.Option(True, "--symmetric/--no-symmetric"),
@@ -73,7 +73,7 @@ def sweep(
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
                         seed=seed, executor=executor, workers=workers,
                         search_knots=search_knots, tipping_weight=tipping_weight,
-                        **sim_acceptance(bot, sim_accept),
+                        **sim_acceptance(bot, sim_accept, cycles),
                         validator=_sim_validator(cycles) if simulate else None,
                         on_row=on_row, progress=progress)
     paths = write_sweep(rows, output, bot)

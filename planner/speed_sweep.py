@@ -85,7 +85,7 @@ def sweep_speeds(
     n_knots: int = 30,
     options: PlannerOptions | None = None,
     symmetric: bool = True,
-    max_generations: int = 4,
+    max_generations: int = 6,
     popsize: int | None = None,
     seed: int = 0,
     executor: str = "serial",
