@@ -8,8 +8,9 @@ the planned load is lopsided (a landing impact, a leg about to lift), the robot 
 the end of the ramp gets the wrong load distribution: the heavily-offset legs over-extend, the
 body rises and lightly loaded feet leave the ground before the gait even starts. MuJoCo showed
 exactly that: a quad12 lateral-sequence walk (0.15 m/s, period 1.06 s) rose 35 mm during the
-ramp, lifted a diagonal pair and rolled over before its first step, while the same plan started
-from its most evenly loaded knot walks.
+ramp, lifted a diagonal pair and rolled over before its first step. Started from its most evenly
+loaded knot, the same plan got through the ramp (it still fell within its first cycle, for
+reasons of its own; the search's MuJoCo acceptance rejects such gaits).
 
 The planned cycle is periodic, so its start is free: `start_knot` picks the knot with the most
 feet in stance and, among those, the most even vertical load (closest to the static share m·g/n

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Protocol
@@ -238,8 +238,9 @@ class RecordingExecutor:
         self.inner = inner
         self.records: list[tuple[np.ndarray, LocalResult]] = []
 
-    def map(self, fn: Callable[[np.ndarray], LocalResult], xs: object) -> list[LocalResult]:
-        items = [np.asarray(x, dtype=float) for x in xs]  # type: ignore[attr-defined]
+    def map(self, fn: Callable[[np.ndarray], LocalResult], xs: Iterable[np.ndarray]
+            ) -> list[LocalResult]:
+        items = [np.asarray(x, dtype=float) for x in xs]
         out = self.inner.map(fn, items)
         self.records.extend(zip(items, out, strict=True))
         return out
