@@ -17,7 +17,15 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 CATALOGUE_PATH = Path(__file__).with_name("servos.toml")
-PROTOCOLS = ("dynamixel2", "dynamixel1", "feetech_sts")
+PROTOCOLS = (
+    "dynamixel2",
+    "dynamixel1",
+    "feetech_sts",
+    "feetech_scs",
+    "dynamixel2_xl320",
+    "hiwonder_bus",
+    "pwm",
+)
 
 
 @dataclass(frozen=True)
@@ -97,7 +105,22 @@ def _parse_servo(file: str, name: str, table: Any) -> ServoModel:
         raise RobotConfigError(file, f"{where}.position_max_tick", "must exceed position_min_tick")
     if not values["voltage_min_v"] <= values["nominal_voltage_v"] <= values["voltage_max_v"]:
         raise RobotConfigError(file, f"{where}.nominal_voltage_v", "outside voltage_min_v..max_v")
+    _check_bus_fields(file, where, values)
     return ServoModel(**values)
+
+
+def _check_bus_fields(file: str, where: str, values: dict[str, Any]) -> None:
+    """PWM servos have no bus: model_number and default_baud are 0; bus servos have a baud rate."""
+    if values["protocol"] == "pwm":
+        for key in ("model_number", "default_baud"):
+            if values[key] != 0:
+                raise RobotConfigError(
+                    file, f"{where}.{key}", "must be 0 for a PWM servo (no bus, nothing answers)"
+                )
+    elif values["default_baud"] == 0:
+        raise RobotConfigError(
+            file, f"{where}.default_baud", f"a {values['protocol']} bus servo needs its baud rate"
+        )
 
 
 def parse_catalogue(text: str, file: str = str(CATALOGUE_PATH)) -> dict[str, ServoModel]:
