@@ -340,3 +340,10 @@ def test_a_pwm_robot_still_plans_and_simulates(build_robot: BuildRobot) -> None:
     assert all(lp.kp_nm_per_rad > 0 for lp in loops)
     _, traj = simulate(bringup_gait(robot), robot, cycles=1)
     assert traj.time_s.size > 10 and bool((abs(traj.q_rad) < 10).all())
+
+
+def test_a_pwm_robot_needs_no_bus_baud(build_robot: BuildRobot) -> None:
+    robot_dir, _ = build_robot("SG90")
+    toml = robot_dir / "robot.toml"
+    toml.write_text(toml.read_text(encoding="utf-8").replace("bus_baud = 1000000\n", ""))
+    assert robots.load(str(robot_dir)).bus_baud == 0  # the catalogue's "no serial bus"
