@@ -46,6 +46,10 @@ ADDED = (
     "MG996R",
     "MG90S",
     "SG90",
+    "STS3250",
+    "SCS0009",
+    "LX_16A",
+    "PETOI_P1S",
 )
 
 
@@ -107,6 +111,13 @@ PUBLISHED = [
     ("MG996R", 11 * KGF_CM_NM, per_60deg(0.14), 0.055, 0, "pwm", 1000 * 360 / 120),
     ("MG90S", 1.8 * KGF_CM_NM, per_60deg(0.10), 0.0134, 0, "pwm", 1000 * 360 / 180),
     ("SG90", 1.8 * KGF_CM_NM, per_60deg(0.10), 0.009, 0, "pwm", 1000 * 360 / 180),
+    # Feetech: kgf·cm and s/60° sheets; STS 4096/rev, SCS 0-1023 over 300°
+    ("STS3250", 50 * KGF_CM_NM, per_60deg(0.133), 0.0745, 2825, "feetech_sts", 4096),
+    ("SCS0009", 2.3 * KGF_CM_NM, per_60deg(0.10), 0.0132, 1284, "feetech_scs", 1024 * 360 / 300),
+    # Hiwonder: 0-1000 over 240°; no model-number read
+    ("LX_16A", 17 * KGF_CM_NM, per_60deg(0.16), 0.052, 0, "hiwonder_bus", 1000 * 360 / 240),
+    # Petoi P1S: 500-2500 µs over 270°
+    ("PETOI_P1S", 3 * KGF_CM_NM, per_60deg(0.07), 0.014, 0, "pwm", 2000 * 360 / 270),
 ]
 
 
@@ -147,6 +158,27 @@ def test_unit_conversions_spot_checked_by_hand() -> None:
         assert deg_per_tick == pytest.approx(300 / 1024, rel=1e-6)
     # MG996R: 1000 µs of pulse for its 120° travel → 8.33 µs per degree
     assert servo_model("MG996R").ticks_per_rad == pytest.approx(1000 / math.radians(120))
+
+
+def test_bus_conventions_of_the_feetech_hiwonder_and_petoi_entries() -> None:
+    # Feetech model numbers are the two bytes at address 3: STS reads them low byte first
+    # (STS3250: bytes 9, 11 → 0x0B09), SCS high byte first (SCS0009: bytes 5, 4 → 0x0504)
+    assert servo_model("STS3250").model_number == int.from_bytes(bytes((9, 11)), "little")
+    assert servo_model("SCS0009").model_number == int.from_bytes(bytes((5, 4)), "big")
+    # LX-16A: 1000 ticks span 240° → 0.24° per tick, at the protocol's fixed 115200 baud
+    lx = servo_model("LX_16A")
+    assert (lx.position_max_tick - lx.position_min_tick) / lx.ticks_per_rad == pytest.approx(
+        math.radians(240)
+    )
+    assert 360 / lx.ticks_per_rev == pytest.approx(0.24)
+    assert lx.default_baud == 115200
+    # P1S: 500-2500 µs for its 270° travel → 7.41 µs per degree, 1500 µs centre
+    p1s = servo_model("PETOI_P1S")
+    assert p1s.ticks_per_rad == pytest.approx(2000 / math.radians(270), rel=1e-6)
+    assert (p1s.position_min_tick + p1s.position_max_tick) / 2 == 1500
+    # STS3250: 50 kgf·cm @12 V is 4.90 N·m, 0.133 s/60° is 75 rpm
+    assert servo_model("STS3250").stall_torque_nm == pytest.approx(4.903, abs=5e-4)
+    assert servo_model("STS3250").no_load_speed_rad_s == pytest.approx(rpm(75.2), rel=2e-3)
 
 
 @pytest.mark.parametrize("name", sorted(load_catalogue()))
@@ -294,6 +326,8 @@ REFUSED = {
     "MG996R": "uses PWM",
     "AX_18A": "uses Dynamixel Protocol 1.0",
     "XL_320": "uses the XL-320's own Protocol 2.0 control table",
+    "SCS0009": "uses the big-endian Feetech SCS protocol",
+    "LX_16A": "uses the Hiwonder bus protocol",
 }
 
 
