@@ -50,6 +50,11 @@ ADDED = (
     "SCS0009",
     "LX_16A",
     "PETOI_P1S",
+    "STS3032",
+    "STS3032_12V",
+    "SM80BL",
+    "HX_35H",
+    "HX_35HM",
 )
 
 
@@ -114,8 +119,15 @@ PUBLISHED = [
     # Feetech: kgf·cm and s/60° sheets; STS 4096/rev, SCS 0-1023 over 300°
     ("STS3250", 50 * KGF_CM_NM, per_60deg(0.133), 0.0745, 2825, "feetech_sts", 4096),
     ("SCS0009", 2.3 * KGF_CM_NM, per_60deg(0.10), 0.0132, 1284, "feetech_scs", 1024 * 360 / 300),
+    ("STS3032", 4.5 * KGF_CM_NM, per_60deg(0.09), 0.020, 521, "feetech_sts", 4096),
+    ("STS3032_12V", 10 * KGF_CM_NM, per_60deg(0.067), 0.0206, 521, "feetech_sts", 4096),
+    # SMS series: the STS protocol over RS-485
+    ("SM80BL", 80 * KGF_CM_NM, per_60deg(0.161), 0.0975, 10504, "feetech_sts", 4096),
     # Hiwonder: 0-1000 over 240°; no model-number read
     ("LX_16A", 17 * KGF_CM_NM, per_60deg(0.16), 0.052, 0, "hiwonder_bus", 1000 * 360 / 240),
+    ("HX_35H", 35 * KGF_CM_NM, per_60deg(0.18), 0.052, 0, "hiwonder_bus", 1000 * 360 / 240),
+    # HX-35HM: speed published; torque and mass estimated from the HX-35H (see its entry)
+    ("HX_35HM", 35 * KGF_CM_NM, per_60deg(0.19), 0.052, 0, "hiwonder_bus", 1000 * 360 / 240),
     # Petoi P1S: 500-2500 µs over 270°
     ("PETOI_P1S", 3 * KGF_CM_NM, per_60deg(0.07), 0.014, 0, "pwm", 2000 * 360 / 270),
 ]
@@ -165,6 +177,8 @@ def test_bus_conventions_of_the_feetech_hiwonder_and_petoi_entries() -> None:
     # (STS3250: bytes 9, 11 → 0x0B09), SCS high byte first (SCS0009: bytes 5, 4 → 0x0504)
     assert servo_model("STS3250").model_number == int.from_bytes(bytes((9, 11)), "little")
     assert servo_model("SCS0009").model_number == int.from_bytes(bytes((5, 4)), "big")
+    for name, model_bytes in (("STS3032", (9, 2)), ("STS3032_12V", (9, 2)), ("SM80BL", (8, 41))):
+        assert servo_model(name).model_number == int.from_bytes(bytes(model_bytes), "little")
     # LX-16A: 1000 ticks span 240° → 0.24° per tick, at the protocol's fixed 115200 baud
     lx = servo_model("LX_16A")
     assert (lx.position_max_tick - lx.position_min_tick) / lx.ticks_per_rad == pytest.approx(
@@ -179,6 +193,26 @@ def test_bus_conventions_of_the_feetech_hiwonder_and_petoi_entries() -> None:
     # STS3250: 50 kgf·cm @12 V is 4.90 N·m, 0.133 s/60° is 75 rpm
     assert servo_model("STS3250").stall_torque_nm == pytest.approx(4.903, abs=5e-4)
     assert servo_model("STS3250").no_load_speed_rad_s == pytest.approx(rpm(75.2), rel=2e-3)
+
+
+# Entries with a field filled from a sibling or a convention, and the field the comment must name
+ESTIMATED = {
+    "STS3250": ("mass", "baud"),
+    "SCS0009": ("max_temperature_c",),
+    "PETOI_P1S": ("7.4 V", "max_temperature_c"),
+    "STS3032": ("max_temperature_c",),
+    "SM80BL": ("max_temperature_c",),
+    "HX_35HM": ("11.1 V", "stall torque", "mass"),
+}
+
+
+@pytest.mark.parametrize(("name", "fields"), sorted(ESTIMATED.items()))
+def test_estimated_fields_are_said_so_in_the_comment(name: str, fields: tuple[str, ...]) -> None:
+    comment = " ".join(_entry_comments()[name].split())
+    for field in fields:
+        assert re.search(
+            rf"{re.escape(field)}[^.]*estimated|estimated:[^.]*{re.escape(field)}", comment, re.I
+        ), f"[{name}] does not say its {field} is estimated"
 
 
 @pytest.mark.parametrize("name", sorted(load_catalogue()))
