@@ -42,9 +42,16 @@ def _metrics_table(result: ValidationResult) -> Table:
             f"{m.commanded_speed_m_s:.3f} / {m.achieved_speed_m_s:.3f} m/s",
         ),
         ("speed error", opt(m.speed_error_fraction, ".1%")),
-        ("lateral drift", opt(m.lateral_drift_per_m, ".3f") + " m/m"),
         (
-            "yaw drift",
+            "heading change (run / ramp-in)",
+            f"{m.heading_change_rad * deg:+.1f}° / {m.ramp_yaw_rad * deg:+.1f}°",
+        ),
+        (
+            "lateral drift (run)",
+            opt(m.lateral_drift_per_m, ".3f") + f" m/m ({m.lateral_drift_m:+.3f} m)",
+        ),
+        (
+            "yaw drift (steady)",
             opt(None if m.yaw_drift_rad_per_m is None else m.yaw_drift_rad_per_m * deg, ".1f")
             + " °/m",
         ),
