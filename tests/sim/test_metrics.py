@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from robots.gait import Gait, Velocity
-from robots.ramp import MinJerkRamp
+from robots.ramp import gait_entry
 from robots.robot import Robot
 from sim.metrics import compute, path_offset, run_path
 from sim.model import SimConditions, build_sim_model
@@ -47,7 +47,7 @@ def _walk(robot: Robot, ramp_yaw_rad: float, turn_rate_rad_s: float = 0.0) -> Tr
     return Trajectory(
         time_s=t,
         gait_start_s=gait_start,
-        ramp=MinJerkRamp(q[0], q[0], RAMP_S),
+        ramp=gait_entry(standing_gait(robot, PERIOD_S), q[0], 1.0, RAMP_S),
         period_s=PERIOD_S,
         cycles_run=CYCLES,
         stopped_early=False,
