@@ -101,12 +101,21 @@ def stream_targets(
     stance = np.asarray(robot.nominal_stance_rad, dtype=float)
     speed = RAMP_SPEED_FRACTION * np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
     ramp = gait_entry(gait, stance, speed, settings.ramp_min_s)
-    tick = 1.0 / settings.rate_hz
-    gait_start = math.ceil((settings.settle_s + ramp.duration_s) / tick - 1e-9) * tick
+    settle = _settle_s(ramp, settings)
+    gait_start = settle + ramp.duration_s
     end = gait_start + settings.cycles * gait.period_s
+    tick = 1.0 / settings.rate_hz
     t = np.arange(math.ceil(end / tick - 1e-9) + 1) * tick
-    out = reference(gait, stance, ramp, settings.settle_s, gait_start, t)
+    out = reference(gait, stance, ramp, settle, gait_start, t)
     return out, ramp, gait_start
+
+
+def _settle_s(entry: GaitEntry, settings: RunSettings) -> float:
+    """The stance hold, stretched (< one tick) so that the min-jerk ramp ends on a tick and the
+    blend starts there, as in the player (whose gait then follows the blend without a pause)."""
+    tick = 1.0 / settings.rate_hz
+    ramp_end = math.ceil((settings.settle_s + entry.ramp.duration_s) / tick - 1e-9) * tick
+    return ramp_end - entry.ramp.duration_s
 
 
 def reference(
@@ -213,8 +222,9 @@ def _trajectory(
         n_steps=n,
         initial_rad=stance,
     )
-    planned = reference(gait, stance, ramp, settings.settle_s, gait_start, time_s)
-    expected = reference(gait, stance, ramp, settings.settle_s, gait_start, time_s, expected=True)
+    settle = _settle_s(ramp, settings)
+    planned = reference(gait, stance, ramp, settle, gait_start, time_s)
+    expected = reference(gait, stance, ramp, settle, gait_start, time_s, expected=True)
 
     def cols(prefix: str, names: tuple[str, ...]) -> np.ndarray:
         return np.stack([sim.sensor(sd, f"{prefix}{x}") for x in names], axis=1)

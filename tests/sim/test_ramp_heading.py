@@ -22,7 +22,7 @@ import pytest
 import robots
 import sim.rollout
 from robots.gait import Gait
-from robots.ramp import ramp_to
+from robots.ramp import MinJerkRamp, ramp_to
 from robots.robot import Robot
 from sim.validate import validate
 
@@ -81,8 +81,12 @@ def test_a_straight_ramp_to_phase_zero_turns_the_same_robot(
 ) -> None:
     """The cause, kept as a regression check on the test itself: the old ramp-in turns it."""
 
+    class PhaseZeroEntry:  # the old ramp-in, shaped like a GaitEntry
+        def __init__(self, ramp: MinJerkRamp) -> None:
+            self.ramp, self.duration_s, self.positions = ramp, ramp.duration_s, ramp.positions
+
     def phase_zero_ramp(gait: Gait, present, speed, min_s):  # type: ignore[no-untyped-def]
-        return ramp_to(present, gait.joint_targets(0.0), speed, min_s)
+        return PhaseZeroEntry(ramp_to(present, gait.joint_targets(0.0), speed, min_s))
 
     monkeypatch.setattr(sim.rollout, "gait_entry", phase_zero_ramp)
     m = validate(long_quad_trot, long_quad, cycles=3).metrics
