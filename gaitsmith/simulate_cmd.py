@@ -28,7 +28,7 @@ from sim.validate import PassCriteria, ValidationResult, evaluate, simulate
 
 def _metrics_table(result: ValidationResult) -> Table:
     m = result.metrics
-    table = Table(title="simulation metrics (steady cycles)")
+    table = Table(title="simulation metrics (steady cycles; heading and drift over the run)")
     table.add_column("metric")
     table.add_column("value", justify="right")
     deg = 180.0 / math.pi
