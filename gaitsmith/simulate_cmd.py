@@ -28,7 +28,7 @@ from sim.validate import PassCriteria, ValidationResult, evaluate, simulate
 
 def _metrics_table(result: ValidationResult) -> Table:
     m = result.metrics
-    table = Table(title="simulation metrics (steady cycles)")
+    table = Table(title="simulation metrics (steady cycles; heading and drift over the run)")
     table.add_column("metric")
     table.add_column("value", justify="right")
     deg = 180.0 / math.pi
@@ -42,9 +42,16 @@ def _metrics_table(result: ValidationResult) -> Table:
             f"{m.commanded_speed_m_s:.3f} / {m.achieved_speed_m_s:.3f} m/s",
         ),
         ("speed error", opt(m.speed_error_fraction, ".1%")),
-        ("lateral drift", opt(m.lateral_drift_per_m, ".3f") + " m/m"),
         (
-            "yaw drift",
+            "heading change (run / ramp-in)",
+            f"{m.heading_change_rad * deg:+.1f}° / {m.ramp_yaw_rad * deg:+.1f}°",
+        ),
+        (
+            "lateral drift (run)",
+            opt(m.lateral_drift_per_m, ".3f") + f" m/m ({m.lateral_drift_m:+.3f} m)",
+        ),
+        (
+            "yaw drift (steady)",
             opt(None if m.yaw_drift_rad_per_m is None else m.yaw_drift_rad_per_m * deg, ".1f")
             + " °/m",
         ),
