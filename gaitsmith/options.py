@@ -19,6 +19,7 @@ KNOTS_RANGE = (8, 200)  # planner.spacetime's own bound
 RATE_HZ_RANGE = (1.0, 10000.0)  # sim.rollout's own bound
 MAX_LATENCY_MS = 1000.0  # sim.rollout's own bound (1 s)
 MAX_CYCLES = 100_000
+MAX_PERIOD_S = 60.0  # gait cycle period
 
 
 def _interval(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:

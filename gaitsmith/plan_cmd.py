@@ -17,7 +17,9 @@ from rich.table import Table
 
 import robots
 from gaitsmith.console import console
+from gaitsmith.gait_choice import check_gait_fits, default_gait
 from gaitsmith.options import (
+    MAX_PERIOD_S,
     check_cycles,
     check_friction,
     check_knots,
@@ -35,9 +37,9 @@ from gaitsmith.search_options import (
     workers_option,
 )
 from planner.config import PlannerOptions
-from planner.errors import InfeasibleGaitError, TemplateError
+from planner.errors import InfeasibleGaitError
 from planner.spacetime import GaitPlanner, PlanResult
-from planner.templates import TEMPLATES, make_schedule, templates_for
+from planner.templates import TEMPLATES, make_schedule
 
 
 def plan(
@@ -130,37 +132,6 @@ def _check_options(speed: float, knots: int, period: float | None, duty: float |
                              st.search_knots, st.tipping_weight)
     if simulate or (search and st.sim_accept):
         check_cycles("--cycles", cycles)
-
-
-MAX_PERIOD_S = 60.0
-
-
-def default_gait(bot: robots.Robot) -> str:
-    """The template `plan` uses without `--gait`: among the robot's templates (by leg count),
-    the one with the smallest duty factor that still has no flight phase (duty ≥ ½), i.e. the
-    quickest walking-pace gait — trot on four legs, tripod on six, biped_walk on two."""
-    fitting = [TEMPLATES[name] for name in templates_for(bot)]
-    if not fitting:
-        raise TemplateError(
-            f"{bot.name}: no gait template for {len(bot.legs)} legs "
-            f"(templates exist for {', '.join(str(n) for n in _leg_counts())} legs)")
-    grounded = [t for t in fitting if t.duty_factor >= 0.5] or fitting
-    return min(grounded, key=lambda t: t.duty_factor).name  # min keeps the first of equals
-
-
-def check_gait_fits(bot: robots.Robot, gait: str) -> None:
-    """`--gait` must be a template for this robot's leg count; the error lists those that are."""
-    fitting = templates_for(bot)
-    if gait not in fitting:
-        known = "unknown gait" if gait not in TEMPLATES else (
-            f"gait for {TEMPLATES[gait].n_legs} legs")
-        raise TemplateError(
-            f"--gait {gait}: {known}; {bot.name} has {len(bot.legs)} legs, gaits that fit: "
-            + (", ".join(fitting) or "none"))
-
-
-def _leg_counts() -> list[int]:
-    return sorted({t.n_legs for t in TEMPLATES.values()})
 
 
 def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,

@@ -15,7 +15,7 @@ import planner.gait_search
 import robots
 from gaitsmith import plan_cmd, simulate_cmd, sweep_cmd
 from gaitsmith.cli import main
-from gaitsmith.plan_cmd import check_gait_fits, default_gait
+from gaitsmith.gait_choice import check_gait_fits, default_gait
 from gaitsmith.sweep_cmd import SweepClock, format_duration
 from planner.errors import TemplateError
 from robots import files
