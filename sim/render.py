@@ -84,16 +84,17 @@ def _moving_average(values: np.ndarray, window: int) -> np.ndarray:
 
 
 def camera_lookat(sim: SimModel, traj: Trajectory, idx: np.ndarray, fps: float) -> np.ndarray:
-    """Per-frame camera target (F × 3): the body's x smoothed over `CAMERA_SMOOTHING_S`, y fixed
-    at its mean over the clip, z at the stance height — the camera glides at the walking speed
-    and does not copy the body's bobbing, so the floor grid shows the robot's progress."""
+    """Per-frame camera target (F × 3): the body's x and y smoothed over `CAMERA_SMOOTHING_S`,
+    z at the stance height — the camera glides at the walking speed and does not copy the body's
+    bobbing or sway, so the floor grid shows the robot's progress; a robot drifting sideways or
+    turning stays in the frame (the distance marks show the drift)."""
     adr = int(sim.model.jnt_qposadr[0])  # the root (free) joint: x, y, z, quaternion
     x = traj.qpos[idx, adr]
     y = traj.qpos[idx, adr + 1]
     window = max(1, round(CAMERA_SMOOTHING_S * fps))
     lookat = np.empty((len(idx), 3))
     lookat[:, 0] = _moving_average(x, window)
-    lookat[:, 1] = float(np.mean(y)) if len(idx) else 0.0
+    lookat[:, 1] = _moving_average(y, window)
     lookat[:, 2] = sim.robot.stance_base_height_m
     return lookat
 
