@@ -10,7 +10,7 @@ import typer
 
 import robots
 from gaitsmith.console import console
-from gaitsmith.errors import OptionError
+from gaitsmith.errors import OptionError, OutputError
 from gaitsmith.options import (
     check_cycles,
     check_friction,
@@ -30,6 +30,7 @@ from gaitsmith.search_options import (
 from planner.config import PlannerOptions
 from planner.gait_search import GaitSearchResult, SearchLogRow
 from planner.speed_sweep import SweepRow, Validator, sweep_speeds, to_markdown, write_sweep
+from robots.errors import OutputWriteError
 
 
 def sweep(
@@ -87,7 +88,13 @@ def sweep(
                         **sim_acceptance(bot, sim_accept, cycles),
                         validator=_sim_validator(cycles) if simulate else None,
                         on_row=on_row, progress=progress)
-    paths = write_sweep(rows, output, bot)
+    try:
+        paths = write_sweep(rows, output, bot)
+    except OutputWriteError:
+        raise
+    except OSError as exc:  # e.g. the folder vanished or became read-only during the sweep
+        raise OutputError(f"--output {output}: cannot write the sweep: {exc.strerror or exc}"
+                          ) from None
     console.print(to_markdown(rows))
     console.print(f"{len(values)} speeds in {format_duration(clock.elapsed_s())}")
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))

@@ -207,3 +207,17 @@ def test_plan_onto_a_full_disk_fails_cleanly_after_the_solve(
     line = _error_line(capsys)
     assert str(out) in line and "No space left on device" in line
     assert list(tmp_path.iterdir()) == []
+
+
+def test_sweep_write_failure_after_the_sweep_is_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(sweep_cmd, "sweep_speeds", lambda *args, **kwargs: ())
+
+    def read_only(*args: Any) -> Any:
+        raise PermissionError(errno.EROFS, os.strerror(errno.EROFS))
+
+    monkeypatch.setattr(sweep_cmd, "write_sweep", read_only)
+    out = tmp_path / "s"
+    assert main(["sweep", "quad12", "--speeds", "0.1", "--no-sim-accept", "-o", str(out)]) == 2
+    assert "cannot write the sweep: Read-only file system" in _error_line(capsys)
