@@ -1,24 +1,60 @@
-"""Shared plumbing of the vendor-SDK drivers: port ownership, timeouts, result-code mapping.
+"""The transaction engine of the vendor-SDK drivers: port ownership, request/reply matching,
+deadlines, late-reply bookkeeping and error mapping.
 
-A driver accepts either a device path (it then creates the SDK's `PortHandler`, subclassed only
-to make the reply allowance configurable) or an already-built port object with the
-`PortHandler` interface (e.g. `hardware.virtual.VirtualPort`), which it uses as is.
+A driver accepts either a device path (it then creates the SDK's `PortHandler`, which owns the
+serial device and its baud-rate setup) or an already-built port object with the `PortHandler`
+interface (e.g. `hardware.virtual.VirtualPort`), which it uses as is. Packets are built and
+parsed by `hardware.protocol` (checked against the vendors' manuals); the SDKs' packet
+handlers are not used for transactions, because they match a reply by servo id only, take a
+late reply for the current one, and index short replies (`IndexError` in scservo_sdk's ping).
+
+One attempt (`_exchange`):
+
+1. drain: whatever arrived since the last attempt (late replies) is read and discarded — the
+   SDKs' `clearPort` does not do this for Feetech (it flushes output only);
+2. send the request; its deadline is the wire time of the request and of every expected reply
+   at the port's baud rate, plus `BusConfig.timeout_s`, plus `reply_gap_s` per reply;
+3. read until every expected reply is in or the deadline passes. A reply is taken only if its
+   servo id, packet type (Protocol 2.0 status instruction 0x55) and parameter count match the
+   request; anything else is a stray (late, or for someone else) and is discarded.
+
+Late replies: a status packet carries no register address, so a reply that missed its
+deadline could later pass for the answer to another request to the same servo with the same
+reply length. The engine remembers every reply it gave up on as (servo id, parameter count)
+for `BusConfig.late_reply_horizon_s`; a stray that matches one cancels it. While one is
+outstanding, a read that would expect that same signature reads one more byte (or more; the
+span moves down at the end of the control table) and keeps only the bytes asked for, so the
+two cannot be confused. A write whose acknowledgement could be a late one is confirmed by
+reading the register back. A reply later than the horizon is assumed not to exist.
+
+Port failures (OSError / serial.SerialException from read, write or wait, or the port closed
+under us) raise `AdapterLost`; after one, every call raises it again until `close()` + `open()`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+import select
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, TypeVar
 
 import serial
 
-from hardware.bus import BusConfig, ServoBus
+from hardware.bus import MAX_BAUD, MIN_BAUD, BusConfig, ServoBus, ServoInfo
 from hardware.control_table import ControlTable
-from hardware.errors import BusError, CorruptPacket, NoResponse, PortError
+from hardware.errors import AdapterLost, CorruptPacket, NoResponse, PortError, ServoFault
+from hardware.protocol.common import FrameStream, Packet
+
+T = TypeVar("T")
+MAX_EXTRA_BYTES = 32  # how far a read may be lengthened to dodge outstanding late replies
+DRAIN_LIMIT_BYTES = 1 << 16  # at most this much stale input is read before a request
+PORT_ERRORS = (OSError, serial.SerialException)
 
 
 class LatencyMixin:
-    """Replaces the SDK's fixed 34 ms USB-latency allowance by `latency_ms` (configurable)."""
+    """Replaces the SDK's fixed 34 ms USB-latency allowance by `latency_ms` (configurable), for
+    code that still drives the SDK's packet handler on our port handlers."""
 
     latency_ms: float = 34.0
     packet_start_time: float
@@ -34,79 +70,264 @@ class LatencyMixin:
         self.packet_timeout = self.tx_time_per_byte * packet_length + self.latency_ms
 
 
+@dataclass(frozen=True)
+class _Late:
+    """A reply given up on that may still arrive: (servo id, parameter count) until `until_s`."""
+
+    servo_id: int
+    n_params: int
+    until_s: float
+
+
 class SdkServoBus(ServoBus):
-    """Port lifecycle and error mapping common to DynamixelBus and FeetechBus."""
+    """Port lifecycle, transactions and error mapping common to DynamixelBus and FeetechBus."""
 
     default_baudrate = 1_000_000
-    sdk: Any  # the vendor SDK module (dynamixel_sdk or scservo_sdk): same group/result API
+    default_reply_gap_s = 0.0
+    status_overhead = 6  # bytes of a status frame without parameters
+    ping_params = 0  # parameters of a ping's status packet
+    identity_span = (0, 1)  # (addr, length) read to learn model number and firmware
+    codec: Any  # hardware.protocol.dynamixel2 or .feetech: ping/read/write/sync_* builders
+    sdk: Any  # the vendor SDK module (its PortHandler opens device paths)
 
     def __init__(self, port: Any, table: ControlTable, config: BusConfig | None) -> None:
         super().__init__(table, config)
         self._port_arg = port
         self.port: Any = None
         self._open = False
-        self.ph: Any = self._make_packet_handler()
-        self._codes = {
-            "success": self.sdk.COMM_SUCCESS,
-            "timeout": self.sdk.COMM_RX_TIMEOUT,
-            "corrupt": self.sdk.COMM_RX_CORRUPT,
-        }
-        self._sync_writers: dict[tuple[int, int], Any] = {}
+        self._lost: AdapterLost | None = None
+        self._late: list[_Late] = []
+        gap = self.config.reply_gap_s
+        self.reply_gap_s = self.default_reply_gap_s if gap is None else gap
 
     # -- to provide ------------------------------------------------------------------------------
-    def _make_packet_handler(self) -> Any:
-        raise NotImplementedError
-
     def _make_port_handler(self, path: str) -> Any:
         raise NotImplementedError
 
-    def _sync_read_tx(self, port: Any, addr: int, length: int, ids: list[int]) -> int:
-        """Send the SDK's sync-read instruction (signatures differ per vendor)."""
+    def _status_parser(self, max_frame: int | None) -> FrameStream:
         raise NotImplementedError
 
-    def _transaction_port(self) -> Any:
-        """The open port, ready for a request/reply transaction."""
-        return self._require_open()
+    def _matches(self, packet: Packet, n_params: int) -> bool:
+        """Whether `packet` has the shape of the status expected (parameter count `n_params`)."""
+        return len(packet.params) == n_params
 
-    # -- primitives shared by both SDKs ------------------------------------------------------------
+    def _identity(self, servo_id: int, data: bytes) -> ServoInfo:
+        raise NotImplementedError
+
+    def _frame_bytes(self, n_params: int) -> int:
+        """Longest status frame with `n_params` parameters (byte stuffing included)."""
+        return self.status_overhead + n_params
+
+    # -- primitives --------------------------------------------------------------------------------
+    def _ping_once(self, servo_id: int) -> ServoInfo:
+        self._exchange(self.codec.ping(servo_id), {servo_id: self.ping_params}, "ping")
+        addr, length = self.identity_span  # the ping's status proves presence; the identity
+        data, _ = self._read_once(servo_id, addr, length)  # comes from a guarded read
+        return self._identity(servo_id, data)
+
     def _read_once(self, servo_id: int, addr: int, length: int) -> tuple[bytes, int]:
-        port = self._transaction_port()
-        data, result, error = self.ph.readTxRx(port, servo_id, addr, length)
-        self._raise_for(result, servo_id, f"read {addr}+{length}")
-        return bytes(data), int(error)
+        return self._guarded_read([servo_id], addr, length, f"read {addr}+{length}")[servo_id]
 
     def _write_once(self, servo_id: int, addr: int, data: bytes) -> int:
-        port = self._transaction_port()
-        result, error = self.ph.writeTxRx(port, servo_id, addr, len(data), list(data))
-        self._raise_for(result, servo_id, f"write {addr}+{len(data)}")
-        return int(error)
+        what = f"write {addr}+{len(data)}"
+        ambiguous = self._outstanding(servo_id, 0)
+        got = self._exchange(self.codec.write(servo_id, addr, data), {servo_id: 0}, what)
+        if not ambiguous:
+            return int(got[servo_id].error or 0)
+        back, error = self._read_once(servo_id, addr, len(data))
+        if back != bytes(data):
+            raise CorruptPacket(
+                f"{what}: the acknowledgement may be a late reply and the register reads back "
+                f"{back.hex(' ')} instead of {bytes(data).hex(' ')}",
+                servo_id,
+            )
+        return error
 
     def _sync_write_once(self, addr: int, length: int, data: Mapping[int, bytes]) -> None:
-        port = self._transaction_port()
-        group = self._sync_writers.get((addr, length))
-        if group is None or group.port is not port:
-            group = self.sdk.GroupSyncWrite(port, self.ph, addr, length)
-            self._sync_writers[(addr, length)] = group
-        group.clearParam()
-        for servo_id, raw in data.items():
-            group.addParam(servo_id, list(raw))
-        self._raise_for(group.txPacket(), None, f"sync write {addr}+{length}")
+        self._exchange(self.codec.sync_write(addr, length, data), {}, f"sync write {addr}+{length}")
 
     def _sync_read_once(
         self, addr: int, length: int, ids: Sequence[int]
     ) -> dict[int, tuple[bytes, int]]:
-        # The SDKs' GroupSyncRead drops each reply's error/status byte; the packet handler
-        # keeps it, so the drivers send the instruction and receive each reply themselves.
-        port = self._transaction_port()
-        ids = list(ids)
-        self._raise_for(self._sync_read_tx(port, addr, length, ids), None,
-                        f"sync read {addr}+{length}")
+        return self._guarded_read(list(ids), addr, length, f"sync read {addr}+{length}")
+
+    def _guarded_read(
+        self, ids: list[int], addr: int, length: int, what: str
+    ) -> dict[int, tuple[bytes, int]]:
+        """Read [addr, addr+length) from `ids` (one READ, or one SYNC_READ for several), with a
+        reply length no outstanding late reply of these servos has."""
+        self._expire()
+        start, n, offset = self._read_plan(ids, addr, length, what)
+        request = (  # one servo: a READ; several: one SYNC_READ
+            self.codec.read(ids[0], start, n)
+            if len(ids) == 1
+            else self.codec.sync_read(start, n, ids)
+        )
+        got = self._exchange(request, {i: n for i in ids}, what)
         out: dict[int, tuple[bytes, int]] = {}
-        for servo_id in ids:
-            data, result, error = self.ph.readRx(port, servo_id, length)
-            self._raise_for(result, servo_id, f"sync read {addr}+{length}")
-            out[servo_id] = (bytes(data), int(error))
+        for i in ids:
+            p = got[i]
+            error = int(p.error or 0)
+            if len(p.params) != n:  # an error status without data (Dynamixel access error...)
+                raise ServoFault(i, self._fault_flags(i, error), error)
+            out[i] = (bytes(p.params[offset : offset + length]), error)
         return out
+
+    def _read_plan(
+        self, ids: Iterable[int], addr: int, length: int, what: str
+    ) -> tuple[int, int, int]:
+        """(start, n, offset): read n bytes at start, the wanted ones begin at offset."""
+        ids = set(ids)
+        taken = {e.n_params for e in self._late if e.servo_id in ids}
+        for n in range(length, length + MAX_EXTRA_BYTES + 1):
+            if n in taken:
+                continue
+            start = min(addr, self.table.size - n)
+            if start < 0:
+                break
+            return start, n, addr - start
+        raise CorruptPacket(
+            f"{what}: {len(taken)} late replies of servo(s) {sorted(ids)} still outstanding; "
+            "cannot tell them from this one (try again later)",
+            min(ids),
+        )
+
+    # -- the engine -----------------------------------------------------------------------------
+    def _exchange(self, request: bytes, expects: Mapping[int, int], what: str) -> dict[int, Packet]:
+        """One attempt: drain, send `request`, collect one matching status per servo in
+        `expects` ({servo id: parameter count}) before the deadline; raises NoResponse /
+        CorruptPacket (and remembers the missing replies as possibly late) or AdapterLost."""
+        port = self._io_port(what)
+        self._expire()
+        self._drain(port)
+        budget = self._budget_s(len(request), expects.values())
+        t0 = time.monotonic()
+        self._send(port, request, what)
+        if not expects:
+            return {}
+        self._counts["budget_s"] += budget
+        deadline = t0 + budget
+        parser = self._status_parser(max(self._frame_bytes(n) for n in expects.values()))
+        got: dict[int, Packet] = {}
+        strays: list[str] = []
+        while True:
+            data = self._read_port(port, what)
+            if data:
+                for p in parser.feed(data):
+                    n = expects.get(p.servo_id)
+                    if n is not None and p.servo_id not in got and self._matches(p, n):
+                        got[p.servo_id] = p
+                    else:
+                        strays.append(f"servo {p.servo_id} with {len(p.params)} byte(s)")
+                        self._stray(p)
+                if len(got) == len(expects):
+                    return got
+                continue
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                break
+            self._wait(port, remaining, what)
+        missing = [i for i in expects if i not in got]
+        until = time.monotonic() + self.config.late_reply_horizon_s
+        self._late.extend(_Late(i, expects[i], until) for i in missing)
+        ignored = (
+            f"; ignored {len(strays)} stray repl(ies): {', '.join(strays[:3])}" if strays else ""
+        )
+        if parser.corrupt or parser.buffered:
+            raise CorruptPacket(
+                f"{what}: {parser.corrupt} bad frame(s), {parser.buffered} byte(s) of an "
+                f"incomplete one by the {budget * 1e3:.1f} ms deadline{ignored}",
+                missing[0],
+            )
+        raise NoResponse(missing[0], 1, f"{what}: no reply within {budget * 1e3:.1f} ms{ignored}")
+
+    def _budget_s(self, request_bytes: int, reply_params: Iterable[int]) -> float:
+        per_byte = 10.0 / self._baud()  # 8N1: 10 bits per byte
+        replies = list(reply_params)
+        wire = request_bytes + sum(self._frame_bytes(n) for n in replies)
+        return wire * per_byte + self.config.timeout_s + self.reply_gap_s * len(replies)
+
+    def _baud(self) -> float:
+        try:
+            baud = float(self.port.getBaudRate())
+        except Exception:  # a port object without the accessor: the configured one
+            baud = float(self.config.baudrate or self.default_baudrate)
+        return min(max(baud, MIN_BAUD), MAX_BAUD)
+
+    def _outstanding(self, servo_id: int, n_params: int) -> bool:
+        self._expire()
+        return any(e.servo_id == servo_id and e.n_params == n_params for e in self._late)
+
+    def _expire(self) -> None:
+        if self._late:
+            now = time.monotonic()
+            self._late = [e for e in self._late if e.until_s > now]
+
+    def _stray(self, p: Packet) -> None:
+        """A well-formed reply nobody is waiting for: if it is one given up on, forget it."""
+        self._counts["stray"] += 1
+        for k, e in enumerate(self._late):
+            if e.servo_id == p.servo_id and e.n_params == len(p.params):
+                del self._late[k]
+                return
+
+    def _drain(self, port: Any) -> None:
+        parser = self._status_parser(None)
+        total = 0
+        while total < DRAIN_LIMIT_BYTES:
+            data = self._read_port(port, "drain")
+            if not data:
+                return
+            total += len(data)
+            for p in parser.feed(data):
+                self._stray(p)
+
+    # -- port I/O (every OS error becomes AdapterLost) ------------------------------------------
+    def _io_port(self, what: str) -> Any:
+        port = self._require_open()
+        if self._lost is not None:
+            raise AdapterLost(self.port_name, what, self._lost.os_error)
+        if not getattr(port, "is_open", True):
+            self._adapter_lost(what, "the port was closed while in use")
+        return port
+
+    def _adapter_lost(self, what: str, error: BaseException | str) -> None:
+        self._lost = AdapterLost(self.port_name, what, error)
+        raise AdapterLost(self.port_name, what, error)
+
+    def _send(self, port: Any, request: bytes, what: str) -> None:
+        try:
+            written = port.writePort(bytes(request))
+        except PORT_ERRORS as exc:
+            self._adapter_lost(f"{what} (write)", exc)
+        if written != len(request):
+            self._adapter_lost(f"{what} (write)", f"wrote {written} of {len(request)} bytes")
+
+    def _read_port(self, port: Any, what: str) -> bytes:
+        try:
+            return bytes(port.readPort(4096) or b"")
+        except PORT_ERRORS as exc:
+            self._adapter_lost(f"{what} (read)", exc)
+        return b""  # pragma: no cover - _adapter_lost raises
+
+    def _wait(self, port: Any, timeout_s: float, what: str) -> None:
+        """Block until input may be there, at most `timeout_s` (and never long: re-check often)."""
+        timeout_s = min(timeout_s, 0.005)
+        try:
+            waiter = getattr(port, "wait_for_input", None)
+            if waiter is not None:
+                waiter(timeout_s)
+                return
+            ser = getattr(port, "ser", None)
+            fileno = getattr(ser, "fileno", None)
+            if fileno is not None:
+                select.select([fileno()], [], [], timeout_s)
+                return
+        except PORT_ERRORS as exc:
+            self._adapter_lost(f"{what} (wait)", exc)
+        except ValueError as exc:  # select on a closed file descriptor
+            self._adapter_lost(f"{what} (wait)", exc)
+        time.sleep(min(timeout_s, 0.0002))
 
     # -- lifecycle -------------------------------------------------------------------------------
     @property
@@ -133,36 +354,29 @@ class SdkServoBus(ServoBus):
             if not ok:
                 raise PortError(self.port_name, f"unsupported baud rate {port.baudrate}")
         else:
-            if not getattr(port, "is_open", False) and not port.openPort():
-                raise PortError(self.port_name, "cannot open")
-            if self.config.baudrate is not None and not port.setBaudRate(self.config.baudrate):
-                raise PortError(self.port_name, f"unsupported baud rate {self.config.baudrate}")
-        if hasattr(port, "set_latency_ms"):
-            port.set_latency_ms(self.config.timeout_s * 1000.0)
+            try:
+                if not getattr(port, "is_open", False) and not port.openPort():
+                    raise PortError(self.port_name, "cannot open")
+                if self.config.baudrate is not None and not port.setBaudRate(self.config.baudrate):
+                    raise PortError(self.port_name, f"unsupported baud rate {self.config.baudrate}")
+            except PORT_ERRORS as exc:
+                raise PortError(self.port_name, f"cannot open: {exc}") from None
         self.port = port
         self._open = True
+        self._lost = None
+        self._late = []
 
     def close(self) -> None:
+        """Close the port; idempotent, and quiet when the adapter is already gone."""
         if self._open and self.port is not None:
             try:
                 self.port.closePort()
+            except PORT_ERRORS:
+                pass  # unplugged: nothing left to close
             finally:
                 self._open = False
 
-    # -- helpers for the primitives ---------------------------------------------------------------
     def _require_open(self) -> Any:
         if not self._open:
             raise PortError(self.port_name, "bus is not open")
-        self.port.is_using = False  # a previous exception must not leave the port "busy"
         return self.port
-
-    def _raise_for(self, result: int, servo_id: int | None, what: str) -> None:
-        codes = self._codes
-        if result == codes["success"]:
-            return
-        text = self.ph.getTxRxResult(result)
-        if result == codes["timeout"]:
-            raise NoResponse(-1 if servo_id is None else servo_id, 1, f"{what}: {text}")
-        if result == codes["corrupt"]:
-            raise CorruptPacket(f"{what}: {text}", servo_id)
-        raise BusError(f"{what} (servo {servo_id}): SDK result {result} {text}")
