@@ -207,7 +207,9 @@ class SdkServoBus(ServoBus):
             return {}
         self._counts["budget_s"] += budget
         deadline = t0 + budget
-        parser = self._status_parser(max(self._frame_bytes(n) for n in expects.values()))
+        # frames much longer than any expected one are impossible (false headers in noise);
+        # strays of other lengths (e.g. late replies to a longer read) still parse
+        parser = self._status_parser(max(self._frame_bytes(n) for n in expects.values()) + 64)
         got: dict[int, Packet] = {}
         strays: list[str] = []
         while True:
