@@ -125,7 +125,8 @@ def _as_raw_status(bus: ServoBus, got: Any) -> dict[int, tuple[int, ...]]:
     for i, s in got.items():
         assert s.error_flags == decode_flags(s.error_raw, bus.table.hardware_error_bits)
         raw = tuple(
-            round(v / r.unit) for v, r in zip((s.load_pct, s.voltage_v, s.temperature_c), regs)
+            round(v / r.unit)
+            for v, r in zip((s.load_pct, s.voltage_v, s.temperature_c), regs[:3], strict=True)
         )
         out[i] = (*raw, s.error_raw)
     return out
