@@ -13,7 +13,8 @@ One attempt (`_exchange`):
 1. drain: whatever arrived since the last attempt (late replies) is read and discarded — the
    SDKs' `clearPort` does not do this for Feetech (it flushes output only);
 2. send the request; its deadline is the wire time of the request and of every expected reply
-   at the port's baud rate, plus `BusConfig.timeout_s`, plus `reply_gap_s` per reply;
+   at the port's baud rate, plus `BusConfig.timeout_s`, plus the USB adapter's latency timer
+   when the kernel exposes one (`usb_latency_timer_s`), plus `reply_gap_s` per reply;
 3. read until every expected reply is in or the deadline passes. A reply is taken only if its
    servo id, packet type (Protocol 2.0 status instruction 0x55) and parameter count match the
    request; anything else is a stray (late, or for someone else) and is discarded.
@@ -33,10 +34,12 @@ under us) raise `AdapterLost`; after one, every call raises it again until `clos
 
 from __future__ import annotations
 
+import os
 import select
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, TypeVar
 
 import serial
@@ -50,6 +53,24 @@ T = TypeVar("T")
 MAX_EXTRA_BYTES = 32  # how far a read may be lengthened to dodge outstanding late replies
 DRAIN_LIMIT_BYTES = 1 << 16  # at most this much stale input is read before a request
 PORT_ERRORS = (OSError, serial.SerialException)
+USB_SERIAL_SYSFS = Path("/sys/bus/usb-serial/devices")
+MAX_ADAPTER_LATENCY_S = 0.255  # the FTDI latency timer is one byte of milliseconds
+
+
+def usb_latency_timer_s(device: str, sysfs: Path = USB_SERIAL_SYSFS) -> float:
+    """The USB-serial adapter's latency timer [s] for `device` (e.g. /dev/ttyUSB0, or a
+    /dev/serial/by-id link to it), 0 when the kernel exposes none (pty, CDC-ACM, in-process).
+
+    An FTDI adapter (ROBOTIS U2D2, most Feetech boards' FT232) holds received bytes up to this
+    long (default 16 ms) before handing them to the host, so a reply allowance that ignores it
+    makes every read time out. The drivers add it to `BusConfig.timeout_s`.
+    """
+    name = os.path.basename(os.path.realpath(device))
+    try:
+        ms = float((sysfs / name / "latency_timer").read_text().strip())
+    except (OSError, ValueError):
+        return 0.0
+    return min(max(ms, 0.0), MAX_ADAPTER_LATENCY_S * 1000.0) / 1000.0
 
 
 class LatencyMixin:
@@ -97,6 +118,7 @@ class SdkServoBus(ServoBus):
         self._open = False
         self._lost: AdapterLost | None = None
         self._late: list[_Late] = []
+        self.adapter_latency_s = 0.0  # USB latency timer of a device path (see open)
         gap = self.config.reply_gap_s
         self.reply_gap_s = self.default_reply_gap_s if gap is None else gap
 
@@ -247,7 +269,8 @@ class SdkServoBus(ServoBus):
         per_byte = 10.0 / self._baud()  # 8N1: 10 bits per byte
         replies = list(reply_params)
         wire = request_bytes + sum(self._frame_bytes(n) for n in replies)
-        return wire * per_byte + self.config.timeout_s + self.reply_gap_s * len(replies)
+        allowance = self.config.timeout_s + self.adapter_latency_s
+        return wire * per_byte + allowance + self.reply_gap_s * len(replies)
 
     def _baud(self) -> float:
         try:
@@ -355,6 +378,7 @@ class SdkServoBus(ServoBus):
                 raise PortError(self.port_name, f"cannot open: {exc}") from None
             if not ok:
                 raise PortError(self.port_name, f"unsupported baud rate {port.baudrate}")
+            self.adapter_latency_s = usb_latency_timer_s(self._port_arg)
         else:
             try:
                 if not getattr(port, "is_open", False) and not port.openPort():

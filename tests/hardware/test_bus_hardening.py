@@ -375,3 +375,14 @@ def test_sagging_supply_of_1e308_volts_is_refused_not_overflowed(make_vbus: Any)
 def _one_line_value_error(exc: BaseException, needle: str) -> None:
     assert isinstance(exc, ValueError) and isinstance(exc, HardwareError)
     assert needle in str(exc) and "\n" not in str(exc)
+
+
+def test_usb_latency_timer_is_part_of_the_reply_allowance(tmp_path: Path) -> None:
+    from hardware.sdk_bus import usb_latency_timer_s
+
+    (tmp_path / "ttyUSB7").mkdir()
+    (tmp_path / "ttyUSB7" / "latency_timer").write_text("16\n")
+    assert usb_latency_timer_s("/dev/ttyUSB7", tmp_path) == pytest.approx(0.016)
+    assert usb_latency_timer_s("/dev/pts/3", tmp_path) == 0.0  # a pty has none
+    (tmp_path / "ttyUSB7" / "latency_timer").write_text("garbage")
+    assert usb_latency_timer_s("/dev/ttyUSB7", tmp_path) == 0.0
