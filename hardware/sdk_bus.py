@@ -21,12 +21,15 @@ One attempt (`_exchange`):
 
 Late replies: a status packet carries no register address, so a reply that missed its
 deadline could later pass for the answer to another request to the same servo with the same
-reply length. The engine remembers every reply it gave up on as (servo id, parameter count)
-for `BusConfig.late_reply_horizon_s`; a stray that matches one cancels it. While one is
+reply length. The engine remembers every reply it gave up on as (servo id, parameter count);
+a stray that matches one cancels it, and so does a later reply of the same servo taken as an
+answer (a servo answers its requests in order and the serial stream is FIFO, so once it has
+answered a later request an earlier reply can no longer come: it was lost). While one is
 outstanding, a read that would expect that same signature reads one more byte (or more; the
 span moves down at the end of the control table) and keeps only the bytes asked for, so the
 two cannot be confused. A write whose acknowledgement could be a late one is confirmed by
-reading the register back. A reply later than the horizon is assumed not to exist.
+reading the register back. A reply later than `BusConfig.late_reply_horizon_s`, or more than
+`MAX_LATE_PER_SERVO` attempts late, is assumed not to exist.
 
 Port failures (OSError / serial.SerialException from read, write or wait, or the port closed
 under us) raise `AdapterLost`; after one, every call raises it again until `close()` + `open()`.
@@ -51,6 +54,12 @@ from hardware.protocol.common import FrameStream, Packet
 
 T = TypeVar("T")
 MAX_EXTRA_BYTES = 32  # how far a read may be lengthened to dodge outstanding late replies
+# Outstanding replies remembered per servo, oldest forgotten first. One fewer than the read
+# lengths on offer, so a servo that has stopped answering (each failed attempt leaves one) can
+# always be asked again and is not locked out when it comes back. The price: a reply more than
+# that many attempts late (≥ 0.1 s at a 100 Hz tick) could pass for a later answer of the same
+# length — a real adapter is late by milliseconds; the virtual bus's delay fault can be more.
+MAX_LATE_PER_SERVO = MAX_EXTRA_BYTES
 DRAIN_LIMIT_BYTES = 1 << 16  # at most this much stale input is read before a request
 PORT_ERRORS = (OSError, serial.SerialException)
 USB_SERIAL_SYSFS = Path("/sys/bus/usb-serial/devices")
@@ -93,11 +102,13 @@ class LatencyMixin:
 
 @dataclass(frozen=True)
 class _Late:
-    """A reply given up on that may still arrive: (servo id, parameter count) until `until_s`."""
+    """A reply given up on that may still arrive: (servo id, parameter count) until `until_s`;
+    `exchange` numbers the attempt that gave up on it."""
 
     servo_id: int
     n_params: int
     until_s: float
+    exchange: int
 
 
 class SdkServoBus(ServoBus):
@@ -118,6 +129,7 @@ class SdkServoBus(ServoBus):
         self._open = False
         self._lost: AdapterLost | None = None
         self._late: list[_Late] = []
+        self._exchanges = 0
         self.adapter_latency_s = 0.0  # USB latency timer of a device path (see open)
         gap = self.config.reply_gap_s
         self.reply_gap_s = self.default_reply_gap_s if gap is None else gap
@@ -208,10 +220,15 @@ class SdkServoBus(ServoBus):
             if start < 0:
                 break
             return start, n, addr - start
-        raise CorruptPacket(
-            f"{what}: {len(taken)} late replies of servo(s) {sorted(ids)} still outstanding; "
-            "cannot tell them from this one (try again later)",
-            min(ids),
+        # every length is taken by replies still owed: by a servo that has stopped answering
+        # (each failed attempt leaves one) or by a line so late nothing can be told apart
+        owed = {i: sum(e.servo_id == i for e in self._late) for i in ids}
+        worst = max(sorted(owed), key=lambda i: owed[i])
+        raise NoResponse(
+            worst,
+            1,
+            f"{what}: {owed[worst]} earlier replies still owed (it has not answered since); "
+            "a late one could not be told from this one, so nothing was sent",
         )
 
     # -- the engine -----------------------------------------------------------------------------
@@ -222,6 +239,11 @@ class SdkServoBus(ServoBus):
         port = self._io_port(what)
         self._expire()
         self._drain(port)
+        self._exchanges += 1
+        number = self._exchanges
+        # a reply taken where a late one of the same shape was outstanding may be that late one:
+        # then its own is still to come, so the count of outstanding replies stays as it is
+        ambiguous = {i for i, n in expects.items() if self._outstanding(i, n)}
         budget = self._budget_s(len(request), expects.values())
         t0 = time.monotonic()
         self._send(port, request, what)
@@ -234,26 +256,31 @@ class SdkServoBus(ServoBus):
         parser = self._status_parser(max(self._frame_bytes(n) for n in expects.values()) + 64)
         got: dict[int, Packet] = {}
         strays: list[str] = []
+        last_look = False
         while True:
             data = self._read_port(port, what)
-            if data:
-                for p in parser.feed(data):
-                    n = expects.get(p.servo_id)
-                    if n is not None and p.servo_id not in got and self._matches(p, n):
-                        got[p.servo_id] = p
-                    else:
-                        strays.append(f"servo {p.servo_id} with {len(p.params)} byte(s)")
-                        self._stray(p)
-                if len(got) == len(expects):
-                    return got
-                continue
+            for p in parser.feed(data) if data else ():
+                n = expects.get(p.servo_id)
+                if n is not None and p.servo_id not in got and self._matches(p, n):
+                    got[p.servo_id] = p
+                    if p.servo_id not in ambiguous:
+                        self._answered(p.servo_id, number)
+                else:
+                    strays.append(f"servo {p.servo_id} with {len(p.params)} byte(s)")
+                    self._stray(p)
+            if len(got) == len(expects):
+                return got
+            if last_look:
+                break
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                break
-            self._wait(port, remaining, what)
+                last_look = True  # one more read: a reply may have come in while we slept
+            elif not data:
+                self._wait(port, remaining, what)
         missing = [i for i in expects if i not in got]
         until = time.monotonic() + self.config.late_reply_horizon_s
-        self._late.extend(_Late(i, expects[i], until) for i in missing)
+        self._late.extend(_Late(i, expects[i], until, number) for i in missing)
+        self._cap_late(missing)
         ignored = (
             f"; ignored {len(strays)} stray repl(ies): {', '.join(strays[:3])}" if strays else ""
         )
@@ -287,6 +314,17 @@ class SdkServoBus(ServoBus):
         if self._late:
             now = time.monotonic()
             self._late = [e for e in self._late if e.until_s > now]
+
+    def _answered(self, servo_id: int, exchange: int) -> None:
+        """Servo `servo_id` answered in `exchange`: its earlier outstanding replies are lost."""
+        if self._late:
+            self._late = [e for e in self._late if e.servo_id != servo_id or e.exchange >= exchange]
+
+    def _cap_late(self, ids: Iterable[int]) -> None:
+        for i in set(ids):
+            mine = [k for k, e in enumerate(self._late) if e.servo_id == i]
+            for k in reversed(mine[:-MAX_LATE_PER_SERVO] if len(mine) > MAX_LATE_PER_SERVO else []):
+                del self._late[k]
 
     def _stray(self, p: Packet) -> None:
         """A well-formed reply nobody is waiting for: if it is one given up on, forget it."""

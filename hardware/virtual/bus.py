@@ -3,6 +3,8 @@
 `process(data, now_wall_s)` takes instruction bytes as written by the host (any chunking) and
 returns the status packets as (release wall-time [s], bytes), in bus order, after fault
 injection (drop / corrupt / delay / vanished servos / no reply to reads of given registers).
+Release times never decrease: like bytes through a USB adapter, a delayed reply holds back
+the replies after it instead of being overtaken.
 Servo physics run on the injectable `clock` (bus time); release times are wall-clock so a
 transport can honour delays.
 Reach it in-process with `VirtualPort` or on a pseudo-terminal with `PtyServer`.
@@ -87,6 +89,7 @@ class VirtualServoBus:
         )
         self._registered: dict[int, tuple[int, bytes]] = {}  # Feetech REG WRITE buffer
         self.instructions = 0  # packets handled (for tests and benchmarks)
+        self._last_release = 0.0  # wall time [s] of the latest reply released (FIFO order)
         self.plant: ServoPlant | None = None  # optional external physics (see ServoPlant)
 
     @classmethod
@@ -174,7 +177,10 @@ class VirtualServoBus:
                         continue
                     injected = self._inject(servo, reply, now)
                     if injected is not None:
-                        out.append((wall + injected[0], injected[1]))
+                        # a serial stream is FIFO: a late reply holds back the ones after it
+                        release = max(wall + injected[0], self._last_release)
+                        self._last_release = release
+                        out.append((release, injected[1]))
         return out
 
     def _read_lost(self, p: Packet) -> bool:

@@ -23,7 +23,7 @@ class FaultPlan:
     delay_s: every status packet is released this late [s] (wall clock; compare with the
         driver's timeout); applied with probability `delay_probability`.
     delay_jitter_s: a delayed packet is released a further uniform [0, delay_jitter_s] later
-        (so replies can overtake each other).
+        (replies stay in order: a late one holds back those after it, as in a serial stream).
     noise_probability: before each status packet, with this probability, 1..noise_max_bytes
         random bytes appear on the line (stray bytes: noise, a glitching servo).
     vanished: servo ids that never answer (a cut cable).

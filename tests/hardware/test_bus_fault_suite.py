@@ -1,8 +1,8 @@
 """Fault suite of the bus layer (hypothesis): random drops, corruption, delays (with jitter, so
-replies overtake each other and arrive during later requests) and stray bytes on the virtual
-bus, against DynamixelBus and FeetechBus. Every call must return the right value or raise
-NoResponse / CorruptPacket, within the deadline the bus itself accounts for
-(`BusStats.budget_s`), never any other exception and never a wrong value.
+late replies arrive during later requests) and stray bytes on the virtual bus, against
+DynamixelBus and FeetechBus. Every call must return the right value or raise NoResponse /
+CorruptPacket, within the deadline the bus itself accounts for (`BusStats.budget_s`), never
+any other exception and never a wrong value.
 
 The servos stand still (torque off, bus clock frozen) at distinct positions, so the truth of
 every register is the virtual servo's memory at the moment of the check. Writes go to a

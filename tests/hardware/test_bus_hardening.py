@@ -386,3 +386,25 @@ def test_usb_latency_timer_is_part_of_the_reply_allowance(tmp_path: Path) -> Non
     assert usb_latency_timer_s("/dev/pts/3", tmp_path) == 0.0  # a pty has none
     (tmp_path / "ttyUSB7" / "latency_timer").write_text("garbage")
     assert usb_latency_timer_s("/dev/ttyUSB7", tmp_path) == 0.0
+
+
+def test_owed_replies_neither_pile_up_nor_change_the_error(make_vbus: Any, protocol: str) -> None:
+    """Replies lost for good (drops) are forgotten once the servo answers again, so reads do not
+    keep growing; a servo that has vanished stays a NoResponse naming it, however long."""
+    vbus = make_vbus(protocol)
+    with vbus.connect(BusConfig(timeout_s=0.002, retries=1)) as bus:
+        assert isinstance(bus, DynamixelBus | FeetechBus)
+        vbus.faults = FaultPlan(drop_probability=0.1, seed=5)
+        for _ in range(60):
+            try:
+                assert bus.sync_read_positions(IDS) == {i: 2048 for i in IDS}
+            except NoResponse:
+                pass
+        assert len(bus._late) <= len(IDS)
+        vbus.faults = FaultPlan(vanished=frozenset({7}))
+        for _ in range(60):
+            with pytest.raises(NoResponse) as info:
+                bus.sync_read_positions(IDS)
+            assert info.value.servo_id == 7
+        vbus.faults = FaultPlan()
+        assert bus.sync_read_positions(IDS) == {i: 2048 for i in IDS}
