@@ -8,8 +8,9 @@ Retries: every transaction is tried at most `1 + BusConfig.retries` times; only 
 and `CorruptPacket` are retried (a `ServoFault` is an answer, not a transmission error; an
 `AdapterLost` means the port itself is gone). Each attempt is bounded by its own deadline (the
 wire time of the request and of the expected replies at the port's baud rate, plus
-`BusConfig.timeout_s`, plus `reply_gap_s` per reply); `BusStats.budget_s` sums those deadlines,
-so a caller knows the longest a call can take: (1 + retries) · per-attempt deadline.
+`BusConfig.timeout_s`, plus `reply_gap_s` per reply) and by `timeout_s` for draining stale
+input before it; `BusStats.budget_s` sums those, so a caller knows the longest a call can
+take: (1 + retries) · (per-attempt deadline + timeout_s).
 
 Inputs are bounded: non-finite or absurd timeouts, baud rates, retries and servo ids raise
 `InvalidSetting` (a `ValueError`) with one line naming the setting.

@@ -11,7 +11,8 @@ late reply for the current one, and index short replies (`IndexError` in scservo
 One attempt (`_exchange`):
 
 1. drain: whatever arrived since the last attempt (late replies) is read and discarded — the
-   SDKs' `clearPort` does not do this for Feetech (it flushes output only);
+   SDKs' `clearPort` does not do this for Feetech (it flushes output only); at most
+   `timeout_s` of time, so a babbling line cannot stall it;
 2. send the request; its deadline is the wire time of the request and of every expected reply
    at the port's baud rate, plus `BusConfig.timeout_s`, plus the USB adapter's latency timer
    when the kernel exposes one (`usb_latency_timer_s`), plus `reply_gap_s` per reply;
@@ -60,7 +61,9 @@ MAX_EXTRA_BYTES = 32  # how far a read may be lengthened to dodge outstanding la
 # that many attempts late (≥ 0.1 s at a 100 Hz tick) could pass for a later answer of the same
 # length — a real adapter is late by milliseconds; the virtual bus's delay fault can be more.
 MAX_LATE_PER_SERVO = MAX_EXTRA_BYTES
-DRAIN_LIMIT_BYTES = 1 << 16  # at most this much stale input is read before a request
+DRAIN_PARSE_BYTES = 1024  # stale input parsed before a request (late replies cancel debts)
+DRAIN_LIMIT_BYTES = 1 << 16  # at most this much more is read and dropped unparsed
+READ_CHUNK = 512  # bytes per read: bounds the parsing work between two deadline checks
 PORT_ERRORS = (OSError, serial.SerialException)
 USB_SERIAL_SYSFS = Path("/sys/bus/usb-serial/devices")
 MAX_ADAPTER_LATENCY_S = 0.255  # the FTDI latency timer is one byte of milliseconds
@@ -245,6 +248,7 @@ class SdkServoBus(ServoBus):
         # then its own is still to come, so the count of outstanding replies stays as it is
         ambiguous = {i for i, n in expects.items() if self._outstanding(i, n)}
         budget = self._budget_s(len(request), expects.values())
+        self._counts["budget_s"] += self.config.timeout_s  # what the drain may take
         t0 = time.monotonic()
         self._send(port, request, what)
         if not expects:
@@ -335,15 +339,20 @@ class SdkServoBus(ServoBus):
                 return
 
     def _drain(self, port: Any) -> None:
+        """Read what came in since the last attempt: late replies are parsed (and cancel what
+        they were owed for); beyond `DRAIN_PARSE_BYTES` it is noise, dropped unparsed. Bounded
+        by bytes and by `timeout_s` of time, so a babbling line cannot stall a call here."""
         parser = self._status_parser(None)
         total = 0
-        while total < DRAIN_LIMIT_BYTES:
+        stop_at = time.monotonic() + self.config.timeout_s
+        while total < DRAIN_LIMIT_BYTES and time.monotonic() < stop_at:
             data = self._read_port(port, "drain")
             if not data:
                 return
+            if total < DRAIN_PARSE_BYTES:
+                for p in parser.feed(data):
+                    self._stray(p)
             total += len(data)
-            for p in parser.feed(data):
-                self._stray(p)
 
     # -- port I/O (every OS error becomes AdapterLost) ------------------------------------------
     def _io_port(self, what: str) -> Any:
@@ -368,7 +377,7 @@ class SdkServoBus(ServoBus):
 
     def _read_port(self, port: Any, what: str) -> bytes:
         try:
-            return bytes(port.readPort(4096) or b"")
+            return bytes(port.readPort(READ_CHUNK) or b"")
         except PORT_ERRORS as exc:
             self._adapter_lost(f"{what} (read)", exc)
         return b""  # pragma: no cover - _adapter_lost raises

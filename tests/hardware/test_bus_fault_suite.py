@@ -32,7 +32,10 @@ from robots.servo import servo_model
 from .conftest import MODELS, ManualClock
 
 IDS = list(range(1, 7))
-SLACK_S = 0.050  # scheduler / Python overhead on a loaded 2-core machine
+# Scheduler / Python overhead on a loaded 2-core machine: a 1 ms sleep was measured to
+# overshoot by up to 12 ms at load average 6.5, and every attempt sleeps.
+SLACK_S = 0.020
+SLACK_PER_ATTEMPT_S = 0.010
 EXAMPLES = int(os.environ.get("GAITSMITH_BUS_FAULT_EXAMPLES", "30"))
 QUIET_REGISTER = {"dynamixel2": "led", "feetech_sts": "acceleration"}
 STATUS = ("present_load", "present_voltage", "present_temperature", "hardware_error")
@@ -146,7 +149,7 @@ def run_scenario(sc: dict[str, Any], tally: Tally) -> None:
                 time.sleep(op[1] * timeout_s)
                 continue
             call = _call(bus, protocol, op)
-            before = bus.stats.budget_s
+            before, attempts_before = bus.stats.budget_s, bus.stats.attempts
             t0 = time.perf_counter()
             try:
                 got = call()
@@ -155,13 +158,14 @@ def run_scenario(sc: dict[str, Any], tally: Tally) -> None:
                 outcome = exc
             latency = time.perf_counter() - t0
             budget = bus.stats.budget_s - before
+            attempts = bus.stats.attempts - attempts_before
             tally.calls += 1
             where = f"{protocol} {op} under {sc['plan']} / {sc['config']}"
             if latency - budget > tally.worst_over_budget_s:
                 tally.worst_over_budget_s, tally.worst_budget_s = latency - budget, budget
                 tally.worst_call = f"{where} -> {outcome!r}"
             tally.worst_latency_s = max(tally.worst_latency_s, latency)
-            if latency > budget + SLACK_S:
+            if latency > budget + SLACK_S + SLACK_PER_ATTEMPT_S * attempts:
                 tally.violations.append(f"{where}: {latency * 1e3:.1f} ms > {budget * 1e3:.1f} ms")
             if outcome is None:
                 tally.returned += 1

@@ -408,3 +408,41 @@ def test_owed_replies_neither_pile_up_nor_change_the_error(make_vbus: Any, proto
             assert info.value.servo_id == 7
         vbus.faults = FaultPlan()
         assert bus.sync_read_positions(IDS) == {i: 2048 for i in IDS}
+
+
+class _BabblingPort:
+    """A port on which a device transmits garbage without pause (wrong baud, a stuck servo)."""
+
+    port_name = "babble"
+    is_open = True
+
+    def __init__(self, chunk: bytes) -> None:
+        self.chunk = chunk
+
+    def openPort(self) -> bool:
+        return True
+
+    def closePort(self) -> None:
+        self.is_open = False
+
+    def setBaudRate(self, baudrate: int) -> bool:
+        return True
+
+    def getBaudRate(self) -> int:
+        return 1_000_000
+
+    def readPort(self, length: int) -> bytes:
+        return self.chunk
+
+    def writePort(self, packet: bytes) -> int:
+        return len(packet)
+
+
+@pytest.mark.parametrize("chunk", [b"\x00\x13" * 32, b"\xff\xff\x01\x40" * 16])
+def test_a_babbling_line_cannot_hold_a_call_past_its_deadline(protocol: str, chunk: bytes) -> None:
+    bus = _driver(protocol)(_BabblingPort(chunk), BusConfig(timeout_s=0.005, retries=1))
+    bus.open()
+    t0 = time.perf_counter()
+    with pytest.raises((NoResponse, CorruptPacket)):
+        bus.read(1, "present_position")
+    assert time.perf_counter() - t0 <= bus.stats.budget_s + SLACK_S
