@@ -51,6 +51,7 @@ class Tally:
     worst_over_budget_s: float = -1.0  # latency − deadline, worst case
     worst_budget_s: float = 0.0  # the deadline of that call
     worst_call: str = ""
+    overs_s: list[float] = field(default_factory=list)  # latency − deadline of every call
 
 
 TALLY = Tally()
@@ -159,6 +160,7 @@ def run_scenario(sc: dict[str, Any], tally: Tally) -> None:
             latency = time.perf_counter() - t0
             budget = bus.stats.budget_s - before
             attempts = bus.stats.attempts - attempts_before
+            tally.overs_s.append(latency - budget)
             tally.calls += 1
             where = f"{protocol} {op} under {sc['plan']} / {sc['config']}"
             if latency - budget > tally.worst_over_budget_s:
@@ -198,6 +200,7 @@ def test_every_bus_call_is_right_or_typed_and_on_time(sc: dict[str, Any]) -> Non
     for name in ("calls", "returned", "typed_errors"):
         setattr(TALLY, name, getattr(TALLY, name) + getattr(tally, name))
     TALLY.violations.extend(tally.violations)
+    TALLY.overs_s.extend(tally.overs_s)
     TALLY.worst_latency_s = max(TALLY.worst_latency_s, tally.worst_latency_s)
     if tally.worst_over_budget_s > TALLY.worst_over_budget_s:
         TALLY.worst_over_budget_s = tally.worst_over_budget_s
@@ -208,11 +211,14 @@ def test_every_bus_call_is_right_or_typed_and_on_time(sc: dict[str, Any]) -> Non
 
 def teardown_module() -> None:
     t = TALLY
+    overs = sorted(t.overs_s) or [0.0]
+    p50, p99 = overs[len(overs) // 2], overs[min(len(overs) - 1, int(0.99 * len(overs)))]
     print(
         f"\nbus fault suite: {EXAMPLES} examples, {t.calls} calls ({t.returned} returned, "
         f"{t.typed_errors} typed errors), {len(t.violations)} violations; worst latency "
         f"{t.worst_latency_s * 1e3:.1f} ms; worst latency − deadline "
-        f"{t.worst_over_budget_s * 1e3:+.2f} ms (deadline {t.worst_budget_s * 1e3:.1f} ms)"
+        f"{t.worst_over_budget_s * 1e3:+.2f} ms (deadline {t.worst_budget_s * 1e3:.1f} ms), "
+        f"p50 {p50 * 1e3:+.2f} ms, p99 {p99 * 1e3:+.2f} ms"
     )
     if os.environ.get("GAITSMITH_BUS_FAULT_VERBOSE"):
         print(f"worst call: {t.worst_call}")
