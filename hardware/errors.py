@@ -7,7 +7,8 @@ Hierarchy::
     │   ├── PortError            the port cannot be opened / used
     │   ├── NoResponse           a servo did not answer within the timeout
     │   ├── CorruptPacket        a reply arrived but failed its CRC/checksum or framing
-    │   └── ServoFault           a servo answered with hardware-error flags set
+    │   ├── ServoFault           a servo answered with hardware-error flags set
+    │   └── AdapterLost          the serial adapter itself failed (unplugged, EIO)
     ├── CalibrationError         calibration file missing, malformed or for another robot build
     └── LimitError               a joint target lies outside the joint's limits
 """
@@ -86,3 +87,7 @@ class LimitError(HardwareError):
             f"joint {joint!r}: target {value_rad:.4f} rad outside "
             f"[{lower_rad:.4f}, {upper_rad:.4f}] rad"
         )
+
+
+class AdapterLost(BusError):
+    """The serial adapter itself failed (unplugged, EIO)."""
