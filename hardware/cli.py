@@ -1,10 +1,23 @@
-"""`gaitsmith-play`: servo-side commands (scan a bus, serve a virtual bus; the player adds more)."""
+"""`gaitsmith-play`: servo-side commands (scan a bus, serve a virtual bus; the player adds more).
+
+Run as `gaitsmith-play run` (or `python -m hardware.cli run`), this module first latches the
+stop signals (SIGINT, SIGTERM, SIGHUP, SIGQUIT; `hardware.watchdog.latch_stop_signals`) before
+it loads the rest, so a signal that arrives while the command starts up becomes the player's
+stop request instead of killing it half-way; see `hardware.play_cmd` for what each signal does.
+"""
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import time
+
+from hardware.watchdog import latch_stop_signals
+
+_AS_COMMAND = __name__ == "__main__" or os.path.basename(sys.argv[0]) == "gaitsmith-play"
+if _AS_COMMAND and sys.argv[1:2] == ["run"]:
+    latch_stop_signals()  # before typer / rich / the player load (tenths of a second)
 from enum import Enum
 from types import FrameType
 

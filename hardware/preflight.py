@@ -6,9 +6,9 @@ below the speed the safety gate enforces at the requested rate (`SafetyGate.enfo
 the same number the step limiter uses, so pre-flight and enforcement agree), one gait cycle
 lasts at most `MAX_CYCLE_S` and a finite run at most `MAX_RUN_S` (a gait file with period_s =
 1e300 is refused, not played for ever), and the gait's `validation` verdict is a pass (else
-`force` turns the refusal into a warning). On the bus: every servo answers a ping with the catalogue model
-number, voltage and temperature are in range with no hardware-error flags, and the present pose
-lies within the joint limits (± `pose_tolerance_rad`).
+`force` turns the refusal into a warning). On the bus: every servo answers a ping with the
+catalogue model number, voltage and temperature are in range with no hardware-error flags, and
+the present pose lies within the joint limits (± `pose_tolerance_rad`).
 """
 
 from __future__ import annotations
