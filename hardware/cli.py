@@ -18,15 +18,15 @@ from hardware.watchdog import latch_stop_signals
 _AS_COMMAND = __name__ == "__main__" or os.path.basename(sys.argv[0]) == "gaitsmith-play"
 if _AS_COMMAND and sys.argv[1:2] == ["run"]:
     latch_stop_signals()  # before typer / rich / the player load (tenths of a second)
-from enum import Enum
-from types import FrameType
+from enum import Enum  # noqa: E402 (after the latch)
+from types import FrameType  # noqa: E402 (after the latch)
 
-import typer
-from rich.console import Console
-from rich.table import Table
+import typer  # noqa: E402 (after the latch)
+from rich.console import Console  # noqa: E402 (after the latch)
+from rich.table import Table  # noqa: E402 (after the latch)
 
-from hardware.bus import BusConfig, ServoBus
-from hardware.errors import HardwareError
+from hardware.bus import BusConfig, ServoBus  # noqa: E402 (after the latch)
+from hardware.errors import HardwareError  # noqa: E402 (after the latch)
 
 app = typer.Typer(
     name="gaitsmith-play",

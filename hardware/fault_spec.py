@@ -175,6 +175,7 @@ class FaultSchedule:
     @property
     def unplugs_at_start(self) -> bool:
         return any(s.kind == "unplug" and s.at_s is None for s in self.specs)
+
     @property
     def timed(self) -> bool:
         return bool(self.pending)

@@ -60,6 +60,15 @@ from robots.ramp import MinJerkRamp, ramp_to
 from robots.robot import Robot
 
 TickHook = Callable[[int, float], None]
+try:  # pyserial's flush / reset on a vanished adapter raises termios.error, not an OSError
+    from termios import error as _TermiosError
+
+    _RAW_ADAPTER_ERRORS: tuple[type[BaseException], ...] = (OSError, _TermiosError)
+except ImportError:  # pragma: no cover - no termios (Windows)
+    _RAW_ADAPTER_ERRORS = (OSError,)
+# what a failing adapter raises: AdapterLost once the drivers translate it, the raw errors until
+ADAPTER_ERRORS: tuple[type[BaseException], ...] = (AdapterLost, *_RAW_ADAPTER_ERRORS)
+BUS_FAILURES: tuple[type[BaseException], ...] = (BusError, *_RAW_ADAPTER_ERRORS)
 MAX_RAMP_S = 60.0
 TORQUE_OFF_BUDGET_S = 2.0  # the per-servo torque-off confirmations give up after this
 
@@ -68,6 +77,9 @@ def _os_text(exc: BaseException) -> str:
     """One line for an adapter failure: "[Errno 5] Input/output error", not a repr."""
     if isinstance(exc, OSError) and exc.strerror:
         return f"[Errno {exc.errno}] {exc.strerror}" if exc.errno else exc.strerror
+    args: tuple[object, ...] = tuple(getattr(exc, "args", ()))
+    if len(args) == 2 and isinstance(args[0], int) and isinstance(args[1], str):
+        return f"[Errno {args[0]}] {args[1]}"  # termios.error(5, 'Input/output error')
     return str(exc) or type(exc).__name__
 
 
@@ -139,6 +151,7 @@ class PlayResult:
     torque_off_failures: tuple[int, ...]
     warnings: tuple[str, ...]
     dry_run: bool
+    work_p99_s: float = 0.0  # p99 of one tick's work (send, read, check, log) [s]
     signals: int = 0  # stop signals received during the run
     telemetry_cut: str | None = None  # why the telemetry log was cut short (None: complete)
 
@@ -186,6 +199,7 @@ class Player:
         self.ticks = 0
         self._t0 = 0.0
         self._jitter: list[float] = []
+        self._work_s: list[float] = []
         self._overruns = 0
         self._skipped = 0
         self._phases: dict[str, int] = {}
@@ -225,7 +239,7 @@ class Player:
                 present: np.ndarray | dict[int, int] = check_bus(
                     self.robot, self.calibration, self.bus, cfg.limits, cfg.pose_tolerance_rad
                 )
-            except (AdapterLost, OSError) as exc:
+            except ADAPTER_ERRORS as exc:
                 raise PlayerError(f"pre-flight: serial adapter failed: {_os_text(exc)}") from None
         else:
             present = self.calibration.rad_to_ticks(self.robot.nominal_stance_rad)
@@ -244,7 +258,7 @@ class Player:
             if not cfg.dry_run and self.bus is not None and self.watchdog.stop is None:
                 try:
                     self.bus.torque_on(self.ids)
-                except (BusError, OSError) as exc:
+                except BUS_FAILURES as exc:
                     self._stop_for(exc, StopReason.BUS_ERROR)
             self._play()
             self._ramp_to_rest()
@@ -273,7 +287,7 @@ class Player:
     def _stop_for(self, exc: BaseException, reason: StopReason) -> None:
         """A bus call failed: an adapter failure (AdapterLost, or an OSError such as EIO
         escaping the driver) stops with ADAPTER_LOST, anything else with `reason`."""
-        if isinstance(exc, (AdapterLost, OSError)):
+        if isinstance(exc, ADAPTER_ERRORS):
             self._adapter_lost = True
             self.watchdog.request(
                 StopReason.ADAPTER_LOST,
@@ -354,7 +368,7 @@ class Player:
         actual = self.clock.now_s()
         try:
             cmd = self.gate.command(target)
-        except (BusError, OSError) as exc:
+        except BUS_FAILURES as exc:
             self._stop_for(exc, StopReason.BUS_ERROR)
             return k + 1
         present, status = self._read(watch)
@@ -364,6 +378,7 @@ class Player:
         if self.on_tick is not None:
             self.on_tick(self.ticks - 1, t_rel)  # instrumentation: part of the tick's work
         done = self.clock.now_s()
+        self._work_s.append(done - actual)
         next_k = k + 1
         overrun = done > self._t0 + next_k * self.period_s
         if overrun:  # run the latest passed deadline now (late); skip older ones: no burst
@@ -417,7 +432,7 @@ class Player:
         except (NoResponse, CorruptPacket) as exc:
             if watch:
                 wd.read_missed(exc, self.ticks, t_rel)
-        except (BusError, OSError) as exc:
+        except BUS_FAILURES as exc:
             self._stop_for(exc, StopReason.BUS_ERROR)
         status = None
         if self.ticks % self.config.limits.status_every_ticks == 0 and not self._bus_dead:
@@ -428,7 +443,7 @@ class Player:
                 # enough stops the run: an overheating servo must not go unnoticed
                 if watch:
                     wd.status_missed(exc, self.ticks, t_rel)
-            except (BusError, OSError) as exc:
+            except BUS_FAILURES as exc:
                 self._stop_for(exc, StopReason.BUS_ERROR)
             if status is not None and watch:
                 wd.status(status, self.ticks, t_rel)
@@ -443,9 +458,11 @@ class Player:
         assert self.bus is not None
         try:
             self.bus.sync_write("torque_enable", {i: 0 for i in self.ids})
-        except (HardwareError, OSError) as exc:
-            if isinstance(exc, (AdapterLost, OSError)):
+        except BUS_FAILURES as exc:
+            if isinstance(exc, ADAPTER_ERRORS):
                 self._stop_for(exc, StopReason.BUS_ERROR)
+        except HardwareError:
+            pass  # not on the bus (cannot happen today): the confirmations below will tell
         if self._adapter_lost:
             return tuple(self.ids)
         failed = []
@@ -458,7 +475,7 @@ class Player:
                 self.bus.write(i, "torque_enable", 0)
             except ServoFault:
                 continue  # it answered (with its error flags): the write arrived
-            except (AdapterLost, OSError) as exc:
+            except ADAPTER_ERRORS as exc:
                 self._stop_for(exc, StopReason.BUS_ERROR)
                 failed.extend(self.ids[n:])
                 break
@@ -494,6 +511,7 @@ class Player:
             torque_off_failures=torque_failures,
             warnings=warnings,
             dry_run=self.config.dry_run,
+            work_p99_s=float(np.percentile(self._work_s, 99)) if self._work_s else 0.0,
             signals=self.watchdog.signals,
             telemetry_cut=None if self.telemetry is None else self.telemetry.cut,
         )
