@@ -13,10 +13,11 @@ import signal
 import sys
 import time
 
-from hardware.watchdog import latch_stop_signals
+from hardware.watchdog import STOP_SIGNALS, latch_stop_signals
 
 _AS_COMMAND = __name__ == "__main__" or os.path.basename(sys.argv[0]) == "gaitsmith-play"
-if _AS_COMMAND and sys.argv[1:2] == ["run"]:
+_LATCHED = _AS_COMMAND and sys.argv[1:2] == ["run"]
+if _LATCHED:
     latch_stop_signals()  # before typer / rich / the player load (tenths of a second)
 from enum import Enum  # noqa: E402 (after the latch)
 from types import FrameType  # noqa: E402 (after the latch)
@@ -188,7 +189,12 @@ _register_player(app)
 
 def main() -> None:
     """Console-script entry point."""
-    app()
+    try:
+        app()
+    finally:
+        if _LATCHED:  # the run is over (torque off): a late signal must not turn the exit code
+            for s in STOP_SIGNALS:  # into "killed" as Python restores default handlers at exit
+                signal.signal(s, signal.SIG_IGN)
 
 
 if __name__ == "__main__":

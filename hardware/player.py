@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
@@ -197,7 +197,7 @@ class Player:
         )
         self.period_s = 1.0 / cfg.rate_hz
         self.ticks = 0
-        self._t0 = 0.0
+        self._t0 = self.clock.now_s()  # provisional: set again when the run starts
         self._jitter: list[float] = []
         self._work_s: list[float] = []
         self._overruns = 0
@@ -254,7 +254,7 @@ class Player:
         torque_failures: tuple[int, ...] = ()
         completed_cleanly = False
         try:
-            self._t0 = self.clock.now_s() + self.period_s
+            self._start_clock()
             if not cfg.dry_run and self.bus is not None and self.watchdog.stop is None:
                 try:
                     self.bus.torque_on(self.ids)
@@ -281,6 +281,15 @@ class Player:
         return self._result(stop, safe_at, torque_failures, tuple(warnings))
 
     # -- the loop -------------------------------------------------------------------------------
+    def _start_clock(self) -> None:
+        """Times are relative to the first deadline; a stop requested before it (a signal
+        during pre-flight) keeps its time, now negative."""
+        t0 = self.clock.now_s() + self.period_s
+        stop = self.watchdog.stop
+        if stop is not None:
+            self.watchdog.stop = replace(stop, t_s=stop.t_s - (t0 - self._t0))
+        self._t0 = t0
+
     def _now_rel(self) -> float:
         return self.clock.now_s() - self._t0
 

@@ -116,6 +116,18 @@ class PlayerProcess:
             time.sleep(0.005)
         return False
 
+    def catches(self, signum: int) -> bool:
+        """Whether the process has a handler for `signum` (Linux: /proc/PID/status SigCgt)."""
+        assert self.proc is not None
+        try:
+            status = Path(f"/proc/{self.proc.pid}/status").read_text()
+        except OSError:
+            return False
+        for line in status.splitlines():
+            if line.startswith("SigCgt:"):
+                return bool(int(line.split()[1], 16) >> (signum - 1) & 1)
+        return False
+
     def wait_phase(self, phase: str, timeout_s: float = 15.0) -> bool:
         return self.wait_for(lambda: last_phase(self.tel_path) == phase, timeout_s)
 
