@@ -173,13 +173,13 @@ class PlayerProcess:
         )  # fmt: skip
 
 
-EXIT_FOR_SIGNAL = {
+EXIT_FOR_SIGNAL: dict[int, int] = {
     signal.SIGINT: 130,
     signal.SIGTERM: 143,
     signal.SIGHUP: 129,
     signal.SIGQUIT: 131,
 }
-REASON_FOR_SIGNAL = {
+REASON_FOR_SIGNAL: dict[int, str] = {
     signal.SIGINT: "sigint",
     signal.SIGTERM: "sigterm",
     signal.SIGHUP: "sighup",

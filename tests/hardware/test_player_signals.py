@@ -16,13 +16,13 @@ from pathlib import Path
 
 import pytest
 
+from hardware.virtual import FaultPlan
 from tests.hardware.player_process import (
     EXIT_FOR_SIGNAL,
     REASON_FOR_SIGNAL,
     Outcome,
     PlayerProcess,
 )
-from hardware.virtual import FaultPlan
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT)
 
