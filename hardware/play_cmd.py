@@ -227,7 +227,8 @@ def run(
         metavar="KIND=VALUE@T",
         help="Virtual bus only, repeatable: inject a fault to rehearse the safe stop. "
         "KIND=VALUE is one of drop=P, corrupt=P, delay=S, sag=V, vanish=ID, overload=ID, "
-        "overheat=ID, voltage-error=ID, or status-lost (no value); an optional @T starts it "
+        "overheat=ID, voltage-error=ID, or status-lost / unplug (no value; unplug: the serial "
+        "adapter vanishes, EIO); an optional @T starts it "
         "T seconds into the run (without it: from the start, pre-flight included). "
         "E.g. --fault drop=0.01 --fault vanish=3@2.0",
     ),
