@@ -111,3 +111,4 @@ class LimitError(HardwareError):
             f"joint {joint!r}: target {value_rad:.4f} rad outside "
             f"[{lower_rad:.4f}, {upper_rad:.4f}] rad"
         )
+
