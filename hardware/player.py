@@ -300,9 +300,10 @@ class Player:
         escaping the driver) stops with ADAPTER_LOST, anything else with `reason`."""
         if isinstance(exc, ADAPTER_ERRORS):
             self._adapter_lost = True
+            lost = isinstance(exc, AdapterLost)
             self.watchdog.request(
                 StopReason.ADAPTER_LOST,
-                f"serial adapter lost: {_os_text(exc)}",
+                str(exc) if lost else f"serial adapter lost: {_os_text(exc)}",
                 self.ticks,
                 self._now_rel(),
             )

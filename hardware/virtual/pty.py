@@ -100,11 +100,11 @@ class PtyServer:
             self.error = exc
 
     def _unplug(self) -> None:
+        self.lost = True  # before the close: the client may see EIO the instant it happens
         for fd in (self._master, self._slave):
             if fd >= 0:
                 os.close(fd)
         self._master = self._slave = -1
-        self.lost = True
 
     def _write_all(self, data: bytes) -> None:
         view = memoryview(data)
