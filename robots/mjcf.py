@@ -87,6 +87,7 @@ def prepare(mjcf_path: Path, joints: tuple[JointPrep, ...], toml_file: str) -> P
         raise RobotConfigError(
             mfile, "<mjcf>", f"MuJoCo cannot compile it: {_one_line(exc)}"
         ) from None
+    _check_magnitudes(model, mfile)
     if not _has_floor(model):
         floor = spec.worldbody.add_geom()
         floor.name = FLOOR_NAME
@@ -100,12 +101,77 @@ def prepare(mjcf_path: Path, joints: tuple[JointPrep, ...], toml_file: str) -> P
     _joints(spec, model, joints, mfile, toml_file)
     try:
         xml = spec.to_xml()
-        mujoco.MjSpec.from_string(xml).compile()
+        prepared = mujoco.MjSpec.from_string(xml).compile()
     except Exception as exc:
         raise RobotConfigError(
             mfile, "<mjcf>", f"the prepared model does not compile: {_one_line(exc)}"
         ) from None
+    _check_magnitudes(prepared, mfile)
     return PreparedMjcf(xml=xml, notices=tuple(notices))
+
+
+MAX_BODY_MASS_KG = 1e4
+MAX_INERTIA_KG_M2 = 1e4
+MAX_LENGTH_M = 1e4  # positions and geom sizes (a floor may be large, a robot is not)
+MAX_RANGE_RAD = 4.0 * math.pi
+MAX_DAMPING = 1e4  # N·m·s/rad, and armature kg·m²
+
+
+def _check_magnitudes(model: Any, mfile: str) -> None:
+    """Refuse absurd numbers MuJoCo accepts (mass 1e308, range ±inf, pos 1e308 …), by element."""
+    import mujoco
+    import numpy as np
+
+    def name(kind: Any, i: int) -> str:
+        return mujoco.mj_id2name(model, kind, i) or f"#{i}"
+
+    body, geom, joint = (
+        mujoco.mjtObj.mjOBJ_BODY,
+        mujoco.mjtObj.mjOBJ_GEOM,
+        mujoco.mjtObj.mjOBJ_JOINT,
+    )
+    checks = (
+        (model.body_mass, MAX_BODY_MASS_KG, body, "body", "mass [kg]"),
+        (model.body_inertia, MAX_INERTIA_KG_M2, body, "body", "inertia [kg·m²]"),
+        (model.body_pos, MAX_LENGTH_M, body, "body", "pos [m]"),
+        (model.body_ipos, MAX_LENGTH_M, body, "body", "inertial pos [m]"),
+        (model.geom_size, MAX_LENGTH_M, geom, "geom", "size [m]"),
+        (model.geom_pos, MAX_LENGTH_M, geom, "geom", "pos [m]"),
+        (model.jnt_pos, MAX_LENGTH_M, joint, "joint", "pos [m]"),
+        (
+            model.jnt_range[1:] if model.njnt else model.jnt_range,
+            MAX_RANGE_RAD,
+            None,
+            "joint",
+            "range [rad]",
+        ),
+    )
+    for values, bound, kind, label, what in checks:
+        a = np.asarray(values, dtype=float).reshape(len(values), -1)
+        bad = ~np.isfinite(a) | (np.abs(a) > bound)
+        if np.any(bad):
+            i = int(np.argwhere(bad)[0][0])
+            row = a[i].tolist()
+            if kind is None:  # joint ranges, freejoint (index 0) skipped
+                i, kind = i + 1, joint
+            raise RobotConfigError(
+                mfile,
+                f"{label} {name(kind, i)}",
+                f"{what} {row} is not finite or beyond ±{bound:g}; fix the MJCF value",
+            )
+    for values, what in ((model.dof_damping, "damping"), (model.dof_armature, "armature")):
+        a = np.asarray(values, dtype=float)
+        bad = ~np.isfinite(a) | (np.abs(a) > MAX_DAMPING)
+        if np.any(bad):
+            jnt = int(model.dof_jntid[int(np.argwhere(bad)[0][0])])
+            raise RobotConfigError(
+                mfile,
+                f"joint {name(joint, jnt)}",
+                f"{what} is not finite or beyond {MAX_DAMPING:g}",
+            )
+    total = float(np.sum(model.body_mass))
+    if not 0.0 < total <= MAX_BODY_MASS_KG:
+        raise RobotConfigError(mfile, "<mass>", f"total mass {total:g} kg is implausible")
 
 
 def _one_line(exc: BaseException) -> str:
@@ -192,7 +258,8 @@ def _joints(
                 raise RobotConfigError(
                     mfile,
                     f"joint {jp.name}",
-                    'has no range (or limited="false"); a servo joint needs limits: add '
+                    'has no range (or an empty one, or limited="false"); a servo joint needs '
+                    "limits: add "
                     f'range="lo hi" to the joint in the MJCF, or limits_deg = [lo, hi] to '
                     f"[joints.{jp.name}] in {toml_file}",
                 )

@@ -179,6 +179,7 @@ _JOINT_KEYS = {
 _LEG_KEYS = {"foot_site", "joints"}
 MAX_FOOT_RADIUS_M = 1.0
 MIN_FOOT_RADIUS_M = 1e-4
+MAX_STANCE_HEIGHT_M = 100.0
 
 
 @dataclass(frozen=True)
@@ -470,6 +471,12 @@ def _build(
         if model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_HINGE:
             raise RobotConfigError(mfile, f"joint {js.name}", "must be a hinge joint")
         lo, hi = (float(x) for x in model.jnt_range[jid])
+        if not lo < hi:
+            raise RobotConfigError(
+                mfile,
+                f"joint {js.name}",
+                f'range [{lo:g}, {hi:g}] rad is empty; give range="lo hi" with lo < hi',
+            )
         if js.limits_rad is not None:
             if js.limits_rad[0] < lo - 1e-9 or js.limits_rad[1] > hi + 1e-9:
                 raise RobotConfigError(
@@ -592,6 +599,15 @@ def _build(
         foot = data.site_xpos[sid]
         foot_z.append(float(foot[2]))
         leg_lengths.append(float(anchor[2] - foot[2]))
+    height = spec.foot_radius_m - min(foot_z)
+    if not 0.0 < height <= MAX_STANCE_HEIGHT_M:
+        raise RobotConfigError(
+            tfile,
+            "[joints].stance_deg",
+            f"at the stance pose the lowest foot site is {-min(foot_z):.3g} m below the root "
+            f"body; it must be between 0 and {MAX_STANCE_HEIGHT_M:g} m (check stance_deg and "
+            "the foot sites)",
+        )
     return Robot(
         name=spec.name,
         description=spec.description,
@@ -604,7 +620,7 @@ def _build(
         mass_kg=float(sum(model.body_mass)),
         foot_radius_m=spec.foot_radius_m,
         bus_baud=spec.bus_baud,
-        stance_base_height_m=spec.foot_radius_m - min(foot_z),
+        stance_base_height_m=height,
         leg_length_m=sum(leg_lengths) / len(leg_lengths),
         prepared=prepared,
     )

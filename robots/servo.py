@@ -125,8 +125,9 @@ def read_catalogue_file(path: str | Path) -> dict[str, ServoModel]:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise RobotConfigError(
-            str(p), "<file>", f"cannot read the servo catalogue: {exc}; check --servos / "
-            f"{ENV_CATALOGUE}"
+            str(p),
+            "<file>",
+            f"cannot read the servo catalogue: {exc}; check --servos / {ENV_CATALOGUE}",
         ) from None
     return parse_catalogue(text, str(p))
 
@@ -199,6 +200,7 @@ def factory_gains(servo: ServoModel) -> tuple[float, float]:
     if servo.protocol == "feetech_sts":
         return FEETECH_STS_P_DEFAULT * FEETECH_STS_DUTY_PER_P_RAD, 0.0
     raise RobotConfigError(
-        str(CATALOGUE_PATH), f"[{servo.name}].protocol",
+        str(CATALOGUE_PATH),
+        f"[{servo.name}].protocol",
         f"no factory position-loop gains known for protocol {servo.protocol!r}",
     )

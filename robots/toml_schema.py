@@ -39,6 +39,8 @@ def read_toml(text: str, file: str) -> dict[str, Any]:
         raise RobotConfigError(
             file, "<toml>", f"nested too deeply (at most {MAX_TOML_DEPTH} levels)"
         ) from None
+    except ValueError as exc:  # e.g. an integer beyond Python's 4300-digit conversion limit
+        raise RobotConfigError(file, "<toml>", f"not valid TOML: {exc}") from None
     _check_depth(file, data, "<top>", 0)
     return data
 
