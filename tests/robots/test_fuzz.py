@@ -45,8 +45,11 @@ json_leaf = st.one_of(
     st.none(),
     st.booleans(),
     st.integers(-(10**6), 10**6),
+    st.integers(-(10**400), 10**400),  # issue #12: 10**400 → OverflowError
     st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([1e3, 1e300, 5e-324, -0.0]),  # issue #12: period_s 1e3…1e300
     st.text(max_size=8),
+    st.sampled_from(["0.1", "1", "1e3", "nan"]),  # issue #12: numbers given as strings
 )
 json_value = st.recursive(
     json_leaf,
@@ -91,7 +94,17 @@ def test_fuzzed_gait_files_raise_only_gait_file_error(data: st.DataObject) -> No
         path = data.draw(st.sampled_from(paths))
         action = data.draw(st.sampled_from(["replace", "delete"])) if path else "replace"
         doc = _mutate(doc, path, action, data.draw(json_value))
+    rows = 0
+    if isinstance(doc, dict) and data.draw(st.integers(0, 19)) == 0:
+        rows = data.draw(st.sampled_from([1001, 5000, 100_000]))  # issue #12: 74.5 GiB spline
+        doc["joint_angles_rad"] = "@ROWS@"
     text = json.dumps(doc)
+    if rows:  # spliced as text: json.dumps of 100 000 rows would dominate the test's time
+        row = json.dumps(list(QUAD.nominal_stance_rad))
+        text = text.replace('"@ROWS@"', "[" + ",".join([row] * rows) + "]")
+    if text.endswith("}") and data.draw(st.integers(0, 19)) == 0:  # deep nesting
+        depth = data.draw(st.integers(30, 100_000))
+        text = text[:-1] + ', "planner": ' + "[" * depth + "]" * depth + "}"
     if data.draw(st.booleans()):
         cut = data.draw(st.integers(0, len(text)))
         text = text[:cut] + data.draw(st.text(max_size=3)) + text[cut:]
