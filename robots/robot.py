@@ -412,7 +412,7 @@ def load(name_or_path: str | Path, servo_catalogue: str | Path | None = None) ->
     `servo_catalogue`: a user servo catalogue file (the CLI's ``--servos FILE``); without it,
     ``$GAITSMITH_SERVOS`` if set. robot.toml's own [servos] tables take precedence over both.
     """
-    root = _resolve_dir(name_or_path)
+    root = _resolve_dir(name_or_path).resolve()  # absolute: a Robot outlives a chdir
     toml_path, mjcf_path = root / "robot.toml", root / "robot.xml"
     for p in (toml_path, mjcf_path):
         if not p.is_file():
