@@ -67,10 +67,12 @@ def _check_depth(file: str, node: Any, where: str, depth: int) -> None:
 def check_keys(file: str, where: str, table: dict[str, Any], allowed: set[str]) -> None:
     unknown = sorted(set(table) - allowed)
     if unknown:
-        path = unknown[0] if where == "<top>" else f"{where}.{unknown[0]}"
-        raise RobotConfigError(
-            file, path, f"unknown field; allowed: {', '.join(sorted(allowed))} (check spelling)"
-        )
+        if where == "<top>":
+            path, what = f"[{unknown[0]}]", "table"
+            shown = ", ".join(f"[{a}]" for a in sorted(allowed))
+        else:
+            path, what, shown = f"{where}.{unknown[0]}", "field", ", ".join(sorted(allowed))
+        raise RobotConfigError(file, path, f"unknown {what}; allowed: {shown} (check spelling)")
 
 
 def number(
