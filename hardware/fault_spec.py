@@ -132,7 +132,12 @@ def parse_fault(text: str, servo_ids: Collection[int] | None = None) -> FaultSpe
         raise FaultSpecError(text, f"{kind} is a probability in [0, 1], got {value:g}")
     if value < 0:
         raise FaultSpecError(text, f"{kind} must be >= 0, got {value:g}")
-    return FaultSpec(spec, kind, value, at_s)
+    parsed = FaultSpec(spec, kind, value, at_s)
+    try:  # FaultPlan's own bounds (e.g. sag=1e308, delay=1e9): refused here, in one line
+        parsed.apply(FaultPlan())
+    except ValueError as exc:
+        raise FaultSpecError(text, str(exc)) from None
+    return parsed
 
 
 class FaultSchedule:

@@ -63,11 +63,38 @@ def _load_inputs(robot_name: str, gait_path: Path | None, calibration: Path | No
 
     try:
         robot = robots.load(robot_name)
+        _require_drivable_servos(robot)
         gait = load_gait(gait_path, robot) if gait_path is not None else None
         cal = Calibration.load(calibration, robot) if calibration else load_or_default(robot)
     except (robots.RobotsError, HardwareError) as exc:
         raise _fail(str(exc)) from None
     return robot, gait, cal
+
+
+# How the refusal names a catalogue protocol that has no bus driver (hardware.control_table.TABLES).
+_UNDRIVABLE_LABELS = {
+    "pwm": "PWM",
+    "dynamixel1": "Dynamixel Protocol 1.0",
+    "dynamixel2_xl320": "the XL-320's own Protocol 2.0 control table",
+    "feetech_scs": "the big-endian Feetech SCS protocol",
+    "hiwonder_bus": "the Hiwonder bus protocol",
+}
+
+
+def _require_drivable_servos(robot: Any) -> None:
+    """PlayerError unless every servo speaks a protocol with a bus driver and control table."""
+    from hardware.control_table import TABLES
+    from hardware.play_errors import PlayerError
+
+    for j in robot.joints:
+        protocol = j.servo.protocol
+        if protocol not in TABLES:
+            label = _UNDRIVABLE_LABELS.get(protocol, f"protocol {protocol!r}")
+            raise PlayerError(
+                f"servo model {j.servo.name} on joint {j.name} uses {label}, which gaitsmith-play "
+                "cannot drive; plan and simulate work, play needs a Dynamixel (Protocol 2.0) or "
+                "Feetech STS bus servo"
+            )
 
 
 def _open_bus(

@@ -6,9 +6,11 @@ Timeline (all goal positions pass through one `SafetyGate`):
 
 1. pre-flight (`hardware.preflight`): build, calibration, speed scale, sim verdict; on the bus:
    ping + model, voltage, temperature, flags, present pose within limits;
-2. torque on (the servos hold their present pose), then a min-jerk ramp (`robots.ramp`) from
-   the present pose to the gait's pose at phase 0, peak speed ≤ `ramp_speed_fraction` of the
-   allowed speed and at least `ramp_s` long;
+2. torque on (the servos hold their present pose), then the gait entry (`robots.ramp.gait_entry`,
+   as `sim.validate` does): a min-jerk ramp from the present pose to the gait's mean pose, peak
+   speed ≤ `ramp_speed_fraction` of the allowed speed and at least `ramp_s` long ("ramp_in"),
+   then the gait blended in around that pose over whole cycles ("blend_in"), ending at phase 0
+   (a straight ramp to the phase-0 pose turned a robot 7–15° before its first step, issue #12);
 3. streaming at `rate_hz` with absolute deadlines t0 + k/rate (no drift). A tick whose work
    ends past the next deadline is an overrun: the latest passed deadline runs at once, late,
    and older passed deadlines are skipped (counted). The gait is sampled at
@@ -42,7 +44,7 @@ from hardware.safety_gate import GateCommand, SafetyGate
 from hardware.telemetry import TelemetryWriter, TickRecord
 from hardware.watchdog import StopEvent, StopReason, Watchdog, WatchdogLimits, stop_on_signals
 from robots.gait import Gait
-from robots.ramp import MinJerkRamp, ramp_to
+from robots.ramp import MinJerkRamp, gait_entry, ramp_to
 from robots.robot import Robot
 
 TickHook = Callable[[int, float], None]
@@ -223,14 +225,16 @@ class Player:
 
     def _play(self) -> None:
         cfg = self.config
-        first_pose = self.gait.joint_targets(0.0)
-        ramp = ramp_to(
+        entry = gait_entry(
+            self.gait,
             self.gate.last_rad,
-            first_pose,
             self.allowed_speed_rad_s * cfg.ramp_speed_fraction,
             cfg.ramp_s,
+            time_scale=cfg.speed_scale,
         )
+        ramp = entry.ramp
         n_ramp = math.ceil(ramp.duration_s * cfg.rate_hz - 1e-9)
+        n_blend = max(1, round(entry.blend_s * cfg.rate_hz))  # its ticks span exactly blend_s
         n_gait: int | None = None
         if cfg.cycles is not None:
             n_gait = round(cfg.cycles * self.gait.period_s / cfg.speed_scale * cfg.rate_hz)
@@ -238,7 +242,10 @@ class Player:
         while self.watchdog.stop is None:
             if k < n_ramp:
                 phase, target = "ramp_in", ramp.positions((k + 1) * self.period_s)
-            elif n_gait is not None and k - n_ramp > n_gait:
+            elif k < n_ramp + n_blend:
+                t_blend = (k - n_ramp) * entry.blend_s / n_blend  # then the gait at t = 0
+                phase, target = "blend_in", entry.positions(ramp.duration_s + t_blend)
+            elif n_gait is not None and k - n_ramp - n_blend > n_gait:
                 self.watchdog.request(
                     StopReason.COMPLETED,
                     f"played {cfg.cycles:g} cycle(s)",
@@ -247,7 +254,7 @@ class Player:
                 )
                 break
             else:
-                t_gait = (k - n_ramp) * self.period_s * cfg.speed_scale
+                t_gait = (k - n_ramp - n_blend) * self.period_s * cfg.speed_scale
                 phase, target = "gait", self.gait.joint_targets(t_gait)
             k = self._tick(k, phase, target, watch=True)
 

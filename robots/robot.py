@@ -312,7 +312,10 @@ def parse_robot_toml(text: str, file: str, servo_catalogue: str | Path | None = 
     in_toml = set(data.get("servos", {}))
     user_used = tuple(user[n] for n in sorted(sources) if n in user and n not in in_toml)
     first = joints[0].servo
-    baud = ts.integer(file, "[robot].bus_baud", head.get("bus_baud", first.default_baud), 1, 10**8)
+    lowest_baud = 0 if first.default_baud == 0 else 1  # 0: PWM servos, no serial bus
+    baud = ts.integer(
+        file, "[robot].bus_baud", head.get("bus_baud", first.default_baud), lowest_baud, 10**8
+    )
     seen: dict[int, str] = {}
     for j in joints:
         if j.bus_id in seen:
