@@ -200,6 +200,8 @@ def check(
     console.print(
         f"least margin: {w.name} at {100 * w.load_fraction:.0f} % of its {w.servo} stall torque"
     )
+    for notice in report.notices:
+        console.print(f"[dim]note: {notice}[/]")
     for warning in report.warnings:
         console.print(f"[yellow]warning:[/] {warning}")
     for reason in report.reasons:

@@ -9,11 +9,9 @@ It stands when nothing diverged, it is upright (tilt ≤ MAX_TILT_DEG), it kept 
 height (drop ≤ MAX_DROP_FRACTION), it is still (base speed ≤ MAX_SPEED_M_S), only its feet touch
 the ground, and no servo is saturated (holding load < 100 % of stall).
 
-The torque budget: at a typical gait joint speed ω_t = TYPICAL_SPEED_FRACTION·ω₀ and the
-acceleration of a sinusoid at TYPICAL_GAIT_HZ with that peak speed, α_t = 2π·f·ω_t, the MJCF's
-passive terms cost d·ω_t (joint damping) and I_a·α_t (armature), as shares of the stall torque.
-The servo model already adds the motor's back-EMF b = τ_stall/ω₀ as damping, so an MJCF damping
-of the same order as b (≥ DOUBLE_COUNT_FRACTION·b) is flagged as probably counting it twice.
+The torque budget is `robots.robot.damping_budget` (the damping rule there): the share of each
+servo's stall torque that the MJCF's joint damping and armature take at a typical gait speed,
+flagged where the damping looks like the motor's back-EMF counted a second time.
 """
 
 from __future__ import annotations
@@ -24,7 +22,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from robots.robot import Robot
+from robots.robot import Robot, damping_budget
 from sim.errors import SimConfigError
 from sim.model import SimModel, build_sim_model
 
@@ -32,10 +30,6 @@ WINDOW_FRACTION = 0.25
 MAX_TILT_DEG = 15.0
 MAX_DROP_FRACTION = 0.25
 MAX_SPEED_M_S = 0.05
-TYPICAL_SPEED_FRACTION = 0.5
-TYPICAL_GAIT_HZ = 2.0
-DOUBLE_COUNT_FRACTION = 0.5
-BUDGET_WARN_SHARE = 0.2
 
 
 @dataclass(frozen=True)
@@ -50,6 +44,7 @@ class JointLoad:
     armature_kg_m2: float
     damping_share: float  # d·ω_t / τ_stall
     armature_share: float  # I_a·α_t / τ_stall
+    budget_flag: str | None  # why damping/armature look double-counted or too heavy, or None
 
 
 @dataclass(frozen=True)
@@ -66,36 +61,12 @@ class StandReport:
     base_speed_m_s: float
     joints: tuple[JointLoad, ...]
     warnings: tuple[str, ...]
+    notices: tuple[str, ...] = ()  # what model preparation changed (robots.mjcf)
 
     @property
     def worst(self) -> JointLoad:
         """The joint with the least margin (highest holding load)."""
         return max(self.joints, key=lambda j: j.load_fraction)
-
-
-def torque_budget(
-    sim: SimModel,
-    *,
-    speed_fraction: float = TYPICAL_SPEED_FRACTION,
-    gait_hz: float = TYPICAL_GAIT_HZ,
-) -> list[tuple[float, float, float, float]]:
-    """Per joint (MJCF damping, armature, damping share, armature share); see module docstring."""
-    out = []
-    for k, sp in enumerate(sim.servos):
-        dof = int(sim.dof_adr[k])
-        damping = float(sim.model.dof_damping[dof]) - sp.back_emf_nm_s_per_rad
-        armature = float(sim.model.dof_armature[dof])
-        speed = speed_fraction * sp.no_load_speed_rad_s
-        accel = 2.0 * math.pi * gait_hz * speed
-        out.append(
-            (
-                damping,
-                armature,
-                damping * speed / sp.stall_torque_nm,
-                armature * accel / sp.stall_torque_nm,
-            )
-        )
-    return out
 
 
 def _joint_list(names: list[str], total: int) -> str:
@@ -158,42 +129,31 @@ def check_stand(robot: Robot, *, duration_s: float = 2.0) -> StandReport:
         for j, frac in zip(robot.joints, np.abs(hold) / stall, strict=True):
             if frac >= 0.999:
                 reasons.append(f"servo {j.name} is saturated (holding at {frac:.0%} of stall)")
-    budget = torque_budget(sim)
+    budget = {b.joint: b for b in damping_budget(robot)}
     joints = []
-    for k, (j, sp) in enumerate(zip(robot.joints, sim.servos, strict=True)):
-        damping, armature, d_share, a_share = budget[k]
+    for k, j in enumerate(robot.joints):
+        b = budget[j.name]
+        stall_nm = j.servo.stall_torque_nm
         joints.append(
             JointLoad(
                 name=j.name,
                 servo=j.servo.name,
-                stall_torque_nm=sp.stall_torque_nm,
+                stall_torque_nm=stall_nm,
                 holding_torque_nm=float(hold[k]),
-                load_fraction=float(abs(hold[k]) / sp.stall_torque_nm),
-                damping_nm_s_per_rad=damping,
-                back_emf_nm_s_per_rad=sp.back_emf_nm_s_per_rad,
-                armature_kg_m2=armature,
-                damping_share=d_share,
-                armature_share=a_share,
+                load_fraction=float(abs(hold[k]) / stall_nm),
+                damping_nm_s_per_rad=b.mjcf_damping_nm_s_per_rad,
+                back_emf_nm_s_per_rad=b.back_emf_nm_s_per_rad,
+                armature_kg_m2=b.armature_kg_m2,
+                damping_share=b.damping_share,
+                armature_share=b.armature_share,
+                budget_flag=b.flag,
             )
         )
-    doubled = [
-        j.name
-        for j in joints
-        if j.damping_nm_s_per_rad >= DOUBLE_COUNT_FRACTION * j.back_emf_nm_s_per_rad
-    ]
-    if doubled:
-        warnings.append(
-            f"MJCF damping of {_joint_list(doubled, len(joints))} is ≥ "
-            f"{DOUBLE_COUNT_FRACTION:.0%} of the servo's back-EMF, "
-            "which the servo model adds itself: if robot.xml's damping models the "
-            "motor, it is counted twice (lower it to the gearbox's own friction)"
-        )
-    heavy = [j.name for j in joints if j.damping_share + j.armature_share > BUDGET_WARN_SHARE]
-    if heavy:
-        warnings.append(
-            f"damping + armature take over {BUDGET_WARN_SHARE:.0%} of the stall torque at typical "
-            f"gait speeds on {_joint_list(heavy, len(joints))}"
-        )
+    flagged = [j for j in joints if j.budget_flag]
+    if flagged:
+        first = flagged[0].budget_flag
+        more = f" (and {len(flagged) - 1} more joints)" if len(flagged) > 1 else ""
+        warnings.append(f"{flagged[0].name}: {first}{more}")
     return StandReport(
         robot=robot.name,
         mass_kg=robot.mass_kg,
@@ -207,6 +167,7 @@ def check_stand(robot: Robot, *, duration_s: float = 2.0) -> StandReport:
         base_speed_m_s=speed,
         joints=tuple(joints),
         warnings=tuple(warnings),
+        notices=robot.prepared.notices if robot.prepared is not None else (),
     )
 
 
