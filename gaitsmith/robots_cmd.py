@@ -8,6 +8,7 @@ from collections import Counter
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 import robots
@@ -70,7 +71,7 @@ def show(
     for j in r.joints:
         table.add_row(
             j.name,
-            leg_of[j.name],
+            leg_of.get(j.name, "hold"),
             f"{math.degrees(j.lower_rad):.1f}",
             f"{math.degrees(j.upper_rad):.1f}",
             f"{math.degrees(j.stance_rad):.1f}",
@@ -148,7 +149,7 @@ def init(
         table.add_row("[dim]held[/]", ", ".join(result.held))
     console.print(table)
     for note in result.notes:
-        console.print(f"  • {note}")
+        console.print(f"  • {escape(note)}")
     console.print(f"next: gaitsmith robots check {result.out_dir}")
 
 
@@ -160,7 +161,10 @@ def check(
     """Stand the robot on its servos in MuJoCo; report height, tilt and each servo's load."""
     from sim.stand_check import check_stand
 
-    report = check_stand(robots.load(robot), duration_s=duration)
+    loaded = robots.load(robot)
+    report = check_stand(loaded, duration_s=duration)
+    leg_of = {j: leg.name for leg in loaded.legs for j in leg.joints}
+    role = {j.name: leg_of.get(j.name, "hold") for j in loaded.joints}
     verdict = "[bold green]stands[/]" if report.stands else "[bold red]does not stand[/]"
     console.print(
         f"[bold]{report.robot}[/] ({report.mass_kg:.3f} kg, {report.legs} legs) after "
@@ -170,6 +174,7 @@ def check(
     table = Table(title="holding load and torque budget (typical gait speed ½·ω₀)")
     for col in (
         "joint",
+        "leg",
         "servo",
         "holding [N·m]",
         "% of stall",
@@ -179,12 +184,15 @@ def check(
         "damping % of stall",
         "armature % of stall",
     ):
-        table.add_column(col, justify="left" if col in ("joint", "servo") else "right")
+        table.add_column(
+            escape(col), justify="left" if col in ("joint", "leg", "servo") else "right"
+        )
     worst = report.worst.name
     for j in report.joints:
         style = "bold yellow" if j.name == worst else None
         table.add_row(
             j.name,
+            role[j.name],
             j.servo,
             f"{j.holding_torque_nm:+.3f}",
             f"{100 * j.load_fraction:.0f}",
@@ -201,11 +209,11 @@ def check(
         f"least margin: {w.name} at {100 * w.load_fraction:.0f} % of its {w.servo} stall torque"
     )
     for notice in report.notices:
-        console.print(f"[dim]note: {notice}[/]")
+        console.print(f"[dim]note: {escape(notice)}[/]")
     for warning in report.warnings:
-        console.print(f"[yellow]warning:[/] {warning}")
+        console.print(f"[yellow]warning:[/] {escape(warning)}")
     for reason in report.reasons:
-        console.print(f"[red]✗[/] {reason}")
+        console.print(f"[red]✗[/] {escape(reason)}")
     if not report.stands:
         raise typer.Exit(1)
 

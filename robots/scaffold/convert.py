@@ -136,7 +136,8 @@ def _strip_actuation(conv: Converted) -> None:
             spec.delete(k)
     capped = [j.name for j in spec.joints if j.actfrclimited == mujoco.mjtLimited.mjLIMITED_TRUE]
     for j in spec.joints:
-        j.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        j.actfrclimited = mujoco.mjtLimited.mjLIMITED_AUTO
+        j.actfrcrange = (0.0, 0.0)
     if capped:
         conv.notes.append(
             f"dropped the effort limits of {len(capped)} joints (the servo model sets the torque)"
