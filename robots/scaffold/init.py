@@ -55,6 +55,14 @@ def _safe_name(text: str) -> str:
     return name or "robot"
 
 
+def _unique_name(model: mujoco.MjModel, kind: mujoco.mjtObj, count: int, name: str) -> str:
+    taken = {mujoco.mj_id2name(model, kind, i) for i in range(count)}
+    out, k = name, 1
+    while out in taken:
+        out, k = f"{name}_{k}", k + 1
+    return out
+
+
 def _choose_servo(servo: str | None, questions: Questions, source: str) -> ServoModel:
     catalogue = load_catalogue()
     known = sorted(catalogue)
@@ -172,16 +180,20 @@ def init_robot(
         notes.append(
             f"flat feet ({', '.join(flat)}): foot site {foot_radius * 1e3:.0f} mm above the sole"
         )
+    site_names: dict[str, str] = {}
     for leg in legs:
         body = spec.body(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, leg.foot.body))
         site = body.add_site()
-        site.name = f"{leg.name}_foot"
+        site.name = _unique_name(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite, f"{leg.name}_foot")
+        site_names[leg.name] = site.name
         site.pos = tuple(float(v) for v in leg.foot.site_local)
         site.size = (0.005, 0.005, 0.005)
         k = leg.foot.geom - int(model.body_geomadr[leg.foot.body])
         geom = body.geoms[k]
         if not geom.name:
-            geom.name = f"{leg.name}_foot"
+            geom.name = _unique_name(
+                model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, f"{leg.name}_foot"
+            )
     notes.append(
         f"found {len(legs)} legs ({', '.join(leg.name for leg in legs)}), named by where "
         "they leave the body (+x front, +y left)"
@@ -233,7 +245,8 @@ def init_robot(
         )
         bus += 1
     leg_entries = [
-        LegEntry(leg.name, f"{leg.name}_foot", tuple(jname[j] for j in leg.joints)) for leg in legs
+        LegEntry(leg.name, site_names[leg.name], tuple(jname[j] for j in leg.joints))
+        for leg in legs
     ]
     description = (
         f"{len(legs)}-legged, {len(limits)} joints on {chosen.name}, from {model_path.name}"

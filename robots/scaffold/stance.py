@@ -5,7 +5,8 @@ joint angles q and the base height h, with the base level at (0, 0, h). Residual
 to be dimensionless (L = mean hip-to-foot distance in the zero pose):
 
 - feet on the ground: W_GROUND · (z_foot − r) / L            (contact centre one radius up)
-- feet where the model puts them (zero-pose footprint): W_FOOTPRINT · Δxy / L
+- feet where the model puts them (zero-pose footprint, pulled in to FOOTPRINT_REACH × the
+  leg's span from its first joint for legs drawn sprawled out): W_FOOTPRINT · Δxy / L
 - joints near mid-range: W_MID · (q − q_mid) / (q_hi − q_lo)
 - centre of mass over the centroid of the feet: W_COM · Δxy / L
 - flat soles flat: W_FLAT · (horizontal part of the sole normal)
@@ -25,6 +26,7 @@ from scipy.optimize import least_squares
 from robots.scaffold.legs import FoundLeg, geom_points, zero_pose
 
 W_GROUND, W_FOOTPRINT, W_MID, W_COM, W_FLAT = 30.0, 1.0, 1.0, 3.0, 3.0
+FOOTPRINT_REACH = 0.6  # a sprawled zero pose: aim the foot at most this × the leg's span out
 LIMIT_MARGIN = 0.05  # keep the stance this fraction of the range inside each limit
 GROUND_TOL_M = 2e-3
 
@@ -52,7 +54,15 @@ def find_stance(
     """Solve for the standing pose (see module docstring)."""
     data = zero_pose(model)
     root = int(model.jnt_bodyid[0])
-    targets = [_site_world(data, leg)[:2] for leg in legs]
+    targets = []
+    for leg in legs:
+        anchor = data.xanchor[leg.joints[0]][:2]
+        out = _site_world(data, leg)[:2] - anchor
+        reach = FOOTPRINT_REACH * float(
+            np.linalg.norm(_site_world(data, leg) - data.xanchor[leg.joints[0]])
+        )
+        dist = float(np.linalg.norm(out))
+        targets.append(anchor + out * (min(dist, reach) / dist if dist > 0 else 0.0))
     spans = [
         float(np.linalg.norm(_site_world(data, leg) - data.xanchor[leg.joints[0]])) for leg in legs
     ]
