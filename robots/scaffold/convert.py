@@ -27,11 +27,10 @@ class Converted:
     spec: mujoco.MjSpec
     source: Path
     notes: list[str] = field(default_factory=list)
-    asset_files: dict[str, Path] = field(default_factory=dict)  # mesh/texture name → source file
 
 
-def _urdf_text(path: Path) -> tuple[str, dict[str, Path]]:
-    """The URDF with a floating root joint, mesh paths made absolute; (text, mesh files)."""
+def _urdf_text(path: Path) -> str:
+    """The URDF with a floating root joint and its mesh paths made absolute."""
     try:
         root = ET.parse(path).getroot()
     except (ET.ParseError, OSError) as exc:
@@ -45,7 +44,6 @@ def _urdf_text(path: Path) -> tuple[str, dict[str, Path]]:
         raise ScaffoldError(
             str(path), "<link>", f"needs exactly one root link (not a joint's child), found {roots}"
         )
-    meshes: dict[str, Path] = {}
     for mesh in root.iter("mesh"):
         name = mesh.get("filename", "")
         rel = name.split("://", 1)[1].split("/", 1)[-1] if "://" in name else name
@@ -56,14 +54,13 @@ def _urdf_text(path: Path) -> tuple[str, dict[str, Path]]:
                 str(path), f"<mesh filename={name!r}>", "file not found next to the URDF"
             )
         mesh.set("filename", str(found.resolve()))
-        meshes[found.stem] = found.resolve()
     ET.SubElement(root, "link", name="gs_world")
     joint = ET.SubElement(root, "joint", name="gs_root", type="floating")
     ET.SubElement(joint, "parent", link="gs_world")
     ET.SubElement(joint, "child", link=roots[0])
     ext = ET.SubElement(root, "mujoco")
     ET.SubElement(ext, "compiler", strippath="false", discardvisual="true", fusestatic="true")
-    return ET.tostring(root, encoding="unicode"), meshes
+    return ET.tostring(root, encoding="unicode")
 
 
 def load_spec(path: Path) -> Converted:
@@ -73,10 +70,9 @@ def load_spec(path: Path) -> Converted:
     suffix = path.suffix.lower()
     try:
         if suffix == ".urdf":
-            text, meshes = _urdf_text(path)
+            text = _urdf_text(path)
             spec = mujoco.MjSpec.from_string(text)
             conv = Converted(spec, path, ["converted the URDF with MuJoCo's URDF parser"])
-            conv.asset_files.update(meshes)
         elif suffix == ".xml":
             spec = mujoco.MjSpec.from_file(str(path))
             conv = Converted(spec, path)
@@ -177,31 +173,28 @@ def _collect_assets(conv: Converted) -> None:
                 raise ScaffoldError(
                     str(conv.source), f"{kind} {item.name or item.file}", "file not found"
                 )
-            conv.asset_files[f"{kind}:{item.name or p.stem}"] = full.resolve()
             item.file = str(full.resolve())
     spec.compiler.meshdir = ""
     spec.compiler.texturedir = ""
 
 
-def write_assets(conv: Converted, out_dir: Path) -> None:
-    """Copy meshes/textures into out_dir/assets and point the spec there (relative paths)."""
-    items = [*conv.spec.meshes, *conv.spec.textures]
-    if not any(i.file for i in items):
-        return
-    assets = out_dir / "assets"
-    assets.mkdir(parents=True, exist_ok=True)
-    used: set[str] = set()
-    for item in items:
-        if not item.file:
+def write_assets(conv: Converted, out_dir: Path) -> dict[str, str]:
+    """Copy meshes/textures into out_dir/assets; {absolute source path: path relative to out_dir}.
+
+    The spec keeps its absolute paths (it must still compile); the caller rewrites the written
+    XML's ``file=`` attributes with the returned map.
+    """
+    relative: dict[str, str] = {}
+    for item in [*conv.spec.meshes, *conv.spec.textures]:
+        if not item.file or item.file in relative:
             continue
         src = Path(item.file)
-        name = src.name
-        k = 1
-        while name in used:
+        name, k = src.name, 1
+        while f"assets/{name}" in relative.values():
             name, k = f"{src.stem}_{k}{src.suffix}", k + 1
-        used.add(name)
-        shutil.copyfile(src, assets / name)
-        item.file = f"assets/{name}"
-    conv.spec.compiler.meshdir = ""
-    conv.spec.compiler.texturedir = ""
-    conv.notes.append(f"copied {len(used)} mesh/texture files to {assets.name}/")
+        (out_dir / "assets").mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(src, out_dir / "assets" / name)
+        relative[item.file] = f"assets/{name}"
+    if relative:
+        conv.notes.append(f"copied {len(relative)} mesh/texture files to assets/")
+    return relative

@@ -27,6 +27,8 @@ from robots.scaffold.stance import GROUND_TOL_M, find_stance
 from robots.scaffold.toml_text import JointEntry, LegEntry, robot_toml
 from robots.servo import ServoModel, load_catalogue
 
+REACH_MARGIN_RAD = math.radians(0.1)
+
 ServoQuestion = Callable[[list[str]], str | None]  # known models → chosen model (None: no answer)
 LimitQuestion = Callable[[str], tuple[float, float] | None]  # joint → (lower, upper) degrees
 
@@ -136,9 +138,9 @@ def init_robot(
     jname = {j: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)}
 
     zero = (chosen.position_min_tick + chosen.position_max_tick + 1) // 2
-    reach = (
-        (chosen.position_min_tick - zero) / chosen.ticks_per_rad,
-        (chosen.position_max_tick - zero) / chosen.ticks_per_rad,
+    reach = (  # what the servo reaches around its centre, less REACH_MARGIN (rounding)
+        (chosen.position_min_tick - zero) / chosen.ticks_per_rad + REACH_MARGIN_RAD,
+        (chosen.position_max_tick - zero) / chosen.ticks_per_rad - REACH_MARGIN_RAD,
     )
     limits: dict[int, tuple[float, float]] = {}
     narrowed: dict[int, tuple[float, float]] = {}
@@ -255,8 +257,10 @@ def init_robot(
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}-", dir=out_dir.parent))
     try:
-        write_assets(conv, tmp)
+        relative = write_assets(conv, tmp)
         xml = spec.to_xml()
+        for absolute, rel in relative.items():
+            xml = xml.replace(f'file="{absolute}"', f'file="{rel}"')
         (tmp / "robot.xml").write_text(xml, encoding="utf-8")
         text = robot_toml(
             name=robot_name,
