@@ -3,17 +3,13 @@
 from __future__ import annotations
 
 import math
-import re
-import shutil
 from pathlib import Path
 
 import pytest
 
 import robots
 from sim.stand_check import check_stand
-
-ZOO = Path(__file__).resolve().parents[1] / "zoo"
-ZOO_ROBOTS = sorted(p.parent.name for p in ZOO.glob("*/robot.toml"))
+from tests.zoo.fixtures import ZOO, ZOO_ROBOTS, heavy_copy
 
 
 def test_the_zoo_has_the_required_builds() -> None:
@@ -63,17 +59,6 @@ def test_clean_model_has_no_budget_warning() -> None:
     j = report.joints[0]
     # 0.05 N·m·s/rad at ½·ω₀ of an STS3215 (4.717 rad/s) against 1.912 N·m
     assert math.isclose(j.damping_share, 0.05 * 0.5 * 4.717 / 1.912, rel_tol=1e-3)
-
-
-def heavy_copy(tmp_path: Path, body_mass_kg: float) -> Path:
-    """spotmicro with its body made `body_mass_kg` heavy (the servos cannot hold it)."""
-    dst = tmp_path / "heavyspot"
-    shutil.copytree(ZOO / "spotmicro", dst)
-    xml = (dst / "robot.xml").read_text()
-    xml, n = re.subn(r'mass="1\.3"', f'mass="{body_mass_kg}"', xml, count=1)
-    assert n == 1
-    (dst / "robot.xml").write_text(xml)
-    return dst
 
 
 def test_a_robot_too_heavy_for_its_servos_does_not_stand(tmp_path: Path) -> None:
