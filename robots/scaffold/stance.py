@@ -10,6 +10,7 @@ to be dimensionless (L = mean hip-to-foot distance in the zero pose):
 - joints near mid-range: W_MID · (q − q_mid) / (q_hi − q_lo)
 - centre of mass over the centroid of the feet: W_COM · Δxy / L
 - flat soles flat: W_FLAT · (horizontal part of the sole normal)
+- a foot body's other collidable geoms (two-geom feet) not below the ground: W_GROUND · depth / L
 
 The solution is then checked, not trusted: a foot more than GROUND_TOL_M off the ground or a
 body geom lower than the feet is reported.
@@ -85,12 +86,33 @@ def find_stance(
         mujoco.mj_kinematics(model, data)
         mujoco.mj_comPos(model, data)
 
+    # other collidable geoms on a foot body (a two-geom foot) may touch but not sink in
+    extra = {
+        leg.name: [
+            g
+            for g in range(model.ngeom)
+            if model.geom_bodyid[g] == leg.foot.body
+            and g != leg.foot.geom
+            and (model.geom_contype[g] or model.geom_conaffinity[g])
+        ]
+        for leg in legs
+    }
+
+    def sunk(leg: FoundLeg) -> float:
+        """How far the foot body's other geoms reach below the ground (≥ 0)."""
+        depth = 0.0
+        for g in extra[leg.name]:
+            pts, radius = geom_points(model, data, g)
+            depth = max(depth, -(float(pts[:, 2].min()) - radius))
+        return depth
+
     def residuals(x: np.ndarray) -> np.ndarray:
         pose(x)
         feet = [_site_world(data, leg) for leg in legs]
         res: list[float] = []
         for leg, foot, target in zip(legs, feet, targets, strict=True):
             res.append(W_GROUND * (foot[2] - leg.foot.radius_m) / length)
+            res.append(W_GROUND * sunk(leg) / length)
             res.extend(W_FOOTPRINT * (foot[:2] - target) / length)
             if leg.foot.flat:
                 up = data.xmat[leg.foot.body].reshape(3, 3) @ leg.foot.sole_normal_local
@@ -117,13 +139,16 @@ def find_stance(
     x = sol.x
     pose(x)
     feet = [_site_world(data, leg) for leg in legs]
-    err = max(abs(float(f[2]) - leg.foot.radius_m) for f, leg in zip(feet, legs, strict=True))
+    err = max(
+        max(abs(float(f[2]) - leg.foot.radius_m), sunk(leg))
+        for f, leg in zip(feet, legs, strict=True)
+    )
     centroid = np.mean([f[:2] for f in feet], axis=0)
-    foot_geoms = {leg.foot.geom for leg in legs}
+    foot_bodies = {leg.foot.body for leg in legs}
     mujoco.mj_forward(model, data)
     clearance = np.inf
     for g in range(model.ngeom):
-        if model.geom_bodyid[g] == 0 or g in foot_geoms:
+        if model.geom_bodyid[g] == 0 or model.geom_bodyid[g] in foot_bodies:
             continue
         if not (model.geom_contype[g] or model.geom_conaffinity[g]):
             continue

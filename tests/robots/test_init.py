@@ -12,14 +12,12 @@ import pytest
 import robots
 from robots.scaffold import Questions, ScaffoldError, init_robot
 from sim.stand_check import check_stand
+from tests.zoo.fixtures import SPOT_URDF, ZOO
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
-
-ZOO = Path(__file__).resolve().parents[1] / "zoo"
-SPOT_URDF = ZOO / "urdf" / "spotmicro.urdf"
 
 
 def _toml(folder: Path) -> dict:
@@ -244,3 +242,19 @@ def test_bad_model_file_is_one_line(tmp_path: Path) -> None:
     (tmp_path / "robot.stl").write_bytes(b"solid x")
     with pytest.raises(ScaffoldError, match=r"\.urdf or an MJCF"):
         init_robot(tmp_path / "robot.stl", tmp_path / "o", servo="STS3215_12V")
+
+
+def test_menagerie_style_model_with_include_mesh_and_two_geom_foot(tmp_path: Path) -> None:
+    """intake's heldquad fixture: own actuators, no floor, an included mesh head, a held arm
+    without a range, a front-left foot of two spheres (neither may sink into the ground)."""
+    src = Path(__file__).parent / "fixtures" / "heldquad" / "robot.xml"
+    with pytest.raises(ScaffoldError, match="--limit arm_lift="):
+        init_robot(src, tmp_path / "a", servo="STS3215_7V4")
+    result = init_robot(
+        src, tmp_path / "b", servo="STS3215_7V4", limits_deg={"arm_lift": (-45.0, 45.0)}
+    )
+    assert set(result.held) == {"head_pan", "arm_lift"}
+    assert (tmp_path / "b" / "assets" / "head.obj").is_file()
+    assert any("actuators" in n for n in result.notes) and any("floor" in n for n in result.notes)
+    report = check_stand(robots.load(tmp_path / "b"))
+    assert report.stands, report.reasons
