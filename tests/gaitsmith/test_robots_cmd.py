@@ -93,3 +93,31 @@ def test_robots_check_warns_about_double_counted_damping(
     assert main(["robots", "check", str(ZOO / "phantomx18")]) == 0
     out = capsys.readouterr().out
     assert "warning:" in out and "[joints.lf_coxa]" in out
+
+
+def test_robots_init_asks_for_the_servo_on_a_terminal(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import io
+
+    import gaitsmith.robots_cmd as cmd
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    prompts: list[str] = []
+
+    def prompt(text: str) -> str:
+        prompts.append(text)
+        return "STS3215_12V"
+
+    monkeypatch.setattr(cmd.sys, "stdin", Terminal())
+    monkeypatch.setattr(cmd.typer, "prompt", prompt)
+    urdf = str(ZOO / "urdf" / "spotmicro.urdf")
+    assert main(["robots", "init", urdf, "-o", str(tmp_path / "s")]) == 0
+    assert prompts == ["which servo drives the joints?"]
+    assert "STS3215_12V" in capsys.readouterr().out
+    # --yes never asks, even on a terminal
+    assert main(["robots", "init", urdf, "-o", str(tmp_path / "t"), "--yes"]) == 2
+    assert len(prompts) == 1
