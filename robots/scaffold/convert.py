@@ -130,7 +130,15 @@ def _strip_actuation(conv: Converted) -> None:
         conv.notes.append(f"removed {len(spec.keys)} keyframes (their qpos no longer fits)")
         for k in list(spec.keys):
             spec.delete(k)
-    capped = [j.name for j in spec.joints if j.actfrclimited == mujoco.mjtLimited.mjLIMITED_TRUE]
+    capped = [
+        j.name
+        for j in spec.joints
+        if j.actfrclimited == mujoco.mjtLimited.mjLIMITED_TRUE
+        or (
+            j.actfrclimited == mujoco.mjtLimited.mjLIMITED_AUTO
+            and j.actfrcrange[0] < j.actfrcrange[1]
+        )
+    ]
     for j in spec.joints:
         j.actfrclimited = mujoco.mjtLimited.mjLIMITED_AUTO
         j.actfrcrange = (0.0, 0.0)

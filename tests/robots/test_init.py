@@ -67,6 +67,9 @@ def test_spotmicro_legs_names_feet_and_bus_ids(tmp_path: Path) -> None:
     assert r.mass_kg == pytest.approx(1.25 + 0.05 + 4 * (0.09 + 0.13 + 0.045))
     text = (tmp_path / "s" / "robot.toml").read_text()
     assert "What init decided" in text and "calibrate" in text
+    # the URDF's effort limits (2.9 N·m) would cap the servo model: dropped, and said so
+    assert any("effort limits of 12 joints" in n for n in result.notes)
+    assert "actuatorfrcrange" not in (tmp_path / "s" / "robot.xml").read_text()
 
 
 @pytest.mark.parametrize(
