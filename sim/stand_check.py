@@ -5,9 +5,11 @@ every servo holding its stance angle through the servo model of `sim.servo` (cli
 loop + back-EMF), and the physics runs for `duration_s`. Over the last `WINDOW_FRACTION` of the
 run we measure base height, tilt, speed and the servos' output torque τ = drive − b·q̇.
 
-It stands when nothing diverged, it is upright (tilt ≤ MAX_TILT_DEG), it kept most of its stance
-height (drop ≤ MAX_DROP_FRACTION), it is still (base speed ≤ MAX_SPEED_M_S), only its feet touch
-the ground, and no servo is saturated (holding load < 100 % of stall).
+It stands when nothing diverged, it is upright (tilt ≤ MAX_TILT_DEG), its centre of mass kept
+most of its starting height (drop ≤ MAX_DROP_FRACTION; the CoM, not the root body's frame, which
+a URDF may put anywhere, e.g. at a `base_footprint` on the ground), it is still (base speed
+≤ MAX_SPEED_M_S), only its feet touch the ground, and no servo is saturated (holding load
+< 100 % of stall).
 
 The torque budget is `robots.robot.damping_budget` (the damping rule there): the share of each
 servo's stall torque that the MJCF's joint damping and armature take at a typical gait speed,
@@ -90,7 +92,9 @@ def check_stand(robot: Robot, *, duration_s: float = 2.0) -> StandReport:
     n_steps = max(1, round(duration_s / model.opt.timestep))
     start = int(n_steps * (1.0 - WINDOW_FRACTION))
     emf = sim.back_emf_nm_s_per_rad
-    heights, tilts, speeds, torques = [], [], [], []
+    root = sim.root_body
+    com0 = float(data.subtree_com[root][2])
+    heights, coms, tilts, speeds, torques = [], [], [], [], []
     diverged = False
     for step in range(n_steps):
         mujoco.mj_step(model, data)
@@ -98,7 +102,8 @@ def check_stand(robot: Robot, *, duration_s: float = 2.0) -> StandReport:
             diverged = True
             break
         if step >= start:
-            heights.append(float(data.xpos[sim.root_body][2]))
+            heights.append(float(data.xpos[root][2]))
+            coms.append(float(data.subtree_com[root][2]))
             tilts.append(_tilt_deg(data.xmat[sim.root_body]))
             speeds.append(float(np.linalg.norm(data.qvel[0:3])))
             qd = data.qvel[sim.dof_adr]
@@ -113,13 +118,13 @@ def check_stand(robot: Robot, *, duration_s: float = 2.0) -> StandReport:
     else:
         hold = np.mean(torques, axis=0)
         height, tilt, speed = float(np.mean(heights)), float(max(tilts)), float(np.mean(speeds))
-        stance_h = robot.stance_base_height_m
+        com = float(np.mean(coms))
         if tilt > MAX_TILT_DEG:
             reasons.append(f"it tips over (tilt {tilt:.1f}° > {MAX_TILT_DEG:.0f}°)")
-        if stance_h - height > MAX_DROP_FRACTION * stance_h:
+        if com0 - com > MAX_DROP_FRACTION * com0:
             reasons.append(
-                f"it sinks from {stance_h:.3f} m to {height:.3f} m (more than "
-                f"{MAX_DROP_FRACTION:.0%} of its stance height)"
+                f"it sinks: its centre of mass drops from {com0:.3f} m to {com:.3f} m (more "
+                f"than {MAX_DROP_FRACTION:.0%})"
             )
         if speed > MAX_SPEED_M_S:
             reasons.append(f"it does not come to rest (base speed {speed:.2f} m/s)")

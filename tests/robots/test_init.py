@@ -261,3 +261,20 @@ def test_menagerie_style_model_with_include_mesh_and_two_geom_foot(tmp_path: Pat
     assert any("actuators" in n for n in result.notes) and any("floor" in n for n in result.notes)
     report = check_stand(robots.load(tmp_path / "b"))
     assert report.stands, report.reasons
+
+
+def test_ros_style_base_footprint_root(tmp_path: Path) -> None:
+    """A URDF rooted at a massless `base_footprint` on the ground, the body fixed 0.2 m above it:
+    MuJoCo fuses them, the root frame sits near the floor, and the robot still stands."""
+    text = SPOT_URDF.read_text().replace(
+        '<robot name="spotmicro">',
+        '<robot name="spotmicro">\n  <link name="base_footprint"/>\n'
+        '  <joint name="footprint_joint" type="fixed"><parent link="base_footprint"/>'
+        '<child link="body"/><origin xyz="0 0 0.2"/></joint>',
+    )
+    urdf = tmp_path / "footprint.urdf"
+    urdf.write_text(text)
+    result = init_robot(urdf, tmp_path / "fp", servo="STS3215_12V")
+    assert result.base_height_m < 0.05  # the root frame, not the body, is what stands that low
+    report = check_stand(robots.load(tmp_path / "fp"))
+    assert report.stands, report.reasons
