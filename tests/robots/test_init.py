@@ -278,3 +278,32 @@ def test_ros_style_base_footprint_root(tmp_path: Path) -> None:
     assert result.base_height_m < 0.05  # the root frame, not the body, is what stands that low
     report = check_stand(robots.load(tmp_path / "fp"))
     assert report.stands, report.reasons
+
+
+WAIST_MJCF = """<mujoco model="waisted">
+  <worldbody>
+    <body name="pelvis" pos="0 0 0.3">
+      <freejoint/>
+      <geom type="box" size="0.05 0.05 0.02" mass="0.5"/>
+      <body name="waist">
+        <joint name="waist_yaw" axis="0 0 1" range="-1 1"/>
+        <geom type="box" size="0.02 0.02 0.02" mass="0.1"/>
+        <body name="l" pos="0 0.04 0">
+          <joint name="l_hip" axis="0 1 0" range="-1 1"/>
+          <geom type="capsule" fromto="0 0 0 0 0 -0.25" size="0.01" mass="0.1"/>
+        </body>
+        <body name="r" pos="0 -0.04 0">
+          <joint name="r_hip" axis="0 1 0" range="-1 1"/>
+          <geom type="capsule" fromto="0 0 0 0 0 -0.25" size="0.01" mass="0.1"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_joint_carrying_several_legs_is_reported_not_guessed(tmp_path: Path) -> None:
+    (tmp_path / "waisted.xml").write_text(WAIST_MJCF)
+    with pytest.raises(ScaffoldError, match=r"waist_yaw.*carry several limbs"):
+        init_robot(tmp_path / "waisted.xml", tmp_path / "o", servo="XL430_W250")
