@@ -12,18 +12,22 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-WALKTHROUGH = REPO / "docs" / "adding_a_robot.md"
+README = REPO / "README.md"
 
 
-def _bash_block(path: Path) -> str:
-    blocks = re.findall(r"```bash\n(.*?)\n```", path.read_text(encoding="utf-8"), re.S)
-    assert len(blocks) == 1, f"{path}: expected one ```bash block, found {len(blocks)}"
-    return str(blocks[0])
+def _walkthrough_block() -> str:
+    """The first ```bash block of the README's "Adding your own robot" section."""
+    text = README.read_text(encoding="utf-8")
+    section = text[text.index("## Adding your own robot") :]
+    section = section[: section.index("\n## ", 3)]
+    block = re.search(r"```bash\n(.*?)\n```", section, re.S)
+    assert block is not None, "README: no ```bash block under 'Adding your own robot'"
+    return str(block.group(1))
 
 
 @pytest.mark.slow  # three fresh `gaitsmith` processes (≈ 15 s on a loaded 2-core box)
 def test_walkthrough_commands_run_as_written(tmp_path: Path) -> None:
-    block = _bash_block(WALKTHROUGH)
+    block = _walkthrough_block()
     # the commands run from the repository's root: give the temporary folder the files they name
     for rel in re.findall(r"\btests/zoo/\S+", block):
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
