@@ -4,6 +4,7 @@ really send, the virtual bus's wire-time emulation, and the budget against a pla
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
@@ -18,6 +19,7 @@ from hardware.protocol import dynamixel2 as dxl
 from hardware.protocol import feetech as ft
 from hardware.virtual import VirtualPort, VirtualServoBus, WireTiming
 from hardware.virtual_rig import bringup_gait, virtual_robot_bus
+from robots.gait import save
 from robots.servo import servo_model
 
 from .conftest import ManualClock
@@ -135,3 +137,21 @@ def test_player_on_the_wire_timed_virtual_bus_holds_the_budget_rate() -> None:
     assert result.stop.reason.value == "completed" and result.misses == 0
     ratio = result.achieved_rate_hz / budget.mean_rate_hz
     assert 0.85 <= ratio <= 1.03, (result.achieved_rate_hz, budget.mean_rate_hz)
+
+
+def test_run_on_a_real_port_warns_before_anything_opens_when_the_rate_is_beyond_the_bus(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import hardware.sdk_bus
+
+    monkeypatch.setenv("GAITSMITH_CALIBRATION_DIR", str(tmp_path / "cal"))
+    monkeypatch.setattr(hardware.sdk_bus, "usb_latency_timer_s", lambda device: 0.016)
+    gait = tmp_path / "bringup.json"
+    save(bringup_gait(robots.load("quad12")), gait)
+    args = ["run", str(gait), "--robot", "quad12", "--port", str(tmp_path / "no-such-tty")]
+    res = runner.invoke(app, [*args, "--force", "--rate", "100"])
+    assert "beyond what this bus sustains: about 52 Hz" in res.output
+    assert "USB adapter latency dominates" in res.output and "latency_timer" in res.output
+    assert res.exit_code == 2 and "cannot open" in res.output  # a warning, not the refusal
+    res = runner.invoke(app, [*args, "--force", "--rate", "20"])
+    assert "beyond" not in res.output and "overrun" not in res.output
