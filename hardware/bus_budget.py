@@ -17,8 +17,16 @@ per exchange. Packet sizes come from the codecs themselves (`hardware.protocol`)
 
 The mean tick (status reads spread over `status_every_ticks`) gives the rate a run asked above it
 achieves (the player skips passed deadlines, it does not burst); the status tick, the longest,
-gives the rate held without any overrun. Host CPU time per tick (≈ 1-3 ms on a loaded 2-core
-machine, see `hardware.play_cmd`) is not part of the bus budget.
+gives the rate held without any overrun. Host CPU time is not part of the bus budget: the tick's
+own work (≈ 1-3 ms on a loaded 2-core machine, see `hardware.play_cmd`) and ≈ 0.5 ms of driver
+Python per exchange (measured: 12 AX reads on the in-process virtual bus, load average 5). It
+matters when a tick holds many exchanges: 12 AX servos behind a 1 ms adapter are budgeted at
+44.7 Hz and played at 32.6 Hz; behind the factory 16 ms, 4.5 Hz and 4.4 Hz.
+
+Checked against the player on the virtual bus with wire-time emulation
+(`hardware.virtual.WireTiming`, `benchmarks/bus_budget_check.py`, factory settings, 16 ms
+adapter, --rate 100): quad12 budget 51.6 Hz, played 49.5 Hz (-4 %); hex18 budget 26.8 Hz,
+played 26.2-26.5 Hz (-1 to -2 %).
 """
 
 from __future__ import annotations
@@ -38,6 +46,7 @@ FACTORY_RETURN_DELAY_US: Mapping[str, float] = {
     "feetech_sts": 0.0,
 }
 FTDI_DEFAULT_LATENCY_MS = 16.0
+LOWEST_LATENCY_S = 0.001  # the FTDI latency timer's lowest setting (1 ms)
 STATUS_REGISTERS = ("present_load", "present_voltage", "present_temperature", "hardware_error")
 DYNAMIXEL1_STATUS_REGISTERS = ("present_load", "present_voltage", "present_temperature")
 DEFAULT_STATUS_EVERY_TICKS = 10  # hardware.watchdog.WatchdogLimits.status_every_ticks
@@ -122,13 +131,20 @@ class BusBudget:
                 f"{waits:.1f} exchanges per tick each wait out the adapter's "
                 f"{self.adapter_latency_s * 1e3:g} ms latency timer"
             )
-            fix = (
-                "lower it to 1 ms: echo 1 | sudo tee /sys/bus/usb-serial/devices/ttyUSB0/"
-                'latency_timer (or a udev rule: ATTR{latency_timer}="1")'
-            )
+            fixes = []
+            if self.adapter_latency_s > LOWEST_LATENCY_S:
+                fixes.append(
+                    "lower it to 1 ms: echo 1 | sudo tee /sys/bus/usb-serial/devices/ttyUSB0/"
+                    'latency_timer (or a udev rule: ATTR{latency_timer}="1")'
+                )
             if self.protocol == "dynamixel1" and any(e.what.startswith("READ ×") for e in reads):
-                fix += "; Protocol 1.0 AX servos are read one by one, MX models in one BULK READ"
-            return f"{what}; {fix}"
+                fixes.append(
+                    "Protocol 1.0 AX servos take one READ each (no sync read); MX models "
+                    "answer one BULK READ"
+                )
+            if not fixes:
+                fixes.append("read status less often (fewer exchanges per tick)")
+            return f"{what}; {'; '.join(fixes)}"
         if dom == "return delay":
             return (
                 f"each reply waits the servos' Return Delay Time ({self.return_delay_s * 1e6:g} "

@@ -98,6 +98,10 @@ def test_dominant_term_and_advice() -> None:
     hex18 = robots.load("hex18")
     b = bus_budget.for_robot(hex18)  # FTDI default latency 16 ms
     assert b.dominant == "USB adapter latency" and "latency_timer" in b.advice()
+    ax12 = bus_budget.compute("dynamixel1", list(range(1, 13)), [12] * 12, 1_000_000,
+                              latency_ms=1.0)  # fmt: skip
+    assert ax12.dominant == "USB adapter latency" and "lower it" not in ax12.advice()
+    assert "one READ each" in ax12.advice()
     b = bus_budget.for_robot(hex18, latency_ms=0)
     assert b.dominant == "return delay" and "Return Delay" in b.advice()
     b = bus_budget.for_robot(hex18, latency_ms=0, return_delay_us=0, baud=57_600)
@@ -116,6 +120,7 @@ def test_budget_cli_reports_terms_and_checks_a_rate() -> None:
     assert "12 × feetech_sts servos at 1000000 bit/s" in res.output
     assert "SYNC READ present positions: 20 B out, 12 × 8 B back" in res.output
     assert "--rate 100: within the bus budget" in res.output
+    assert "mean tick [ms]: wire time" in res.output  # not eaten as console markup
     res = runner.invoke(app, ["budget", "--robot", "quad12", "--return-delay-us", "900"])
     assert res.exit_code == 2 and "return delay" in res.output and "Traceback" not in res.output
     res = runner.invoke(app, ["budget", "--robot", "quad12", "--baud", "5"])
