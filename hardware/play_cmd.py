@@ -409,7 +409,8 @@ def budget(
         result = for_robot(rob, baud=baud, return_delay_us=return_delay_us, latency_ms=latency_ms)
     except ValueError as exc:
         raise _fail(str(exc)) from None
-    console.print(f"robot {rob.name}: " + result.report(), highlight=False, soft_wrap=True)
+    text = escape(f"robot {rob.name}: " + result.report())
+    console.print(text, highlight=False, soft_wrap=True)
     if rate_hz is not None:
         warning = rate_check(result, rate_hz)
         console.print(warning or f"--rate {rate_hz:g}: within the bus budget", highlight=False)
