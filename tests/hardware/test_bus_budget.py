@@ -160,3 +160,27 @@ def test_run_on_a_real_port_warns_before_anything_opens_when_the_rate_is_beyond_
     assert res.exit_code == 2 and "cannot open" in res.output  # a warning, not the refusal
     res = runner.invoke(app, [*args, "--force", "--rate", "20"])
     assert "beyond" not in res.output and "overrun" not in res.output
+
+
+def test_the_pty_server_honours_wire_timing() -> None:
+    """On the pty too, a sync read takes the wire time the budget gives it (57.6 kbit/s,
+    X-series factory return delay)."""
+    import time
+
+    from hardware.dynamixel import DynamixelBus
+    from hardware.virtual import PtyServer
+
+    ids = list(range(1, 7))
+    vbus = VirtualServoBus({i: MODELS["dynamixel2"] for i in ids})
+    vbus.wire = WireTiming(57_600)
+    budget = bus_budget.compute("dynamixel2", ids, [1060] * 6, 57_600, latency_ms=0.0)
+    read = budget.exchanges[1]
+    expected_s = (read.request_bytes + sum(read.reply_bytes)) * 10 / 57_600 + 6 * 500e-6
+    with PtyServer(vbus) as server:
+        with DynamixelBus(server.path, BusConfig(timeout_s=0.02, baudrate=57_600)) as bus:
+            bus.sync_read_positions(ids)
+            t0 = time.monotonic()
+            for _ in range(5):
+                bus.sync_read_positions(ids)
+            took_s = (time.monotonic() - t0) / 5
+    assert expected_s <= took_s < 1.3 * expected_s + 0.002, (took_s, expected_s)
