@@ -90,3 +90,23 @@ def test_scan_and_virtual_bus_know_protocol_1() -> None:
                               "--duration", "0.2", "--wire-baud", "1000000"])  # fmt: skip
     assert res.exit_code == 0, res.output
     assert "virtual dynamixel1 bus (3 x AX_12A)" in res.output
+
+
+@pytest.mark.parametrize(
+    ("fault", "code", "reason"),
+    [("overheat=3@1.0", 5, "over_temperature"), ("status-lost@1.0", 8, "status_lost")],
+)
+def test_protocol1_faults_stop_the_run_safely(
+    tmp_path: Path, fault: str, code: int, reason: str
+) -> None:
+    robot_dir = make_ax_robot(tmp_path)
+    gait = tmp_path / "bringup.json"
+    save(bringup_gait(robots.load(str(robot_dir))), gait)
+    res = runner.invoke(
+        app,
+        ["run", str(gait), "--robot", str(robot_dir), "--virtual", "--force", "--no-realtime",
+         "--ramp-s", "0.5", "--cycles", "3", "--fault", fault],
+    )  # fmt: skip
+    assert res.exit_code == code, res.output
+    assert f"stopped: {reason}" in res.output and "Traceback" not in res.output
+    assert "NOT confirmed" not in res.output  # torque off confirmed by every servo
