@@ -41,10 +41,20 @@ err_console = Console(stderr=True)
 
 class ProtocolName(str, Enum):
     dynamixel = "dynamixel"
+    dynamixel1 = "dynamixel1"
     feetech = "feetech"
 
 
-_CATALOGUE_PROTOCOL = {ProtocolName.dynamixel: "dynamixel2", ProtocolName.feetech: "feetech_sts"}
+_CATALOGUE_PROTOCOL = {
+    ProtocolName.dynamixel: "dynamixel2",
+    ProtocolName.dynamixel1: "dynamixel1",
+    ProtocolName.feetech: "feetech_sts",
+}
+_DEFAULT_MODEL = {
+    ProtocolName.dynamixel: "XL430_W250",
+    ProtocolName.dynamixel1: "AX_12A",
+    ProtocolName.feetech: "STS3215_7V4",
+}
 
 
 def _fail(message: str, code: int = 1) -> typer.Exit:
@@ -75,6 +85,10 @@ def make_bus(protocol: ProtocolName, port: str, config: BusConfig) -> ServoBus:
         from hardware.dynamixel import DynamixelBus
 
         return DynamixelBus(port, config)
+    if protocol is ProtocolName.dynamixel1:
+        from hardware.dynamixel import Dynamixel1Bus
+
+        return Dynamixel1Bus(port, config)
     from hardware.feetech import FeetechBus
 
     return FeetechBus(port, config)
@@ -132,9 +146,15 @@ def virtual_bus(
     ids: str = typer.Option("1-12", "--ids", help="Servo ids (without --robot), e.g. 1-12."),
     model: str | None = typer.Option(None, "--model", help="Catalogue servo model (no --robot)."),
     duration_s: float | None = typer.Option(None, "--duration", help="Stop after this \\[s]."),
+    wire_baud: int | None = typer.Option(
+        None, "--wire-baud", help="Emulate wire time at this baud \\[bit/s] (default: off)."
+    ),
+    latency_ms: float = typer.Option(
+        0.0, "--latency-ms", help="With --wire-baud: emulated USB adapter latency \\[ms]."
+    ),
 ) -> None:
     """Emulate a servo bus on a pseudo-terminal; prints its device path; runs until Ctrl-C."""
-    from hardware.virtual import PtyServer, VirtualServoBus
+    from hardware.virtual import PtyServer, VirtualServoBus, WireTiming
 
     try:
         if robot is not None:
@@ -147,10 +167,11 @@ def virtual_bus(
                 raise _fail("give --robot, or --protocol (with --ids / --model)")
             from robots.servo import servo_model
 
-            default = "XL430_W250" if protocol is ProtocolName.dynamixel else "STS3215_7V4"
-            sm = servo_model(model or default)
+            sm = servo_model(model or _DEFAULT_MODEL[protocol])
             vbus = VirtualServoBus({i: sm for i in _parse_ids(ids)}, _CATALOGUE_PROTOCOL[protocol])
             label = f"{len(vbus.servos)} x {sm.name}"
+        if wire_baud is not None:
+            vbus.wire = WireTiming(wire_baud, latency_ms / 1000.0)
     except (HardwareError, ValueError) as exc:
         raise _fail(str(exc)) from None
     except Exception as exc:  # robots' own typed errors (unknown robot, bad config)

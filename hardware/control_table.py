@@ -3,17 +3,30 @@
 Sources (facts checked against the vendors' documents):
 
 * ROBOTIS DYNAMIXEL XL430-W250 e-Manual, "Control Table of EEPROM/RAM Area" (X-series, Protocol
-  2.0): Model Number 0 (2 B), Firmware Version 6, ID 7, Baud Rate 8, Shutdown 63, Torque Enable 64,
+  2.0): Model Number 0 (2 B), Firmware Version 6, ID 7, Baud Rate 8, Return Delay Time 9 (2 µs
+  per unit, factory 250 = 500 µs), Shutdown 63, Torque Enable 64,
   Hardware Error Status 70, Goal Position 116 (4 B), Moving 122, Present Load 126 (2 B, signed,
   0.1 %), Present Velocity 128 (4 B, 0.229 rpm), Present Position 132 (4 B), Present Input Voltage
   144 (2 B, 0.1 V), Present Temperature 146 (1 °C). Hardware Error Status bits: 0 input voltage,
   2 overheating, 3 motor encoder, 4 electrical shock, 5 overload. Status-packet error byte:
   bit 7 = alert (Hardware Error Status ≠ 0), bits 0-6 = error number (1 result fail ... 7 access).
 * Feetech SMS/STS memory table (STS3215): firmware major 0 / minor 1, Model Number 3 (2 B), ID 5,
-  Baud Rate 6, Torque Enable 40, Acceleration 41, Goal Position 42 (2 B), Present Position 56,
+  Baud Rate 6, Return Delay Time 7 (2 µs per unit, factory 0), Torque Enable 40, Acceleration 41,
+  Goal Position 42 (2 B), Present Position 56,
   Present Speed 58, Present Load 60 (0.1 %, sign bit 10), Present Voltage 62 (0.1 V), Present
   Temperature 63 (°C), Status 65, Moving 66. Positions and speeds are sign-magnitude with the sign
   in bit 15. Status byte bits: 0 voltage, 1 angle/sensor, 2 overheat, 3 over-current, 5 overload.
+* ROBOTIS DYNAMIXEL AX-12A / AX-18A e-Manual, "Control Table" (Protocol 1.0; MX-28/64/106 in
+  Protocol 1.0 share addresses 0-49): Model Number 0 (2 B), Firmware Version 2, ID 3, Baud Rate 4,
+  Return Delay Time 5 (2 µs per unit, factory 250 = 500 µs), CW Angle Limit 6 (2 B), CCW Angle
+  Limit 8 (2 B), Temperature Limit 11, Min / Max Voltage Limit 12 / 13 (0.1 V), Max Torque 14
+  (2 B), Status Return Level 16 (factory 2: reply to every instruction), Alarm LED 17, Shutdown 18
+  (factory 36 = overheating | overload), Torque Enable 24, LED 25, Goal Position 30 (2 B,
+  0-1023 over 300°), Moving Speed 32 (2 B), Torque Limit 34 (2 B), Present Position 36 (2 B),
+  Present Speed 38 (2 B, 0.111 rpm, direction in bit 10), Present Load 40 (2 B, ~0.1 %, direction
+  in bit 10), Present Voltage 42 (0.1 V), Present Temperature 43 (°C), Registered 44, Moving 46,
+  Lock 47, Punch 48 (2 B). There is no hardware-error register: the status packet's error byte
+  carries the health bits (`hardware.protocol.dynamixel1.ERROR_BITS`).
 """
 
 from __future__ import annotations
@@ -122,6 +135,7 @@ DYNAMIXEL_X = ControlTable(
         "firmware": Register(6, 1),
         "id": Register(7, 1, writable=True),
         "baud_rate": Register(8, 1, writable=True),
+        "return_delay": Register(9, 1, unit=2.0, unit_name="us", writable=True),
         "operating_mode": Register(11, 1, writable=True),
         "temperature_limit": Register(31, 1, unit=1.0, unit_name="degC", writable=True),
         "max_voltage_limit": Register(32, 2, unit=0.1, unit_name="V", writable=True),
@@ -180,6 +194,7 @@ FEETECH_STS = ControlTable(
         "model_number": Register(3, 2),
         "id": Register(5, 1, writable=True),
         "baud_rate": Register(6, 1, writable=True),
+        "return_delay": Register(7, 1, unit=2.0, unit_name="us", writable=True),
         "min_position_limit": Register(9, 2, writable=True),
         "max_position_limit": Register(11, 2, writable=True),
         "max_temperature_limit": Register(13, 1, unit=1.0, unit_name="degC", writable=True),
@@ -204,14 +219,78 @@ FEETECH_STS = ControlTable(
     status_error_bits=_FEETECH_ERROR_BITS,
 )
 
+# Protocol 1.0 status error byte bits that report the servo's health (the others answer the
+# instruction: angle limit, range, checksum, instruction; see hardware.protocol.dynamixel1).
+_DYNAMIXEL1_HEALTH_BITS: Mapping[int, str] = {
+    0x01: "input_voltage",
+    0x04: "overheating",
+    0x20: "overload",
+}
+
+DYNAMIXEL_AX = ControlTable(
+    family="dynamixel_ax",
+    size=50,
+    ram_start=24,
+    registers={
+        "model_number": Register(0, 2),
+        "firmware": Register(2, 1),
+        "id": Register(3, 1, writable=True),
+        "baud_rate": Register(4, 1, writable=True),
+        "return_delay": Register(5, 1, unit=2.0, unit_name="us", writable=True),
+        "min_position_limit": Register(6, 2, writable=True),  # CW Angle Limit
+        "max_position_limit": Register(8, 2, writable=True),  # CCW Angle Limit
+        "temperature_limit": Register(11, 1, unit=1.0, unit_name="degC", writable=True),
+        "min_voltage_limit": Register(12, 1, unit=0.1, unit_name="V", writable=True),
+        "max_voltage_limit": Register(13, 1, unit=0.1, unit_name="V", writable=True),
+        "max_torque": Register(14, 2, writable=True),
+        "status_return_level": Register(16, 1, writable=True),
+        "alarm_led": Register(17, 1, writable=True),
+        "shutdown": Register(18, 1, writable=True),
+        "torque_enable": Register(24, 1, writable=True),
+        "led": Register(25, 1, writable=True),
+        "goal_position": Register(30, 2, writable=True),
+        "moving_speed": Register(32, 2, writable=True),
+        "torque_limit": Register(34, 2, writable=True),
+        "present_position": Register(36, 2),
+        "present_velocity": Register(
+            38, 2, signed="sign_magnitude", sign_bit=10, unit=0.111, unit_name="rpm"
+        ),
+        "present_load": Register(
+            40, 2, signed="sign_magnitude", sign_bit=10, unit=0.1, unit_name="%"
+        ),
+        "present_voltage": Register(42, 1, unit=0.1, unit_name="V"),
+        "present_temperature": Register(43, 1, unit=1.0, unit_name="degC"),
+        "registered": Register(44, 1),
+        "moving": Register(46, 1),
+        "lock": Register(47, 1, writable=True),
+        "punch": Register(48, 2, writable=True),
+    },
+    hardware_error_bits=_DYNAMIXEL1_HEALTH_BITS,
+    status_error_bits={
+        0x01: "input_voltage",
+        0x02: "angle_limit",
+        0x04: "overheating",
+        0x08: "range",
+        0x10: "checksum",
+        0x20: "overload",
+        0x40: "instruction",
+    },
+)
+
+# Protocol 1.0 model numbers whose firmware answers BULK READ (0x92): MX-12W 360, MX-28 29,
+# MX-64 310, MX-106 320, EX-106+ 107 (e-Manual, Protocol 1.0 "Bulk Read": "MX series and
+# EX-106+ only"); the AX-12A (12), AX-12W (300) and AX-18A (18) do not.
+DYNAMIXEL1_BULK_READ_MODELS = frozenset({29, 107, 310, 320, 360})
+
 TABLES: Mapping[str, ControlTable] = {
+    "dynamixel1": DYNAMIXEL_AX,
     "dynamixel2": DYNAMIXEL_X,
     "feetech_sts": FEETECH_STS,
 }
 
 
 def table_for_protocol(protocol: str) -> ControlTable:
-    """Control table for a catalogue protocol name ("dynamixel2" or "feetech_sts")."""
+    """Control table for a catalogue protocol name ("dynamixel1", "dynamixel2", "feetech_sts")."""
     try:
         return TABLES[protocol]
     except KeyError:

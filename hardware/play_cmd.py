@@ -1,4 +1,4 @@
-"""`gaitsmith-play run | calibrate | plot`: the player's commands, registered onto hardware.cli.
+"""`gaitsmith-play run | calibrate | plot | budget`: the player's commands (on hardware.cli).
 
 Exit codes: 0 completed, 2 refused (pre-flight, bad file or option), 3 no response,
 4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 8 status lost (servo health
@@ -21,7 +21,10 @@ player_bench.py, quad12 = 12 × STS3215 on the in-process virtual bus, 2 shared 
 average 3-6: 100 Hz held, 0 overruns, p99 tick work 2.6 ms of the 10 ms budget; 200 Hz gave
 193 Hz with 239 overruns, 500 Hz 348 Hz, 1000 Hz 248 Hz). `run` warns before a run asked above
 it and, after any run, when the achieved rate fell below 98 % of the request or more than 5 %
-of the ticks overran, naming the rate this machine sustains (0.7 / p99 tick work).
+of the ticks overran, naming the rate this machine sustains (0.7 / p99 tick work). On a real
+port it also warns before the run when --rate is beyond what the bus sustains (`gaitsmith-play
+budget`, with the adapter's latency timer read from sysfs); a warning, not a refusal: late ticks
+are safe (no burst, per-tick step limit), the robot only plays slower than asked.
 
 `run --virtual --fault KIND=VALUE[@T]` (repeatable) injects faults into the virtual bus to
 rehearse the safe stop without hardware; the syntax is in `hardware.fault_spec`.
@@ -115,7 +118,6 @@ def _load_inputs(robot_name: str, gait_path: Path | None, calibration: Path | No
 # How the refusal names a catalogue protocol that has no bus driver (hardware.control_table.TABLES).
 _UNDRIVABLE_LABELS = {
     "pwm": "PWM",
-    "dynamixel1": "Dynamixel Protocol 1.0",
     "dynamixel2_xl320": "the XL-320's own Protocol 2.0 control table",
     "feetech_scs": "the big-endian Feetech SCS protocol",
     "hiwonder_bus": "the Hiwonder bus protocol",
@@ -133,8 +135,8 @@ def _require_drivable_servos(robot: Any) -> None:
             label = _UNDRIVABLE_LABELS.get(protocol, f"protocol {protocol!r}")
             raise PlayerError(
                 f"servo model {j.servo.name} on joint {j.name} uses {label}, which gaitsmith-play "
-                "cannot drive; plan and simulate work, play needs a Dynamixel (Protocol 2.0) or "
-                "Feetech STS bus servo"
+                "cannot drive; plan and simulate work, play needs a Dynamixel (Protocol 1.0 AX / "
+                "MX or 2.0 X-series) or Feetech STS bus servo"
             )
 
 
@@ -164,14 +166,11 @@ def _open_bus(
         return vbus.connect(config), vbus
     if port is None:
         raise _fail("give --port DEVICE, --virtual [bus|sim], or --dry-run")
-    from hardware.dynamixel import DynamixelBus
+    from hardware.dynamixel import Dynamixel1Bus, DynamixelBus
     from hardware.feetech import FeetechBus
 
-    bus: ServoBus = (
-        DynamixelBus(port, config)
-        if robot.servo_protocol == "dynamixel2"
-        else FeetechBus(port, config)
-    )
+    drivers = {"dynamixel1": Dynamixel1Bus, "dynamixel2": DynamixelBus}
+    bus: ServoBus = drivers.get(robot.servo_protocol, FeetechBus)(port, config)
     bus.open()
     return bus, None
 
@@ -288,6 +287,8 @@ def run(
             "to rehearse on it, or drop --fault to play on real servos"
         )
     rob, gait_obj, cal = _load_inputs(robot, gait, calibration)
+    if port is not None and virtual is None and not dry_run:
+        _warn_beyond_bus_budget(rob, port, baud or rob.bus_baud, rate_hz)
     faults = _fault_schedule(fault or [], [j.bus_id for j in rob.joints])
     try:
         config = PlayerConfig(
@@ -351,6 +352,68 @@ def run(
         pass  # the terminal is gone (SIGHUP): the exit code still says how the run ended
     if result.exit_code:
         raise typer.Exit(result.exit_code)
+
+
+def _warn_beyond_bus_budget(robot: Any, port: str, baud: int, rate_hz: float) -> None:
+    """Warn (not refuse) when --rate is beyond what the bus sustains (`hardware.bus_budget`,
+    with the adapter's latency timer read from sysfs). Not a refusal: a late tick is safe —
+    the player skips passed deadlines instead of bursting, and the step limit is per tick, so
+    the robot moves slower than asked, never faster; the end of the run says what it held."""
+    from hardware.bus_budget import for_robot, rate_check
+    from hardware.sdk_bus import usb_latency_timer_s
+
+    try:
+        budget = for_robot(robot, baud=baud, latency_ms=usb_latency_timer_s(port) * 1000.0)
+    except ValueError:
+        return  # a setting out of range is refused where it is used, with its own message
+    warning = rate_check(budget, rate_hz)
+    if warning is not None:
+        err_console.print(f"[bold yellow]{escape(warning)}[/]", highlight=False, soft_wrap=True)
+
+
+def budget(
+    robot: str = typer.Option(..., "--robot", help="Robot name or folder."),
+    baud: int | None = typer.Option(None, "--baud", help="Baud rate; default: the robot's."),
+    return_delay_us: float | None = typer.Option(
+        None, "--return-delay-us", help="Servos' Return Delay Time \\[µs]; default: factory."
+    ),
+    latency_ms: float | None = typer.Option(
+        None,
+        "--latency-ms",
+        help="USB adapter latency timer \\[ms]; default: read from sysfs for --port, else 16 "
+        "(FTDI factory).",
+    ),
+    port: str | None = typer.Option(None, "--port", "-p", help="Read its latency timer."),
+    rate_hz: float | None = typer.Option(None, "--rate", help="Also check this rate \\[Hz]."),
+) -> None:
+    """The loop rate the robot's bus sustains: bytes per tick, wire time, return delays, USB
+    latency; which term dominates and what to change."""
+    import robots
+    from hardware.bus_budget import FTDI_DEFAULT_LATENCY_MS, for_robot, rate_check
+    from hardware.sdk_bus import usb_latency_timer_s
+
+    for name, value in (("--baud", baud), ("--rate", rate_hz)):
+        problem = None if value is None else check_option(name, value)
+        if problem is not None:
+            raise _fail(problem)
+    try:
+        rob = robots.load(robot)
+        _require_drivable_servos(rob)
+    except (robots.RobotsError, HardwareError) as exc:
+        raise _fail(str(exc)) from None
+    if latency_ms is None:
+        latency_ms = FTDI_DEFAULT_LATENCY_MS
+        if port is not None:
+            latency_ms = usb_latency_timer_s(port) * 1000.0
+    try:
+        result = for_robot(rob, baud=baud, return_delay_us=return_delay_us, latency_ms=latency_ms)
+    except ValueError as exc:
+        raise _fail(str(exc)) from None
+    text = escape(f"robot {rob.name}: " + result.report())
+    console.print(text, highlight=False, soft_wrap=True)
+    if rate_hz is not None:
+        warning = rate_check(result, rate_hz)
+        console.print(warning or f"--rate {rate_hz:g}: within the bus budget", highlight=False)
 
 
 def _report(result: PlayResult, twin: Any, rate_hz: float, telemetry: Path | None) -> None:
@@ -432,7 +495,8 @@ def plot(
 
 
 def register(app: typer.Typer) -> None:
-    """Add `run`, `calibrate` and `plot` to the `gaitsmith-play` app."""
+    """Add `run`, `calibrate`, `plot` and `budget` to the `gaitsmith-play` app."""
     app.command("run", cls=_RunCommand)(run)
     app.command("calibrate")(calibrate)
     app.command("plot")(plot)
+    app.command("budget")(budget)

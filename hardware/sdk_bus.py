@@ -195,11 +195,7 @@ class SdkServoBus(ServoBus):
         reply length no outstanding late reply of these servos has."""
         self._expire()
         start, n, offset = self._read_plan(ids, addr, length, what)
-        request = (  # one servo: a READ; several: one SYNC_READ
-            self.codec.read(ids[0], start, n)
-            if len(ids) == 1
-            else self.codec.sync_read(start, n, ids)
-        )
+        request = self._read_request(ids, start, n)
         got = self._exchange(request, {i: n for i in ids}, what)
         out: dict[int, tuple[bytes, int]] = {}
         for i in ids:
@@ -209,6 +205,12 @@ class SdkServoBus(ServoBus):
                 raise ServoFault(i, self._fault_flags(i, error), error)
             out[i] = (bytes(p.params[offset : offset + length]), error)
         return out
+
+    def _read_request(self, ids: list[int], start: int, n: int) -> bytes:
+        """One servo: a READ; several: one SYNC_READ (Protocol 1.0: a BULK READ)."""
+        if len(ids) == 1:
+            return bytes(self.codec.read(ids[0], start, n))
+        return bytes(self.codec.sync_read(start, n, ids))
 
     def _read_plan(
         self, ids: Iterable[int], addr: int, length: int, what: str
@@ -427,6 +429,8 @@ class SdkServoBus(ServoBus):
                 raise PortError(self.port_name, f"unsupported baud rate {port.baudrate}")
             self.adapter_latency_s = usb_latency_timer_s(self._port_arg)
         else:
+            # a port object may say what latency it adds (the virtual bus's wire emulation)
+            self.adapter_latency_s = float(getattr(port, "adapter_latency_s", 0.0))
             try:
                 if not getattr(port, "is_open", False) and not port.openPort():
                     raise PortError(self.port_name, "cannot open")

@@ -1,4 +1,4 @@
-"""`VirtualServoBus`: byte-level emulator of a Dynamixel 2.0 or Feetech STS bus.
+"""`VirtualServoBus`: byte-level emulator of a Dynamixel 1.0 / 2.0 or Feetech STS bus.
 
 `process(data, now_wall_s)` takes instruction bytes as written by the host (any chunking) and
 returns the status packets as (release wall-time [s], bytes), in bus order, after fault
@@ -8,6 +8,13 @@ the replies after it instead of being overtaken.
 Servo physics run on the injectable `clock` (bus time); release times are wall-clock so a
 transport can honour delays.
 Reach it in-process with `VirtualPort` or on a pseudo-terminal with `PtyServer`.
+
+Wire time (`wire=WireTiming(baud, adapter_latency_s)`, off by default): replies are released
+when a real half-duplex line would deliver them — the request's bytes at 10 bits per byte
+(after whatever is still on the line), then per reply the servo's Return Delay Time (its
+`return_delay` register) and the reply's own bytes, servo after servo; plus the USB adapter's
+latency timer (an FTDI holds received bytes up to that long before the host sees them). Lets
+`hardware.bus_budget`'s loop-rate estimate be checked against a player run.
 """
 
 from __future__ import annotations
@@ -16,10 +23,12 @@ import random
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
-from hardware.bus import MAX_SERVO_ID, bounded_int
-from hardware.control_table import table_for_protocol
+from hardware.bus import MAX_BAUD, MAX_SERVO_ID, MIN_BAUD, bounded, bounded_int
+from hardware.control_table import DYNAMIXEL1_BULK_READ_MODELS, table_for_protocol
+from hardware.protocol import dynamixel1 as dxl1
 from hardware.protocol import dynamixel2 as dxl
 from hardware.protocol import feetech as ft
 from hardware.protocol.common import (
@@ -45,7 +54,23 @@ if TYPE_CHECKING:
 ERR_INSTRUCTION = 2
 ERR_DATA_LENGTH = 5
 ERR_ACCESS = 7
-PROTOCOLS = ("dynamixel2", "feetech_sts")
+PROTOCOLS = ("dynamixel1", "dynamixel2", "feetech_sts")
+
+
+@dataclass(frozen=True)
+class WireTiming:
+    """Emulated line: `baud` [bit/s] (8N1, 10 bits per byte) and the USB adapter's latency
+    timer `adapter_latency_s` [s] added to every reply (0: a pty / CDC-ACM adapter)."""
+
+    baud: int
+    adapter_latency_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        bounded_int("wire baud", self.baud, MIN_BAUD, MAX_BAUD)
+        bounded("adapter latency", self.adapter_latency_s, 0.0, 0.255, " s")
+
+    def bytes_s(self, n: int) -> float:
+        return 10.0 * n / self.baud
 
 
 class ServoPlant(Protocol):
@@ -58,7 +83,7 @@ class ServoPlant(Protocol):
 
 
 class VirtualServoBus:
-    """A bus of emulated servos speaking one wire protocol ("dynamixel2" or "feetech_sts")."""
+    """A bus of emulated servos speaking one wire protocol (one of `PROTOCOLS`)."""
 
     def __init__(
         self,
@@ -66,6 +91,7 @@ class VirtualServoBus:
         protocol: str | None = None,
         clock: Callable[[], float] = time.monotonic,
         faults: FaultPlan = NO_FAULTS,
+        wire: WireTiming | None = None,
     ) -> None:
         if not servos:
             raise ValueError("a virtual bus needs at least one servo")
@@ -87,6 +113,8 @@ class VirtualServoBus:
         self._parser: dxl.StreamParser | ft.StreamParser = (
             dxl.StreamParser() if protocol == "dynamixel2" else ft.StreamParser("instruction")
         )
+        self.wire = wire
+        self._wire_free = 0.0  # wall time [s] the emulated line is next idle (wire timing)
         self._registered: dict[int, tuple[int, bytes]] = {}  # Feetech REG WRITE buffer
         self.instructions = 0  # packets handled (for tests and benchmarks)
         self._last_release = 0.0  # wall time [s] of the latest reply released (FIFO order)
@@ -172,28 +200,63 @@ class VirtualServoBus:
             for packet in self._parser.feed(bytes(data)):
                 self.instructions += 1
                 lost = self._read_lost(packet)
+                line = self._line_start(packet, wall)
                 for servo, reply in self._dispatch(packet, now):
+                    on_wire = self._on_wire(line, servo, reply)
+                    line = on_wire if on_wire is not None else line
                     if lost:
                         continue
                     injected = self._inject(servo, reply, now)
                     if injected is not None:
                         # a serial stream is FIFO: a late reply holds back the ones after it
-                        release = max(wall + injected[0], self._last_release)
+                        due = wall if on_wire is None else on_wire + self._latency()
+                        release = max(due + injected[0], self._last_release)
                         self._last_release = release
                         out.append((release, injected[1]))
         return out
 
+    def _line_start(self, p: Packet, wall: float) -> float | None:
+        """Wire timing: when the request's last byte is on the line (None: timing off)."""
+        if self.wire is None:
+            return None
+        start = max(wall, self._wire_free)
+        end = start + self.wire.bytes_s(self._request_bytes(p))
+        self._wire_free = end
+        return end
+
+    def _on_wire(self, line: float | None, servo: VirtualServo, reply: bytes) -> float | None:
+        """Wire timing: when `reply`'s last byte is on the line, the line free at `line`."""
+        if self.wire is None or line is None:
+            return None
+        end = line + servo.return_delay_s + self.wire.bytes_s(len(reply))
+        self._wire_free = end
+        return end
+
+    def _latency(self) -> float:
+        return self.wire.adapter_latency_s if self.wire is not None else 0.0
+
+    def _request_bytes(self, p: Packet) -> int:
+        inst = p.instruction or 0
+        if self.protocol == "dynamixel2":
+            return len(dxl.build_packet(p.servo_id, inst, p.params))
+        return 6 + len(p.params)
+
     def _read_lost(self, p: Packet) -> bool:
         """Whether `p` is a READ / SYNC_READ of a register in the plan's `drop_reads_of`."""
         names = self._faults.drop_reads_of
-        if not names or p.instruction not in (READ, SYNC_READ):
+        if not names or p.instruction not in (READ, SYNC_READ, dxl1.BULK_READ):
             return False
         prm, dxl2 = p.params, self.protocol == "dynamixel2"
         if len(prm) < (4 if dxl2 else 2):
             return False
-        addr, size = (_u16(prm, 0), _u16(prm, 2)) if dxl2 else (prm[0], prm[1])
-        regs = (self.table[n] for n in names)
-        return any(r.addr < addr + size and addr < r.addr + r.size for r in regs)
+        if p.instruction == dxl1.BULK_READ and self.protocol == "dynamixel1":
+            spans = [(a, n) for _, a, n in dxl1.bulk_read_items(prm)]
+        else:
+            spans = [(_u16(prm, 0), _u16(prm, 2)) if dxl2 else (prm[0], prm[1])]
+        regs = [self.table[n] for n in names]
+        return any(
+            r.addr < addr + size and addr < r.addr + r.size for r in regs for addr, size in spans
+        )
 
     def _inject(self, servo: VirtualServo, reply: bytes, now: float) -> tuple[float, bytes] | None:
         plan, rng = self._faults, self._rng
@@ -229,7 +292,80 @@ class VirtualServoBus:
             s.update(now, self._faults)
         if self.protocol == "dynamixel2":
             return self._dispatch_dxl(p, now)
+        if self.protocol == "dynamixel1":
+            return self._dispatch_dxl1(p)
         return self._dispatch_ft(p, now)
+
+    # -- Dynamixel Protocol 1.0 (AX / MX) ----------------------------------------------------------
+    def _dispatch_dxl1(self, p: Packet) -> list[tuple[VirtualServo, bytes]]:
+        """PING, READ, WRITE, REG WRITE / ACTION, RESET, SYNC WRITE; BULK READ on the servos
+        whose model answers it (MX, EX-106+; an AX ignores it). Status Return Level (address
+        16): 0 = answer PING only, 1 = PING and READ, 2 = everything (factory)."""
+        inst, prm, bcast = p.instruction, p.params, p.servo_id == BROADCAST_ID
+        replies: list[tuple[VirtualServo, bytes]] = []
+
+        def status(s: VirtualServo, err: int = 0, params: bytes = b"") -> None:
+            level = s.get("status_return_level")
+            if (
+                inst == PING
+                or (inst == READ and level >= 1)
+                or level >= 2
+                or err & dxl1.INSTRUCTION
+            ):
+                replies.append((s, dxl1.build_status(s.servo_id, err | s.status_error(), params)))
+
+        if inst == SYNC_WRITE and bcast and len(prm) >= 2:
+            addr, size = prm[0], prm[1]
+            for off in range(2, len(prm) - size, size + 1):
+                for s in self._targets(prm[off]):
+                    s.write(addr, prm[off + 1 : off + 1 + size])
+            return []
+        if inst == dxl1.BULK_READ and bcast and len(prm) >= 4:
+            for sid, addr, size in dxl1.bulk_read_items(prm):
+                for s in self._targets(sid):
+                    if s.model.model_number not in DYNAMIXEL1_BULK_READ_MODELS:
+                        continue  # an AX does not know the instruction (and it was broadcast)
+                    data = s.read(addr, size)
+                    replies.append(
+                        (
+                            s,
+                            dxl1.build_status(
+                                s.servo_id,
+                                s.status_error() | (0 if data is not None else dxl1.RANGE),
+                                data or b"",
+                            ),
+                        )
+                    )
+            return replies
+        if inst == ACTION:
+            for s in self._targets(p.servo_id):
+                pending = self._registered.pop(s.servo_id, None)
+                if pending is not None:
+                    s.write(*pending)
+                if not bcast:
+                    status(s)
+            return replies
+        for s in self._targets(p.servo_id):
+            if inst == PING:
+                status(s)
+            elif inst == READ and len(prm) == 2 and not bcast:
+                data = s.read(prm[0], prm[1])
+                status(s, 0 if data is not None else dxl1.RANGE, data or b"")
+            elif inst == WRITE and len(prm) >= 2:
+                err = s.write(prm[0], prm[1:])
+                if not bcast:
+                    status(s, err)
+            elif inst == REG_WRITE and len(prm) >= 2:
+                self._registered[s.servo_id] = (prm[0], prm[1:])
+                if not bcast:
+                    status(s)
+            elif inst == FACTORY_RESET and not prm:
+                if not bcast:
+                    status(s)
+                s.factory_reset(0xFF)
+            elif not bcast:
+                status(s, dxl1.INSTRUCTION)
+        return replies
 
     # -- Dynamixel Protocol 2.0 -----------------------------------------------------------------
     def _dispatch_dxl(self, p: Packet, now: float) -> list[tuple[VirtualServo, bytes]]:
@@ -327,7 +463,11 @@ class VirtualServoBus:
 
         port = VirtualPort(self)
         bus: ServoBus
-        if self.protocol == "dynamixel2":
+        if self.protocol == "dynamixel1":
+            from hardware.dynamixel import Dynamixel1Bus
+
+            bus = Dynamixel1Bus(port, config)
+        elif self.protocol == "dynamixel2":
             from hardware.dynamixel import DynamixelBus
 
             bus = DynamixelBus(port, config)

@@ -57,6 +57,12 @@ class VirtualPort:
         self.tx_time_per_byte = (1000.0 / self.baudrate) * 10.0  # ms per byte (8N1)
 
     # -- gaitsmith extension -----------------------------------------------------------------
+    @property
+    def adapter_latency_s(self) -> float:
+        """The USB latency the bus emulates (`VirtualServoBus.wire`), for the drivers' deadline."""
+        wire = self.bus.wire
+        return wire.adapter_latency_s if wire is not None else 0.0
+
     def set_latency_ms(self, ms: float) -> None:
         """Reply allowance beyond the wire time [ms] used by setPacketTimeout."""
         self.latency_ms = ms

@@ -6,19 +6,32 @@ injected bus clock — the same clock readings always give the same positions.
 Load: 20 % in the direction of motion while moving, plus `external_load_pct`; ±100 % under an
 injected overload. Voltage: catalogue nominal minus the plan's sag. Temperature: `ambient_c`, or
 above the catalogue limit under an injected overheat.
+
+Families: Dynamixel X (Protocol 2.0: errors latch in Hardware Error Status until reboot),
+Dynamixel AX/MX on Protocol 1.0 (no error register: the health bits go in every status packet's
+error byte while the condition lasts; Shutdown bits turn the torque off; a goal outside the angle
+limits is clamped and answered with the angle-limit bit), Feetech STS.
 """
 
 from __future__ import annotations
 
 import math
 
-from hardware.control_table import DYNAMIXEL_X, ControlTable, Register
+from hardware.control_table import DYNAMIXEL_AX, DYNAMIXEL_X, ControlTable, Register
 from hardware.virtual.faults import FaultPlan
 from robots.servo import ServoModel
 
 # Dynamixel X Shutdown (addr 63) default 0x34: overheating | electrical shock | overload.
 DXL_SHUTDOWN_DEFAULT = 0x34
 DXL_FIRMWARE = 46
+DXL_RETURN_DELAY_DEFAULT = 250  # X-series Return Delay Time: 250 × 2 µs = 500 µs
+# AX-12A factory values (e-Manual control table): Shutdown / Alarm LED 36 = overheating |
+# overload, Return Delay Time 250 (500 µs), Status Return Level 2, firmware version 24.
+DXL1_SHUTDOWN_DEFAULT = 0x24
+DXL1_RETURN_DELAY_DEFAULT = 250
+DXL1_FIRMWARE = 24
+DXL1_ANGLE_LIMIT = 0x02  # Protocol 1.0 status error bits
+DXL1_RANGE = 0x08
 FEETECH_FIRMWARE = (3, 10)
 MOVING_LOAD_PCT = 20.0
 ERR_ACCESS = 7  # Dynamixel status error number "access error"
@@ -40,6 +53,8 @@ class VirtualServo:
         self.model = model
         self.table = table
         self.is_dynamixel = table is DYNAMIXEL_X
+        self.is_protocol1 = table is DYNAMIXEL_AX
+        self._health = 0  # Protocol 1.0: health bits of the status error byte (no register)
         self.mem = bytearray(table.size)
         self.ambient_c = ambient_c
         self.external_load_pct = 0.0
@@ -64,6 +79,12 @@ class VirtualServo:
     @property
     def servo_id(self) -> int:
         return self.get("id")
+
+    @property
+    def return_delay_s(self) -> float:
+        """The servo's Return Delay Time [s]: how long it waits before answering."""
+        reg = self.table["return_delay"]
+        return self.get("return_delay") * reg.unit * 1e-6
 
     @property
     def torque_enabled(self) -> bool:
@@ -98,6 +119,19 @@ class VirtualServo:
             self._set("max_voltage_limit", round(self.model.voltage_max_v * 10))
             self._set("min_voltage_limit", round(self.model.voltage_min_v * 10))
             self._set("shutdown", DXL_SHUTDOWN_DEFAULT)
+            self._set("return_delay", DXL_RETURN_DELAY_DEFAULT)
+        elif self.is_protocol1:
+            self._set("firmware", DXL1_FIRMWARE)
+            self._set("baud_rate", 1 if keep_baud is None else keep_baud)  # 1 = 1 Mbps
+            self._set("return_delay", DXL1_RETURN_DELAY_DEFAULT)
+            self._set("temperature_limit", int(self.model.max_temperature_c))
+            self._set("max_voltage_limit", round(self.model.voltage_max_v * 10))
+            self._set("min_voltage_limit", round(self.model.voltage_min_v * 10))
+            self._set("max_torque", 1023)
+            self._set("status_return_level", 2)
+            self._set("alarm_led", DXL1_SHUTDOWN_DEFAULT)
+            self._set("shutdown", DXL1_SHUTDOWN_DEFAULT)
+            self._set("torque_limit", 1023)
         else:
             self._set("firmware_major", FEETECH_FIRMWARE[0])
             self._set("firmware_minor", FEETECH_FIRMWARE[1])
@@ -137,15 +171,20 @@ class VirtualServo:
         bits = self.table.hardware_error_bits
         inv = {name: bit for bit, name in bits.items()}
         error = 0
+        dxl = self.is_dynamixel or self.is_protocol1
         if sid in faults.voltage_error or volts < self.model.voltage_min_v:
-            error |= inv["input_voltage" if self.is_dynamixel else "voltage"]
+            error |= inv["input_voltage" if dxl else "voltage"]
         if sid in faults.overheat:
-            error |= inv["overheating" if self.is_dynamixel else "overheat"]
+            error |= inv["overheating" if dxl else "overheat"]
         if sid in faults.overload:
             error |= inv["overload"]
         if self.is_dynamixel:  # X-series latch hardware errors until reboot; shutdown = torque off
             self._latched_error |= error
             error = self._latched_error
+            if error & self.get("shutdown") and self.torque_enabled:
+                self._set("torque_enable", 0)
+        if self.is_protocol1:  # no latch: the bits last as long as the condition
+            self._health = error
             if error & self.get("shutdown") and self.torque_enabled:
                 self._set("torque_enable", 0)
         self._set("present_position", round(self._pos))
@@ -154,11 +193,14 @@ class VirtualServo:
         self._set("present_temperature", max(0, round(temp)))
         self._set("present_velocity", _velocity_raw(self.table, velocity, self.model.ticks_per_rev))
         self._set("moving", 1 if moving else 0)
-        self._set("hardware_error", error)
+        if not self.is_protocol1:
+            self._set("hardware_error", error)
 
     # -- firmware behaviour ---------------------------------------------------------------------
     def status_error(self) -> int:
         """The error/status byte this servo puts in its status packets."""
+        if self.is_protocol1:
+            return self._health
         hw = self.get("hardware_error")
         if self.is_dynamixel:
             return 0x80 if hw else 0
@@ -171,14 +213,17 @@ class VirtualServo:
         return bytes(self.mem[addr : addr + length])
 
     def write(self, addr: int, data: bytes) -> int:
-        """Apply a write; returns a Dynamixel error number (0 = done)."""
+        """Apply a write; returns a Dynamixel 2.0 error number or Protocol 1.0 error bits
+        (0 = done)."""
         end = addr + len(data)
+        refused = DXL1_RANGE if self.is_protocol1 else ERR_ACCESS
         if addr < 0 or end > self.table.size:
-            return ERR_ACCESS
+            return refused
         if any(r.addr < end and addr < r.addr + r.size for r in self._readonly):
-            return ERR_ACCESS
-        if addr < self.table.ram_start and self.torque_enabled:
-            return ERR_ACCESS  # EEPROM is locked while torque is on
+            return refused
+        if addr < self.table.ram_start and self.torque_enabled and not self.is_protocol1:
+            return ERR_ACCESS  # X-series: EEPROM is locked while torque is on
+        answer = 0
         new = bytearray(self.mem)
         new[addr:end] = data
         goal_reg = self.table["goal_position"]
@@ -188,6 +233,8 @@ class VirtualServo:
             if not lo <= goal <= hi:
                 if self.is_dynamixel:
                     return ERR_DATA_LIMIT
+                if self.is_protocol1:
+                    answer = DXL1_ANGLE_LIMIT  # AX/MX: clamped, and the status says so
                 goal = min(max(goal, lo), hi)  # Feetech clamps to its angle limits
                 new[goal_reg.addr : goal_reg.addr + goal_reg.size] = goal_reg.encode(goal)
             self._goal = goal
@@ -199,7 +246,7 @@ class VirtualServo:
                 self._goal = round(self._pos)
                 new[goal_reg.addr : goal_reg.addr + goal_reg.size] = goal_reg.encode(self._goal)
         self.mem[:] = new
-        return 0
+        return answer
 
     def reboot(self, faults: FaultPlan, now_s: float) -> None:
         """Dynamixel reboot: RAM back to defaults (torque off), latched errors cleared."""
@@ -221,4 +268,6 @@ def _velocity_raw(table: ControlTable, ticks_per_s: float, ticks_per_rev: float)
     reg: Register = table["present_velocity"]
     if table is DYNAMIXEL_X:  # 0.229 rpm per LSB
         return _clamp_int(ticks_per_s / ticks_per_rev * 60.0 / reg.unit, 1 << 30)
+    if table is DYNAMIXEL_AX:  # 0.111 rpm per LSB, magnitude below bit 10
+        return _clamp_int(ticks_per_s / ticks_per_rev * 60.0 / reg.unit, 1023)
     return _clamp_int(ticks_per_s, (1 << 15) - 1)  # Feetech: steps/s

@@ -358,7 +358,6 @@ def build_robot(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> BuildRobot:
 
 REFUSED = {
     "MG996R": "uses PWM",
-    "AX_18A": "uses Dynamixel Protocol 1.0",
     "XL_320": "uses the XL-320's own Protocol 2.0 control table",
     "SCS0009": "uses the big-endian Feetech SCS protocol",
     "LX_16A": "uses the Hiwonder bus protocol",
@@ -387,7 +386,7 @@ def test_play_refuses_servos_it_cannot_drive_in_one_line(
     assert lines[0] == (
         f"error: servo model {servo_name} on joint fl_hip_roll {REFUSED[servo_name]}, which "
         "gaitsmith-play cannot drive; plan and simulate work, play needs a Dynamixel (Protocol "
-        "2.0) or Feetech STS bus servo"
+        "1.0 AX / MX or 2.0 X-series) or Feetech STS bus servo"
     )
 
 
