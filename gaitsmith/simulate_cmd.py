@@ -148,7 +148,7 @@ def simulate_command(
     supply_v: float | None = typer.Option(
         None, "--supply-v",
         help="servo supply voltage [V]: the torque–speed envelope scales ∝ V/V_nominal "
-        "(default: the servos' nominal voltage)",
+        "(default: the gait's planned supply, else the servos' nominal voltage)",
     ),
     bout_min: float = typer.Option(
         DEFAULT_BOUT_S / 60.0, "--bout-min", help="walking bout of the heating prediction [min]"
@@ -177,6 +177,10 @@ def simulate_command(
     gait = gait_io.load(gait_path)
     bot = robots.load(robot or gait.robot)
     gait.check_robot(bot, str(gait_path))
+    planned_v = gait.planner.get("supply_v")
+    if supply_v is None and isinstance(planned_v, (int, float)) and not isinstance(planned_v, bool):
+        supply_v = float(planned_v)  # a gait planned at a supply voltage is simulated at it
+        console.print(f"supply {supply_v:g} V (the voltage the gait was planned at)")
     check_supply_v("--supply-v", supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
     criteria = PassCriteria()
