@@ -38,6 +38,8 @@ from robots.gait import Gait
 from robots.robot import Robot
 from robots.thermal import ThermalModel, has_thermal_data, thermal_model
 
+REBASE_WINDOWS = 10.0  # recompute the running sums from the window this often (in windows)
+
 
 @dataclass(frozen=True)
 class TrendLimits:
@@ -130,28 +132,57 @@ class HeatingTrend:
         self.predictions = dict(predictions)
         self.stop_temperature_c = dict(stop_temperature_c)
         self.limits = limits or TrendLimits()
-        self._first: dict[int, float] = {}
+        self._first: dict[int, tuple[float, float]] = {}  # (time, temperature) of the first
         self._history: dict[int, deque[tuple[float, float]]] = {}
+        self._sums: dict[int, list[float]] = {}  # n, Σt, Σy, Σt², Σty over the window
+        self._sums_origin: dict[int, float] = {}  # time origin of the sums (after a rebase)
         self.warned: set[int] = set()
 
     def slope_k_per_s(self, servo_id: int) -> float | None:
-        """Least-squares slope of the window's readings, or None while they span too little."""
+        """Least-squares slope of the window's readings, or None while they span too little.
+        O(1) per reading (running sums; times relative to the first reading, temperatures to
+        the first temperature, so the sums stay well conditioned)."""
         h = self._history.get(servo_id)
         if not h or h[-1][0] - h[0][0] < self.limits.min_span_s:
             return None
-        t = np.array([x[0] for x in h])
-        y = np.array([x[1] for x in h])
-        t = t - t.mean()
-        return float(np.dot(t, y - y.mean()) / np.dot(t, t))
+        n, st, sy, stt, sty = self._sums[servo_id]
+        den = n * stt - st * st
+        return (n * sty - st * sy) / den if den > 0 else None
+
+    def _first_t(self, servo_id: int) -> float:
+        return self._sums_origin.get(servo_id, self._first[servo_id][0])
+
+    def _rebase(self, servo_id: int, first_c: float) -> None:
+        """Move the sums' time origin to the window's oldest reading and recompute them (once
+        every `REBASE_WINDOWS` windows: a run of hours keeps its slope exact)."""
+        h = self._history[servo_id]
+        t0 = h[0][0]
+        self._sums_origin[servo_id] = t0
+        self._sums[servo_id] = [0.0] * 5
+        for t, y in h:
+            self._accumulate(servo_id, t - t0, y - first_c, 1.0)
+
+    def _add(self, servo_id: int, t: float, y: float, sign: float) -> None:
+        self._accumulate(servo_id, t - self._first_t(servo_id), y - self._first[servo_id][1],
+                         sign)
+
+    def _accumulate(self, servo_id: int, dt: float, dy: float, sign: float) -> None:
+        s = self._sums[servo_id]
+        for k, v in enumerate((1.0, dt, dy, dt * dt, dt * dy)):
+            s[k] += sign * v
 
     def feed(self, servo_id: int, t_s: float, temperature_c: float, who: str) -> TrendVerdict:
         """One temperature reading; returns the warning (first time only) and/or stop."""
         lim = self.limits
-        first = self._first.setdefault(servo_id, temperature_c)
+        first = self._first.setdefault(servo_id, (t_s, temperature_c))[1]
         h = self._history.setdefault(servo_id, deque())
+        self._sums.setdefault(servo_id, [0.0] * 5)
         h.append((t_s, temperature_c))
+        self._add(servo_id, t_s, temperature_c, 1.0)
         while h and h[0][0] < t_s - lim.window_s:
-            h.popleft()
+            self._add(servo_id, *h.popleft(), -1.0)
+        if t_s - self._first_t(servo_id) > REBASE_WINDOWS * lim.window_s:
+            self._rebase(servo_id, first)
         slope = self.slope_k_per_s(servo_id)
         if slope is None or slope <= 0.0:
             return TrendVerdict()

@@ -171,3 +171,15 @@ def test_player_measures_the_supply_at_preflight(tmp_path: Path) -> None:
     assert "at 6.80 V the peak" in result.supply_margin
     result, _ = rig.play(PlayerConfig(cycles=1, ramp_s=0.5, force=True, supply_v=7.4))
     assert "(--supply-v)" in (result.supply_margin or "")
+
+
+def test_running_slope_is_the_least_squares_slope() -> None:
+    trend = HeatingTrend({}, {1: 65.0}, TrendLimits(window_s=20.0, min_span_s=5.0))
+    rng = np.random.default_rng(1)
+    ts = np.arange(0.0, 1000.0, 0.1) + 1e4  # far from zero, and rebased every 200 s
+    ys = np.round(30.0 + 0.05 * (ts - ts[0]) + rng.normal(0, 0.3, ts.size))
+    for t, y in zip(ts, ys, strict=True):
+        trend.feed(1, float(t), float(y), "s")
+    keep = ts >= ts[-1] - 20.0
+    expected = np.polyfit(ts[keep], ys[keep], 1)[0]
+    assert trend.slope_k_per_s(1) == pytest.approx(expected, rel=1e-6)
