@@ -149,13 +149,20 @@ def _check_options(speed: float, knots: int, period: float | None, duty: float |
 def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,
            cycles: int) -> None:
     if simulate:
-        from sim.validate import validate_and_annotate  # lazy: MuJoCo rollout only on request
+        from sim.thermal_report import predict_from_trajectory  # lazy: MuJoCo only on request
+        from sim.validate import validate
 
         with console.status(f"validating in MuJoCo ({cycles} cycles)…"):
-            gait_obj = validate_and_annotate(gait_obj, bot, cycles)
-        v = gait_obj.validation or {}
-        verdict = "[bold green]PASS[/]" if v.get("passed") else "[bold red]FAIL[/]"
-        console.print(f"simulation verdict: {verdict} " + "; ".join(v.get("reasons", [])))
+            result = validate(gait_obj, bot, cycles)
+        assert result.trajectory is not None  # validate keeps it by default
+        thermal = predict_from_trajectory(result.trajectory, bot,
+                                          warmup_cycles=result.criteria.warmup_cycles)
+        v = result.to_dict()
+        v["thermal"] = thermal.to_dict()  # the player's heating prediction
+        gait_obj = gait_obj.with_validation(v)
+        verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"
+        console.print(f"simulation verdict: {verdict} " + "; ".join(result.reasons))
+        console.print(f"heating: {thermal.summary()}")
     robots.gait.save(gait_obj, output)
     console.print(f"wrote [bold]{output}[/]")
 

@@ -47,3 +47,14 @@ def test_plan_refuses_a_voltage_outside_the_servo_range(
     err = capsys.readouterr().err
     assert "--supply-v must be a number in [6, 8.4] V" in " ".join(err.split())
     assert "STS3215_7V4" in err and not out.exists()
+
+
+def test_plan_simulate_writes_the_heating_prediction(tmp_path: Path) -> None:
+    from sim.synthetic import standing_gait
+
+    bot = robots.load("quad12")
+    out = tmp_path / "stand.json"
+    plan_cmd._write(standing_gait(bot), bot, out, simulate=True, cycles=4)
+    v = robots.gait.load(out).validation or {}
+    assert v["thermal"]["schema"] == "gaitsmith.thermal/1"
+    assert [j["joint"] for j in v["thermal"]["joints"]] == list(bot.joint_names)
