@@ -178,10 +178,12 @@ def simulate_command(
     bot = robots.load(robot or gait.robot)
     gait.check_robot(bot, str(gait_path))
     planned_v = gait.planner.get("supply_v")
+    source = "--supply-v"
     if supply_v is None and isinstance(planned_v, (int, float)) and not isinstance(planned_v, bool):
         supply_v = float(planned_v)  # a gait planned at a supply voltage is simulated at it
+        source = f"{gait_path}: planner.supply_v"
         console.print(f"supply {supply_v:g} V (the voltage the gait was planned at)")
-    check_supply_v("--supply-v", supply_v, bot)
+    check_supply_v(source, supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
     criteria = PassCriteria()
     with Progress(

@@ -69,7 +69,7 @@ def test_bad_bout_and_shapes_are_errors(quad: Robot) -> None:
 
 
 def test_standing_heats_from_the_rollout_torques(stand_run, quad: Robot) -> None:  # type: ignore[no-untyped-def]
-    sim, traj = stand_run
+    _sim, traj = stand_run
     pred = predict_from_trajectory(traj, quad)
     tau = traj.torque_nm[steady_mask(traj, 2)]
     assert np.max(np.abs(tau)) > 0.05  # holding the body up takes torque
@@ -128,3 +128,15 @@ def test_cli_bad_thermal_options_are_one_line(  # type: ignore[no-untyped-def]
     err = capsys.readouterr().err
     assert needle in err and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1, err
+
+
+def test_cli_simulate_uses_the_planned_supply(quad_stand: Gait, tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / "stand.json"
+    gait_io.save(dataclasses.replace(quad_stand, planner={"supply_v": 7.0}), path)
+    assert main(["simulate", str(path), "--cycles", "4"]) in (0, 1)
+    out = capsys.readouterr().out
+    assert "supply 7 V (the voltage the gait was planned at)" in out and "at 7.00 V" in out
+    gait_io.save(dataclasses.replace(quad_stand, planner={"supply_v": 20.0}), path)
+    assert main(["simulate", str(path), "--cycles", "4"]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "planner.supply_v must be a number in [6, 8.4] V" in err
