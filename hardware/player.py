@@ -53,7 +53,13 @@ from hardware.errors import (
     ServoFault,
 )
 from hardware.play_errors import PlayerError
-from hardware.preflight import check_bus, check_offline, check_supply, measured_supply_v
+from hardware.preflight import (
+    check_bus,
+    check_heating,
+    check_offline,
+    check_supply,
+    measured_supply_v,
+)
 from hardware.safety_gate import GateCommand, SafetyGate
 from hardware.telemetry import TelemetryWriter, TickRecord
 from hardware.thermal_watch import predicted_heating
@@ -195,11 +201,12 @@ class Player:
         )
         sink = None if cfg.dry_run or bus is None else bus.sync_write_positions
         self.gate = SafetyGate(self.calibration, self.allowed_speed_rad_s, cfg.rate_hz, sink)
+        self.heating = predicted_heating(robot, gait)
         self.watchdog = Watchdog(
             cfg.limits,
             {j.bus_id: j.servo for j in robot.joints},
             {j.bus_id: j.name for j in robot.joints},
-            heating=predicted_heating(robot, gait),
+            heating=self.heating,
         )
         self.period_s = 1.0 / cfg.rate_hz
         self.ticks = 0
@@ -261,6 +268,8 @@ class Player:
         if supply is not None:
             self.supply_margin, more = check_supply(self.robot, self.gait, *supply, cfg.force)
             warnings += more
+        run_s = None if cfg.cycles is None else cfg.cycles * self.gait.period_s / cfg.speed_scale
+        warnings += check_heating(self.robot, self.heating, statuses, cfg.limits, run_s)
         return warnings, present
 
     def _play_accepted(

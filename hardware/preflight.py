@@ -15,6 +15,11 @@ Supply (`check_supply`): at the supply voltage — measured (the lowest servo re
 planned peak torque per joint is reported against it ("at 7.00 V the peak knee torque is 83 %
 of stall (78 % at 7.40 V nominal)"), warned about above the sim verdict's 80 %, and refused
 above 100 % (the servo cannot deliver it; `force` turns the refusal into a warning).
+
+Heating (`check_heating`): with the gait's predicted heating per servo
+(`hardware.thermal_watch.predicted_heating`), a servo predicted to reach its stop temperature
+within the run — from its present reading, the coolest servo's reading taken as the room — is
+warned about (the watchdog will stop the run there).
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from hardware.bus import ServoBus, ServoStatus
 from hardware.calibration import Calibration
 from hardware.errors import BusError, CalibrationError, NoResponse, ServoFault
 from hardware.play_errors import PreflightError, SpeedScaleError
+from hardware.thermal_watch import PredictedHeating
 from hardware.watchdog import WatchdogLimits
 from robots.errors import GaitFileError
 from robots.gait import Gait
@@ -233,3 +239,33 @@ def check_supply(robot: Robot, gait: Gait, supply_v: float, source: str, force: 
         warnings.append(f"WARNING: {line}, over the {100 * SUPPLY_WARN_FRACTION:.0f} % the sim "
                         "verdict allows")
     return line, warnings
+
+
+def check_heating(
+    robot: Robot,
+    predictions: Mapping[int, PredictedHeating],
+    statuses: Mapping[int, ServoStatus],
+    limits: WatchdogLimits,
+    run_s: float | None,
+) -> list[str]:
+    """Warnings for servos predicted to reach their stop temperature within `run_s` (None:
+    until stopped) — see the module docstring."""
+    temps = [st.temperature_c for st in statuses.values()]
+    if not temps:
+        return []
+    room_c = min(temps)
+    warnings = []
+    for j in robot.joints:
+        pred, st = predictions.get(j.bus_id), statuses.get(j.bus_id)
+        if pred is None or st is None:
+            continue
+        stop_c = j.servo.max_temperature_c - limits.temperature_margin_c
+        t = pred.model.time_to_limit_s(pred.mean_power_w, room_c, start_c=st.temperature_c,
+                                       limit_c=stop_c)
+        if t is not None and (run_s is None or t < run_s):
+            warnings.append(
+                f"WARNING: servo {j.bus_id} ({j.name}): predicted to reach {stop_c:.0f} °C after "
+                f"{t / 60:.1f} min of this gait (now {st.temperature_c:.0f} °C, "
+                f"{pred.mean_power_w:.1f} W mean heat); the watchdog will stop it there"
+            )
+    return warnings

@@ -183,3 +183,22 @@ def test_running_slope_is_the_least_squares_slope() -> None:
     keep = ts >= ts[-1] - 20.0
     expected = np.polyfit(ts[keep], ys[keep], 1)[0]
     assert trend.slope_k_per_s(1) == pytest.approx(expected, rel=1e-6)
+
+
+def test_preflight_warns_of_a_servo_predicted_to_reach_its_limit_within_the_run(
+    tmp_path: Path,
+) -> None:
+    from hardware.preflight import check_heating
+
+    rig = make_rig(tmp_path)
+    j = rig.robot.joints[2]
+    statuses = {i: ServoStatus(i, 0.0, 7.4, 30.0, (), 0) for i in rig.ids}
+    statuses[j.bus_id] = ServoStatus(j.bus_id, 0.0, 7.4, 50.0, (), 0)  # already warm
+    hot = {j.bus_id: _prediction(25.0)}  # 52 K steady: over the 65 °C stop from a 30 °C room
+    (w,) = check_heating(rig.robot, hot, statuses, WatchdogLimits(), run_s=None)
+    assert f"servo {j.bus_id} ({j.name}): predicted to reach 65 °C after" in w
+    t_min = float(w.split("after ")[1].split(" min")[0])
+    assert 0.0 < t_min < 10.0
+    assert check_heating(rig.robot, hot, statuses, WatchdogLimits(), run_s=t_min * 60 - 30) == []
+    cool = {j.bus_id: _prediction(2.0)}
+    assert check_heating(rig.robot, cool, statuses, WatchdogLimits(), run_s=None) == []
