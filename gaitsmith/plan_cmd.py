@@ -41,7 +41,7 @@ from planner.config import PlannerOptions
 from planner.errors import InfeasibleGaitError
 from planner.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES, make_schedule
-from robots.voltage import robot_at_voltage, voltage_margin
+from robots.voltage import nominal_supply_v, robot_at_voltage, voltage_margin
 
 
 def plan(
@@ -149,7 +149,8 @@ def _check_options(speed: float, knots: int, period: float | None, duty: float |
 def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,
            cycles: int) -> None:
     if simulate:
-        from sim.thermal_report import predict_from_trajectory  # lazy: MuJoCo only on request
+        from sim.metrics import steady_mask  # lazy: MuJoCo only on request
+        from sim.thermal_report import predict_from_trajectory
         from sim.validate import validate
 
         with console.status(f"validating in MuJoCo ({cycles} cycles)…"):
@@ -159,6 +160,11 @@ def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: boo
                                           warmup_cycles=result.criteria.warmup_cycles)
         v = result.to_dict()
         v["thermal"] = thermal.to_dict()  # the player's heating prediction
+        steady = steady_mask(result.trajectory, result.criteria.warmup_cycles)
+        v["supply"] = voltage_margin(  # the simulated peak torques, for pre-flight
+            bot, result.trajectory.torque_nm[steady],
+            float(gait_obj.planner.get("supply_v") or nominal_supply_v(bot)),
+        ).to_dict()
         gait_obj = gait_obj.with_validation(v)
         verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"
         console.print(f"simulation verdict: {verdict} " + "; ".join(result.reasons))

@@ -32,7 +32,7 @@ from gaitsmith.options import (
     check_supply_v,
 )
 from robots.thermal import DEFAULT_AMBIENT_C, DEFAULT_BOUT_S
-from robots.voltage import robot_at_voltage, voltage_margin
+from robots.voltage import nominal_supply_v, robot_at_voltage, voltage_margin
 from sim.metrics import steady_mask
 from sim.render import VIDEO_SUFFIXES
 from sim.thermal_report import (
@@ -218,11 +218,9 @@ def simulate_command(
     if thermal.unmodelled:
         console.print(f"  no thermal data (no published stall current): "
                       f"{', '.join(thermal.unmodelled)}")
-    margin = None
-    if supply_v is not None:
-        margin = voltage_margin(bot, traj.torque_nm[steady_mask(traj, criteria.warmup_cycles)],
-                                supply_v)
-        console.print(f"  supply: {margin.summary()}")
+    margin = voltage_margin(bot, traj.torque_nm[steady_mask(traj, criteria.warmup_cycles)],
+                            nominal_supply_v(bot) if supply_v is None else supply_v)
+    console.print(f"  supply: {margin.summary()}")
     for name, ok, detail in result.checks:
         console.print(f"  {'[green]ok  [/]' if ok else '[red]FAIL[/]'} {name}: {detail}")
     if video is not None:
@@ -277,8 +275,7 @@ def simulate_command(
     if write_validation:
         block = result.to_dict()
         block["thermal"] = thermal.to_dict()
-        if margin is not None:
-            block["supply"] = margin.to_dict()
+        block["supply"] = margin.to_dict()  # the simulated peak torques, for pre-flight
         gait_io.save(gait.with_validation(block), gait_path)
         console.print(f"validation written to {gait_path}")
     verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"

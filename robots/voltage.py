@@ -34,6 +34,13 @@ def voltage_range_v(robot: Robot) -> tuple[float, float]:
     return lo, hi
 
 
+def nominal_supply_v(robot: Robot) -> float:
+    """The supply the datasheets' figures hold at: the first servo's nominal voltage (kept
+    inside the range every servo accepts, for builds that mix servo models)."""
+    lo, hi = voltage_range_v(robot)
+    return min(max(_rated(robot.joints[0].servo).nominal_voltage_v, lo), hi)
+
+
 def check_supply_voltage(servo: ServoModel, supply_v: float) -> None:
     """RobotConfigError unless `supply_v` is finite and in the servo's supply range."""
     if not (math.isfinite(supply_v) and servo.voltage_min_v <= supply_v <= servo.voltage_max_v):
@@ -102,7 +109,7 @@ class VoltageMargin:
         w = self.worst
         return (
             f"at {self.supply_v:.2f} V the peak {w.joint} torque is "
-            f"{w.fraction_at_supply:.0%} of stall ({w.fraction_at_nominal:.0%} at "
+            f"{100 * w.fraction_at_supply:.0f} % of stall ({100 * w.fraction_at_nominal:.0f} % at "
             f"{self.nominal_v:.2f} V nominal)"
         )
 

@@ -58,3 +58,5 @@ def test_plan_simulate_writes_the_heating_prediction(tmp_path: Path) -> None:
     v = robots.gait.load(out).validation or {}
     assert v["thermal"]["schema"] == "gaitsmith.thermal/1"
     assert [j["joint"] for j in v["thermal"]["joints"]] == list(bot.joint_names)
+    assert v["supply"]["supply_v"] == 7.4  # nominal: the simulated peaks, for pre-flight
+    assert len(v["supply"]["joints"]) == bot.dof
