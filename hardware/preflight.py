@@ -12,7 +12,8 @@ the present pose lies within the joint limits (± `pose_tolerance_rad`).
 
 Supply (`check_supply`): at the supply voltage — measured (the lowest servo reading) or given
 (`--supply-v`) — the servos' stall torque is τ_stall·V/V_nominal (`robots.voltage`); the gait's
-planned peak torque per joint is reported against it ("at 7.00 V the peak knee torque is 83 %
+peak torque per joint (the larger of the planned torques and the simulated peaks the validation
+block carries) is reported against it ("at 7.00 V the peak knee torque is 83 %
 of stall (78 % at 7.40 V nominal)"), warned about above the sim verdict's 80 %, and refused
 above 100 % (the servo cannot deliver it; `force` turns the refusal into a warning).
 
@@ -207,6 +208,23 @@ def measured_supply_v(robot: Robot, statuses: Mapping[int, ServoStatus]) -> tupl
     return v, f"measured, lowest reading servo {j.bus_id} ({j.name})"
 
 
+def _peak_torques_nm(robot: Robot, gait: Gait) -> np.ndarray | None:
+    """Rows of per-joint torques to judge: the planned ones (`joint_torques_nm`) and the
+    simulated peaks (validation block `supply`, from `gaitsmith simulate`); None if neither."""
+    rows = []
+    if gait.joint_torques_nm is not None and gait.joint_torques_nm.shape[1] == robot.dof:
+        rows.append(np.abs(gait.joint_torques_nm))
+    block: Any = (gait.validation or {}).get("supply")
+    if isinstance(block, dict) and isinstance(block.get("joints"), list):
+        sim = {j.get("joint"): j.get("peak_torque_nm") for j in block["joints"]
+               if isinstance(j, dict)}
+        row = [sim.get(name) for name in robot.joint_names]
+        if all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x)
+               for x in row):
+            rows.append(np.abs(np.array(row, dtype=float))[None, :])
+    return np.vstack(rows) if rows else None
+
+
 def check_supply(robot: Robot, gait: Gait, supply_v: float, source: str, force: bool
                  ) -> tuple[str, list[str]]:
     """The gait's planned peak torques against the envelope at `supply_v` (module docstring):
@@ -223,10 +241,11 @@ def check_supply(robot: Robot, gait: Gait, supply_v: float, source: str, force: 
     if isinstance(planned_v, (int, float)) and supply_v < float(planned_v) - 0.05:
         warnings.append(f"WARNING: supply {supply_v:.2f} V ({source}) is below the "
                         f"{float(planned_v):.2f} V the gait was planned at")
-    if gait.joint_torques_nm is None:
-        return (f"supply {supply_v:.2f} V ({source}): the gait carries no planned torques, "
-                "torque margin not checked", warnings)
-    margin = voltage_margin(robot, gait.joint_torques_nm, supply_v)
+    peaks = _peak_torques_nm(robot, gait)
+    if peaks is None:
+        return (f"supply {supply_v:.2f} V ({source}): the gait carries no planned or simulated "
+                "torques, torque margin not checked", warnings)
+    margin = voltage_margin(robot, peaks, supply_v)
     frac = margin.worst.fraction_at_supply
     line = f"supply ({source}): {margin.summary()}"
     if frac > 1.0:

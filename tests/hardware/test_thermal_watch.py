@@ -202,3 +202,18 @@ def test_preflight_warns_of_a_servo_predicted_to_reach_its_limit_within_the_run(
     assert check_heating(rig.robot, hot, statuses, WatchdogLimits(), run_s=t_min * 60 - 30) == []
     cool = {j.bus_id: _prediction(2.0)}
     assert check_heating(rig.robot, cool, statuses, WatchdogLimits(), run_s=None) == []
+
+
+def test_supply_margin_uses_the_simulated_peaks_too(tmp_path: Path) -> None:
+    rig = make_rig(tmp_path)
+    names = rig.robot.joint_names
+    sim = {"supply": {"supply_v": 7.4, "joints": [
+        {"joint": n, "peak_torque_nm": 1.7 if k == 4 else 0.3} for k, n in enumerate(names)
+    ]}}
+    gait = _with_torques(rig.gait, 0.5).with_validation(sim)  # planned 0.5, simulated 1.7
+    line, _ = check_supply(rig.robot, gait, 7.4, "--supply-v", force=False)
+    assert f"peak {names[4]} torque is 89 % of stall" in line
+    with pytest.raises(PreflightError, match="more than the servo can give"):
+        check_supply(rig.robot, gait, 6.5, "measured", force=False)
+    line, _ = check_supply(rig.robot, rig.gait, 7.4, "measured", force=False)
+    assert "no planned or simulated torques" in line
