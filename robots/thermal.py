@@ -83,25 +83,26 @@ ELECTRICAL: tuple[ServoElectrical, ...] = (
 # Estimated from robonine.com's STS3215 tests ("Testing of Feetech STS3215 Servomotor: Backlash,
 # Repeatability, and Torque", robonine.com, and its results table in TheRobotStudio/SO-ARM100
 # issue #134), on the 12 V C018 (30 kg·cm) at a regulated 12 V:
-#   - static: 1 kg at 15 cm (1.471 N·m, 50 % of the 2.942 N·m stall) → 48 °C after 10 min,
-#     "remained stable for >1 h with no further increase";
-#   - lifting 1.5 kg on 10 cm (the same 1.471 N·m) → "+15 °C rise after 10 min".
-# Both at the same torque: a 15 K rise, settled within 10 minutes (the 48 °C then means a servo
-# that started at ≈33 °C). P = (0.5·2.4 A)²·(12 V/2.4 A) = 7.2 W → R_th = 15/7.2 = 2.08 K/W;
-# settled by 10 minutes → 3·τ_th ≤ 600 s → τ_th = 200 s (the slowest time constant consistent
-# with it). Not fitted, and a warning about this model: the same article's oscillation test
-# (±90° continuous motion from 48 °C: 60 °C after 50 min, then 71 °C after ~110 min, overheat)
-# heats more, and more slowly, than an I²R-of-output-torque model can explain — motion adds
-# losses (gearbox friction carried by the motor, driver switching) that |τ| does not show. Expect
-# the prediction to be optimistic for servos that move a lot; gaitsmith-play's watchdog compares
-# it with the servos' own temperature readings.
+#   - static: 1 kg at 15 cm (1.471 N·m, 50 % of the 2.942 N·m stall) held continuously → 48 °C
+#     after 10 min, "remained stable for >1 h with no further increase";
+#   - lifting 1.5 kg on 10 cm (the same 1.471 N·m at the top, less on average) → "+15 °C rise
+#     after 10 min" (consistent with a lower mean torque than the static hold).
+# The static hold is the clean measurement. The room temperature is not stated: taking 25 °C
+# (the conservative reading: more heating per watt than if the servo started warm), ΔT = 23 K at
+# P = (0.5·2.4 A)²·(12 V/2.4 A) = 7.2 W → R_th = 23/7.2 = 3.19 K/W; settled by 10 minutes →
+# 3·τ_th ≤ 600 s → τ_th = 200 s (the slowest time constant consistent with it). Not fitted, and
+# a warning about this model: the same article's oscillation test (±90° continuous motion from
+# 48 °C: 60 °C after 50 min, then 71 °C after ~110 min, overheat) heats more, and more slowly,
+# than an I²R-of-output-torque model explains — motion adds losses (gearbox friction carried by
+# the motor, driver switching) that |τ| does not show. Expect the prediction to be optimistic
+# for servos that move a lot; gaitsmith-play's watchdog compares it with the servos' own readings.
 REFERENCE = ThermalReference(
     servo="STS3215_12V",
     mass_kg=0.055,
-    r_th_k_per_w=15.0 / ((1.471 / 2.942) ** 2 * 12.0 * 2.4),
+    r_th_k_per_w=23.0 / ((1.471 / 2.942) ** 2 * 12.0 * 2.4),
     tau_th_s=200.0,
-    source="estimated from robonine.com's STS3215 C018 tests (1.47 N·m → +15 K, settled "
-    "within 10 min)",
+    source="estimated from robonine.com's STS3215 C018 hold test (1.47 N·m → 48 °C, settled "
+    "within 10 min; 25 °C room assumed)",
 )
 
 
