@@ -9,10 +9,14 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gaitsmith.errors import OptionError, OutputError
 from robots.errors import OutputWriteError
 from robots.files import check_writable
+
+if TYPE_CHECKING:
+    from robots.robot import Robot
 
 MAX_SPEED_M_S = 10.0  # planner.spacetime's own bound
 KNOTS_RANGE = (8, 200)  # planner.spacetime's own bound
@@ -79,3 +83,16 @@ def check_output_dir(option: str, path: Path) -> None:
         check_writable(path, directory=True)
     except OutputWriteError as exc:
         raise OutputError(f"{option} {exc}") from None
+
+
+def check_supply_v(option: str, value: float | None, robot: Robot) -> None:
+    """A supply voltage (None: not given) every servo of `robot` accepts."""
+    from robots.voltage import voltage_range_v
+
+    if value is None:
+        return
+    lo, hi = voltage_range_v(robot)
+    if lo > hi:
+        raise OptionError(f"{option}: the servos of {robot.name} share no supply voltage range")
+    servos = ", ".join(sorted({j.servo.name for j in robot.joints}))
+    check_number(option, value, lo, hi, unit=f"V (the supply range of {servos})")

@@ -26,6 +26,7 @@ from gaitsmith.options import (
     check_number,
     check_output_file,
     check_speed,
+    check_supply_v,
 )
 from gaitsmith.search_options import (
     check_search_options,
@@ -40,6 +41,7 @@ from planner.config import PlannerOptions
 from planner.errors import InfeasibleGaitError
 from planner.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES, make_schedule
+from robots.voltage import nominal_supply_v, robot_at_voltage, voltage_margin
 
 
 def plan(
@@ -81,6 +83,11 @@ def plan(
         False, "--simulate", help="validate in MuJoCo and write the verdict into the gait file"
     ),
     cycles: int = typer.Option(20, "--cycles", help="cycles to simulate (--simulate)"),
+    supply_v: float | None = typer.Option(
+        None, "--supply-v",
+        help="servo supply voltage [V]: plan within the torque–speed envelope at this voltage "
+        "(∝ V/V_nominal; default: the servos' nominal voltage)",
+    ),
 ) -> None:
     """Plan one efficient cyclic gait (W&P 2009 spacetime optimisation) and write the gait file."""
     settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
@@ -88,8 +95,11 @@ def plan(
     _check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     check_output_file("--output", output)
     bot = robots.load(robot)
+    check_supply_v("--supply-v", supply_v, bot)
+    bot = robot_at_voltage(bot, supply_v)
+    supply_meta = None if supply_v is None else {"supply_v": supply_v}
     if search:
-        _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles)
+        _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v)
         return
     gait = gait or default_gait(bot)
     check_gait_fits(bot, gait)
@@ -109,12 +119,14 @@ def plan(
             result = planner.solve(schedule, speed)
         _print_progress(result)
     _print_summary(planner, result)
+    if supply_v is not None and result.feasible:
+        console.print(voltage_margin(bot, result.joint_torques_nm, supply_v).summary())
     if not result.feasible:
         raise InfeasibleGaitError(
             f"{bot.name} {gait} at {speed} m/s: {result.message}; no gait file written",
             result.binding,
         )
-    gait_obj = planner.to_gait(result, gait)
+    gait_obj = planner.to_gait(result, gait, extra_metadata=supply_meta)
     _write(gait_obj, bot, output, simulate, cycles)
 
 
@@ -137,13 +149,26 @@ def _check_options(speed: float, knots: int, period: float | None, duty: float |
 def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,
            cycles: int) -> None:
     if simulate:
-        from sim.validate import validate_and_annotate  # lazy: MuJoCo rollout only on request
+        from sim.metrics import steady_mask  # lazy: MuJoCo only on request
+        from sim.thermal_report import predict_from_trajectory
+        from sim.validate import validate
 
         with console.status(f"validating in MuJoCo ({cycles} cycles)…"):
-            gait_obj = validate_and_annotate(gait_obj, bot, cycles)
-        v = gait_obj.validation or {}
-        verdict = "[bold green]PASS[/]" if v.get("passed") else "[bold red]FAIL[/]"
-        console.print(f"simulation verdict: {verdict} " + "; ".join(v.get("reasons", [])))
+            result = validate(gait_obj, bot, cycles)
+        assert result.trajectory is not None  # validate keeps it by default
+        thermal = predict_from_trajectory(result.trajectory, bot,
+                                          warmup_cycles=result.criteria.warmup_cycles)
+        v = result.to_dict()
+        v["thermal"] = thermal.to_dict()  # the player's heating prediction
+        steady = steady_mask(result.trajectory, result.criteria.warmup_cycles)
+        v["supply"] = voltage_margin(  # the simulated peak torques, for pre-flight
+            bot, result.trajectory.torque_nm[steady],
+            float(gait_obj.planner.get("supply_v") or nominal_supply_v(bot)),
+        ).to_dict()
+        gait_obj = gait_obj.with_validation(v)
+        verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"
+        console.print(f"simulation verdict: {verdict} " + "; ".join(result.reasons))
+        console.print(f"heating: {thermal.summary()}")
     robots.gait.save(gait_obj, output)
     console.print(f"wrote [bold]{output}[/]")
 
@@ -165,7 +190,8 @@ class SearchSettings:
 
 
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
-                 mu: float, st: SearchSettings, simulate: bool, cycles: int) -> None:
+                 mu: float, st: SearchSettings, simulate: bool, cycles: int,
+                 supply_v: float | None = None) -> None:
     from planner.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
@@ -213,7 +239,7 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
     if result.accepted is False:
         console.print("[yellow]no searched candidate passed the MuJoCo acceptance check; "
                       "writing the cheapest feasible one[/]")
-    meta = {"search": {
+    meta: dict[str, object] = {"search": {
         "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
         "seed": st.seed, "symmetric": st.symmetric,
@@ -227,6 +253,9 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         "sim_accepted": result.accepted, "cost_of_transport": result.cost_of_transport,
         "froude": result.froude,
     }}
+    if supply_v is not None:
+        meta["supply_v"] = supply_v
+        console.print(voltage_margin(bot, best.joint_torques_nm, supply_v).summary())
     gait_obj = result.planner.to_gait(best, result.label, extra_metadata=meta)
     log_path = output.with_suffix(".search.csv")
     write_search_log(result, log_path)

@@ -28,8 +28,18 @@ from gaitsmith.options import (
     check_friction,
     check_number,
     check_output_file,
+    check_supply_v,
 )
+from robots.thermal import DEFAULT_AMBIENT_C, DEFAULT_BOUT_S
+from robots.voltage import nominal_supply_v, robot_at_voltage, voltage_margin
+from sim.metrics import steady_mask
 from sim.render import VIDEO_SUFFIXES
+from sim.thermal_report import (
+    AMBIENT_RANGE_C,
+    MAX_BOUT_S,
+    ThermalPrediction,
+    predict_from_trajectory,
+)
 from sim.validate import PassCriteria, ValidationResult, evaluate, simulate
 
 MAX_PAYLOAD_KG = 1000.0
@@ -90,6 +100,23 @@ def _metrics_table(result: ValidationResult) -> Table:
     return table
 
 
+def _thermal_table(pred: ThermalPrediction) -> Table:
+    table = Table(title=f"predicted servo heating over {pred.bout_s / 60:g} min of walking "
+                  f"({pred.ambient_c:g} °C ambient; first-order model, R_th/τ_th estimated)")
+    for col in ("joint", "servo", "mean heat [W]", "rise [K]", "after bout [°C]",
+                "steady [°C]", "limit [°C]", "minutes to limit"):
+        table.add_column(col, justify="left" if col in ("joint", "servo") else "right")
+    for h in pred.hottest:
+        mins = "never" if h.minutes_to_limit is None else f"{h.minutes_to_limit:.1f}"
+        hot = h.minutes_to_limit is not None and h.minutes_to_limit * 60.0 <= pred.bout_s
+        style = "red" if hot else ""
+        steady_c = pred.ambient_c + h.steady_rise_k
+        table.add_row(h.joint, h.servo, f"{h.mean_power_w:.2f}", f"{h.rise_after_bout_k:.1f}",
+                      f"{h.temperature_after_bout_c:.1f}", f"{steady_c:.1f}",
+                      f"{h.max_temperature_c:.0f}", mins, style=style)
+    return table
+
+
 def simulate_command(
     gait_path: Path = typer.Argument(
         ..., help="gait file (gaitsmith.gait/1 JSON)", metavar="GAIT.json"
@@ -117,6 +144,17 @@ def simulate_command(
     video_seconds: float = typer.Option(
         10.0, "--video-seconds", help="video length from the gait start [s]"
     ),
+    supply_v: float | None = typer.Option(
+        None, "--supply-v",
+        help="servo supply voltage [V]: the torque–speed envelope scales ∝ V/V_nominal "
+        "(default: the gait's planned supply, else the servos' nominal voltage)",
+    ),
+    bout_min: float = typer.Option(
+        DEFAULT_BOUT_S / 60.0, "--bout-min", help="walking bout of the heating prediction [min]"
+    ),
+    ambient_c: float = typer.Option(
+        DEFAULT_AMBIENT_C, "--ambient-c", help="ambient temperature of the prediction [°C]"
+    ),
 ) -> None:
     """Simulate a gait in MuJoCo with servo actuators; exit 0 if it passes, 1 if it fails."""
     check_cycles("--cycles", cycles)
@@ -126,6 +164,8 @@ def simulate_command(
     check_number("--payload-kg", payload_kg, 0.0, MAX_PAYLOAD_KG, unit="kg")
     check_number("--strength", strength, 0.0, MAX_STRENGTH, lo_open=True)
     check_number("--video-seconds", video_seconds, 0.0, MAX_VIDEO_S, lo_open=True, unit="s")
+    check_number("--bout-min", bout_min, 0.0, MAX_BOUT_S / 60.0, lo_open=True, unit="min")
+    check_number("--ambient-c", ambient_c, *AMBIENT_RANGE_C, unit="°C")
     if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
         raise OptionError(f"--video {video}: must end in .mp4 or .gif")
     for option, path in (("--video", video), ("--report", report)):
@@ -136,6 +176,14 @@ def simulate_command(
     gait = gait_io.load(gait_path)
     bot = gait_io.robot_for(gait, gait_path, robot)  # --robot > robot_dir > built-in name
     gait.check_robot(bot, str(gait_path))
+    planned_v = gait.planner.get("supply_v")
+    source = "--supply-v"
+    if supply_v is None and isinstance(planned_v, (int, float)) and not isinstance(planned_v, bool):
+        supply_v = float(planned_v)  # a gait planned at a supply voltage is simulated at it
+        source = f"{gait_path}: planner.supply_v"
+        console.print(f"supply {supply_v:g} V (the voltage the gait was planned at)")
+    check_supply_v(source, supply_v, bot)
+    bot = robot_at_voltage(bot, supply_v)
     criteria = PassCriteria()
     with Progress(
         TextColumn("[bold]simulating"),
@@ -160,6 +208,18 @@ def simulate_command(
         )
     result = evaluate(traj, gait, sim, criteria, rate_hz=rate_hz, latency_s=latency_ms / 1000.0)
     console.print(_metrics_table(result))
+    thermal = predict_from_trajectory(
+        traj, bot, warmup_cycles=criteria.warmup_cycles, bout_s=bout_min * 60.0,
+        ambient_c=ambient_c,
+    )
+    console.print(_thermal_table(thermal))
+    console.print(f"  heating: {thermal.summary()}")
+    if thermal.unmodelled:
+        console.print(f"  no thermal data (no published stall current): "
+                      f"{', '.join(thermal.unmodelled)}")
+    margin = voltage_margin(bot, traj.torque_nm[steady_mask(traj, criteria.warmup_cycles)],
+                            nominal_supply_v(bot) if supply_v is None else supply_v)
+    console.print(f"  supply: {margin.summary()}")
     for name, ok, detail in result.checks:
         console.print(f"  {'[green]ok  [/]' if ok else '[red]FAIL[/]'} {name}: {detail}")
     if video is not None:
@@ -208,10 +268,14 @@ def simulate_command(
         from sim.report import write_report
 
         with console.status("writing report…"):
-            write_report(report, result, gait, sim, robustness=sweep)
+            write_report(report, result, gait, sim, robustness=sweep, thermal=thermal,
+                         voltage=margin)
         console.print(f"report → {report}")
     if write_validation:
-        gait_io.save(gait.with_validation(result.to_dict()), gait_path)
+        block = result.to_dict()
+        block["thermal"] = thermal.to_dict()
+        block["supply"] = margin.to_dict()  # the simulated peak torques, for pre-flight
+        gait_io.save(gait.with_validation(block), gait_path)
         console.print(f"validation written to {gait_path}")
     verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"
     console.print(

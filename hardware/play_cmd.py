@@ -258,6 +258,11 @@ def run(
         "T seconds into the run (without it: from the start, pre-flight included). "
         "E.g. --fault drop=0.01 --fault vanish=3@2.0",
     ),
+    supply_v: float | None = typer.Option(
+        None, "--supply-v",
+        help="Servo supply [V] for pre-flight's torque margin; default: measured (the lowest "
+        "servo reading).",
+    ),
 ) -> None:
     """Play a gait on the servos: pre-flight, ramp-in, stream, watchdog, safe stop.
 
@@ -300,6 +305,7 @@ def run(
             on_stop=on_stop,
             dry_run=dry_run,
             force=force,
+            supply_v=supply_v,
         )
         bus_config = BusConfig(
             timeout_s=timeout_ms / 1000.0, retries=1, baudrate=baud or rob.bus_baud
@@ -417,6 +423,8 @@ def budget(
 
 
 def _report(result: PlayResult, twin: Any, rate_hz: float, telemetry: Path | None) -> None:
+    if result.supply_margin is not None:
+        console.print(result.supply_margin, highlight=False)
     for w in result.warnings:
         err_console.print(f"[bold yellow]{w}[/]", highlight=False)
     _summary(result, twin, rate_hz)

@@ -53,9 +53,16 @@ from hardware.errors import (
     ServoFault,
 )
 from hardware.play_errors import PlayerError
-from hardware.preflight import check_bus, check_offline
+from hardware.preflight import (
+    check_bus,
+    check_heating,
+    check_offline,
+    check_supply,
+    measured_supply_v,
+)
 from hardware.safety_gate import GateCommand, SafetyGate
 from hardware.telemetry import TelemetryWriter, TickRecord
+from hardware.thermal_watch import predicted_heating
 from hardware.watchdog import StopEvent, StopReason, Watchdog, WatchdogLimits, stop_on_signals
 from robots.gait import Gait
 from robots.ramp import MinJerkRamp, gait_entry, ramp_to
@@ -113,6 +120,7 @@ class PlayerConfig:
     force: bool = False
     pose_tolerance_rad: float = 0.05
     limits: WatchdogLimits = field(default_factory=WatchdogLimits)
+    supply_v: float | None = None  # the servos' supply [V]; None: measured at pre-flight
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 1000.0):
@@ -156,6 +164,7 @@ class PlayResult:
     work_p99_s: float = 0.0  # p99 of one tick's work (send, read, check, log) [s]
     signals: int = 0  # stop signals received during the run
     telemetry_cut: str | None = None  # why the telemetry log was cut short (None: complete)
+    supply_margin: str | None = None  # peak planned torque vs stall at the supply voltage
 
     @property
     def exit_code(self) -> int:
@@ -192,10 +201,12 @@ class Player:
         )
         sink = None if cfg.dry_run or bus is None else bus.sync_write_positions
         self.gate = SafetyGate(self.calibration, self.allowed_speed_rad_s, cfg.rate_hz, sink)
+        self.heating = predicted_heating(robot, gait)
         self.watchdog = Watchdog(
             cfg.limits,
             {j.bus_id: j.servo for j in robot.joints},
             {j.bus_id: j.name for j in robot.joints},
+            heating=self.heating,
         )
         self.period_s = 1.0 / cfg.rate_hz
         self.ticks = 0
@@ -209,6 +220,7 @@ class Player:
         self._last_present: tuple[int, np.ndarray] | None = None
         self._actual_span_s: list[float] = []  # first and last tick start [s]
         self._adapter_lost = False
+        self.supply_margin: str | None = None  # pre-flight's supply-voltage torque margin
 
     # -- public -----------------------------------------------------------------------------------
     def request_stop(self, reason: StopReason, message: str) -> None:
@@ -236,15 +248,28 @@ class Player:
             rate_hz=cfg.rate_hz,
             cycles=cfg.cycles,
         )
+        statuses: dict[int, ServoStatus] = {}
         if self.bus is not None:
             try:
                 present: np.ndarray | dict[int, int] = check_bus(
-                    self.robot, self.calibration, self.bus, cfg.limits, cfg.pose_tolerance_rad
+                    self.robot, self.calibration, self.bus, cfg.limits, cfg.pose_tolerance_rad,
+                    on_status=statuses.update,
                 )
             except ADAPTER_ERRORS as exc:
                 raise PlayerError(f"pre-flight: serial adapter failed: {_os_text(exc)}") from None
         else:
             present = self.calibration.rad_to_ticks(self.robot.nominal_stance_rad)
+        if cfg.supply_v is not None:
+            supply = (cfg.supply_v, "--supply-v")
+        elif statuses:
+            supply = measured_supply_v(self.robot, statuses)
+        else:
+            supply = None
+        if supply is not None:
+            self.supply_margin, more = check_supply(self.robot, self.gait, *supply, cfg.force)
+            warnings += more
+        run_s = None if cfg.cycles is None else cfg.cycles * self.gait.period_s / cfg.speed_scale
+        warnings += check_heating(self.robot, self.heating, statuses, cfg.limits, run_s)
         return warnings, present
 
     def _play_accepted(
@@ -526,9 +551,10 @@ class Player:
             step_clips=self._clips[1],
             safe_at_s=safe_at,
             torque_off_failures=torque_failures,
-            warnings=warnings,
+            warnings=warnings + tuple(self.watchdog.warnings),
             dry_run=self.config.dry_run,
             work_p99_s=float(np.percentile(self._work_s, 99)) if self._work_s else 0.0,
             signals=self.watchdog.signals,
             telemetry_cut=None if self.telemetry is None else self.telemetry.cut,
+            supply_margin=self.supply_margin,
         )

@@ -9,28 +9,43 @@ lasts at most `MAX_CYCLE_S` and a finite run at most `MAX_RUN_S` (a gait file wi
 `force` turns the refusal into a warning). On the bus: every servo answers a ping with the
 catalogue model number, voltage and temperature are in range with no hardware-error flags, and
 the present pose lies within the joint limits (± `pose_tolerance_rad`).
+
+Supply (`check_supply`): at the supply voltage — measured (the lowest servo reading) or given
+(`--supply-v`) — the servos' stall torque is τ_stall·V/V_nominal (`robots.voltage`); the gait's
+peak torque per joint (the larger of the planned torques and the simulated peaks the validation
+block carries) is reported against it ("at 7.00 V the peak knee torque is 83 %
+of stall (78 % at 7.40 V nominal)"), warned about above the sim verdict's 80 %, and refused
+above 100 % (the servo cannot deliver it; `force` turns the refusal into a warning).
+
+Heating (`check_heating`): with the gait's predicted heating per servo
+(`hardware.thermal_watch.predicted_heating`), a servo predicted to reach its stop temperature
+within the run — from its present reading, the coolest servo's reading taken as the room — is
+warned about (the watchdog will stop the run there).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from hardware.bus import ServoBus
+from hardware.bus import ServoBus, ServoStatus
 from hardware.calibration import Calibration
 from hardware.errors import BusError, CalibrationError, NoResponse, ServoFault
 from hardware.play_errors import PreflightError, SpeedScaleError
+from hardware.thermal_watch import PredictedHeating
 from hardware.watchdog import WatchdogLimits
 from robots.errors import GaitFileError
 from robots.gait import Gait
 from robots.robot import Robot
+from robots.voltage import voltage_margin, voltage_range_v
 
 SPEED_SAMPLES_PER_KNOT = 8
 MAX_CYCLE_S = 120.0  # one gait cycle at the requested speed scale, at most [s]
 MAX_RUN_S = 24 * 3600.0  # a run of a given number of cycles, at most [s] (0 cycles: no bound)
+SUPPLY_WARN_FRACTION = 0.80  # sim.validate.PassCriteria.max_peak_torque_fraction (no sim import)
 
 
 @dataclass(frozen=True)
@@ -129,8 +144,10 @@ def check_bus(
     bus: ServoBus,
     limits: WatchdogLimits,
     pose_tolerance_rad: float = 0.05,
+    on_status: Callable[[Mapping[int, ServoStatus]], None] | None = None,
 ) -> dict[int, int]:
-    """Ping + model, health, present pose; returns the present pose {bus id: ticks}."""
+    """Ping + model, health, present pose; returns the present pose {bus id: ticks}.
+    `on_status` receives the status read (e.g. for `check_supply`'s measured voltage)."""
     ids = [j.bus_id for j in robot.joints]
     for j in robot.joints:
         who = f"servo {j.bus_id} ({j.name})"
@@ -149,6 +166,8 @@ def check_bus(
         statuses = bus.read_status(ids)
     except BusError as exc:
         raise PreflightError("status read", str(exc)) from None
+    if on_status is not None:
+        on_status(statuses)
     for j in robot.joints:
         st, m = statuses[j.bus_id], j.servo
         who = f"servo {j.bus_id} ({j.name})"
@@ -178,3 +197,94 @@ def check_bus(
                 f"{jc.upper_rad:.3f}] rad; move it by hand (torque off) or recalibrate",
             )
     return {i: int(present[i]) for i in ids}
+
+
+def measured_supply_v(robot: Robot, statuses: Mapping[int, ServoStatus]) -> tuple[float, str]:
+    """The lowest servo voltage reading and where it comes from (the supply the servos see)."""
+    readings = [(statuses[j.bus_id].voltage_v, j) for j in robot.joints if j.bus_id in statuses]
+    if not readings:
+        raise PreflightError("status read", "no servo reported its voltage")
+    v, j = min(readings, key=lambda r: r[0])
+    return v, f"measured, lowest reading servo {j.bus_id} ({j.name})"
+
+
+def _peak_torques_nm(robot: Robot, gait: Gait) -> np.ndarray | None:
+    """Rows of per-joint torques to judge: the planned ones (`joint_torques_nm`) and the
+    simulated peaks (validation block `supply`, from `gaitsmith simulate`); None if neither."""
+    rows = []
+    if gait.joint_torques_nm is not None and gait.joint_torques_nm.shape[1] == robot.dof:
+        rows.append(np.abs(gait.joint_torques_nm))
+    block: Any = (gait.validation or {}).get("supply")
+    if isinstance(block, dict) and isinstance(block.get("joints"), list):
+        sim = {j.get("joint"): j.get("peak_torque_nm") for j in block["joints"]
+               if isinstance(j, dict)}
+        row = [sim.get(name) for name in robot.joint_names]
+        if all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x)
+               for x in row):
+            rows.append(np.abs(np.array(row, dtype=float))[None, :])
+    return np.vstack(rows) if rows else None
+
+
+def check_supply(robot: Robot, gait: Gait, supply_v: float, source: str, force: bool
+                 ) -> tuple[str, list[str]]:
+    """The gait's planned peak torques against the envelope at `supply_v` (module docstring):
+    (the margin line to show, warnings); raises PreflightError if the servos cannot deliver
+    them (unless `force`)."""
+    lo, hi = voltage_range_v(robot)
+    if not (np.isfinite(supply_v) and lo <= supply_v <= hi):
+        raise PreflightError(
+            "supply voltage", f"{supply_v:g} V ({source}) outside the servos' range "
+            f"[{lo:g}, {hi:g}] V",
+        )
+    warnings = []
+    planned_v = gait.planner.get("supply_v")
+    if isinstance(planned_v, (int, float)) and supply_v < float(planned_v) - 0.05:
+        warnings.append(f"WARNING: supply {supply_v:.2f} V ({source}) is below the "
+                        f"{float(planned_v):.2f} V the gait was planned at")
+    peaks = _peak_torques_nm(robot, gait)
+    if peaks is None:
+        return (f"supply {supply_v:.2f} V ({source}): the gait carries no planned or simulated "
+                "torques, torque margin not checked", warnings)
+    margin = voltage_margin(robot, peaks, supply_v)
+    frac = margin.worst.fraction_at_supply
+    line = f"supply ({source}): {margin.summary()}"
+    if frac > 1.0:
+        problem = (f"{line}: more than the servo can give; charge the pack, or re-plan with "
+                   f"--supply-v {supply_v:.1f}")
+        if not force:
+            raise PreflightError("supply voltage", problem)
+        warnings.append(f"WARNING: {problem}; playing anyway because of --force")
+    elif frac > SUPPLY_WARN_FRACTION:
+        warnings.append(f"WARNING: {line}, over the {100 * SUPPLY_WARN_FRACTION:.0f} % the sim "
+                        "verdict allows")
+    return line, warnings
+
+
+def check_heating(
+    robot: Robot,
+    predictions: Mapping[int, PredictedHeating],
+    statuses: Mapping[int, ServoStatus],
+    limits: WatchdogLimits,
+    run_s: float | None,
+) -> list[str]:
+    """Warnings for servos predicted to reach their stop temperature within `run_s` (None:
+    until stopped) — see the module docstring."""
+    temps = [st.temperature_c for st in statuses.values()]
+    if not temps:
+        return []
+    room_c = min(temps)
+    warnings = []
+    for j in robot.joints:
+        pred, st = predictions.get(j.bus_id), statuses.get(j.bus_id)
+        if pred is None or st is None:
+            continue
+        stop_c = j.servo.max_temperature_c - limits.temperature_margin_c
+        t = pred.model.time_to_limit_s(pred.mean_power_w, room_c, start_c=st.temperature_c,
+                                       limit_c=stop_c)
+        if t is not None and (run_s is None or t < run_s):
+            warnings.append(
+                f"WARNING: servo {j.bus_id} ({j.name}): predicted to reach {stop_c:.0f} °C after "
+                f"{t / 60:.1f} min of this gait (now {st.temperature_c:.0f} °C, "
+                f"{pred.mean_power_w:.1f} W mean heat); the watchdog will stop it there"
+            )
+    return warnings

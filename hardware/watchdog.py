@@ -12,6 +12,10 @@ message, tick, time, servo id). Budgets:
   voltage → LOW_VOLTAGE, anything else → SERVO_FAULT;
 - temperature ≥ the servo's max_temperature_c − `temperature_margin_c`;
 - voltage < the servo's voltage_min_v + `voltage_margin_v`;
+- temperature trend (`hardware.thermal_watch`, given the gait's predicted heating): a servo
+  heating faster than predicted is warned about once (`Watchdog.warnings`), and stopped
+  (OVER_TEMPERATURE) once its measured rate would reach the temperature limit above within
+  `heating.lead_s` — before it gets there;
 - failed status reads (no reply / corrupt after the bus's retries): the
   `max_consecutive_status_misses`-th in a row → STATUS_LOST. Position reads alone keep the gait
   going but say nothing about heat or supply, so a servo whose health cannot be read must not
@@ -38,12 +42,13 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 from types import FrameType
 
 from hardware.bus import ServoStatus
 from hardware.errors import BusError, ServoFault
+from hardware.thermal_watch import HeatingTrend, PredictedHeating, TrendLimits
 from robots.servo import ServoModel
 
 
@@ -120,6 +125,7 @@ class WatchdogLimits:
     # Unlike max_consecutive_misses (misses tolerated), this many failed status reads in a row
     # stop the run: 3 at status_every_ticks = 10 and 100 Hz → health unknown for 0.3 s at most.
     max_consecutive_status_misses: int = 3
+    heating: TrendLimits = field(default_factory=TrendLimits)
 
     def __post_init__(self) -> None:
         if self.max_consecutive_misses < 1 or self.max_misses_in_window < 1:
@@ -144,11 +150,23 @@ class Watchdog:
     """Counts misses, checks health, and holds the first stop request."""
 
     def __init__(
-        self, limits: WatchdogLimits, servos: Mapping[int, ServoModel], joint_of: Mapping[int, str]
+        self,
+        limits: WatchdogLimits,
+        servos: Mapping[int, ServoModel],
+        joint_of: Mapping[int, str],
+        heating: Mapping[int, PredictedHeating] | None = None,
     ) -> None:
+        """`heating`: the gait's predicted heating per servo id
+        (`hardware.thermal_watch.predicted_heating`); None: no temperature-trend check."""
         self.limits = limits
         self.servos = dict(servos)
         self.joint_of = dict(joint_of)
+        self.heating = None if heating is None else HeatingTrend(
+            heating,
+            {sid: m.max_temperature_c - limits.temperature_margin_c for sid, m in servos.items()},
+            limits.heating,
+        )
+        self.warnings: list[str] = []  # raised during the run (e.g. heating faster than predicted)
         self._window: deque[bool] = deque(maxlen=limits.window_ticks)
         self._lock = threading.Lock()
         self.consecutive_misses = 0
@@ -300,6 +318,12 @@ class Watchdog:
                     t_s,
                     sid,
                 )
+            if self.heating is not None:
+                verdict = self.heating.feed(sid, t_s, st.temperature_c, who)
+                if verdict.warning is not None:
+                    self.warnings.append(verdict.warning)
+                if verdict.stop is not None:
+                    return self.request(StopReason.OVER_TEMPERATURE, verdict.stop, tick, t_s, sid)
         return None
 
 

@@ -9,10 +9,12 @@ import math
 from pathlib import Path
 
 from robots.gait import Gait, atomic_write_text
+from robots.voltage import VoltageMargin
 from sim import plots
 from sim.errors import ReportError
 from sim.model import SimModel
 from sim.robustness import RobustnessResult
+from sim.thermal_report import ThermalPrediction, temperature_plot
 from sim.validate import ValidationResult
 
 _CSS = """
@@ -80,12 +82,45 @@ def _robustness_html(sweep: RobustnessResult) -> list[str]:
     return parts
 
 
+def _thermal_html(pred: ThermalPrediction, voltage: VoltageMargin | None) -> list[str]:
+    """The heating prediction per joint (hottest first), and the supply margin if given."""
+    parts = []
+    if voltage is not None:
+        parts.append(f"<h2>Supply voltage</h2><p>{html.escape(voltage.summary())}; the "
+                     "torque–speed envelope scales ∝ V/V<sub>nominal</sub>.</p>")
+    parts.append(
+        f"<h2>Predicted servo heating</h2><p>{html.escape(pred.summary())}. First-order model "
+        "(robots.thermal): winding heat I²R with current ∝ |τ|, thermal resistance and time "
+        "constant estimated from a measured servo test — check against the servos' "
+        "temperature readings.</p><table><tr><th>joint</th><th>servo</th>"
+        "<th>mean heat [W]</th><th>rise after bout [K]</th><th>after bout [°C]</th>"
+        "<th>steady [°C]</th><th>limit [°C]</th><th>minutes to limit</th></tr>"
+    )
+    for h in pred.hottest:
+        mins = "never" if h.minutes_to_limit is None else f"{h.minutes_to_limit:.1f}"
+        cls = " class='fail'" if h.minutes_to_limit is not None else ""
+        parts.append(
+            f"<tr><td>{html.escape(h.joint)}</td><td>{html.escape(h.servo)}</td>"
+            f"<td>{h.mean_power_w:.2f}</td><td>{h.rise_after_bout_k:.1f}</td>"
+            f"<td>{h.temperature_after_bout_c:.1f}</td>"
+            f"<td>{pred.ambient_c + h.steady_rise_k:.1f}</td><td>{h.max_temperature_c:.0f}</td>"
+            f"<td{cls}>{mins}</td></tr>"
+        )
+    parts.append("</table>")
+    if pred.unmodelled:
+        parts.append("<p>No thermal data (no published stall current): "
+                     f"{html.escape(', '.join(pred.unmodelled))}.</p>")
+    return parts
+
+
 def render_html(
     result: ValidationResult, gait: Gait, sim: SimModel, *, title: str | None = None,
-    robustness: RobustnessResult | None = None,
+    robustness: RobustnessResult | None = None, thermal: ThermalPrediction | None = None,
+    voltage: VoltageMargin | None = None,
 ) -> str:
     """The report as an HTML string (needs `result.trajectory`); with `robustness`, the
-    perturbed runs of the robustness sweep as a table after the per-joint one."""
+    perturbed runs of the robustness sweep as a table after the per-joint one; with `thermal`
+    (and `voltage`), the predicted heating per joint and its plot, and the supply margin."""
     traj = result.trajectory
     if traj is None:
         raise ReportError(
@@ -130,6 +165,8 @@ def render_html(
     parts.append("</table>")
     if robustness is not None:
         parts.extend(_robustness_html(robustness))
+    if thermal is not None:
+        parts.extend(_thermal_html(thermal, voltage))
     try:
         figures = (
             ("Joint angles: planned vs simulated (last cycles)", plots.joints_plot(traj, sim)),
@@ -139,6 +176,9 @@ def render_html(
                 plots.torque_envelope_plot(traj, sim, result.criteria.max_peak_torque_fraction),
             ),
             ("Base motion", plots.base_plot(traj)),
+        ) + (
+            (("Predicted servo temperature over the bout", temperature_plot(thermal)),)
+            if thermal is not None and thermal.joints else ()
         )
     except Exception as exc:  # matplotlib errors are not user errors, but must not be tracebacks
         raise ReportError(f"cannot draw the report's plots: {exc}") from exc
@@ -149,9 +189,13 @@ def render_html(
 
 
 def write_report(path: str | Path, result: ValidationResult, gait: Gait, sim: SimModel, *,
-                 robustness: RobustnessResult | None = None) -> Path:
-    """Write the HTML report atomically (with the robustness table if given)."""
+                 robustness: RobustnessResult | None = None,
+                 thermal: ThermalPrediction | None = None,
+                 voltage: VoltageMargin | None = None) -> Path:
+    """Write the HTML report atomically (with the robustness, heating and supply sections if
+    given)."""
     p = Path(path)
-    text = render_html(result, gait, sim, robustness=robustness)
+    text = render_html(result, gait, sim, robustness=robustness, thermal=thermal,
+                       voltage=voltage)
     atomic_write_text(p, text)  # a failed write is an OutputWriteError naming the file
     return p

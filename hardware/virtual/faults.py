@@ -12,6 +12,7 @@ from hardware.errors import InvalidSetting
 MAX_DELAY_S = 60.0  # a reply later than a minute is a lost one: say drop
 MAX_SAG_V = 100.0  # above any servo supply
 MAX_NOISE_BYTES = 64
+MAX_HEATING_K_PER_S = 10.0  # far faster than any servo heats (its limit within seconds)
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,10 @@ class FaultPlan:
     adapter_lost_at_s: bus-clock time [s] from which the port itself fails — every read and
         write raises OSError EIO, as when the USB adapter is unplugged (`VirtualPort`; the
         `PtyServer` closes its side of the pty, so a client's own port sees the same).
+    heating_k_per_s: {servo id: rate [K/s]}: while its torque is on, that servo's temperature
+        register climbs at this rate above its ambient (a seized gear, a stalled joint, a
+        servo working harder than the plan says); past its catalogue limit it reports
+        overheating, as the firmware does.
     seed: seeds the RNG used for drop / corrupt / delay decisions (reset when the plan is set).
 
     Magnitudes are bounded (non-finite or absurd values raise `InvalidSetting`, a ValueError):
@@ -60,6 +65,7 @@ class FaultPlan:
     noise_probability: float = 0.0
     noise_max_bytes: int = 8
     adapter_lost_at_s: float | None = None
+    heating_k_per_s: Mapping[int, float] = field(default_factory=dict)
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -90,6 +96,12 @@ class FaultPlan:
             _check_time(f"FaultPlan.vanish_at_s[{i}]", t)
         if self.adapter_lost_at_s is not None:
             _check_time("FaultPlan.adapter_lost_at_s", self.adapter_lost_at_s)
+        rates = {}
+        for i, rate in self.heating_k_per_s.items():
+            bounded_int("FaultPlan.heating_k_per_s", i, 0, MAX_SERVO_ID)
+            rates[i] = bounded(f"FaultPlan.heating_k_per_s[{i}]", rate, 0.0, MAX_HEATING_K_PER_S,
+                               " K/s")
+        object.__setattr__(self, "heating_k_per_s", rates)
 
     def is_adapter_lost(self, now_s: float) -> bool:
         """Whether the port has failed (unplugged) at bus-clock time `now_s`."""

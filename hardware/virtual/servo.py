@@ -4,8 +4,9 @@ Motion: with torque enabled the present position moves toward the goal at the se
 speed (catalogue `no_load_speed_rad_s` · `ticks_per_rad` [ticks/s]), evaluated lazily from the
 injected bus clock — the same clock readings always give the same positions.
 Load: 20 % in the direction of motion while moving, plus `external_load_pct`; ±100 % under an
-injected overload. Voltage: catalogue nominal minus the plan's sag. Temperature: `ambient_c`, or
-above the catalogue limit under an injected overheat.
+injected overload. Voltage: catalogue nominal minus the plan's sag. Temperature: `ambient_c`, plus
+what an injected heating rate has added while torque was on (overheating reported past the
+catalogue limit), or above the catalogue limit under an injected overheat.
 
 Families: Dynamixel X (Protocol 2.0: errors latch in Hardware Error Status until reboot),
 Dynamixel AX/MX on Protocol 1.0 (no error register: the health bits go in every status packet's
@@ -63,6 +64,7 @@ class VirtualServo:
         self._goal = round(self._pos)
         self._t = now_s
         self._latched_error = 0
+        self._heat_k = 0.0  # temperature added by an injected heating rate [K]
         self._driven: tuple[float, float] | None = None  # (ticks, ticks/s) imposed by a plant
         self._readonly = [r for r in table.registers.values() if not r.writable]
         self._factory_defaults(servo_id)
@@ -165,7 +167,10 @@ class VirtualServo:
         if sid in faults.overload:
             load = math.copysign(100.0, load or 1.0)
         volts = self.model.nominal_voltage_v - faults.voltage_sag_v
-        temp = self.ambient_c
+        if self.torque_enabled:
+            self._heat_k += faults.heating_k_per_s.get(sid, 0.0) * dt
+        temp = self.ambient_c + self._heat_k
+        hot = sid in faults.overheat or temp > self.model.max_temperature_c
         if sid in faults.overheat:
             temp = self.model.max_temperature_c + 5.0
         bits = self.table.hardware_error_bits
@@ -174,7 +179,7 @@ class VirtualServo:
         dxl = self.is_dynamixel or self.is_protocol1
         if sid in faults.voltage_error or volts < self.model.voltage_min_v:
             error |= inv["input_voltage" if dxl else "voltage"]
-        if sid in faults.overheat:
+        if hot:
             error |= inv["overheating" if dxl else "overheat"]
         if sid in faults.overload:
             error |= inv["overload"]
