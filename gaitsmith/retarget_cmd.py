@@ -17,6 +17,7 @@ from rich.table import Table
 import robots
 import robots.gait as gait_io
 from gaitsmith.console import console
+from gaitsmith.errors import OptionError
 from gaitsmith.options import (
     check_cycles,
     check_friction,
@@ -37,6 +38,7 @@ from planner.retarget import (
     retarget,
 )
 from planner.spacetime import GaitPlanner, PlanResult
+from robots.errors import RobotsError
 
 MAX_STEPS = 20
 
@@ -71,7 +73,12 @@ def retarget_command(
         check_cycles("--cycles", cycles)
     check_output_file("--output", output)
     gait = gait_io.load(gait_file)
-    src = robots.load(source or gait.robot)
+    src = _source_robot(gait, gait_file, source)
+    if source is None and gait.robot_fingerprint != src.fingerprint:
+        raise OptionError(
+            f"{gait_file} was planned for {gait.robot}@{gait.robot_fingerprint}, but "
+            f"'{gait.robot}' loads build {src.fingerprint}; pass its folder with --from"
+        )
     gait.check_robot(src, str(gait_file))
     dst = robots.load(to)
     match = match_legs(src, dst)  # refuses different leg counts in one line
@@ -141,6 +148,18 @@ def retarget_command(
         console.print(f"simulation verdict: {verdict} " + "; ".join(v.get("reasons", [])))
     gait_io.save(gait_obj, output)
     console.print(f"wrote [bold]{output}[/]")
+
+
+def _source_robot(gait: gait_io.Gait, gait_file: Path, source: str | None) -> robots.Robot:
+    if source is not None:
+        return robots.load(source)
+    try:
+        return robots.load(gait.robot)
+    except RobotsError as exc:
+        raise OptionError(
+            f"{gait_file} was planned for {gait.robot!r}, which is not a built-in robot ({exc}); "
+            "pass its folder with --from"
+        ) from None
 
 
 def _table(outcome: RetargetResult, scratch: PlanResult | None) -> Table:

@@ -61,6 +61,7 @@ def scaled_copy(name: str, folder: Path, leg_scale: float, *, reverse_legs: bool
     folder.mkdir(parents=True)
     (folder / "robot.xml").write_text(spec.to_xml())
     toml = (BUILTIN / name / "robot.toml").read_text()
+    toml = toml.replace(f'name = "{name}"', f'name = "{folder.name}"', 1)
     if reverse_legs:
         head, *legs = re.split(r"(?m)^(?=\[legs\.)", toml)
         toml = head + "".join(block.rstrip("\n") + "\n\n" for block in reversed(legs))
@@ -198,7 +199,10 @@ def test_retarget_cli_quad_to_small_quad_and_back(
     assert gb.period_s == pytest.approx(ga.period_s * factor, rel=0.01)
     assert gb.planner["retarget"]["solves"] == 2
     assert sorted(gb.schedule.duty_factor) == sorted(ga.schedule.duty_factor)
-    assert cli.main(["retarget", str(b), "--to", "quad12", "--no-compare", "-o", str(back)]) == 0
+    assert cli.main(["retarget", str(b), "--to", "quad12", "--no-compare", "-o", str(back)]) == 2
+    assert "pass its folder with --from" in capsys.readouterr().err  # not the built-in's name
+    assert cli.main(["retarget", str(b), "--from", str(small_quad.root_dir), "--to", "quad12",
+                     "--no-compare", "-o", str(back)]) == 0
     g_back = gait_io.load(back, quad)
     assert g_back.velocity.vx_m_s == pytest.approx(ga.velocity.vx_m_s, rel=1e-9)
     assert g_back.planner["objective"] == pytest.approx(ga.planner["objective"], rel=0.05)
