@@ -34,9 +34,11 @@ from scipy.optimize import linear_sum_assignment
 
 from planner.config import PlannerOptions
 from planner.errors import PlannerError
+from planner.servo_loop import factory_servo_loops, servo_goals_rad
 from planner.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.templates import stance_foot_positions_m
 from robots import ContactSchedule, Gait, Robot
+from robots.spline import PeriodicSpline
 
 GRAVITY_M_S2 = 9.81
 _AXIS_MATCH_MIN_COS = 0.7  # joints whose stance axes are further apart than ~45° do not match
@@ -254,15 +256,23 @@ def map_motion(motion: Motion, target: Robot, match: LegMatch) -> Motion:
 
 def warm_start(motion: Motion, planner: GaitPlanner) -> WarmStart:
     """An IPOPT start point for `planner` (same robot and N as `motion`): poses, forces,
-    torques, and their cyclic central-difference rates."""
+    torques, and the lifted rates and servo-goal slopes they imply (zero multipliers: the
+    planner restarts them, `planner.spacetime.WARM_START_DUALS`)."""
     if motion.robot.joint_names != planner.robot.joint_names or motion.n_knots != planner.n_knots:
         raise RetargetError("internal: motion and planner differ in joints or knots")
-    dt_s = motion.schedule.period_s / motion.n_knots
+    n, dt_s = motion.n_knots, motion.schedule.period_s / motion.n_knots
     pose = np.hstack([motion.base_pose, motion.joint_angles_rad])
+    pose[:, 3:6] = np.unwrap(pose[:, 3:6], axis=0)
+    # the planner's own differences (planner.constraints): central first, second differences
     vel = _cyclic_rate(pose, dt_s)
-    acc = _cyclic_rate(vel, dt_s)
+    acc = (np.roll(pose, -1, axis=0) - 2.0 * pose + np.roll(pose, 1, axis=0)) / dt_s**2
+    slopes = np.zeros_like(motion.joint_angles_rad)
+    if planner.options.servo_goals:  # knot slopes of the spline through the servo goals
+        goals = servo_goals_rad(motion.joint_angles_rad, vel[:, 6:], motion.joint_torques_nm,
+                                factory_servo_loops(planner.robot))
+        slopes = PeriodicSpline(goals).derivative(np.arange(n) / n) / motion.schedule.period_s
     lifted = np.concatenate(
-        [vel.ravel(), acc.ravel(), motion.joint_torques_nm.ravel(), vel[:, 6:].ravel()]
+        [vel.ravel(), acc.ravel(), motion.joint_torques_nm.ravel(), slopes.ravel()]
     )
     x = planner.layout.pack(motion.base_pose, motion.joint_angles_rad, motion.forces_mg, lifted)
     lbx, ubx = planner._lbx, planner._ubx
