@@ -362,10 +362,6 @@ def retarget(
     current = motion
     if steps > 1:
         try:
-            if [len(leg.joints) for leg in source.legs] != [
-                len(target.legs[t].joints) for t in match.target_foot
-            ]:
-                raise HybridBodyError("the matched legs have different numbers of joints")
             pairs = match_bodies(source, target, match.target_foot)
         except HybridBodyError as exc:
             note = f"hybrid series left out: {exc}"
@@ -374,7 +370,11 @@ def retarget(
             with tempfile.TemporaryDirectory(prefix="gaitsmith-hybrid-") as tmp:
                 for k in range(1, steps):
                     alpha = k / steps
-                    body = hybrid_robot(source, target, pairs, alpha, Path(tmp) / f"h{k}")
+                    try:
+                        body = hybrid_robot(source, target, pairs, alpha, Path(tmp) / f"h{k}")
+                    except HybridBodyError as exc:
+                        note = f"hybrid series stopped before α={alpha:.2f}: {exc}"
+                        break
                     planner = GaitPlanner(body, n_knots=n_knots, options=options)
                     start = map_motion(current, body, LegMatch.identity(body))
                     result = planner.solve(start.schedule, start.speed_m_s,
