@@ -23,7 +23,7 @@ from planner.retarget import (
     map_motion,
     match_legs,
 )
-from planner.templates import leg_roles, make_schedule
+from planner.templates import leg_roles, make_schedule, stance_foot_positions_m
 
 BUILTIN = Path(robots.__file__).parent
 
@@ -141,6 +141,50 @@ def test_hybrid_bodies_interpolate_lengths_and_masses(
     assert ends[1].mass_kg == pytest.approx(0.5 * (quad.mass_kg + small_quad.mass_kg), rel=1e-6)
     assert quad.leg_length_m > ends[1].leg_length_m > small_quad.leg_length_m
     assert ends[1].joint_names == quad.joint_names  # hybrids keep the source's servo map
+
+
+def knee_rezeroed_copy(folder: Path, shift_rad: float) -> Path:
+    """quad12 with every knee's zero moved by `shift_rad` (shank contents rotated about the
+    knee, range and stance shifted back): the same body in space, another joint convention."""
+    spec = mujoco.MjSpec.from_file(str(BUILTIN / "quad12" / "robot.xml"))
+    spec.compile()
+    spec = mujoco.MjSpec.from_string(spec.to_xml())
+    c, s = math.cos(shift_rad / 2), math.sin(shift_rad / 2)
+    quat = np.array([c, 0.0, s, 0.0])  # about +y, the knee axis
+    rot = np.array([[math.cos(shift_rad), 0, math.sin(shift_rad)], [0, 1, 0],
+                    [-math.sin(shift_rad), 0, math.cos(shift_rad)]])
+    for leg in ("fl", "fr", "hl", "hr"):
+        shank = spec.body(f"{leg}_shank")
+        for item in (*shank.geoms, *shank.sites):
+            item.pos = rot @ np.asarray(item.pos)
+            q = np.zeros(4)
+            mujoco.mju_mulQuat(q, quat, np.asarray(item.quat, dtype=float))
+            item.quat = q
+        shank.ipos = rot @ np.asarray(shank.ipos)
+        knee = spec.joint(f"{leg}_knee")
+        knee.range = np.asarray(knee.range) - shift_rad
+    folder.mkdir(parents=True)
+    (folder / "robot.xml").write_text(spec.to_xml())
+    toml = (BUILTIN / "quad12" / "robot.toml").read_text().replace(
+        'name = "quad12"', 'name = "quad12_knee"', 1)
+    toml = toml.replace("stance_deg = -80.0", f"stance_deg = {-80.0 - math.degrees(shift_rad)}")
+    (folder / "robot.toml").write_text(toml)
+    return folder
+
+
+def test_hybrids_blend_in_the_stance_pose_across_joint_conventions(tmp_path: Path) -> None:
+    """Source quad12, target the same body with its knees zeroed 69° elsewhere: every blend is
+    that body again (a blend of the two zero poses would fold the shank: a shorter leg)."""
+    quad = robots.load("quad12")
+    same = robots.load(knee_rezeroed_copy(tmp_path / "knee", -1.2))
+    np.testing.assert_allclose(stance_foot_positions_m(same), stance_foot_positions_m(quad),
+                               atol=1e-6)  # the copy is the same body
+    pairs = match_bodies(quad, same, match_legs(quad, same).target_foot)
+    mid = hybrid_robot(quad, same, pairs, 0.5, tmp_path / "mid")
+    np.testing.assert_allclose(stance_foot_positions_m(mid), stance_foot_positions_m(quad),
+                               atol=1e-5)  # blending a body with itself changes nothing
+    end = hybrid_robot(quad, same, pairs, 1.0, tmp_path / "end")
+    assert end.joint("fl_knee").lower_rad == pytest.approx(quad.joint("fl_knee").lower_rad)
 
 
 def test_hybrids_between_different_trees_are_refused(tmp_path: Path) -> None:
