@@ -8,8 +8,10 @@ scales as ``v_B = v_A·√(L_B/L_A)`` and, since stride length scales with L, th
 Leg roles are matched by position, never by name: each robot's foot stance positions in the body
 frame (x, y), centred and divided by the half-extent of the foot polygon, are paired by the
 least total squared distance (Hungarian assignment, `scipy.optimize.linear_sum_assignment`).
-Joints are matched along matched legs by order from the body outwards, when the legs have the
-same number of joints; their axes at the nominal stance (world frame) give the sign, and the
+Joints are matched along matched legs in order from the body outwards, each target joint taking
+the next source joint whose axis at the nominal stance (world frame) is parallel to its own (so
+equal chains match joint by joint, and a 2-joint leg takes the pitch joints of a roll-pitch-pitch
+leg); the axes give the sign, and the
 motion is carried over as an offset from the nominal stance, ``q_B = q̄_B ± (q_A − q̄_A)``, so
 two robots whose joint zeros differ still get the same shape of motion.
 
@@ -133,14 +135,21 @@ def match_legs(source: Robot, target: Robot) -> LegMatch:
     joint_sign = [1.0] * len(target.joints)
     for i, leg in enumerate(source.legs):
         other = target.legs[target_foot[i]]
-        if len(leg.joints) != len(other.joints):
-            continue  # those target joints hold their stance
-        for js_name, jt_name in zip(leg.joints, other.joints, strict=True):
-            js, jt = s_index[js_name], t_index[jt_name]
-            cos = float(np.dot(axes_s[js], axes_t[jt]))
-            if abs(cos) >= _AXIS_MATCH_MIN_COS:
-                joint_source[jt] = js
-                joint_sign[jt] = 1.0 if cos > 0 else -1.0
+        # in chain order, each target joint takes the next source joint about a parallel axis
+        # (equal chains: joint k ↔ joint k; a 2-joint leg takes the pitch joints of a 3-joint
+        # one); a target joint with none holds its stance
+        source_chain = [s_index[n] for n in leg.joints]
+        k = 0
+        for jt_name in other.joints:
+            jt = t_index[jt_name]
+            for k2 in range(k, len(source_chain)):
+                js = source_chain[k2]
+                cos = float(np.dot(axes_s[js], axes_t[jt]))
+                if abs(cos) >= _AXIS_MATCH_MIN_COS:
+                    joint_source[jt] = js
+                    joint_sign[jt] = 1.0 if cos > 0 else -1.0
+                    k = k2 + 1
+                    break
     return LegMatch(tuple(target_foot), tuple(joint_source), tuple(joint_sign))
 
 

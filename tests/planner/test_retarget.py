@@ -102,6 +102,23 @@ def test_legs_match_by_position_not_by_order(small_quad: robots.Robot) -> None:
     assert match.joint_sign == (1.0,) * 12
 
 
+def test_two_joint_legs_take_the_pitch_joints(tmp_path: Path) -> None:
+    """A quadruped without hip-roll joints (2 per leg, like a Bittle): shoulder and knee take
+    quad12's hip pitch and knee; nothing is held at its stance."""
+    folder = tmp_path / "noroll"
+    shutil.copytree(BUILTIN / "quad12", folder)
+    xml = re.sub(r'<joint name="\w+_hip_roll"[^>]*/>', "", (folder / "robot.xml").read_text())
+    (folder / "robot.xml").write_text(xml)
+    toml = (folder / "robot.toml").read_text().replace('name = "quad12"', 'name = "noroll"', 1)
+    toml = re.sub(r"(?ms)^\[joints\.\w+_hip_roll\].*?(?=^\[)", "", toml)
+    toml = re.sub(r'"\w+_hip_roll", ', "", toml)
+    (folder / "robot.toml").write_text(toml)
+    quad, noroll = robots.load("quad12"), robots.load(folder)
+    match = match_legs(quad, noroll)
+    assert [quad.joint_names[s] for s in match.joint_source] == [
+        n for n in quad.joint_names if not n.endswith("hip_roll")]
+
+
 def test_froude_scaling_keeps_fr_duty_and_phases_by_role(small_quad: robots.Robot) -> None:
     quad = robots.load("quad12")
     motion = _motion(quad, "trot", 0.25)
