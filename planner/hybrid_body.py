@@ -11,8 +11,12 @@ own files at the end of the series.
 
 Bodies are matched by structure, not by name: the free-floating root with the root, and along
 each leg (source foot i ↔ target foot ``feet[i]``, the role match of `planner.retarget`) the
-bodies from the foot up to the root, by depth. Anything that does not match one to one (chain
-lengths, geom counts or types, site counts, mesh geoms) raises `HybridBodyError` naming it.
+bodies from the foot up to the root, by depth; joints along matched legs. Before blending, the
+target is re-expressed in the source's joint conventions (`_rezero`), so the two bodies blend
+in their nominal stance rather than in unrelated zero poses. Anything that does not match one
+to one (body counts, chain lengths, joints per leg or their axes, foot sites) raises
+`HybridBodyError` naming it. Geoms blend when a body's geoms match one to one and stay the
+source's otherwise: the planner reads none of them (the inertials are written explicitly).
 """
 
 from __future__ import annotations
@@ -220,20 +224,13 @@ def hybrid_spec(source: Robot, target: Robot, pairs: BodyPairs, alpha: float) ->
         bs.iquat = _nlerp(bs.iquat, bt.iquat, alpha)
         bs.inertia = _lerp(bs.inertia, bt.inertia, alpha)  # principal moments, axes nlerped
         gs, gt = list(bs.geoms), list(bt.geoms)
-        if len(gs) != len(gt):
-            raise HybridBodyError(
-                f"body {name_s} of {source.name} has {len(gs)} geoms, {name_t} of "
-                f"{target.name} {len(gt)}"
-            )
-        for a, b in zip(gs, gt, strict=True):
-            if a.type != b.type or a.type == mujoco.mjtGeom.mjGEOM_MESH:
-                raise HybridBodyError(
-                    f"geoms of body {name_s}/{name_t} differ in type or are meshes: "
-                    "cannot interpolate them"
-                )
-            a.size = _lerp(a.size, b.size, alpha)
-            a.pos = _lerp(a.pos, b.pos, alpha)
-            a.quat = _nlerp(a.quat, b.quat, alpha)
+        if len(gs) == len(gt) and all(a.type == b.type for a, b in zip(gs, gt, strict=True)):
+            for a, b in zip(gs, gt, strict=True):
+                a.size = _lerp(a.size, b.size, alpha)
+                a.pos = _lerp(a.pos, b.pos, alpha)
+                a.quat = _nlerp(a.quat, b.quat, alpha)
+        # else: the source's geoms stay. The inertials are explicit and the planner reads no
+        # geom (feet are sites + foot_radius_m), so they only draw the hybrid.
         for ja in bs.joints:
             if ja.name in joint_map:
                 ja.range = _lerp(ja.range, other.joint(joint_map[ja.name]).range, alpha)
