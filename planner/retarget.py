@@ -18,8 +18,16 @@ two robots whose joint zeros differ still get the same shape of motion.
 Incremental retargeting (M,C&O §3, the horse–dog hybrids): with `steps` K > 1 and a shared tree,
 K − 1 hybrid bodies (`planner.hybrid_body`, linear interpolations of link lengths, masses and
 inertias) are solved in turn, each warm-started from the one before at its own Froude-scaled
-speed and period, and the target last. With K = 1, or when the trees differ, the target's NLP
+speed and period, and the target last. The hybrids blend geometry and inertia only: they keep
+the source's servos and joint conventions (`planner.hybrid_body._rezero`), so the target's servo
+envelope first appears in the last solve. With K = 1, or when the trees differ, the target's NLP
 starts directly from the source's motion mapped by role.
+
+What it buys (measured, N=16, 2-core shared box, `gaitsmith retarget`): IPOPT iterations of the
+target's solve against a cold start of the same schedule and speed — quad12 trot → 0.6× copy
+36 vs 38, hex18 tripod → 0.8× copy 16 vs 28 (but a local optimum 12 % dearer: a warm start keeps
+the source's motion style, M,C&O's point, not the cheapest gait), a body retargeted to itself 7
+vs 19. Hybrid series (K = 3) took more iterations in total than one direct warm start.
 """
 
 from __future__ import annotations
