@@ -30,6 +30,7 @@ _COMMAND_MODULES = (
     "gaitsmith.plan_cmd",
     "gaitsmith.simulate_cmd",
     "gaitsmith.sweep_cmd",
+    "gaitsmith.retarget_cmd",
 )
 for _name in _COMMAND_MODULES:
     try:
