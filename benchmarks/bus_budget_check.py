@@ -3,7 +3,7 @@
     python benchmarks/bus_budget_check.py [--robot quad12 --robot hex18] [--seconds 4]
         [--rate 100] [--latency-ms 16] [--baud B]
 
-For each robot: the budget (`hardware.bus_budget.for_robot`) at the robot's baud, the servos'
+For each robot: the budget (`hardware.bus.budget.for_robot`) at the robot's baud, the servos'
 factory return delay and the given USB adapter latency; then a real-time player run of a bring-up
 gait on the in-process virtual bus with `WireTiming(baud, latency)` (every reply released when a
 real line and adapter would deliver it). Prints the achieved loop rate next to the budget's.
@@ -14,12 +14,12 @@ from __future__ import annotations
 import argparse
 
 import robots
-from hardware import bus_budget
-from hardware.bus import BusConfig
-from hardware.clock import MonotonicClock
-from hardware.player import Player, PlayerConfig, PlayResult
-from hardware.virtual import WireTiming
-from hardware.virtual_rig import bringup_gait, virtual_robot_bus
+from hardware.bus import budget as bus_budget
+from hardware.bus.servo_bus import BusConfig
+from hardware.bus.virtual import WireTiming
+from hardware.play.clock import MonotonicClock
+from hardware.play.player import Player, PlayerConfig, PlayResult
+from hardware.play.virtual_rig import bringup_gait, virtual_robot_bus
 
 
 def measure(

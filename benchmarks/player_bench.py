@@ -15,11 +15,11 @@ import argparse
 import numpy as np
 
 import robots
-from hardware.bus import BusConfig
-from hardware.clock import MonotonicClock
-from hardware.player import Player, PlayerConfig
-from hardware.telemetry import TelemetryWriter, read_telemetry
-from hardware.virtual_rig import bringup_gait, virtual_robot_bus
+from hardware.bus.servo_bus import BusConfig
+from hardware.play.clock import MonotonicClock
+from hardware.play.player import Player, PlayerConfig
+from hardware.play.telemetry import TelemetryWriter, read_telemetry
+from hardware.play.virtual_rig import bringup_gait, virtual_robot_bus
 
 
 def main() -> None:

@@ -16,10 +16,10 @@ import argparse
 import time
 from collections.abc import Callable
 
-from hardware.bus import BusConfig
-from hardware.protocol import dynamixel2 as dxl
-from hardware.protocol import feetech as ft
-from hardware.virtual import VirtualServoBus
+from hardware.bus.protocol import dynamixel2 as dxl
+from hardware.bus.protocol import feetech as ft
+from hardware.bus.servo_bus import BusConfig
+from hardware.bus.virtual import VirtualServoBus
 from robots.servo import servo_model
 
 IDS = list(range(1, 13))

@@ -1,9 +1,9 @@
 """`gaitsmith-play`: servo-side commands (scan a bus, serve a virtual bus; the player adds more).
 
 Run as `gaitsmith-play run` (or `python -m hardware.cli run`), this module first latches the
-stop signals (SIGINT, SIGTERM, SIGHUP, SIGQUIT; `hardware.watchdog.latch_stop_signals`) before
+stop signals (SIGINT, SIGTERM, SIGHUP, SIGQUIT; `hardware.play.watchdog.latch_stop_signals`) before
 it loads the rest, so a signal that arrives while the command starts up becomes the player's
-stop request instead of killing it half-way; see `hardware.play_cmd` for what each signal does.
+stop request instead of killing it half-way; see `hardware.play.commands` for what each signal does.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import signal
 import sys
 import time
 
-from hardware.watchdog import STOP_SIGNALS, latch_stop_signals
+from hardware.play.watchdog import STOP_SIGNALS, latch_stop_signals
 
 _AS_COMMAND = __name__ == "__main__" or os.path.basename(sys.argv[0]) == "gaitsmith-play"
 _LATCHED = _AS_COMMAND and sys.argv[1:2] == ["run"]
@@ -26,7 +26,7 @@ import typer  # noqa: E402 (after the latch)
 from rich.console import Console  # noqa: E402 (after the latch)
 from rich.table import Table  # noqa: E402 (after the latch)
 
-from hardware.bus import BusConfig, ServoBus  # noqa: E402 (after the latch)
+from hardware.bus.servo_bus import BusConfig, ServoBus  # noqa: E402 (after the latch)
 from hardware.errors import HardwareError  # noqa: E402 (after the latch)
 
 app = typer.Typer(
@@ -82,14 +82,14 @@ def _parse_ids(text: str) -> list[int]:
 def make_bus(protocol: ProtocolName, port: str, config: BusConfig) -> ServoBus:
     """A driver for `protocol` on device `port` (not yet opened)."""
     if protocol is ProtocolName.dynamixel:
-        from hardware.dynamixel import DynamixelBus
+        from hardware.bus.dynamixel import DynamixelBus
 
         return DynamixelBus(port, config)
     if protocol is ProtocolName.dynamixel1:
-        from hardware.dynamixel import Dynamixel1Bus
+        from hardware.bus.dynamixel import Dynamixel1Bus
 
         return Dynamixel1Bus(port, config)
-    from hardware.feetech import FeetechBus
+    from hardware.bus.feetech import FeetechBus
 
     return FeetechBus(port, config)
 
@@ -154,7 +154,7 @@ def virtual_bus(
     ),
 ) -> None:
     """Emulate a servo bus on a pseudo-terminal; prints its device path; runs until Ctrl-C."""
-    from hardware.virtual import PtyServer, VirtualServoBus, WireTiming
+    from hardware.bus.virtual import PtyServer, VirtualServoBus, WireTiming
 
     try:
         if robot is not None:
@@ -203,7 +203,7 @@ def virtual_bus(
     console.print(f"served {vbus.instructions} instruction packet(s); bye")
 
 
-from hardware.play_cmd import register as _register_player  # noqa: E402
+from hardware.play.commands import register as _register_player  # noqa: E402
 
 _register_player(app)
 

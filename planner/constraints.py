@@ -23,7 +23,7 @@ from planner.config import PlannerOptions
 from planner.model import RobotModel
 from planner.variables import Symbols
 
-GOAL_SPEED_SAMPLES_PER_KNOT = 8  # as the player's pre-flight (hardware.preflight)
+GOAL_SPEED_SAMPLES_PER_KNOT = 8  # as the player's pre-flight (hardware.play.preflight)
 GOAL_SPEED_INSIDE = 0.98  # the slope is quadratic between samples: measured overshoot ≈ 0.6 %
 
 

@@ -71,7 +71,7 @@ class Joint:
         return self.role == "hold"
 
     def angle_to_ticks(self, angle_rad: float) -> float:
-        """Servo goal position for a joint angle (no limit check; see hardware.calibration)."""
+        """Servo goal position for a joint angle (no limit check; see hardware.play.calibration)."""
         return self.zero_offset_ticks + self.direction * angle_rad * self.servo.ticks_per_rad
 
 

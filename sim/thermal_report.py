@@ -9,7 +9,7 @@ Joints whose servo has no published stall current are listed, not guessed.
 
 `ThermalPrediction.to_dict` is what `gaitsmith simulate --write-validation` stores under the
 validation block's `thermal` key; gaitsmith-play's watchdog compares the servos' temperature
-trend against it (hardware.thermal_watch).
+trend against it (hardware.play.thermal_watch).
 """
 
 from __future__ import annotations

@@ -29,10 +29,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from hardware.virtual.bus import VirtualServoBus
-from hardware.virtual.faults import NO_FAULTS, FaultPlan
-from hardware.virtual.servo import VirtualServo
-from hardware.virtual_rig import place_servos
+from hardware.bus.virtual.bus import VirtualServoBus
+from hardware.bus.virtual.faults import NO_FAULTS, FaultPlan
+from hardware.bus.virtual.servo import VirtualServo
+from hardware.play.virtual_rig import place_servos
 from robots.robot import Robot
 from sim.metrics import yaw_of
 from sim.model import STATE_SPEC, SimConditions, build_sim_model

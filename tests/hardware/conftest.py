@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 import pytest
 
-from hardware.virtual import VirtualServoBus
+from hardware.bus.virtual import VirtualServoBus
 from robots.servo import servo_model
 
 IDS = list(range(1, 13))

@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import robots
-from hardware.telemetry import Telemetry, read_telemetry
-from hardware.virtual import PtyServer, VirtualServoBus
-from hardware.virtual_rig import bringup_gait, virtual_robot_bus
+from hardware.bus.virtual import PtyServer, VirtualServoBus
+from hardware.play.telemetry import Telemetry, read_telemetry
+from hardware.play.virtual_rig import bringup_gait, virtual_robot_bus
 from robots.gait import save
 
 ROOT = Path(__file__).resolve().parents[2]

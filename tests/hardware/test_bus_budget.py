@@ -1,4 +1,4 @@
-"""`hardware.bus_budget` and `gaitsmith-play budget`: the packet model against what the drivers
+"""`hardware.bus.budget` and `gaitsmith-play budget`: the packet model against what the drivers
 really send, the virtual bus's wire-time emulation, and the budget against a player run on it."""
 
 from __future__ import annotations
@@ -10,15 +10,15 @@ import pytest
 from typer.testing import CliRunner
 
 import robots
-from hardware import bus_budget
-from hardware.bus import BusConfig
+from hardware.bus import budget as bus_budget
+from hardware.bus.protocol import dynamixel2 as dxl
+from hardware.bus.protocol import feetech as ft
+from hardware.bus.servo_bus import BusConfig
+from hardware.bus.virtual import VirtualPort, VirtualServoBus, WireTiming
 from hardware.cli import app
-from hardware.clock import MonotonicClock
-from hardware.player import Player, PlayerConfig
-from hardware.protocol import dynamixel2 as dxl
-from hardware.protocol import feetech as ft
-from hardware.virtual import VirtualPort, VirtualServoBus, WireTiming
-from hardware.virtual_rig import bringup_gait, virtual_robot_bus
+from hardware.play.clock import MonotonicClock
+from hardware.play.player import Player, PlayerConfig
+from hardware.play.virtual_rig import bringup_gait, virtual_robot_bus
 from robots.gait import save
 from robots.servo import servo_model
 
@@ -147,10 +147,10 @@ def test_player_on_the_wire_timed_virtual_bus_holds_the_budget_rate() -> None:
 def test_run_on_a_real_port_warns_before_anything_opens_when_the_rate_is_beyond_the_bus(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import hardware.sdk_bus
+    import hardware.bus.sdk_bus
 
     monkeypatch.setenv("GAITSMITH_CALIBRATION_DIR", str(tmp_path / "cal"))
-    monkeypatch.setattr(hardware.sdk_bus, "usb_latency_timer_s", lambda device: 0.016)
+    monkeypatch.setattr(hardware.bus.sdk_bus, "usb_latency_timer_s", lambda device: 0.016)
     gait = tmp_path / "bringup.json"
     save(bringup_gait(robots.load("quad12")), gait)
     args = ["run", str(gait), "--robot", "quad12", "--port", str(tmp_path / "no-such-tty")]
@@ -167,8 +167,8 @@ def test_the_pty_server_honours_wire_timing() -> None:
     X-series factory return delay)."""
     import time
 
-    from hardware.dynamixel import DynamixelBus
-    from hardware.virtual import PtyServer
+    from hardware.bus.dynamixel import DynamixelBus
+    from hardware.bus.virtual import PtyServer
 
     ids = list(range(1, 7))
     vbus = VirtualServoBus({i: MODELS["dynamixel2"] for i in ids})

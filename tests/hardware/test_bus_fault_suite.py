@@ -23,10 +23,10 @@ from typing import Any
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from hardware.bus import BusConfig, ServoBus
-from hardware.control_table import decode_flags, table_for_protocol
+from hardware.bus.control_table import decode_flags, table_for_protocol
+from hardware.bus.servo_bus import BusConfig, ServoBus
+from hardware.bus.virtual import FaultPlan, VirtualServoBus
 from hardware.errors import CorruptPacket, NoResponse
-from hardware.virtual import FaultPlan, VirtualServoBus
 from robots.servo import servo_model
 
 from .conftest import MODELS, ManualClock

@@ -17,9 +17,10 @@ import pytest
 from typer.testing import CliRunner
 
 import robots
-from hardware.bus import BusConfig
-from hardware.calibration import Calibration
-from hardware.dynamixel import DynamixelBus
+from hardware.bus.dynamixel import DynamixelBus
+from hardware.bus.feetech import FeetechBus
+from hardware.bus.servo_bus import BusConfig
+from hardware.bus.virtual import FaultPlan, PtyServer, VirtualServoBus
 from hardware.errors import (
     AdapterLost,
     BusError,
@@ -28,8 +29,7 @@ from hardware.errors import (
     InvalidSetting,
     NoResponse,
 )
-from hardware.feetech import FeetechBus
-from hardware.virtual import FaultPlan, PtyServer, VirtualServoBus
+from hardware.play.calibration import Calibration
 
 from .conftest import IDS, ManualClock
 
@@ -270,8 +270,8 @@ def test_gait_plays_over_the_pty_with_the_vendor_sdk(tmp_path: Path) -> None:
     """The README route: `virtual-bus --robot quad12` on a pty, `run --port /dev/pts/N`
     (scservo_sdk's own PortHandler on the device path), a short gait end to end."""
     from hardware.cli import app
-    from hardware.telemetry import read_telemetry
-    from hardware.virtual_rig import bringup_gait
+    from hardware.play.telemetry import read_telemetry
+    from hardware.play.virtual_rig import bringup_gait
     from robots.gait import save
 
     robot = robots.load("quad12")
@@ -378,7 +378,7 @@ def _one_line_value_error(exc: BaseException, needle: str) -> None:
 
 
 def test_usb_latency_timer_is_part_of_the_reply_allowance(tmp_path: Path) -> None:
-    from hardware.sdk_bus import usb_latency_timer_s
+    from hardware.bus.sdk_bus import usb_latency_timer_s
 
     (tmp_path / "ttyUSB7").mkdir()
     (tmp_path / "ttyUSB7" / "latency_timer").write_text("16\n")

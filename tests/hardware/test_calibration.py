@@ -11,8 +11,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import robots
-from hardware.calibration import Calibration, default_path, load_or_default
 from hardware.errors import CalibrationError, LimitError
+from hardware.play.calibration import Calibration, default_path, load_or_default
 
 
 @pytest.fixture(scope="module")

@@ -6,16 +6,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hardware.control_table import (
+from hardware.bus.control_table import (
     DYNAMIXEL_X,
     FEETECH_STS,
     decode_sign_magnitude,
     encode_sign_magnitude,
 )
+from hardware.bus.protocol import dynamixel2 as dxl
+from hardware.bus.protocol import feetech as ft
+from hardware.bus.protocol.common import PING, READ, STATUS, Packet
 from hardware.errors import CorruptPacket
-from hardware.protocol import dynamixel2 as dxl
-from hardware.protocol import feetech as ft
-from hardware.protocol.common import PING, READ, STATUS, Packet
 
 
 def h(text: str) -> bytes:

@@ -9,11 +9,11 @@ from typing import Any
 
 import pytest
 
-from hardware.bus import BusConfig, ServoBus
-from hardware.dynamixel import DynamixelBus
+from hardware.bus.dynamixel import DynamixelBus
+from hardware.bus.feetech import FeetechBus
+from hardware.bus.servo_bus import BusConfig, ServoBus
+from hardware.bus.virtual import FaultPlan, VirtualServoBus
 from hardware.errors import CorruptPacket, NoResponse, ServoFault
-from hardware.feetech import FeetechBus
-from hardware.virtual import FaultPlan, VirtualServoBus
 
 from .conftest import IDS, ManualClock
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 
 import robots
-from hardware.fault_spec import FaultSchedule, FaultSpecError, parse_fault
-from hardware.virtual import FaultPlan
-from hardware.virtual_rig import virtual_robot_bus
+from hardware.bus.virtual import FaultPlan
+from hardware.play.fault_spec import FaultSchedule, FaultSpecError, parse_fault
+from hardware.play.virtual_rig import virtual_robot_bus
 
 
 def test_specs_map_onto_the_fault_plan() -> None:

@@ -10,15 +10,15 @@ import time
 from typer.testing import CliRunner
 
 import hardware
+from hardware.bus.virtual import PtyServer, VirtualServoBus
 from hardware.cli import app
-from hardware.virtual import PtyServer, VirtualServoBus
 
 runner = CliRunner()
 
 
 def test_hardware_imports_neither_casadi_nor_mujoco() -> None:
     modules = sorted(m.name for m in pkgutil.walk_packages(hardware.__path__, prefix="hardware."))
-    assert "hardware.virtual.pty" in modules and "hardware.cli" in modules
+    assert "hardware.bus.virtual.pty" in modules and "hardware.cli" in modules
     code = (
         "import sys, importlib\n"
         f"for name in {['hardware', *modules]!r}:\n"
@@ -30,6 +30,30 @@ def test_hardware_imports_neither_casadi_nor_mujoco() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+def test_hardware_source_never_imports_sim_or_the_planner() -> None:
+    """DESIGN: hardware never imports sim, not even lazily (the twin comes by entry point)."""
+    import ast
+    from pathlib import Path
+
+    offenders = []
+    for path in Path(hardware.__file__).parent.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = (
+                [a.name for a in node.names] if isinstance(node, ast.Import)
+                else [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+            )
+            bad = [n for n in names if n.split(".")[0] in ("sim", "planner")]
+            offenders += [f"{path.name}: {n}" for n in bad]
+    assert not offenders, offenders
+
+
+def test_the_mujoco_twin_is_found_by_entry_point() -> None:
+    from hardware.play.commands import _virtual_plant
+    from sim.twin import MujocoTwin
+
+    assert _virtual_plant("sim") is MujocoTwin
 
 
 def test_scan_unopenable_port_is_a_clear_error() -> None:

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 import robots
-from hardware.clock import MonotonicClock, VirtualClock
-from hardware.play_errors import PreflightError, SpeedScaleError
-from hardware.player import Player, PlayerConfig, RestPose
-from hardware.virtual import FaultPlan
-from hardware.watchdog import StopReason
+from hardware.bus.virtual import FaultPlan
+from hardware.play.clock import MonotonicClock, VirtualClock
+from hardware.play.errors import PreflightError, SpeedScaleError
+from hardware.play.player import Player, PlayerConfig, RestPose
+from hardware.play.watchdog import StopReason
 from robots.ramp import gait_mean_pose
 from tests.hardware.test_player_support import (
     FAST_BUS,
@@ -87,7 +87,7 @@ def test_gate_clips_a_target_outside_the_limits(tmp_path: Path) -> None:
 
 def test_deadlines_do_not_drift_and_overruns_are_counted(tmp_path: Path) -> None:
     robot = robots.load("quad12")
-    from hardware.virtual_rig import bringup_gait
+    from hardware.play.virtual_rig import bringup_gait
 
     clock = VirtualClock(1000.0)
     slow = {400: 0.025}  # one tick takes 25 ms: 2 deadlines missed
@@ -170,7 +170,7 @@ def test_preflight_refusals_name_the_culprit(tmp_path: Path, problem: str, match
         rig.gait = rig.gait.with_validation({"passed": False, "reasons": ["fell"]})
         config = replace(CONFIG, force=False)
     elif problem == "pose":
-        from hardware.virtual_rig import place_servos
+        from hardware.play.virtual_rig import place_servos
 
         pose = np.array(rig.robot.nominal_stance_rad)
         pose[2] = 0.3  # knee limits are [-2.6, -0.2]
@@ -201,7 +201,7 @@ def test_wrong_model_number_is_refused(tmp_path: Path) -> None:
 def test_real_time_run_keeps_its_rate(tmp_path: Path) -> None:
     """A short run on the wall clock (about 1.3 s): rate, deadlines and jitter."""
     robot = robots.load("quad12")
-    from hardware.virtual_rig import bringup_gait, virtual_robot_bus
+    from hardware.play.virtual_rig import bringup_gait, virtual_robot_bus
 
     clock = MonotonicClock()
     vbus = virtual_robot_bus(robot, clock=clock)

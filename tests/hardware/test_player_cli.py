@@ -8,10 +8,10 @@ import pytest
 from typer.testing import CliRunner
 
 import robots
-from hardware.calibration import Calibration
 from hardware.cli import app
-from hardware.telemetry import read_telemetry
-from hardware.virtual_rig import bringup_gait
+from hardware.play.calibration import Calibration
+from hardware.play.telemetry import read_telemetry
+from hardware.play.virtual_rig import bringup_gait
 from robots.gait import save
 
 runner = CliRunner()

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
-from hardware.player import PlayerConfig
-from hardware.virtual import FaultPlan, VirtualServoBus
-from hardware.watchdog import StopReason
+from hardware.bus.virtual import FaultPlan, VirtualServoBus
+from hardware.play.player import PlayerConfig
+from hardware.play.watchdog import StopReason
 from tests.hardware.test_player_support import Rig, assert_wire_safe, make_rig, torque_all_off
 
 RAMP_S = 0.5
@@ -100,7 +100,7 @@ def test_one_percent_drops_do_not_stop_the_gait(tmp_path: Path) -> None:
 
 
 def test_hold_keeps_torque_after_a_completed_run(tmp_path: Path) -> None:
-    from hardware.player import OnStop
+    from hardware.play.player import OnStop
 
     rig = make_rig(tmp_path)
     result, _ = rig.play(replace(CONFIG, cycles=1, on_stop=OnStop.HOLD))
@@ -110,7 +110,7 @@ def test_hold_keeps_torque_after_a_completed_run(tmp_path: Path) -> None:
 
 def test_hold_applies_after_a_fault_stop_too(tmp_path: Path) -> None:
     """`--on-stop hold`: once the rest pose is reached, torque stays on whatever the reason."""
-    from hardware.player import OnStop
+    from hardware.play.player import OnStop
 
     rig = make_rig(tmp_path)
 

@@ -15,16 +15,16 @@ import pytest
 from typer.testing import CliRunner
 
 import robots
-from hardware.calibration import Calibration
 from hardware.cli import app
-from hardware.play_cmd import rate_warnings
-from hardware.play_errors import PreflightError, SpeedScaleError
-from hardware.player import Player, PlayerConfig
-from hardware.preflight import gait_peak_speeds_rad_s
-from hardware.safety_gate import SafetyGate
-from hardware.telemetry import TelemetryWriter, read_telemetry
-from hardware.virtual_rig import bringup_gait
-from hardware.watchdog import StopReason
+from hardware.play.calibration import Calibration
+from hardware.play.commands import rate_warnings
+from hardware.play.errors import PreflightError, SpeedScaleError
+from hardware.play.player import Player, PlayerConfig
+from hardware.play.preflight import gait_peak_speeds_rad_s
+from hardware.play.safety_gate import SafetyGate
+from hardware.play.telemetry import TelemetryWriter, read_telemetry
+from hardware.play.virtual_rig import bringup_gait
+from hardware.play.watchdog import StopReason
 from robots.gait import save
 from tests.hardware.test_player_support import assert_wire_safe, make_rig, torque_all_off
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from hardware.virtual import FaultPlan
+from hardware.bus.virtual import FaultPlan
 from tests.hardware.player_process import (
     EXIT_FOR_SIGNAL,
     REASON_FOR_SIGNAL,
@@ -132,7 +132,7 @@ def test_adapter_unplugged_mid_gait_is_one_line_and_a_stop_row(tmp_path: Path) -
     assert "Traceback" not in err and "stopped: adapter_lost — serial adapter" in out
     assert "torque-off NOT confirmed" in err  # said so: the servos could not be reached
     assert exited_after_s < 5.0  # bounded: no wait for replies that cannot come
-    from hardware.telemetry import read_telemetry
+    from hardware.play.telemetry import read_telemetry
 
     tel = read_telemetry(p.tel_path)
     assert tel.stop_reason == "adapter_lost"

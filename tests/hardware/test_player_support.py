@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 
 import robots
-from hardware.bus import BusConfig, ServoBus
-from hardware.clock import VirtualClock
-from hardware.player import Player, PlayerConfig, PlayResult
-from hardware.telemetry import Telemetry, TelemetryWriter, read_telemetry
-from hardware.virtual import VirtualServoBus
-from hardware.virtual_rig import bringup_gait, slumped_pose_rad, virtual_robot_bus
-from hardware.wire_log import WireRecorder
+from hardware.bus.servo_bus import BusConfig, ServoBus
+from hardware.bus.virtual import VirtualServoBus
+from hardware.bus.wire_log import WireRecorder
+from hardware.play.clock import VirtualClock
+from hardware.play.player import Player, PlayerConfig, PlayResult
+from hardware.play.telemetry import Telemetry, TelemetryWriter, read_telemetry
+from hardware.play.virtual_rig import bringup_gait, slumped_pose_rad, virtual_robot_bus
 from robots.gait import Gait
 from robots.robot import Robot
 

@@ -22,13 +22,13 @@ from dataclasses import replace
 
 import pytest
 
-from hardware.bus import BusConfig
-from hardware.control_table import DYNAMIXEL_AX, TABLES
-from hardware.dynamixel import Dynamixel1Bus
+from hardware.bus.control_table import DYNAMIXEL_AX, TABLES
+from hardware.bus.dynamixel import Dynamixel1Bus
+from hardware.bus.protocol import dynamixel1 as p1
+from hardware.bus.protocol.common import FACTORY_RESET, READ
+from hardware.bus.servo_bus import BusConfig
+from hardware.bus.virtual import FaultPlan, VirtualServoBus
 from hardware.errors import CorruptPacket, ServoFault
-from hardware.protocol import dynamixel1 as p1
-from hardware.protocol.common import FACTORY_RESET, READ
-from hardware.virtual import FaultPlan, VirtualServoBus
 from robots.servo import servo_model
 
 from .conftest import ManualClock

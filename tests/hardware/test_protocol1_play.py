@@ -13,8 +13,8 @@ from typer.testing import CliRunner
 
 import robots
 from hardware.cli import app
-from hardware.telemetry import read_telemetry
-from hardware.virtual_rig import bringup_gait
+from hardware.play.telemetry import read_telemetry
+from hardware.play.virtual_rig import bringup_gait
 from robots.gait import save
 
 runner = CliRunner()

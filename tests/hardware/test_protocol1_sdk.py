@@ -11,9 +11,9 @@ from typing import Any
 import dynamixel_sdk as sdk
 import pytest
 
-from hardware.bus import BusConfig
-from hardware.dynamixel import Dynamixel1Bus
-from hardware.virtual import PtyServer, VirtualPort, VirtualServoBus
+from hardware.bus.dynamixel import Dynamixel1Bus
+from hardware.bus.servo_bus import BusConfig
+from hardware.bus.virtual import PtyServer, VirtualPort, VirtualServoBus
 from robots.servo import servo_model
 
 from .conftest import ManualClock

@@ -11,7 +11,7 @@ import dynamixel_sdk as dxl_sdk
 import pytest
 import scservo_sdk as ft_sdk
 
-from hardware.virtual import PtyServer, VirtualPort, VirtualServoBus
+from hardware.bus.virtual import PtyServer, VirtualPort, VirtualServoBus
 
 from .conftest import IDS, ManualClock
 

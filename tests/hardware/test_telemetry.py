@@ -7,8 +7,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hardware.bus import ServoStatus
-from hardware.telemetry import TelemetryWriter, TickRecord, columns, plot_telemetry, read_telemetry
+from hardware.bus.servo_bus import ServoStatus
+from hardware.play.telemetry import (
+    TelemetryWriter,
+    TickRecord,
+    columns,
+    plot_telemetry,
+    read_telemetry,
+)
 
 NAMES = ("a_hip", "a_knee")
 IDS = (1, 2)

@@ -9,13 +9,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hardware.bus import ServoStatus
-from hardware.play_errors import PreflightError
-from hardware.player import PlayerConfig
-from hardware.preflight import check_supply
-from hardware.thermal_watch import HeatingTrend, PredictedHeating, TrendLimits, predicted_heating
-from hardware.virtual import FaultPlan
-from hardware.watchdog import StopReason, Watchdog, WatchdogLimits
+from hardware.bus.servo_bus import ServoStatus
+from hardware.bus.virtual import FaultPlan
+from hardware.play.errors import PreflightError
+from hardware.play.player import PlayerConfig
+from hardware.play.preflight import check_supply
+from hardware.play.thermal_watch import (
+    HeatingTrend,
+    PredictedHeating,
+    TrendLimits,
+    predicted_heating,
+)
+from hardware.play.watchdog import StopReason, Watchdog, WatchdogLimits
 from robots.gait import Gait
 from robots.servo import servo_model
 from robots.thermal import thermal_model
@@ -98,7 +103,7 @@ def test_prediction_comes_from_the_validation_block_else_the_plan(tmp_path: Path
 
 
 def test_virtual_heating_fault_climbs_while_torque_is_on_and_trips_overheat(clock) -> None:  # type: ignore[no-untyped-def]
-    from hardware.virtual import VirtualServoBus
+    from hardware.bus.virtual import VirtualServoBus
 
     vbus = VirtualServoBus({1: STS}, "feetech_sts", clock=clock,
                            faults=FaultPlan(heating_k_per_s={1: 1.0}))
@@ -188,7 +193,7 @@ def test_running_slope_is_the_least_squares_slope() -> None:
 def test_preflight_warns_of_a_servo_predicted_to_reach_its_limit_within_the_run(
     tmp_path: Path,
 ) -> None:
-    from hardware.preflight import check_heating
+    from hardware.play.preflight import check_heating
 
     rig = make_rig(tmp_path)
     j = rig.robot.joints[2]

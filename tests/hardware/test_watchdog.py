@@ -8,9 +8,9 @@ import signal
 import pytest
 
 import robots
-from hardware.bus import ServoStatus
+from hardware.bus.servo_bus import ServoStatus
 from hardware.errors import CorruptPacket, NoResponse, ServoFault
-from hardware.watchdog import (
+from hardware.play.watchdog import (
     EXIT_CODES,
     StopReason,
     Watchdog,
@@ -173,7 +173,7 @@ def test_a_signal_storm_keeps_the_first_reason_and_only_escalates() -> None:
 
 
 def test_signals_latched_before_the_player_become_its_stop_request() -> None:
-    import hardware.watchdog as wd
+    import hardware.play.watchdog as wd
 
     saved = {s: signal.getsignal(s) for s in wd.STOP_SIGNALS}
     try:

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import robots
-from hardware.bus import BusConfig
-from hardware.clock import VirtualClock
-from hardware.player import Player, PlayerConfig, PlayResult
-from hardware.wire_log import WireRecorder
+from hardware.bus.servo_bus import BusConfig
+from hardware.bus.wire_log import WireRecorder
+from hardware.play.clock import VirtualClock
+from hardware.play.player import Player, PlayerConfig, PlayResult
 from robots.gait import Gait
 from robots.robot import Robot
 from sim.twin import MujocoTwin
@@ -42,7 +42,7 @@ def _steady_speed_m_s(
 
 
 def test_bringup_gait_is_tracked_and_physics_runs_in_lockstep(quad: Robot) -> None:
-    from hardware.virtual_rig import bringup_gait
+    from hardware.play.virtual_rig import bringup_gait
 
     gait = bringup_gait(quad, amplitude_rad=0.1, period_s=0.8)
     result, twin, wire = _play(quad, gait, cycles=2)
@@ -110,7 +110,7 @@ def test_hardware_twin_is_reachable_only_lazily() -> None:
     import sys
 
     code = (
-        "import sys, hardware.player, hardware.play_cmd, hardware.cli\n"
+        "import sys, hardware.play.player, hardware.play.commands, hardware.cli\n"
         "print(int('mujoco' in sys.modules))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -29,7 +29,7 @@ from typing import IO
 
 import numpy as np
 
-from hardware.bus import ServoStatus
+from hardware.bus.servo_bus import ServoStatus
 
 BASE_COLUMNS = (
     "tick", "phase", "t_sched_s", "t_actual_s", "jitter_s", "loop_s", "overrun", "event", "message"

@@ -12,11 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hardware.control_table import table_for_protocol
-from hardware.protocol import dynamixel2 as dxl
-from hardware.protocol import feetech as ft
-from hardware.protocol.common import SYNC_WRITE, WRITE, Packet
-from hardware.virtual.bus import VirtualServoBus
+from hardware.bus.control_table import table_for_protocol
+from hardware.bus.protocol import dynamixel2 as dxl
+from hardware.bus.protocol import feetech as ft
+from hardware.bus.protocol.common import SYNC_WRITE, WRITE, Packet
+from hardware.bus.virtual.bus import VirtualServoBus
 
 
 @dataclass(frozen=True)

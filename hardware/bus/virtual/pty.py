@@ -20,7 +20,7 @@ import time
 import tty
 from types import TracebackType
 
-from hardware.virtual.bus import VirtualServoBus
+from hardware.bus.virtual.bus import VirtualServoBus
 
 
 class PtyServer:

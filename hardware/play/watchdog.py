@@ -12,7 +12,7 @@ message, tick, time, servo id). Budgets:
   voltage → LOW_VOLTAGE, anything else → SERVO_FAULT;
 - temperature ≥ the servo's max_temperature_c − `temperature_margin_c`;
 - voltage < the servo's voltage_min_v + `voltage_margin_v`;
-- temperature trend (`hardware.thermal_watch`, given the gait's predicted heating): a servo
+- temperature trend (`hardware.play.thermal_watch`, given the gait's predicted heating): a servo
   heating faster than predicted is warned about once (`Watchdog.warnings`), and stopped
   (OVER_TEMPERATURE) once its measured rate would reach the temperature limit above within
   `heating.lead_s` — before it gets there;
@@ -46,9 +46,9 @@ from dataclasses import dataclass, field
 from enum import Enum
 from types import FrameType
 
-from hardware.bus import ServoStatus
+from hardware.bus.servo_bus import ServoStatus
 from hardware.errors import BusError, ServoFault
-from hardware.thermal_watch import HeatingTrend, PredictedHeating, TrendLimits
+from hardware.play.thermal_watch import HeatingTrend, PredictedHeating, TrendLimits
 from robots.servo import ServoModel
 
 
@@ -157,7 +157,7 @@ class Watchdog:
         heating: Mapping[int, PredictedHeating] | None = None,
     ) -> None:
         """`heating`: the gait's predicted heating per servo id
-        (`hardware.thermal_watch.predicted_heating`); None: no temperature-trend check."""
+        (`hardware.play.thermal_watch.predicted_heating`); None: no temperature-trend check."""
         self.limits = limits
         self.servos = dict(servos)
         self.joint_of = dict(joint_of)

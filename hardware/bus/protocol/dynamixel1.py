@@ -6,7 +6,7 @@ Status packet:      FF FF | ID | LEN | ERROR | PARAMS... | CHECKSUM
 LEN = number of parameters + 2; CHECKSUM = ~(ID + LEN + INST/ERROR + ΣPARAMS) & 0xFF.
 Addresses and lengths are one byte; multi-byte values are little-endian. This is the frame the
 Feetech SCS protocol copied, so the framing (checksum, stream resynchronisation) is
-`hardware.protocol.feetech`'s; what differs is the instruction set (no SYNC READ; BULK READ
+`hardware.bus.protocol.feetech`'s; what differs is the instruction set (no SYNC READ; BULK READ
 0x92 on MX / EX servos only, not AX) and the meaning of the status error byte (`ERROR_BITS`).
 
 A frame does not say whether it is an instruction or a status: the reader knows the direction.
@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 
-from hardware.protocol import feetech as _frame
-from hardware.protocol.common import (
+from hardware.bus.protocol import feetech as _frame
+from hardware.bus.protocol.common import (
     ACTION,
     BROADCAST_ID,
     FACTORY_RESET,

@@ -6,7 +6,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from hardware.bus import MAX_SERVO_ID, bounded, bounded_int
+from hardware.bus.servo_bus import MAX_SERVO_ID, bounded, bounded_int
 from hardware.errors import InvalidSetting
 
 MAX_DELAY_S = 60.0  # a reply later than a minute is a lost one: say drop

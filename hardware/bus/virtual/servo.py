@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import math
 
-from hardware.control_table import DYNAMIXEL_AX, DYNAMIXEL_X, ControlTable, Register
-from hardware.virtual.faults import FaultPlan
+from hardware.bus.control_table import DYNAMIXEL_AX, DYNAMIXEL_X, ControlTable, Register
+from hardware.bus.virtual.faults import FaultPlan
 from robots.servo import ServoModel
 
 # Dynamixel X Shutdown (addr 63) default 0x34: overheating | electrical shock | overload.

@@ -4,7 +4,7 @@
 
 Timeline (all goal positions pass through one `SafetyGate`):
 
-1. pre-flight (`hardware.preflight`): build, calibration, speed scale, sim verdict; on the bus:
+1. pre-flight (`hardware.play.preflight`): build, calibration, speed scale, sim verdict; on the bus:
    ping + model, voltage, temperature, flags, present pose within limits;
 2. torque on (the servos hold their present pose), then the gait entry (`robots.ramp.gait_entry`,
    as `sim.validate` does): a min-jerk ramp from the present pose to the gait's mean pose, peak
@@ -24,7 +24,7 @@ Timeline (all goal positions pass through one `SafetyGate`):
    adapter failure only the broadcast is tried. Then the telemetry stop row.
 
 The signal handlers stay installed from before pre-flight until after step 5 and never raise
-(`hardware.watchdog.stop_on_signals`): no signal, however many, skips the torque-off; the first
+(`hardware.play.watchdog.stop_on_signals`): no signal, however many, skips the torque-off; the first
 stop reason is the one reported. A lost telemetry file (disk full) does not change any of this.
 
 Allowed joint speed = `speed_margin` · the servo's no-load speed; the gate enforces exactly that
@@ -41,9 +41,7 @@ from enum import Enum
 
 import numpy as np
 
-from hardware.bus import ServoBus, ServoStatus
-from hardware.calibration import Calibration
-from hardware.clock import Clock, MonotonicClock, VirtualClock
+from hardware.bus.servo_bus import ServoBus, ServoStatus
 from hardware.errors import (
     AdapterLost,
     BusError,
@@ -52,18 +50,20 @@ from hardware.errors import (
     NoResponse,
     ServoFault,
 )
-from hardware.play_errors import PlayerError
-from hardware.preflight import (
+from hardware.play.calibration import Calibration
+from hardware.play.clock import Clock, MonotonicClock, VirtualClock
+from hardware.play.errors import PlayerError
+from hardware.play.preflight import (
     check_bus,
     check_heating,
     check_offline,
     check_supply,
     measured_supply_v,
 )
-from hardware.safety_gate import GateCommand, SafetyGate
-from hardware.telemetry import TelemetryWriter, TickRecord
-from hardware.thermal_watch import predicted_heating
-from hardware.watchdog import StopEvent, StopReason, Watchdog, WatchdogLimits, stop_on_signals
+from hardware.play.safety_gate import GateCommand, SafetyGate
+from hardware.play.telemetry import TelemetryWriter, TickRecord
+from hardware.play.thermal_watch import predicted_heating
+from hardware.play.watchdog import StopEvent, StopReason, Watchdog, WatchdogLimits, stop_on_signals
 from robots.gait import Gait
 from robots.ramp import MinJerkRamp, gait_entry, ramp_to
 from robots.robot import Robot
@@ -230,7 +230,7 @@ class Player:
         """Pre-flight, then play until done or stopped; raises PlayerError if refused.
 
         The stop signals are caught from before pre-flight until the torque-off has been sent
-        and the telemetry stop row written (see `hardware.watchdog`): whatever arrives, and
+        and the telemetry stop row written (see `hardware.play.watchdog`): whatever arrives, and
         however often, the run ends ramp to rest → torque off, never killed half-way."""
         with stop_on_signals(self.watchdog, lambda: (self.ticks, self._now_rel())):
             warnings, present = self._preflight()

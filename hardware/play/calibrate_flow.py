@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hardware.bus import ServoBus
-from hardware.calibration import Calibration
+from hardware.bus.servo_bus import ServoBus
 from hardware.errors import BusError
-from hardware.play_errors import PlayerError
+from hardware.play.calibration import Calibration
+from hardware.play.errors import PlayerError
 from robots.robot import Robot
 
 SUSPICIOUS_SHIFT_RAD = np.pi / 4  # an offset this far from nominal is probably a mis-mounted horn

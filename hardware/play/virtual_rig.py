@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from hardware.virtual.bus import VirtualServoBus
-from hardware.virtual.faults import NO_FAULTS, FaultPlan
-from hardware.virtual.servo import VirtualServo
+from hardware.bus.virtual.bus import VirtualServoBus
+from hardware.bus.virtual.faults import NO_FAULTS, FaultPlan
+from hardware.bus.virtual.servo import VirtualServo
 from robots.robot import Robot
 
 

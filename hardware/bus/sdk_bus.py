@@ -3,8 +3,8 @@ deadlines, late-reply bookkeeping and error mapping.
 
 A driver accepts either a device path (it then creates the SDK's `PortHandler`, which owns the
 serial device and its baud-rate setup) or an already-built port object with the `PortHandler`
-interface (e.g. `hardware.virtual.VirtualPort`), which it uses as is. Packets are built and
-parsed by `hardware.protocol` (checked against the vendors' manuals); the SDKs' packet
+interface (e.g. `hardware.bus.virtual.VirtualPort`), which it uses as is. Packets are built and
+parsed by `hardware.bus.protocol` (checked against the vendors' manuals); the SDKs' packet
 handlers are not used for transactions, because they match a reply by servo id only, take a
 late reply for the current one, and index short replies (`IndexError` in scservo_sdk's ping).
 
@@ -48,10 +48,10 @@ from typing import Any, TypeVar
 
 import serial
 
-from hardware.bus import MAX_BAUD, MIN_BAUD, BusConfig, ServoBus, ServoInfo
-from hardware.control_table import ControlTable
+from hardware.bus.control_table import ControlTable
+from hardware.bus.protocol.common import FrameStream, Packet
+from hardware.bus.servo_bus import MAX_BAUD, MIN_BAUD, BusConfig, ServoBus, ServoInfo
 from hardware.errors import AdapterLost, CorruptPacket, NoResponse, PortError, ServoFault
-from hardware.protocol.common import FrameStream, Packet
 
 T = TypeVar("T")
 MAX_EXTRA_BYTES = 32  # how far a read may be lengthened to dodge outstanding late replies
@@ -122,7 +122,7 @@ class SdkServoBus(ServoBus):
     status_overhead = 6  # bytes of a status frame without parameters
     ping_params = 0  # parameters of a ping's status packet
     identity_span = (0, 1)  # (addr, length) read to learn model number and firmware
-    codec: Any  # hardware.protocol.dynamixel2 or .feetech: ping/read/write/sync_* builders
+    codec: Any  # hardware.bus.protocol.dynamixel2 or .feetech: ping/read/write/sync_* builders
     sdk: Any  # the vendor SDK module (its PortHandler opens device paths)
 
     def __init__(self, port: Any, table: ControlTable, config: BusConfig | None) -> None:

@@ -26,7 +26,7 @@ Sources (facts checked against the vendors' documents):
   Present Speed 38 (2 B, 0.111 rpm, direction in bit 10), Present Load 40 (2 B, ~0.1 %, direction
   in bit 10), Present Voltage 42 (0.1 V), Present Temperature 43 (°C), Registered 44, Moving 46,
   Lock 47, Punch 48 (2 B). There is no hardware-error register: the status packet's error byte
-  carries the health bits (`hardware.protocol.dynamixel1.ERROR_BITS`).
+  carries the health bits (`hardware.bus.protocol.dynamixel1.ERROR_BITS`).
 """
 
 from __future__ import annotations
@@ -220,7 +220,7 @@ FEETECH_STS = ControlTable(
 )
 
 # Protocol 1.0 status error byte bits that report the servo's health (the others answer the
-# instruction: angle limit, range, checksum, instruction; see hardware.protocol.dynamixel1).
+# instruction: angle limit, range, checksum, instruction; see hardware.bus.protocol.dynamixel1).
 _DYNAMIXEL1_HEALTH_BITS: Mapping[int, str] = {
     0x01: "input_voltage",
     0x04: "overheating",

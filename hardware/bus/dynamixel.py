@@ -1,6 +1,6 @@
 """`DynamixelBus`: DYNAMIXEL Protocol 2.0 (X-series control table) and `Dynamixel1Bus`:
 Protocol 1.0 (AX / MX control table); the port is the SDK's `dynamixel_sdk.PortHandler`, the
-packets are `hardware.protocol.dynamixel2`'s / `.dynamixel1`'s."""
+packets are `hardware.bus.protocol.dynamixel2`'s / `.dynamixel1`'s."""
 
 from __future__ import annotations
 
@@ -9,8 +9,7 @@ from typing import Any
 
 import dynamixel_sdk as sdk
 
-from hardware.bus import BusConfig, ServoInfo, ServoStatus
-from hardware.control_table import (
+from hardware.bus.control_table import (
     DYNAMIXEL1_BULK_READ_MODELS,
     DYNAMIXEL_ALERT_BIT,
     DYNAMIXEL_AX,
@@ -19,11 +18,12 @@ from hardware.control_table import (
     Register,
     decode_flags,
 )
+from hardware.bus.protocol import dynamixel1 as p1
+from hardware.bus.protocol import dynamixel2 as codec
+from hardware.bus.protocol.common import STATUS, FrameStream, Packet
+from hardware.bus.sdk_bus import LatencyMixin, SdkServoBus
+from hardware.bus.servo_bus import BusConfig, ServoInfo, ServoStatus
 from hardware.errors import AdapterLost, BusError, ServoFault
-from hardware.protocol import dynamixel1 as p1
-from hardware.protocol import dynamixel2 as codec
-from hardware.protocol.common import STATUS, FrameStream, Packet
-from hardware.sdk_bus import LatencyMixin, SdkServoBus
 
 
 class DynamixelPortHandler(LatencyMixin, sdk.PortHandler):  # type: ignore[misc]
@@ -101,7 +101,7 @@ class Dynamixel1Bus(SdkServoBus):
     """Dynamixel AX / MX servos on one Protocol 1.0 bus (AX-12A, AX-18A, MX-28 in 1.0...).
 
     The port is the SDK's `PortHandler` (or a PortHandler-like object); packets are
-    `hardware.protocol.dynamixel1`'s, transactions the shared engine's (`hardware.sdk_bus`).
+    `hardware.bus.protocol.dynamixel1`'s, transactions the shared engine's (`hardware.bus.sdk_bus`).
     Protocol 1.0 has no SYNC READ: several servos are read with one BULK READ when every one of
     them answers it (MX / EX models, learnt from their model number at ping), else with one
     READ per servo. There is no hardware-error register either: the status packet's error byte

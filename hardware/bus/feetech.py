@@ -1,5 +1,5 @@
 """`FeetechBus`: Feetech STS/SMS servos (SCS protocol, little-endian); the port is the SDK's
-`scservo_sdk.PortHandler`, the packets are `hardware.protocol.feetech`'s."""
+`scservo_sdk.PortHandler`, the packets are `hardware.bus.protocol.feetech`'s."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ from typing import Any
 
 import scservo_sdk as sdk
 
-from hardware.bus import BusConfig, ServoInfo
-from hardware.control_table import FEETECH_STS, decode_flags
-from hardware.protocol import feetech as codec
-from hardware.protocol.common import FrameStream
-from hardware.sdk_bus import LatencyMixin, SdkServoBus
+from hardware.bus.control_table import FEETECH_STS, decode_flags
+from hardware.bus.protocol import feetech as codec
+from hardware.bus.protocol.common import FrameStream
+from hardware.bus.sdk_bus import LatencyMixin, SdkServoBus
+from hardware.bus.servo_bus import BusConfig, ServoInfo
 
 STS_ENDIANNESS = 0  # scservo_sdk "protocol_end": 0 = little-endian (STS/SMS), 1 = SCS
 
@@ -24,7 +24,7 @@ class FeetechBus(SdkServoBus):
     """Feetech STS-series servos on one bus.
 
     `port` is a device path (e.g. "/dev/ttyACM0") or a PortHandler-like object.
-    Note: scservo_sdk's clearPort() only flushes output; the engine (`hardware.sdk_bus`) drains
+    Note: scservo_sdk's clearPort() only flushes output; the engine (`hardware.bus.sdk_bus`) drains
     stale input itself before every request (a late reply must not be taken for the next one).
     """
 

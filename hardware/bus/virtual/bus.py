@@ -14,7 +14,7 @@ when a real half-duplex line would deliver them — the request's bytes at 10 bi
 (after whatever is still on the line), then per reply the servo's Return Delay Time (its
 `return_delay` register) and the reply's own bytes, servo after servo; plus the USB adapter's
 latency timer (an FTDI holds received bytes up to that long before the host sees them). Lets
-`hardware.bus_budget`'s loop-rate estimate be checked against a player run.
+`hardware.bus.budget`'s loop-rate estimate be checked against a player run.
 """
 
 from __future__ import annotations
@@ -26,12 +26,11 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
-from hardware.bus import MAX_BAUD, MAX_SERVO_ID, MIN_BAUD, bounded, bounded_int
-from hardware.control_table import DYNAMIXEL1_BULK_READ_MODELS, table_for_protocol
-from hardware.protocol import dynamixel1 as dxl1
-from hardware.protocol import dynamixel2 as dxl
-from hardware.protocol import feetech as ft
-from hardware.protocol.common import (
+from hardware.bus.control_table import DYNAMIXEL1_BULK_READ_MODELS, table_for_protocol
+from hardware.bus.protocol import dynamixel1 as dxl1
+from hardware.bus.protocol import dynamixel2 as dxl
+from hardware.bus.protocol import feetech as ft
+from hardware.bus.protocol.common import (
     ACTION,
     BROADCAST_ID,
     FACTORY_RESET,
@@ -44,12 +43,13 @@ from hardware.protocol.common import (
     WRITE,
     Packet,
 )
-from hardware.virtual.faults import NO_FAULTS, FaultPlan
-from hardware.virtual.servo import VirtualServo
+from hardware.bus.servo_bus import MAX_BAUD, MAX_SERVO_ID, MIN_BAUD, bounded, bounded_int
+from hardware.bus.virtual.faults import NO_FAULTS, FaultPlan
+from hardware.bus.virtual.servo import VirtualServo
 from robots.servo import ServoModel
 
 if TYPE_CHECKING:
-    from hardware.bus import BusConfig, ServoBus
+    from hardware.bus.servo_bus import BusConfig, ServoBus
 
 ERR_INSTRUCTION = 2
 ERR_DATA_LENGTH = 5
@@ -459,20 +459,20 @@ class VirtualServoBus:
     # -- convenience -------------------------------------------------------------------------------
     def connect(self, config: BusConfig | None = None) -> ServoBus:
         """An opened driver (DynamixelBus / FeetechBus) talking to this bus in-process."""
-        from hardware.virtual.port import VirtualPort
+        from hardware.bus.virtual.port import VirtualPort
 
         port = VirtualPort(self)
         bus: ServoBus
         if self.protocol == "dynamixel1":
-            from hardware.dynamixel import Dynamixel1Bus
+            from hardware.bus.dynamixel import Dynamixel1Bus
 
             bus = Dynamixel1Bus(port, config)
         elif self.protocol == "dynamixel2":
-            from hardware.dynamixel import DynamixelBus
+            from hardware.bus.dynamixel import DynamixelBus
 
             bus = DynamixelBus(port, config)
         else:
-            from hardware.feetech import FeetechBus
+            from hardware.bus.feetech import FeetechBus
 
             bus = FeetechBus(port, config)
         bus.open()

@@ -18,7 +18,7 @@ of stall (78 % at 7.40 V nominal)"), warned about above the sim verdict's 80 %, 
 above 100 % (the servo cannot deliver it; `force` turns the refusal into a warning).
 
 Heating (`check_heating`): with the gait's predicted heating per servo
-(`hardware.thermal_watch.predicted_heating`), a servo predicted to reach its stop temperature
+(`hardware.play.thermal_watch.predicted_heating`), a servo predicted to reach its stop temperature
 within the run — from its present reading, the coolest servo's reading taken as the room — is
 warned about (the watchdog will stop the run there).
 """
@@ -31,12 +31,12 @@ from typing import Any
 
 import numpy as np
 
-from hardware.bus import ServoBus, ServoStatus
-from hardware.calibration import Calibration
+from hardware.bus.servo_bus import ServoBus, ServoStatus
 from hardware.errors import BusError, CalibrationError, NoResponse, ServoFault
-from hardware.play_errors import PreflightError, SpeedScaleError
-from hardware.thermal_watch import PredictedHeating
-from hardware.watchdog import WatchdogLimits
+from hardware.play.calibration import Calibration
+from hardware.play.errors import PreflightError, SpeedScaleError
+from hardware.play.thermal_watch import PredictedHeating
+from hardware.play.watchdog import WatchdogLimits
 from robots.errors import GaitFileError
 from robots.gait import Gait
 from robots.robot import Robot

@@ -11,8 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 
-from hardware.errors import CorruptPacket
-from hardware.protocol.common import (
+from hardware.bus.protocol.common import (
     BROADCAST_ID,
     FACTORY_RESET,
     PING,
@@ -25,6 +24,7 @@ from hardware.protocol.common import (
     FrameStream,
     Packet,
 )
+from hardware.errors import CorruptPacket
 
 HEADER = b"\xff\xff\xfd\x00"
 MAX_LENGTH = 1024  # the SDK's RXPACKET_MAX_LEN

@@ -12,8 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from typing import Literal
 
-from hardware.errors import CorruptPacket
-from hardware.protocol.common import (
+from hardware.bus.protocol.common import (
     ACTION,
     BROADCAST_ID,
     PING,
@@ -25,6 +24,7 @@ from hardware.protocol.common import (
     FrameStream,
     Packet,
 )
+from hardware.errors import CorruptPacket
 
 HEADER = b"\xff\xff"
 MAX_LENGTH = 250  # the SDK's RXPACKET_MAX_LEN

@@ -1,6 +1,6 @@
 """The bus's time budget: the loop rate a servo bus can sustain for a robot, and why.
 
-Every player tick (`hardware.player.Player._tick`) puts on the bus:
+Every player tick (`hardware.play.player.Player._tick`) puts on the bus:
 
 1. one SYNC WRITE of the goal positions (no replies; the line is busy for its bytes);
 2. one read of the present positions: a SYNC READ (Protocol 2.0, Feetech STS), one BULK READ
@@ -13,18 +13,18 @@ byte): the request's bytes, then per reply the servo's Return Delay Time and the
 (servo after servo), then the USB adapter's latency timer — an FTDI adapter (ROBOTIS U2D2, most
 Feetech boards) holds received bytes up to that long (default 16 ms; 1 ms when lowered through
 /sys/bus/usb-serial/devices/ttyUSB*/latency_timer) before the host sees them, so it is paid once
-per exchange. Packet sizes come from the codecs themselves (`hardware.protocol`).
+per exchange. Packet sizes come from the codecs themselves (`hardware.bus.protocol`).
 
 The mean tick (status reads spread over `status_every_ticks`) gives the rate a run asked above it
 achieves (the player skips passed deadlines, it does not burst); the status tick, the longest,
 gives the rate held without any overrun. Host CPU time is not part of the bus budget: the tick's
-own work (≈ 1-3 ms on a loaded 2-core machine, see `hardware.play_cmd`) and ≈ 0.5 ms of driver
+own work (≈ 1-3 ms on a loaded 2-core machine, see `hardware.play.commands`) and ≈ 0.5 ms of driver
 Python per exchange (measured: 12 AX reads on the in-process virtual bus, load average 5). It
 matters when a tick holds many exchanges: 12 AX servos behind a 1 ms adapter are budgeted at
 44.7 Hz and played at 32.6 Hz; behind the factory 16 ms, 4.5 Hz and 4.4 Hz.
 
 Checked against the player on the virtual bus with wire-time emulation
-(`hardware.virtual.WireTiming`, `benchmarks/bus_budget_check.py`, factory settings, 16 ms
+(`hardware.bus.virtual.WireTiming`, `benchmarks/bus_budget_check.py`, factory settings, 16 ms
 adapter, --rate 100): quad12 budget 51.6 Hz, played 49.5 Hz (-4 %); hex18 budget 26.8 Hz,
 played 26.2-26.5 Hz (-1 to -2 %).
 """
@@ -35,9 +35,9 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from hardware.bus import MAX_BAUD, MIN_BAUD, _spans, bounded, bounded_int
-from hardware.control_table import DYNAMIXEL1_BULK_READ_MODELS, table_for_protocol
-from hardware.protocol import dynamixel1, dynamixel2, feetech
+from hardware.bus.control_table import DYNAMIXEL1_BULK_READ_MODELS, table_for_protocol
+from hardware.bus.protocol import dynamixel1, dynamixel2, feetech
+from hardware.bus.servo_bus import MAX_BAUD, MIN_BAUD, _spans, bounded, bounded_int
 
 # Factory Return Delay Time per protocol [µs]: X-series and AX/MX 250 × 2 µs, Feetech STS 0.
 FACTORY_RETURN_DELAY_US: Mapping[str, float] = {
@@ -49,7 +49,7 @@ FTDI_DEFAULT_LATENCY_MS = 16.0
 LOWEST_LATENCY_S = 0.001  # the FTDI latency timer's lowest setting (1 ms)
 STATUS_REGISTERS = ("present_load", "present_voltage", "present_temperature", "hardware_error")
 DYNAMIXEL1_STATUS_REGISTERS = ("present_load", "present_voltage", "present_temperature")
-DEFAULT_STATUS_EVERY_TICKS = 10  # hardware.watchdog.WatchdogLimits.status_every_ticks
+DEFAULT_STATUS_EVERY_TICKS = 10  # hardware.play.watchdog.WatchdogLimits.status_every_ticks
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ import os
 import time
 from collections.abc import Sequence
 
-from hardware.virtual.bus import VirtualServoBus
+from hardware.bus.virtual.bus import VirtualServoBus
 
 
 class VirtualPort:

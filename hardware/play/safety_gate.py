@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hardware.calibration import Calibration
+from hardware.play.calibration import Calibration
 
 GoalSink = Callable[[Mapping[int, int]], None]
 CARRY_TICKS = 1.0  # unused step budget carried to the next tick, at most [ticks]

@@ -39,8 +39,8 @@ from collections.abc import Collection, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
-from hardware.virtual.bus import VirtualServoBus
-from hardware.virtual.faults import FaultPlan
+from hardware.bus.virtual.bus import VirtualServoBus
+from hardware.bus.virtual.faults import FaultPlan
 
 FORMS = (
     "drop=P, corrupt=P (probability 0..1), delay=S [s], sag=V [V], vanish=ID, overload=ID, "

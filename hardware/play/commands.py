@@ -27,7 +27,7 @@ budget`, with the adapter's latency timer read from sysfs); a warning, not a ref
 are safe (no burst, per-tick step limit), the robot only plays slower than asked.
 
 `run --virtual --fault KIND=VALUE[@T]` (repeatable) injects faults into the virtual bus to
-rehearse the safe stop without hardware; the syntax is in `hardware.fault_spec`.
+rehearse the safe stop without hardware; the syntax is in `hardware.play.fault_spec`.
 """
 
 from __future__ import annotations
@@ -42,14 +42,14 @@ from rich.console import Console
 from rich.markup import escape
 from typer.core import TyperCommand
 
-from hardware.bus import BusConfig, ServoBus
-from hardware.clock import Clock, MonotonicClock, VirtualClock
+from hardware.bus.servo_bus import BusConfig, ServoBus
 from hardware.errors import HardwareError
-from hardware.player import MAX_RAMP_S, OnStop, Player, PlayerConfig, PlayResult, RestPose
-from hardware.watchdog import EXIT_PREFLIGHT, StopReason
+from hardware.play.clock import Clock, MonotonicClock, VirtualClock
+from hardware.play.player import MAX_RAMP_S, OnStop, Player, PlayerConfig, PlayResult, RestPose
+from hardware.play.watchdog import EXIT_PREFLIGHT, StopReason
 
 if TYPE_CHECKING:
-    from hardware.fault_spec import FaultSchedule
+    from hardware.play.fault_spec import FaultSchedule
 
 console = Console()
 err_console = Console(stderr=True)
@@ -102,7 +102,7 @@ def _fail(message: str, code: int = EXIT_PREFLIGHT) -> typer.Exit:
 def _load_inputs(robot_name: str, gait_path: Path | None, calibration: Path | None) -> Any:
     """(robot, gait or None, calibration) or a one-line failure."""
     import robots
-    from hardware.calibration import Calibration, load_or_default
+    from hardware.play.calibration import Calibration, load_or_default
     from robots.gait import load as load_gait
 
     try:
@@ -115,7 +115,8 @@ def _load_inputs(robot_name: str, gait_path: Path | None, calibration: Path | No
     return robot, gait, cal
 
 
-# How the refusal names a catalogue protocol that has no bus driver (hardware.control_table.TABLES).
+# How the refusal names a catalogue protocol that has no bus driver
+# (hardware.bus.control_table.TABLES).
 _UNDRIVABLE_LABELS = {
     "pwm": "PWM",
     "dynamixel2_xl320": "the XL-320's own Protocol 2.0 control table",
@@ -126,8 +127,8 @@ _UNDRIVABLE_LABELS = {
 
 def _require_drivable_servos(robot: Any) -> None:
     """PlayerError unless every servo speaks a protocol with a bus driver and control table."""
-    from hardware.control_table import TABLES
-    from hardware.play_errors import PlayerError
+    from hardware.bus.control_table import TABLES
+    from hardware.play.errors import PlayerError
 
     for j in robot.joints:
         protocol = j.servo.protocol
@@ -138,6 +139,24 @@ def _require_drivable_servos(robot: Any) -> None:
                 "cannot drive; plan and simulate work, play needs a Dynamixel (Protocol 1.0 AX / "
                 "MX or 2.0 X-series) or Feetech STS bus servo"
             )
+
+
+VIRTUAL_PLANTS_GROUP = "gaitsmith.virtual_buses"  # entry points: name -> factory(robot, clock=)
+
+
+def _virtual_plant(name: str) -> Any:
+    """The factory of a virtual bus driven by a plant outside `hardware` (e.g. `sim`'s MuJoCo
+    twin), found by entry point so that hardware never imports sim, not even lazily; the
+    factory's result carries the virtual bus as `.vbus`."""
+    from importlib.metadata import entry_points
+
+    for point in entry_points(group=VIRTUAL_PLANTS_GROUP):
+        if point.name == name:
+            return point.load()
+    raise _fail(
+        f"--virtual {name}: no virtual bus {name!r} is installed (entry point group "
+        f"{VIRTUAL_PLANTS_GROUP}); the MuJoCo twin comes with the full install: pip install -e ."
+    )
 
 
 def _open_bus(
@@ -151,14 +170,12 @@ def _open_bus(
     """An opened bus: a real port, the in-process virtual bus, or the MuJoCo twin (`faults`:
     put on the virtual bus before anything is sent)."""
     if virtual is VirtualMode.sim:
-        from sim.twin import MujocoTwin  # lazy: hardware never imports mujoco at import time
-
-        twin = MujocoTwin(robot, clock=clock.now_s)
+        twin = _virtual_plant("sim")(robot, clock=clock.now_s)
         if faults is not None:
             faults.attach(twin.vbus)
         return twin.vbus.connect(config), twin
     if virtual is VirtualMode.bus:
-        from hardware.virtual_rig import virtual_robot_bus
+        from hardware.play.virtual_rig import virtual_robot_bus
 
         vbus = virtual_robot_bus(robot, clock=clock.now_s)
         if faults is not None:
@@ -166,8 +183,8 @@ def _open_bus(
         return vbus.connect(config), vbus
     if port is None:
         raise _fail("give --port DEVICE, --virtual [bus|sim], or --dry-run")
-    from hardware.dynamixel import Dynamixel1Bus, DynamixelBus
-    from hardware.feetech import FeetechBus
+    from hardware.bus.dynamixel import Dynamixel1Bus, DynamixelBus
+    from hardware.bus.feetech import FeetechBus
 
     drivers = {"dynamixel1": Dynamixel1Bus, "dynamixel2": DynamixelBus}
     bus: ServoBus = drivers.get(robot.servo_protocol, FeetechBus)(port, config)
@@ -322,7 +339,7 @@ def run(
             if faults is not None:
                 faults.attach_port(bus)
         if telemetry is not None:
-            from hardware.telemetry import TelemetryWriter
+            from hardware.play.telemetry import TelemetryWriter
 
             writer = TelemetryWriter(telemetry, rob.joint_names, [j.bus_id for j in rob.joints])
         player = Player(
@@ -361,12 +378,12 @@ def run(
 
 
 def _warn_beyond_bus_budget(robot: Any, port: str, baud: int, rate_hz: float) -> None:
-    """Warn (not refuse) when --rate is beyond what the bus sustains (`hardware.bus_budget`,
+    """Warn (not refuse) when --rate is beyond what the bus sustains (`hardware.bus.budget`,
     with the adapter's latency timer read from sysfs). Not a refusal: a late tick is safe —
     the player skips passed deadlines instead of bursting, and the step limit is per tick, so
     the robot moves slower than asked, never faster; the end of the run says what it held."""
-    from hardware.bus_budget import for_robot, rate_check
-    from hardware.sdk_bus import usb_latency_timer_s
+    from hardware.bus.budget import for_robot, rate_check
+    from hardware.bus.sdk_bus import usb_latency_timer_s
 
     try:
         budget = for_robot(robot, baud=baud, latency_ms=usb_latency_timer_s(port) * 1000.0)
@@ -395,8 +412,8 @@ def budget(
     """The loop rate the robot's bus sustains: bytes per tick, wire time, return delays, USB
     latency; which term dominates and what to change."""
     import robots
-    from hardware.bus_budget import FTDI_DEFAULT_LATENCY_MS, for_robot, rate_check
-    from hardware.sdk_bus import usb_latency_timer_s
+    from hardware.bus.budget import FTDI_DEFAULT_LATENCY_MS, for_robot, rate_check
+    from hardware.bus.sdk_bus import usb_latency_timer_s
 
     for name, value in (("--baud", baud), ("--rate", rate_hz)):
         problem = None if value is None else check_option(name, value)
@@ -444,7 +461,7 @@ def _fault_schedule(texts: list[str], servo_ids: list[int]) -> FaultSchedule | N
     """The `--fault` options as a schedule (None without any), or a one-line failure."""
     if not texts:
         return None
-    from hardware.fault_spec import FaultSchedule, FaultSpecError, parse_fault
+    from hardware.play.fault_spec import FaultSchedule, FaultSpecError, parse_fault
 
     try:
         return FaultSchedule([parse_fault(t, servo_ids) for t in texts])
@@ -460,8 +477,8 @@ def calibrate(
     timeout_ms: float = typer.Option(10.0, "--timeout-ms", help="Reply allowance per packet."),
 ) -> None:
     """Record zero offsets: torque off, pose the robot in its reference pose, press Enter."""
-    from hardware.calibrate_flow import record_zero_offsets
-    from hardware.calibration import default_path
+    from hardware.play.calibrate_flow import record_zero_offsets
+    from hardware.play.calibration import default_path
 
     rob, _, _ = _load_inputs(robot, None, None)
     config = BusConfig(timeout_s=timeout_ms / 1000.0, retries=2, baudrate=rob.bus_baud)
@@ -492,7 +509,7 @@ def plot(
     output: Path = typer.Option(Path("telemetry.png"), "--output", "-o", help="PNG to write."),
 ) -> None:
     """Plot targets vs present positions per joint, and the loop jitter."""
-    from hardware.telemetry import plot_telemetry, read_telemetry
+    from hardware.play.telemetry import plot_telemetry, read_telemetry
 
     try:
         tel = read_telemetry(telemetry)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from types import TracebackType
 from typing import TypeVar
 
-from hardware.control_table import ControlTable, Register, decode_flags
+from hardware.bus.control_table import ControlTable, Register, decode_flags
 from hardware.errors import (
     AdapterLost,
     BusError,
@@ -84,7 +84,7 @@ class BusConfig:
         sync read each servo waits for the one before it); None = the driver's default.
     late_reply_horizon_s: how long a reply that missed its deadline may still turn up [s]; for
         that long (or until the servo answers a later request) the driver keeps it from being
-        taken for the answer to a later request (see `hardware.sdk_bus`). Real late replies
+        taken for the answer to a later request (see `hardware.bus.sdk_bus`). Real late replies
         come from USB latency and scheduling (milliseconds); the default 60 s covers the
         longest delay the virtual bus injects (`FaultPlan.delay_s` ≤ 60 s).
     """
