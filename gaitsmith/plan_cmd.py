@@ -29,7 +29,8 @@ from gaitsmith.search_options import (
 from planner.config import PlannerOptions
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.spacetime import GaitPlanner, PlanResult
-from planner.templates import TEMPLATES, make_schedule
+from planner.templates import TEMPLATES
+from planner.user_schedule import command_schedule
 
 
 def plan(
@@ -46,7 +47,15 @@ def plan(
     period: float | None = typer.Option(
         None, "--period", help="cycle period [s] (default: template)"
     ),
-    duty: float | None = typer.Option(None, "--duty", help="duty factor (default: template)"),
+    duty: str | None = typer.Option(
+        None, "--duty", help="duty factor: one value, or one per leg in robot.toml order "
+        "(default: template; 0.6 with --phases)"),
+    phases: str | None = typer.Option(
+        None, "--phases", help="touchdown phase per leg in robot.toml order, e.g. 0,0.5,0.25,0.75 "
+        "(replaces the template)"),
+    schedule_file: Path | None = typer.Option(
+        None, "--schedule", help="JSON/TOML file: touchdown_phase and duty_factor per leg name "
+        "(replaces the template)"),
     mu: float = typer.Option(0.5, "--mu", help="friction coefficient of the contact cone"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
     search: bool = typer.Option(
@@ -81,7 +90,8 @@ def plan(
     gait = gait or "trot"
     if period is not None and not (math.isfinite(period) and period > 0):
         raise PlannerConfigError(f"--period must be positive, got {period}")
-    schedule = make_schedule(bot, gait, period_s=period, duty_factor=duty)
+    schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
+                                      schedule_file=schedule_file, period_s=period)
     options = PlannerOptions(mu=mu, print_level=5 if verbose else 0)
     console.print(
         f"planning [bold]{gait}[/] for [bold]{bot.name}[/] at {speed:.3f} m/s, period "

@@ -28,6 +28,36 @@ ACTIVE_TOL = 1e-4
 
 FEASIBILITY_TOL = 1e-4
 
+#: IPOPT return statuses after which the last iterate is used when it meets every constraint
+#: within `FEASIBILITY_TOL` (our own check in `judge`): the solver stopped early or could not
+#: make progress, but the point it stopped at is a valid (if not proven locally optimal) gait.
+#: Before this, a run stopped by the iteration cap with every row met to 1e-8 was reported as
+#: "no feasible gait". Statuses that say the problem is infeasible or the numbers broke
+#: (Infeasible_Problem_Detected, Invalid_Number_Detected, Diverging_Iterates) are never accepted.
+OPTIMAL_STATUSES = ("Solve_Succeeded",)
+ACCEPT_IF_FEASIBLE = (
+    "Solved_To_Acceptable_Level",
+    "Maximum_Iterations_Exceeded",
+    "Maximum_CpuTime_Exceeded",
+    "Maximum_WallTime_Exceeded",
+    "Search_Direction_Becomes_Too_Small",
+    "Restoration_Failed",
+    "Error_In_Step_Computation",
+    "Feasible_Point_Found",
+)
+
+
+def judge(status: str, max_violation: float) -> tuple[bool, bool]:
+    """(feasible, optimal) for an IPOPT return status and our own worst constraint violation.
+
+    Feasible: every constraint group and variable bound is met within `FEASIBILITY_TOL` and the
+    status is `Solve_Succeeded` or one of `ACCEPT_IF_FEASIBLE`. Optimal: IPOPT also proved the
+    point a local optimum to its tolerance (`Solve_Succeeded`).
+    """
+    met = bool(np.isfinite(max_violation) and max_violation <= FEASIBILITY_TOL)
+    feasible = met and (status in OPTIMAL_STATUSES or status in ACCEPT_IF_FEASIBLE)
+    return feasible, feasible and status in OPTIMAL_STATUSES
+
 
 @dataclass(frozen=True)
 class GroupReport:

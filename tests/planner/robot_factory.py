@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (MJCF text blocks)
 """Robots nobody on the project built, generated as MJCF + robot.toml folders for the tests.
 
 - `star_robot`: N radial "spider" legs (hip yaw, hip pitch, knee) spaced evenly in azimuth
