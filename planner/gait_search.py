@@ -325,6 +325,7 @@ class GaitSearchResult:
     search_knots: int
     accepted: bool | None  # the final gait passed the acceptance check (None: no check)
     planner: GaitPlanner  # the final planner (builds the gait file from `best`)
+    symmetric: bool = True  # the search used the mirror half-period symmetry (TimingSpace)
 
     @property
     def froude(self) -> float:
@@ -380,6 +381,12 @@ def search_gait(
     if not 0 < sigma_fraction <= 1:
         raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
     space = TimingSpace.for_robot(robot, symmetric)
+    if space.symmetric and all(space.encode(make_schedule(robot, name)) is None
+                               for name in searchable_templates(robot)):
+        # mirror pairs exist but no template runs them half a period apart (e.g. the azimuth
+        # wave/ripple of a 5-leg star): search every foot's timing instead
+        space = TimingSpace.for_robot(robot, False)
+    symmetric = space.symmetric
     tipping = TippingCost.for_robot(robot, tipping_weight)
     search_options = replace(options, max_iter=min(options.max_iter, search_max_iter))
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
@@ -447,7 +454,7 @@ def search_gait(
         support_cost=tipping(schedule), tipping_amplification=tipping.amplification(schedule),
         log=tuple(log), cma=cma, elapsed_s=time.perf_counter() - t0,
         cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
-        accepted=accepted, planner=final,
+        accepted=accepted, planner=final, symmetric=symmetric,
     )
 
 

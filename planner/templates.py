@@ -10,6 +10,15 @@ and timing of the leg stance phases are controlled automatically in accordance w
 gait"), with the phase measured from the left hind touchdown. Hexapod tripod/ripple/wave are the
 standard metachronal patterns. Default periods scale with the leg length as
 ``period = k·√(L/g)`` (dynamic similarity: equal Froude number across robot sizes).
+
+Any other leg count or layout (`robot_templates`): feet are ordered by the azimuth of their
+stance position around the base origin (atan2(y, x), counter-clockwise from behind) and get
+``wave`` (one foot after the other in that order), ``ripple`` (every second foot: two waves half
+a cycle apart, 5+ legs), ``alternating`` (every other foot together, even counts ≥ 4: the trot
+of 4 legs, the tripod of 6; an odd count has no balanced split, so it is not offered), ``pronk``
+and ``stand`` — so every robot has templates. Robots whose feet pair up left/right (2, 4, 6
+legs) keep the named patterns above, and azimuth templates that duplicate one are dropped.
+`default_gait_for` picks walk/trot/tripod for 2/4/6 legs, else ripple (wave for 3 legs).
 """
 
 from __future__ import annotations

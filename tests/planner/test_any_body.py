@@ -302,3 +302,17 @@ def test_a_feasible_point_at_the_iteration_cap_is_a_gait(mini4_planner: GaitPlan
     with pytest.raises(PlannerConfigError, match="foot fl never lifts off"):
         mini4_planner.solve(make_schedule(robot, "stand"), 0.1)
     assert mini4_planner.solve(make_schedule(robot, "stand"), 0.0, warm_start=False).feasible
+
+
+@pytest.mark.slow
+def test_search_runs_on_five_legs_without_left_right_roles(star5_planner: GaitPlanner) -> None:
+    from planner.gait_search import search_gait
+
+    robot = star5_planner.robot
+    result = search_gait(robot, 0.1, n_knots=12, max_generations=1, popsize=3, seed=0,
+                         planner=star5_planner, search_knots=12)
+    assert set(result.template_costs) == {"wave", "ripple", "pronk"}
+    assert result.best.feasible and result.label in templates_for(robot)
+    # the star has mirror pairs (l1-l4, l2-l3) but none of its templates runs them half a
+    # period apart, so every foot's timing is searched
+    assert not result.symmetric and result.cma.n_local_solves >= 3
