@@ -138,8 +138,15 @@ class PlannerOptions:
       does: impacts and scuffing that pitch the body nose-up and make the hind feet drag.
     - `nondimensional`: the solver works on variables and constraint rows divided by their
       natural units (lengths by the leg length L, times by √(L/g), forces by m·g, torques by
-      m·g·L; `planner.variables.variable_scale`), so the NLP is conditioned alike for any robot
-      size. Results and reports stay in SI units. False: the raw SI problem (for comparison).
+      m·g·L; `planner.variables.variable_scale`). Results and reports stay in SI units and the
+      optimum is the same (equal costs to 4 digits). Off by default because it did not reduce
+      IPOPT iterations where measured (tests/planner/any_body_bench.py, N = 16, every template,
+      cold): 0.23 kg quadruped 216 vs 212 iterations, 5-leg star 210 vs 191. What made the
+      small robot hit the 150-iteration cap was the clearances fixed in metres (a 25 mm swing
+      on a 76 mm leg) and the missing posture term: main 456 iterations with `pace` stopped at
+      the cap, + posture and limit margins 280, + clearances ∝ L 212, all templates feasible.
+      Forces are already in body weights and the servo rows in fractions of the servo's
+      limits, and IPOPT's gradient-based row scaling covers the rest.
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     """
 
@@ -156,7 +163,7 @@ class PlannerOptions:
     servo_goals: bool = True
     vertical_contact_transitions: bool = True
     weights: CostWeights = field(default_factory=CostWeights)
-    nondimensional: bool = True
+    nondimensional: bool = False
     tol: float = 1e-6
     max_iter: int = 150
     print_level: int = 0

@@ -128,9 +128,8 @@ def variable_scale(layout: Layout, model: RobotModel) -> np.ndarray:
 
     The solver works on x̃ = x / scale (W&P §3.2 normalise forces by body weight; we also
     normalise the rest): lengths by the leg length L, times by √(L/g), torques by m·g·L, angles
-    and forces (already in m·g) by 1. Without it a 0.23 kg robot with 7.5 cm legs has base
-    positions ~0.08, accelerations ~10³ and torques ~0.05 in the same NLP and IPOPT stalls at its
-    iteration cap; see `PlannerOptions.nondimensional`.
+    and forces (already in m·g) by 1. Used with `PlannerOptions.nondimensional` (see there for
+    the iteration counts measured with and without it).
     """
     n, nj = layout.n_knots, layout.n_joints
     length = model.robot.leg_length_m

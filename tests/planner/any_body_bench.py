@@ -4,12 +4,13 @@ Two steps, so the same schedules can be solved by another checkout of the planne
 which has no azimuth templates for 5 legs)::
 
     PYTHONPATH=. python -m tests.planner.any_body_bench write /tmp/bots /tmp/scheds.json
-    PYTHONPATH=. python -m tests.planner.any_body_bench solve /tmp/scheds.json 16 [0|1]
+    PYTHONPATH=. python -m tests.planner.any_body_bench solve /tmp/scheds.json 16 \
+        [nondimensional=true,swing_clearance_m=0.025,body_clearance_m=0.03]
     PYTHONPATH=/path/to/main python tests/planner/any_body_bench.py solve /tmp/scheds.json 16
 
 `write` builds the robots into a folder and stores each template's schedule and the default
-(Froude) speed; `solve` runs them at N knots, optionally with `nondimensional` off (0) or on (1)
-(omitted: the checkout's default options), and prints iterations, status and time per template.
+(Froude) speed; `solve` runs them at N knots with the given `PlannerOptions` fields (omitted:
+the checkout's defaults), and prints iterations, status and time per template.
 The `solve` step imports only `robots` and `planner.spacetime`/`planner.config`.
 """
 
@@ -41,12 +42,17 @@ def write(folder: str, out: str) -> None:
     Path(out).write_text(json.dumps(data, indent=1))
 
 
-def solve(path: str, n_knots: int, nondimensional: str | None) -> None:
+def solve(path: str, n_knots: int, settings: str | None) -> None:
+    """`settings`: PlannerOptions fields as ``name=value,…`` (numbers or true/false)."""
     import robots
     from planner.config import PlannerOptions
     from planner.spacetime import GaitPlanner
 
-    kw: dict[str, Any] = {} if nondimensional is None else {"nondimensional": nondimensional == "1"}
+    kw: dict[str, Any] = {}
+    for item in (settings or "").split(","):
+        if item:
+            key, value = item.split("=")
+            kw[key] = value == "true" if value in ("true", "false") else float(value)
     for d, spec in json.loads(Path(path).read_text()).items():
         r = robots.load(d)
         speed = spec["speed"]

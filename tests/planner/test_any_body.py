@@ -316,3 +316,16 @@ def test_search_runs_on_five_legs_without_left_right_roles(star5_planner: GaitPl
     # the star has mirror pairs (l1-l4, l2-l3) but none of its templates runs them half a
     # period apart, so every foot's timing is searched
     assert not result.symmetric and result.cma.n_local_solves >= 3
+
+
+@pytest.mark.slow
+def test_nondimensional_nlp_has_the_same_optimum(
+    mini4: robots.Robot, mini4_planner: GaitPlanner
+) -> None:
+    scaled = GaitPlanner(mini4, n_knots=12, options=PlannerOptions(nondimensional=True))
+    schedule = make_schedule(mini4, "pronk")
+    a = mini4_planner.solve(schedule, 0.1, warm_start=False)
+    b = scaled.solve(schedule, 0.1, warm_start=False)
+    assert a.feasible and b.feasible, (a.message, b.message)
+    assert b.cost == pytest.approx(a.cost, rel=1e-3)
+    np.testing.assert_allclose(b.joint_angles_rad, a.joint_angles_rad, atol=2e-2)
