@@ -17,8 +17,18 @@ from rich.table import Table
 
 import robots
 from gaitsmith.console import console
+from gaitsmith.gait_choice import check_gait_fits, default_gait
+from gaitsmith.options import (
+    MAX_PERIOD_S,
+    check_cycles,
+    check_friction,
+    check_knots,
+    check_number,
+    check_output_file,
+    check_speed,
+)
 from gaitsmith.search_options import (
-    check_executor,
+    check_search_options,
     executor_option,
     search_knots_option,
     sim_accept_option,
@@ -27,7 +37,7 @@ from gaitsmith.search_options import (
     workers_option,
 )
 from planner.config import PlannerOptions
-from planner.errors import InfeasibleGaitError, PlannerConfigError
+from planner.errors import InfeasibleGaitError
 from planner.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
@@ -39,7 +49,8 @@ def plan(
     ),
     gait: str | None = typer.Option(
         None, "--gait", "-g",
-        help=f"gait template: {', '.join(TEMPLATES)} (default trot; with --search: all templates)",
+        help=f"gait template: {', '.join(TEMPLATES)} (default: the robot's walking-pace "
+        "template, e.g. trot on 4 legs, tripod on 6; with --search: all templates)",
     ),
     speed: float = typer.Option(0.25, "--speed", help="forward speed [m/s]"),
     output: Path = typer.Option(..., "--output", "-o", help="gait file to write (JSON)"),
@@ -81,15 +92,17 @@ def plan(
     cycles: int = typer.Option(20, "--cycles", help="cycles to simulate (--simulate)"),
 ) -> None:
     """Plan one efficient cyclic gait (W&P 2009 spacetime optimisation) and write the gait file."""
+    settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
+                              address, search_knots, tipping_weight, sim_accept)
+    _check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
+    check_output_file("--output", output)
     bot = robots.load(robot)
     if search:
-        settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
-                                  address, search_knots, tipping_weight, sim_accept)
         _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles)
         return
-    gait = gait or "trot"
-    if period is not None and not (math.isfinite(period) and period > 0):
-        raise PlannerConfigError(f"--period must be positive, got {period}")
+    gait = gait or default_gait(bot)
+    if phases is None and schedule_file is None:
+        check_gait_fits(bot, gait)
     schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
                                       schedule_file=schedule_file, period_s=period)
     options = PlannerOptions(mu=mu, print_level=5 if verbose else 0)
@@ -114,6 +127,23 @@ def plan(
         )
     gait_obj = planner.to_gait(result, gait)
     _write(gait_obj, bot, output, simulate, cycles)
+
+
+def _check_options(speed: float, knots: int, period: float | None, duty: str | None,
+                   mu: float, search: bool, st: SearchSettings, simulate: bool,
+                   cycles: int) -> None:
+    """Every option in range before the robot is loaded and the NLP built (one-line errors)."""
+    check_speed("--speed", speed, allow_zero=not search)  # the search needs CoT and Froude > 0
+    check_knots("--knots", knots)
+    check_number("--period", period, 0.0, MAX_PERIOD_S, lo_open=True, unit="s")
+    # --duty (one value or one per leg) is checked against the robot's legs by
+    # planner.user_schedule once the robot is loaded (before the NLP is built)
+    check_friction("--mu", mu)
+    if search:
+        check_search_options(st.executor, st.generations, st.popsize, st.workers,
+                             st.search_knots, st.tipping_weight)
+    if simulate or (search and st.sim_accept):
+        check_cycles("--cycles", cycles)
 
 
 def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,
@@ -150,7 +180,6 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
                  mu: float, st: SearchSettings, simulate: bool, cycles: int) -> None:
     from planner.gait_search import SearchLogRow, search_gait, write_search_log
 
-    check_executor(st.executor)
     if gait is not None:
         console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")
     console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "

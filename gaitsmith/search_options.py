@@ -7,7 +7,8 @@ from typing import Any
 import typer
 
 import robots
-from planner.errors import PlannerConfigError
+from gaitsmith.errors import OptionError
+from gaitsmith.options import check_integer, check_knots, check_number
 from planner.gait_search import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
 
 EXECUTORS = ("serial", "process", "ray")
@@ -38,8 +39,25 @@ def sim_accept_option() -> Any:
 
 def check_executor(executor: str) -> None:
     if executor not in EXECUTORS:
-        raise PlannerConfigError(
+        raise OptionError(
             f"--executor must be {', '.join(EXECUTORS[:-1])} or {EXECUTORS[-1]}, got {executor!r}")
+
+
+MAX_GENERATIONS = 10_000
+MAX_POPSIZE = 10_000
+MAX_WORKERS = 1024
+MAX_TIPPING_WEIGHT = 1e6
+
+
+def check_search_options(executor: str, generations: int, popsize: int | None,
+                         workers: int | None, search_knots: int, tipping_weight: float) -> None:
+    """The shared search options in range (one-line `OptionError`s), before any solve."""
+    check_executor(executor)
+    check_integer("--generations", generations, 1, MAX_GENERATIONS)
+    check_integer("--popsize", popsize, 2, MAX_POPSIZE)  # CMA-ES needs λ ≥ 2
+    check_integer("--workers", workers, 1, MAX_WORKERS)
+    check_knots("--search-knots", search_knots)
+    check_number("--tipping-weight", tipping_weight, 0.0, MAX_TIPPING_WEIGHT)
 
 
 def sim_acceptance(robot: robots.Robot, enabled: bool, final_cycles: int) -> dict[str, Any]:

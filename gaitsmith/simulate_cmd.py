@@ -21,14 +21,26 @@ from rich.table import Table
 import robots
 import robots.gait as gait_io
 from gaitsmith.console import console
-from sim.errors import SimConfigError
+from gaitsmith.errors import OptionError
+from gaitsmith.options import (
+    MAX_LATENCY_MS,
+    RATE_HZ_RANGE,
+    check_cycles,
+    check_friction,
+    check_number,
+    check_output_file,
+)
 from sim.render import VIDEO_SUFFIXES
 from sim.validate import PassCriteria, ValidationResult, evaluate, simulate
+
+MAX_PAYLOAD_KG = 1000.0
+MAX_STRENGTH = 100.0
+MAX_VIDEO_S = 3600.0
 
 
 def _metrics_table(result: ValidationResult) -> Table:
     m = result.metrics
-    table = Table(title="simulation metrics (steady cycles)")
+    table = Table(title="simulation metrics (steady cycles; heading and drift over the run)")
     table.add_column("metric")
     table.add_column("value", justify="right")
     deg = 180.0 / math.pi
@@ -42,9 +54,16 @@ def _metrics_table(result: ValidationResult) -> Table:
             f"{m.commanded_speed_m_s:.3f} / {m.achieved_speed_m_s:.3f} m/s",
         ),
         ("speed error", opt(m.speed_error_fraction, ".1%")),
-        ("lateral drift", opt(m.lateral_drift_per_m, ".3f") + " m/m"),
         (
-            "yaw drift",
+            "heading change (run / ramp-in)",
+            f"{m.heading_change_rad * deg:+.1f}° / {m.ramp_yaw_rad * deg:+.1f}°",
+        ),
+        (
+            "lateral drift (run)",
+            opt(m.lateral_drift_per_m, ".3f") + f" m/m ({m.lateral_drift_m:+.3f} m)",
+        ),
+        (
+            "yaw drift (steady)",
             opt(None if m.yaw_drift_rad_per_m is None else m.yaw_drift_rad_per_m * deg, ".1f")
             + " °/m",
         ),
@@ -79,7 +98,7 @@ def simulate_command(
     robot: str | None = typer.Option(
         None, "--robot", help="robot name or folder (default: the gait's robot)"
     ),
-    cycles: int = typer.Option(20, "--cycles", min=3, help="gait cycles to simulate"),
+    cycles: int = typer.Option(20, "--cycles", help="gait cycles to simulate (≥ 3)"),
     video: Path | None = typer.Option(None, "--video", help="write a video: out.mp4 or out.gif"),
     report: Path | None = typer.Option(None, "--report", help="write an HTML report with plots"),
     write_validation: bool = typer.Option(
@@ -101,8 +120,20 @@ def simulate_command(
     ),
 ) -> None:
     """Simulate a gait in MuJoCo with servo actuators; exit 0 if it passes, 1 if it fails."""
+    check_cycles("--cycles", cycles)
+    check_number("--rate-hz", rate_hz, *RATE_HZ_RANGE, unit="Hz")
+    check_number("--latency-ms", latency_ms, 0.0, MAX_LATENCY_MS, unit="ms")
+    check_friction("--friction", friction)
+    check_number("--payload-kg", payload_kg, 0.0, MAX_PAYLOAD_KG, unit="kg")
+    check_number("--strength", strength, 0.0, MAX_STRENGTH, lo_open=True)
+    check_number("--video-seconds", video_seconds, 0.0, MAX_VIDEO_S, lo_open=True, unit="s")
     if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
-        raise SimConfigError(f"--video {video}: must end in .mp4 or .gif")
+        raise OptionError(f"--video {video}: must end in .mp4 or .gif")
+    for option, path in (("--video", video), ("--report", report)):
+        if path is not None:
+            check_output_file(option, path)
+    if write_validation:
+        check_output_file("--write-validation", gait_path)
     gait = gait_io.load(gait_path)
     bot = robots.load(robot or gait.robot)
     gait.check_robot(bot, str(gait_path))
@@ -149,12 +180,7 @@ def simulate_command(
                 high_quality=hq_video,
             )
         console.print(f"video → {video}")
-    if report is not None:
-        from sim.report import write_report
-
-        with console.status("writing report…"):
-            write_report(report, result, gait, sim)
-        console.print(f"report → {report}")
+    sweep = None
     if robustness:
         from sim.robustness import robustness_sweep
 
@@ -179,6 +205,12 @@ def simulate_command(
                 "; ".join(r.reasons)[:80],
             )
         console.print(table)
+    if report is not None:
+        from sim.report import write_report
+
+        with console.status("writing report…"):
+            write_report(report, result, gait, sim, robustness=sweep)
+        console.print(f"report → {report}")
     if write_validation:
         gait_io.save(gait.with_validation(result.to_dict()), gait_path)
         console.print(f"validation written to {gait_path}")

@@ -2,14 +2,24 @@
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import typer
 
 import robots
 from gaitsmith.console import console
+from gaitsmith.errors import OptionError, OutputError
+from gaitsmith.options import (
+    check_cycles,
+    check_friction,
+    check_knots,
+    check_output_dir,
+    check_speed,
+)
 from gaitsmith.search_options import (
-    check_executor,
+    check_search_options,
     executor_option,
     search_knots_option,
     sim_accept_option,
@@ -18,9 +28,9 @@ from gaitsmith.search_options import (
     workers_option,
 )
 from planner.config import PlannerOptions
-from planner.errors import PlannerConfigError
 from planner.gait_search import GaitSearchResult, SearchLogRow
 from planner.speed_sweep import SweepRow, Validator, sweep_speeds, to_markdown, write_sweep
+from robots.errors import OutputWriteError
 
 
 def sweep(
@@ -43,17 +53,18 @@ def sweep(
     cycles: int = typer.Option(12, "--cycles", help="cycles to simulate (--simulate)"),
 ) -> None:
     """Search the best gait at each speed; table + plot of gait, duty factor and CoT vs Froude."""
+    values = parse_speeds(speeds)
+    check_knots("--knots", knots)
+    check_friction("--mu", mu)
+    check_search_options(executor, generations, popsize, workers, search_knots, tipping_weight)
+    if simulate or sim_accept:
+        check_cycles("--cycles", cycles)
+    check_output_dir("--output", output)
     bot = robots.load(robot)
-    try:
-        values = [float(v) for v in speeds.split(",") if v.strip()]
-    except ValueError:
-        raise PlannerConfigError(
-            f"--speeds must be numbers separated by commas, got {speeds!r}"
-        ) from None
-    if not values or any(not 0 < v <= 10 for v in values):
-        raise PlannerConfigError(f"--speeds must be in (0, 10] m/s, got {speeds!r}")
+    clock = SweepClock(len(values))
 
     def on_row(row: SweepRow) -> None:
+        clock.finish_speed()
         sim = "" if row.sim_passed is None else \
             f", sim {'pass' if row.sim_passed else 'FAIL'} at {row.sim_speed_m_s:.3f} m/s"
         console.print(f"[bold]{row.speed_m_s:.3f} m/s[/] (Fr {row.froude:.3f}): {row.gait_label}, "
@@ -63,11 +74,12 @@ def sweep(
                       f"CoT {row.cost_of_transport:.3f}{sim} ({row.elapsed_s:.0f} s)")
 
     def progress(row: SearchLogRow) -> None:
-        if row.generation >= 0:
+        if row.generation < 0:  # every speed's search starts by seeding with the templates
+            console.print(clock.start_speed(values), highlight=False)
+        else:
             console.print(f"    gen {row.generation}: best {row.best_cost:.4g}, mean "
                           f"{row.gait_label} {row.period_s:.3f} s", highlight=False)
 
-    check_executor(executor)
     console.print(f"gait-from-speed sweep for [bold]{bot.name}[/] over {values} m/s")
     rows = sweep_speeds(bot, values, n_knots=knots, options=PlannerOptions(mu=mu),
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
@@ -76,9 +88,83 @@ def sweep(
                         **sim_acceptance(bot, sim_accept, cycles),
                         validator=_sim_validator(cycles) if simulate else None,
                         on_row=on_row, progress=progress)
-    paths = write_sweep(rows, output, bot)
+    try:
+        paths = write_sweep(rows, output, bot)
+    except OutputWriteError:
+        raise
+    except OSError as exc:  # e.g. the folder vanished or became read-only during the sweep
+        raise OutputError(f"--output {output}: cannot write the sweep: {exc.strerror or exc}"
+                          ) from None
     console.print(to_markdown(rows))
+    console.print(f"{len(values)} speeds in {format_duration(clock.elapsed_s())}")
     console.print("wrote " + ", ".join(str(p) for p in paths.values()))
+
+
+def parse_speeds(text: str) -> list[float]:
+    """`--speeds 0.05,0.1`: comma-separated speeds, each finite and in (0, 10] m/s."""
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise OptionError(
+            f"--speeds must be numbers separated by commas, got {text!r}") from None
+    if not values:
+        raise OptionError("--speeds needs at least one speed, e.g. --speeds 0.1,0.2")
+    for v in values:
+        check_speed("--speeds", v, allow_zero=False)
+    return values
+
+
+def format_duration(seconds: float) -> str:
+    """12 s, 3 min 05 s, 1 h 02 min."""
+    s = round(max(seconds, 0.0))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {s % 3600 // 60:02d} min"
+
+
+class SweepClock:
+    """Which speed of the sweep runs, time elapsed, and an ETA from the speeds done so far
+    (the mean time per finished speed times the speeds left, minus the current one's time)."""
+
+    def __init__(self, n_speeds: int, clock: Callable[[], float] = time.monotonic) -> None:
+        self.n_speeds = n_speeds
+        self._clock = clock
+        self._t0 = clock()
+        self._started_at: float | None = None
+        self.started = 0
+        self.finished = 0
+        self._finished_time_s = 0.0
+
+    def elapsed_s(self) -> float:
+        return self._clock() - self._t0
+
+    def start_speed(self, speeds: list[float]) -> str:
+        """Mark the next speed as started; the progress line to print."""
+        self.started += 1
+        self._started_at = self._clock()
+        speed = speeds[min(self.started, len(speeds)) - 1]
+        line = (f"speed {self.started}/{self.n_speeds}: {speed:.3f} m/s — "
+                f"{format_duration(self.elapsed_s())} elapsed")
+        eta = self.eta_s()
+        return line + (f", ETA {format_duration(eta)}" if eta is not None else
+                       ", ETA after the first speed")
+
+    def finish_speed(self) -> None:
+        self.finished += 1
+        if self._started_at is not None:
+            self._finished_time_s += self._clock() - self._started_at
+            self._started_at = None
+
+    def eta_s(self) -> float | None:
+        """Seconds left, or None before a speed has finished."""
+        if not self.finished:
+            return None
+        per_speed = self._finished_time_s / self.finished
+        running = 0.0 if self._started_at is None else self._clock() - self._started_at
+        left = self.n_speeds - self.finished
+        return max(per_speed * left - running, 0.0)
 
 
 def _sim_validator(cycles: int) -> Validator:

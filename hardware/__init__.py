@@ -7,10 +7,12 @@ emulator: `hardware.virtual.VirtualServoBus`; calibration: `hardware.calibration
 
 from hardware.bus import BusConfig, BusStats, ServoBus, ServoInfo, ServoStatus
 from hardware.errors import (
+    AdapterLost,
     BusError,
     CalibrationError,
     CorruptPacket,
     HardwareError,
+    InvalidSetting,
     LimitError,
     NoResponse,
     PortError,
@@ -18,12 +20,14 @@ from hardware.errors import (
 )
 
 __all__ = [
+    "AdapterLost",
     "BusConfig",
     "BusError",
     "BusStats",
     "CalibrationError",
     "CorruptPacket",
     "HardwareError",
+    "InvalidSetting",
     "LimitError",
     "NoResponse",
     "PortError",

@@ -5,12 +5,21 @@ A concrete driver implements five single-shot primitives on raw bytes (`_ping_on
 encoding from the family's `ControlTable`, fault decoding, and retries with a counted budget.
 
 Retries: every transaction is tried at most `1 + BusConfig.retries` times; only `NoResponse`
-and `CorruptPacket` are retried (a `ServoFault` is an answer, not a transmission error). Each
-attempt is bounded by the port's packet timeout (`BusConfig.timeout_s` beyond the wire time).
+and `CorruptPacket` are retried (a `ServoFault` is an answer, not a transmission error; an
+`AdapterLost` means the port itself is gone). Each attempt is bounded by its own deadline (the
+wire time of the request and of the expected replies at the port's baud rate, plus
+`BusConfig.timeout_s`, plus `reply_gap_s` per reply) and by `timeout_s` for draining stale
+input before it; `BusStats.budget_s` sums those, so a caller knows the longest a call can
+take: (1 + retries) · (per-attempt deadline + timeout_s).
+
+Inputs are bounded: non-finite or absurd timeouts, baud rates, retries and servo ids raise
+`InvalidSetting` (a `ValueError`) with one line naming the setting.
 """
 
 from __future__ import annotations
 
+import math
+import operator
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -18,33 +27,85 @@ from types import TracebackType
 from typing import TypeVar
 
 from hardware.control_table import ControlTable, Register, decode_flags
-from hardware.errors import BusError, CorruptPacket, NoResponse, ServoFault
+from hardware.errors import (
+    AdapterLost,
+    BusError,
+    CorruptPacket,
+    InvalidSetting,
+    NoResponse,
+    ServoFault,
+)
 
 T = TypeVar("T")
 
 MAX_SERVO_ID = 252
+MAX_TIMEOUT_S = 10.0  # a reply allowance above this is a typo (ms given as s), not a bus
+MIN_BAUD, MAX_BAUD = 1_200, 12_000_000  # slowest UART to the fastest X-series / USB adapters
+MAX_RETRIES = 100
+MAX_REPLY_GAP_S = 0.01  # Dynamixel Return Delay Time tops out at 508 µs; 10 ms is generous
+
+
+def bounded(what: str, value: float, lo: float, hi: float, unit: str = "") -> float:
+    """`value` as a float if finite and in [lo, hi]; else InvalidSetting naming `what`."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InvalidSetting(what, f"{value!r} is not a number") from None
+    if not math.isfinite(x) or not lo <= x <= hi:
+        raise InvalidSetting(what, f"{value!r} is outside [{lo:g}, {hi:g}]{unit}")
+    return x
+
+
+def bounded_int(what: str, value: object, lo: int, hi: int) -> int:
+    """`value` as an int if it is an integer in [lo, hi]; else InvalidSetting naming `what`."""
+    try:
+        n = operator.index(value)  # type: ignore[arg-type]
+    except TypeError:
+        raise InvalidSetting(what, f"{value!r} is not an integer") from None
+    if not lo <= n <= hi:
+        raise InvalidSetting(what, f"{n} is outside {lo}..{hi}")
+    return int(n)
 
 
 @dataclass(frozen=True)
 class BusConfig:
     """Transport settings shared by every driver.
 
-    timeout_s: reply deadline per attempt beyond the wire time of the expected reply [s].
+    timeout_s: reply allowance per attempt beyond the wire time of request and replies [s]
+        (covers the servo's processing and OS scheduling; a USB adapter's latency timer is
+        added by the drivers). Default 10 ms: a pty round trip to the virtual bus is 0.4 ms
+        typical, 0.7 ms p99, but on a loaded 2-core machine a 1 ms sleep overshot by up to
+        12 ms (measured); at 3 ms a quad12 gait over the pty lost 0-3 reads per run and one
+        run in six stopped on an unconfirmed torque-on, at 10 ms none (6 runs each).
     retries: extra attempts after a NoResponse / CorruptPacket (0 = try once).
     baudrate: serial speed [bit/s]; None = the port's current / the driver's default.
     raise_on_fault: raise ServoFault when a reply carries hardware-error flags.
+    reply_gap_s: extra allowance per expected reply [s] (the servos' Return Delay Time: in a
+        sync read each servo waits for the one before it); None = the driver's default.
+    late_reply_horizon_s: how long a reply that missed its deadline may still turn up [s]; for
+        that long (or until the servo answers a later request) the driver keeps it from being
+        taken for the answer to a later request (see `hardware.sdk_bus`). Real late replies
+        come from USB latency and scheduling (milliseconds); the default 60 s covers the
+        longest delay the virtual bus injects (`FaultPlan.delay_s` ≤ 60 s).
     """
 
     timeout_s: float = 0.010
     retries: int = 1
     baudrate: int | None = None
     raise_on_fault: bool = True
+    reply_gap_s: float | None = None
+    late_reply_horizon_s: float = 60.0
 
     def __post_init__(self) -> None:
+        bounded("timeout_s", self.timeout_s, 1e-6, MAX_TIMEOUT_S, " s")
         if not self.timeout_s > 0:
-            raise ValueError("timeout_s must be positive")
-        if self.retries < 0:
-            raise ValueError("retries must be >= 0")
+            raise InvalidSetting("timeout_s", f"{self.timeout_s!r} must be positive")
+        bounded_int("retries", self.retries, 0, MAX_RETRIES)
+        if self.baudrate is not None:
+            bounded_int("baudrate", self.baudrate, MIN_BAUD, MAX_BAUD)
+        if self.reply_gap_s is not None:
+            bounded("reply_gap_s", self.reply_gap_s, 0.0, MAX_REPLY_GAP_S, " s")
+        bounded("late_reply_horizon_s", self.late_reply_horizon_s, 0.0, 3600.0, " s")
 
 
 @dataclass(frozen=True)
@@ -79,6 +140,9 @@ class BusStats:
     corrupt: int = 0
     faults: int = 0
     failures: int = 0  # transactions that raised after exhausting their retries
+    stray: int = 0  # well-formed replies that answered something else (late, other id/length)
+    adapter_lost: int = 0
+    budget_s: float = 0.0  # sum of the attempts' deadlines [s]: the longest the calls could take
 
 
 class ServoBus(ABC):
@@ -89,7 +153,7 @@ class ServoBus(ABC):
     def __init__(self, table: ControlTable, config: BusConfig | None = None) -> None:
         self.table = table
         self.config = config or BusConfig()
-        self._counts = {f: 0 for f in BusStats.__dataclass_fields__}
+        self._counts: dict[str, float] = {f: 0 for f in BusStats.__dataclass_fields__}
 
     # -- lifecycle ------------------------------------------------------------------------
     @abstractmethod
@@ -146,7 +210,8 @@ class ServoBus(ABC):
     # -- retry machinery --------------------------------------------------------------------
     @property
     def stats(self) -> BusStats:
-        return BusStats(**self._counts)
+        c = self._counts
+        return BusStats(**{k: (v if k == "budget_s" else int(v)) for k, v in c.items()})  # type: ignore[arg-type]
 
     def _transact(self, attempt: Callable[[], T], retries: int | None = None) -> T:
         budget = self.config.retries if retries is None else retries
@@ -166,6 +231,10 @@ class ServoBus(ABC):
                 last = CorruptPacket(exc.detail, exc.servo_id, n + 1)
             except ServoFault:
                 self._counts["faults"] += 1
+                self._counts["failures"] += 1
+                raise
+            except AdapterLost:
+                self._counts["adapter_lost"] += 1
                 self._counts["failures"] += 1
                 raise
         self._counts["failures"] += 1
@@ -195,6 +264,7 @@ class ServoBus(ABC):
 
     def read(self, servo_id: int, name: str) -> int:
         """Decoded value of register `name` of one servo."""
+        _check_id(servo_id)
         reg = self.table[name]
 
         def attempt() -> int:
@@ -206,8 +276,9 @@ class ServoBus(ABC):
 
     def write(self, servo_id: int, name: str, value: int) -> None:
         """Write register `name` of one servo and wait for its status."""
+        _check_id(servo_id)
         reg = self.table[name]
-        raw = reg.encode(value)
+        raw = _encode(reg, name, servo_id, value)
 
         def attempt() -> None:
             self._check(servo_id, self._write_once(servo_id, reg.addr, raw))
@@ -219,7 +290,9 @@ class ServoBus(ABC):
         if not values:
             return
         reg = self.table[name]
-        data = {i: reg.encode(v) for i, v in values.items()}
+        for servo_id in values:
+            _check_id(servo_id)
+        data = {i: _encode(reg, name, i, v) for i, v in values.items()}
         self._transact(lambda: self._sync_write_once(reg.addr, reg.size, data))
 
     def sync_read(self, name: str, ids: Sequence[int]) -> dict[int, int]:
@@ -259,10 +332,13 @@ class ServoBus(ABC):
                 blocks.setdefault(servo_id, {})[lo] = data
 
         def value(servo_id: int, reg: Register) -> int:
-            for lo, data in blocks[servo_id].items():
+            for lo, data in blocks.get(servo_id, {}).items():
                 if lo <= reg.addr and reg.addr + reg.size <= lo + len(data):
                     return reg.decode(data[reg.addr - lo : reg.addr - lo + reg.size])
-            raise AssertionError("register outside the spans read")  # pragma: no cover
+            raise CorruptPacket(
+                f"status of servo {servo_id}: no bytes for register at {reg.addr}+{reg.size}",
+                servo_id,
+            )
 
         out = {}
         for servo_id in ids:
@@ -297,8 +373,14 @@ class ServoBus(ABC):
 
 
 def _check_id(servo_id: int) -> None:
-    if not 0 <= servo_id <= MAX_SERVO_ID:
-        raise ValueError(f"servo id {servo_id} outside 0..{MAX_SERVO_ID}")
+    bounded_int("servo id", servo_id, 0, MAX_SERVO_ID)
+
+
+def _encode(reg: Register, name: str, servo_id: int, value: object) -> bytes:
+    try:
+        return reg.encode(operator.index(value))  # type: ignore[arg-type]
+    except (TypeError, ValueError) as exc:
+        raise InvalidSetting(f"{name} for servo {servo_id}", f"{value!r}: {exc}") from None
 
 
 def _spans(regs: Sequence[Register], max_gap: int = 8) -> list[tuple[int, int]]:

@@ -1,19 +1,33 @@
-"""`gaitsmith-play`: servo-side commands (scan a bus, serve a virtual bus; the player adds more)."""
+"""`gaitsmith-play`: servo-side commands (scan a bus, serve a virtual bus; the player adds more).
+
+Run as `gaitsmith-play run` (or `python -m hardware.cli run`), this module first latches the
+stop signals (SIGINT, SIGTERM, SIGHUP, SIGQUIT; `hardware.watchdog.latch_stop_signals`) before
+it loads the rest, so a signal that arrives while the command starts up becomes the player's
+stop request instead of killing it half-way; see `hardware.play_cmd` for what each signal does.
+"""
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import time
-from enum import Enum
-from types import FrameType
 
-import typer
-from rich.console import Console
-from rich.table import Table
+from hardware.watchdog import STOP_SIGNALS, latch_stop_signals
 
-from hardware.bus import BusConfig, ServoBus
-from hardware.errors import HardwareError
+_AS_COMMAND = __name__ == "__main__" or os.path.basename(sys.argv[0]) == "gaitsmith-play"
+_LATCHED = _AS_COMMAND and sys.argv[1:2] == ["run"]
+if _LATCHED:
+    latch_stop_signals()  # before typer / rich / the player load (tenths of a second)
+from enum import Enum  # noqa: E402 (after the latch)
+from types import FrameType  # noqa: E402 (after the latch)
+
+import typer  # noqa: E402 (after the latch)
+from rich.console import Console  # noqa: E402 (after the latch)
+from rich.table import Table  # noqa: E402 (after the latch)
+
+from hardware.bus import BusConfig, ServoBus  # noqa: E402 (after the latch)
+from hardware.errors import HardwareError  # noqa: E402 (after the latch)
 
 app = typer.Typer(
     name="gaitsmith-play",
@@ -175,7 +189,12 @@ _register_player(app)
 
 def main() -> None:
     """Console-script entry point."""
-    app()
+    try:
+        app()
+    finally:
+        if _LATCHED:  # the run is over (torque off): a late signal must not turn the exit code
+            for s in STOP_SIGNALS:  # into "killed" as Python restores default handlers at exit
+                signal.signal(s, signal.SIG_IGN)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""`DynamixelBus`: DYNAMIXEL Protocol 2.0 (X-series control table) over `dynamixel_sdk`."""
+"""`DynamixelBus`: DYNAMIXEL Protocol 2.0 (X-series control table); the port is the SDK's
+`dynamixel_sdk.PortHandler`, the packets are `hardware.protocol.dynamixel2`'s."""
 
 from __future__ import annotations
 
@@ -13,11 +14,10 @@ from hardware.control_table import (
     DYNAMIXEL_X,
     decode_flags,
 )
+from hardware.errors import AdapterLost, BusError
+from hardware.protocol import dynamixel2 as codec
+from hardware.protocol.common import STATUS, FrameStream, Packet
 from hardware.sdk_bus import LatencyMixin, SdkServoBus
-
-_PKT_ID = 4
-_PKT_INSTRUCTION = 7
-_PKT_PARAMETER0 = 8
 
 
 class DynamixelPortHandler(LatencyMixin, sdk.PortHandler):  # type: ignore[misc]
@@ -32,31 +32,35 @@ class DynamixelBus(SdkServoBus):
 
     protocol = "dynamixel2"
     default_baudrate = 57_600  # X-series factory setting
+    default_reply_gap_s = 0.0005  # X-series factory Return Delay Time: 250 × 2 µs
+    status_overhead = 11  # header 4, id, length 2, 0x55, error, CRC 2
+    ping_params = 3  # model number (2), firmware version (1)
+    identity_span = (0, 7)  # model number at 0 (2 B) ... firmware version at 6
+    codec = codec
     sdk = sdk
 
     def __init__(self, port: Any, config: BusConfig | None = None) -> None:
         super().__init__(port, DYNAMIXEL_X, config)
 
-    def _make_packet_handler(self) -> Any:
-        return sdk.PacketHandler(2.0)
-
     def _make_port_handler(self, path: str) -> Any:
         return DynamixelPortHandler(path)
 
-    def _ping_once(self, servo_id: int) -> ServoInfo:
-        port = self._require_open()
-        tx = [0] * 10
-        tx[_PKT_ID] = servo_id
-        tx[5], tx[6] = 3, 0
-        tx[_PKT_INSTRUCTION] = sdk.INST_PING
-        rx, result, _ = self.ph.txRxPacket(port, tx)
-        self._raise_for(result, servo_id, "ping")
-        p = _PKT_PARAMETER0
-        model = rx[p + 1] | (rx[p + 2] << 8)
-        return ServoInfo(servo_id, model, str(rx[p + 3]))
+    def _status_parser(self, max_frame: int | None) -> FrameStream:
+        return codec.StreamParser(max_frame)
 
-    def _sync_read_tx(self, port: Any, addr: int, length: int, ids: list[int]) -> int:
-        return int(self.ph.syncReadTx(port, addr, length, ids, len(ids), False))
+    def _frame_bytes(self, n_params: int) -> int:
+        return self.status_overhead + n_params + (n_params + 1) // 3  # worst-case byte stuffing
+
+    def _matches(self, packet: Packet, n_params: int) -> bool:
+        if packet.instruction != STATUS:
+            return False  # an instruction packet (e.g. our own echo on a loopback): not a reply
+        if len(packet.params) == n_params:
+            return True
+        # an error status (instruction / access / data-length error) carries no data
+        return not packet.params and bool((packet.error or 0) & ~DYNAMIXEL_ALERT_BIT)
+
+    def _identity(self, servo_id: int, data: bytes) -> ServoInfo:
+        return ServoInfo(servo_id, data[0] | (data[1] << 8), str(data[6]))
 
     def _fault_flags(self, servo_id: int, error: int) -> tuple[str, ...]:
         flags: list[str] = []
@@ -65,8 +69,14 @@ class DynamixelBus(SdkServoBus):
             flags.append(DYNAMIXEL_ERROR_NUMBERS.get(number, f"error_{number}"))
         if error & DYNAMIXEL_ALERT_BIT:
             reg = self.table["hardware_error"]
-            hw, result, _ = self.ph.read1ByteTxRx(self.port, servo_id, reg.addr)
-            if result == sdk.COMM_SUCCESS and hw:
+            try:
+                data, _ = self._read_once(servo_id, reg.addr, reg.size)
+                hw = data[0]
+            except AdapterLost:
+                raise
+            except BusError:
+                hw = 0
+            if hw:
                 flags.extend(decode_flags(hw, self.table.hardware_error_bits))
             else:
                 flags.append("alert")
@@ -74,10 +84,8 @@ class DynamixelBus(SdkServoBus):
 
     def reboot(self, servo_id: int) -> None:
         """Reboot one servo (clears latched hardware errors; torque comes back off)."""
-        port = self._require_open()
 
         def attempt() -> None:
-            result, _error = self.ph.reboot(port, servo_id)
-            self._raise_for(result, servo_id, "reboot")
+            self._exchange(codec.reboot(servo_id), {servo_id: 0}, "reboot")
 
         self._transact(attempt)

@@ -5,9 +5,11 @@ Hierarchy::
     HardwareError
     ├── BusError                 something went wrong on the serial bus
     │   ├── PortError            the port cannot be opened / used
+    │   ├── AdapterLost          the port failed under us (USB unplugged, EIO, port closed)
     │   ├── NoResponse           a servo did not answer within the timeout
     │   ├── CorruptPacket        a reply arrived but failed its CRC/checksum or framing
     │   └── ServoFault           a servo answered with hardware-error flags set
+    ├── InvalidSetting           a bus / fault-plan setting out of bounds (also a ValueError)
     ├── CalibrationError         calibration file missing, malformed or for another robot build
     └── LimitError               a joint target lies outside the joint's limits
 """
@@ -30,6 +32,19 @@ class PortError(BusError):
         self.port = port
         self.problem = problem
         super().__init__(f"port {port!r}: {problem}")
+
+
+class AdapterLost(BusError):
+    """The serial adapter failed under us: an OSError / SerialException from read, write or
+    flush, or the port closed while in use (USB unplugged, pty server gone). Not retried: every
+    later call on the same bus raises it again at once until the bus is closed and reopened."""
+
+    def __init__(self, port: str, operation: str, os_error: BaseException | str) -> None:
+        self.port = port
+        self.operation = operation
+        self.os_error = os_error
+        text = " ".join(str(os_error).split()) or type(os_error).__name__
+        super().__init__(f"serial adapter on {port!r} lost during {operation}: {text}")
 
 
 class NoResponse(BusError):
@@ -65,6 +80,16 @@ class ServoFault(BusError):
         super().__init__(f"servo {servo_id}: hardware fault: {names}")
 
 
+class InvalidSetting(HardwareError, ValueError):
+    """A bus-layer setting (timeout, baud rate, servo id, fault magnitude...) is not finite or
+    out of its bounds: `what` names the setting, `problem` says what is allowed."""
+
+    def __init__(self, what: str, problem: str) -> None:
+        self.what = what
+        self.problem = problem
+        super().__init__(f"{what}: {problem}")
+
+
 class CalibrationError(HardwareError):
     """A calibration is missing, malformed, or belongs to another robot build."""
 
@@ -86,3 +111,4 @@ class LimitError(HardwareError):
             f"joint {joint!r}: target {value_rad:.4f} rad outside "
             f"[{lower_rad:.4f}, {upper_rad:.4f}] rad"
         )
+

@@ -13,6 +13,12 @@ virtual bus::
     voltage-error=ID servo ID reports an input-voltage error             voltage_error
     status-lost      no reply to the status reads (load, voltage,        drop_reads_of
                      temperature, error flags); positions still read
+    unplug           the serial adapter itself vanishes: every read and  (the port, not
+                     write on it fails with OSError EIO, like a pulled   the plan: needs
+                     USB adapter (no value; normally with @T)            `attach_port`)
+
+Values must be finite and sensible: P in [0, 1], delay in [0, 10] s, sag in [0, 50] V, start
+times in [0, 86400] s (one day: the longest run pre-flight accepts).
 
 Each may end in ``@T``: the fault starts T seconds into the run (the telemetry's t_actual_s;
 0 = the first tick of the ramp-in), at the end of the first tick at or after T. Without ``@T``
@@ -26,21 +32,28 @@ run is the machine's monotonic clock, meaningless on a command line.
 
 from __future__ import annotations
 
+import errno
 import math
+import os
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 from hardware.virtual.bus import VirtualServoBus
 from hardware.virtual.faults import FaultPlan
 
 FORMS = (
     "drop=P, corrupt=P (probability 0..1), delay=S [s], sag=V [V], vanish=ID, overload=ID, "
-    "overheat=ID, voltage-error=ID, status-lost; each optionally followed by @T "
-    "(seconds into the run), e.g. drop=0.01, vanish=3@2.0, overheat=5@1.5, status-lost@1"
+    "overheat=ID, voltage-error=ID, status-lost, unplug; each optionally followed by @T "
+    "(seconds into the run), e.g. drop=0.01, vanish=3@2.0, overheat=5@1.5, status-lost@1, "
+    "unplug@2"
 )
 _PROBABILITY = ("drop", "corrupt")
 _AMOUNT = ("delay", "sag")
 _SERVO = ("vanish", "overload", "overheat", "voltage-error")
+_NO_VALUE = ("status-lost", "unplug")
+_RANGES = {"delay": (0.0, 10.0, "s"), "sag": (0.0, 50.0, "V")}
+MAX_START_S = 86400.0
 _STATUS_REGISTER = "present_temperature"  # in both control tables; any status register would do
 
 
@@ -65,6 +78,8 @@ class FaultSpec:
     def apply(self, plan: FaultPlan) -> FaultPlan:
         """`plan` with this fault added."""
         k, x = self.kind, self.value
+        if k == "unplug":
+            return plan  # the port's business: FaultSchedule.unplug
         if k == "status-lost" or x is None:
             return replace(plan, drop_reads_of=plan.drop_reads_of | {_STATUS_REGISTER})
         if k == "drop":
@@ -106,13 +121,15 @@ def parse_fault(text: str, servo_ids: Collection[int] | None = None) -> FaultSpe
     at_s: float | None = None
     if at:
         at_s = _number(when.strip(), text, "start time")
-        if at_s < 0:
-            raise FaultSpecError(text, f"start time must be >= 0 s, got {at_s:g}")
+        if not 0 <= at_s <= MAX_START_S:
+            why = f"start time must lie in [0, {MAX_START_S:g}] s, got {at_s:g}"
+            raise FaultSpecError(text, why)
     kind, eq, raw = (p.strip() for p in body.partition("="))
     kind = kind.lower().replace("_", "-")
-    if kind == "status-lost":
+    if kind in _NO_VALUE:
         if eq:
-            raise FaultSpecError(text, "status-lost takes no value (it loses every servo's)")
+            why = "it loses every servo's" if kind == "status-lost" else "it loses the adapter"
+            raise FaultSpecError(text, f"{kind} takes no value ({why})")
         return FaultSpec(spec, kind, None, at_s)
     if kind not in _PROBABILITY and kind not in _AMOUNT and kind not in _SERVO:
         raise FaultSpecError(text, f"unknown fault {kind!r}" if kind else "no fault named")
@@ -132,7 +149,16 @@ def parse_fault(text: str, servo_ids: Collection[int] | None = None) -> FaultSpe
         raise FaultSpecError(text, f"{kind} is a probability in [0, 1], got {value:g}")
     if value < 0:
         raise FaultSpecError(text, f"{kind} must be >= 0, got {value:g}")
-    return FaultSpec(spec, kind, value, at_s)
+    if kind in _RANGES:
+        lo, hi, unit = _RANGES[kind]
+        if not lo <= value <= hi:
+            raise FaultSpecError(text, f"{kind} must lie in [{lo:g}, {hi:g}] {unit}, got {value:g}")
+    parsed = FaultSpec(spec, kind, value, at_s)
+    try:  # FaultPlan's own bounds (e.g. sag=1e308, delay=1e9): refused here, in one line
+        parsed.apply(FaultPlan())
+    except ValueError as exc:
+        raise FaultSpecError(text, str(exc)) from None
+    return parsed
 
 
 class FaultSchedule:
@@ -149,6 +175,11 @@ class FaultSchedule:
         self.pending = sorted((s for s in self.specs if s.at_s is not None), key=_start)
         self.applied: list[tuple[FaultSpec, float]] = []  # (spec, run time [s] it took effect)
         self.vbus: VirtualServoBus | None = None
+        self.port: Any = None
+
+    @property
+    def unplugs_at_start(self) -> bool:
+        return any(s.kind == "unplug" and s.at_s is None for s in self.specs)
 
     @property
     def timed(self) -> bool:
@@ -159,9 +190,29 @@ class FaultSchedule:
         vbus.faults = self.initial
         self.vbus = vbus
 
+    def attach_port(self, bus: Any) -> None:
+        """Remember the connected driver's port (`bus.port`, the in-process `VirtualPort`)
+        so that `unplug` can fail it; an untimed `unplug` fails it at once."""
+        self.port = getattr(bus, "port", None)
+        if self.unplugs_at_start:
+            self.unplug()
+
+    def unplug(self) -> None:
+        """The adapter vanishes: every port call raises OSError(EIO) from now on."""
+        if self.port is None:
+            return
+
+        def eio(*_: Any, **__: Any) -> Any:
+            raise OSError(errno.EIO, os.strerror(errno.EIO))
+
+        for name in ("readPort", "writePort", "clearPort", "getBytesAvailable"):
+            setattr(self.port, name, eio)
+
     def on_tick(self, tick: int, t_s: float) -> None:
         while self.pending and self.vbus is not None and _start(self.pending[0]) <= t_s:
             spec = self.pending.pop(0)
+            if spec.kind == "unplug":
+                self.unplug()
             self.vbus.faults = spec.apply(self.vbus.faults)
             self.applied.append((spec, t_s))
 

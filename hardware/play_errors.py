@@ -29,13 +29,22 @@ class PreflightError(PlayerError):
 class SpeedScaleError(PlayerError):
     """The requested time scaling makes joint `joint` faster than its allowed speed."""
 
-    def __init__(self, joint: str, speed_rad_s: float, allowed_rad_s: float, scale: float) -> None:
+    def __init__(
+        self,
+        joint: str,
+        speed_rad_s: float,
+        allowed_rad_s: float,
+        scale: float,
+        rate_hz: float | None = None,
+    ) -> None:
         self.joint = joint
         self.speed_rad_s = speed_rad_s
         self.allowed_rad_s = allowed_rad_s
         self.scale = scale
+        self.rate_hz = rate_hz
+        at = "" if rate_hz is None else f" (enforced at --rate {rate_hz:g})"
         super().__init__(
             f"--speed-scale {scale:g}: joint {joint!r} would reach {speed_rad_s:.2f} rad/s, "
-            f"above its allowed {allowed_rad_s:.2f} rad/s "
+            f"above its allowed {allowed_rad_s:.2f} rad/s{at} "
             f"(largest allowed scale {scale * allowed_rad_s / speed_rad_s:.3f})"
         )

@@ -6,28 +6,37 @@ Timeline (all goal positions pass through one `SafetyGate`):
 
 1. pre-flight (`hardware.preflight`): build, calibration, speed scale, sim verdict; on the bus:
    ping + model, voltage, temperature, flags, present pose within limits;
-2. torque on (the servos hold their present pose), then a min-jerk ramp (`robots.ramp`) from
-   the present pose to the gait's pose at phase 0, peak speed ≤ `ramp_speed_fraction` of the
-   allowed speed and at least `ramp_s` long;
+2. torque on (the servos hold their present pose), then the gait entry (`robots.ramp.gait_entry`,
+   as `sim.validate` does): a min-jerk ramp from the present pose to the gait's mean pose, peak
+   speed ≤ `ramp_speed_fraction` of the allowed speed and at least `ramp_s` long ("ramp_in"),
+   then the gait blended in around that pose over whole cycles ("blend_in"), ending at phase 0
+   (a straight ramp to the phase-0 pose turned a robot 7–15° before its first step, issue #12);
 3. streaming at `rate_hz` with absolute deadlines t0 + k/rate (no drift). A tick whose work
    ends past the next deadline is an overrun: the latest passed deadline runs at once, late,
    and older passed deadlines are skipped (counted). The gait is sampled at
    gait time = `speed_scale` · (scheduled time since the gait began);
-4. stop (completed cycles, watchdog, SIGINT/SIGTERM, bus error): ramp from the last goal to the
-   rest pose (stance, or where the robot is) over ≥ `stop_ramp_s`, then torque off or hold.
-   A second signal during the ramp skips straight to step 5;
+4. stop (completed cycles, watchdog, a stop signal — SIGINT, SIGTERM, SIGHUP, SIGQUIT —, bus
+   error, adapter lost): ramp from the last goal to the rest pose (stance, or where the robot
+   is) over ≥ `stop_ramp_s`, then torque off or hold. Any later signal skips what is left of
+   the ramp, straight to step 5; a bus error or a lost adapter skips the ramp too;
 5. torque off: one broadcast sync-write of Torque Enable = 0 (reaches servos whose replies are
-   lost), then an acknowledged write per servo (failures reported).
+   lost), then an acknowledged write per servo (failures reported), bounded in time; after an
+   adapter failure only the broadcast is tried. Then the telemetry stop row.
 
-Allowed joint speed = `speed_margin` · the servo's no-load speed; the gate's step limit per tick
-is that speed / rate.
+The signal handlers stay installed from before pre-flight until after step 5 and never raise
+(`hardware.watchdog.stop_on_signals`): no signal, however many, skips the torque-off; the first
+stop reason is the one reported. A lost telemetry file (disk full) does not change any of this.
+
+Allowed joint speed = `speed_margin` · the servo's no-load speed; the gate enforces exactly that
+speed at every rate (a step budget with the fractional tick carried over, `SafetyGate`), and
+pre-flight judges the gait against the same `SafetyGate.enforced_speed_rad_s`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
@@ -35,17 +44,45 @@ import numpy as np
 from hardware.bus import ServoBus, ServoStatus
 from hardware.calibration import Calibration
 from hardware.clock import Clock, MonotonicClock, VirtualClock
-from hardware.errors import BusError, CorruptPacket, HardwareError, NoResponse, ServoFault
+from hardware.errors import (
+    AdapterLost,
+    BusError,
+    CorruptPacket,
+    HardwareError,
+    NoResponse,
+    ServoFault,
+)
 from hardware.play_errors import PlayerError
 from hardware.preflight import check_bus, check_offline
 from hardware.safety_gate import GateCommand, SafetyGate
 from hardware.telemetry import TelemetryWriter, TickRecord
 from hardware.watchdog import StopEvent, StopReason, Watchdog, WatchdogLimits, stop_on_signals
 from robots.gait import Gait
-from robots.ramp import MinJerkRamp, ramp_to
+from robots.ramp import MinJerkRamp, gait_entry, ramp_to
 from robots.robot import Robot
 
 TickHook = Callable[[int, float], None]
+try:  # pyserial's flush / reset on a vanished adapter raises termios.error, not an OSError
+    from termios import error as _TermiosError
+
+    _RAW_ADAPTER_ERRORS: tuple[type[BaseException], ...] = (OSError, _TermiosError)
+except ImportError:  # pragma: no cover - no termios (Windows)
+    _RAW_ADAPTER_ERRORS = (OSError,)
+# what a failing adapter raises: AdapterLost once the drivers translate it, the raw errors until
+ADAPTER_ERRORS: tuple[type[BaseException], ...] = (AdapterLost, *_RAW_ADAPTER_ERRORS)
+BUS_FAILURES: tuple[type[BaseException], ...] = (BusError, *_RAW_ADAPTER_ERRORS)
+MAX_RAMP_S = 60.0
+TORQUE_OFF_BUDGET_S = 2.0  # the per-servo torque-off confirmations give up after this
+
+
+def _os_text(exc: BaseException) -> str:
+    """One line for an adapter failure: "[Errno 5] Input/output error", not a repr."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return f"[Errno {exc.errno}] {exc.strerror}" if exc.errno else exc.strerror
+    args: tuple[object, ...] = tuple(getattr(exc, "args", ()))
+    if len(args) == 2 and isinstance(args[0], int) and isinstance(args[1], str):
+        return f"[Errno {args[0]}] {args[1]}"  # termios.error(5, 'Input/output error')
+    return str(exc) or type(exc).__name__
 
 
 class RestPose(str, Enum):
@@ -80,13 +117,18 @@ class PlayerConfig:
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 1000.0):
             raise ValueError("rate_hz must lie in [1, 1000]")
-        if self.cycles is not None and not self.cycles > 0:
-            raise ValueError("cycles must be positive")
+        if self.cycles is not None and not (math.isfinite(self.cycles) and self.cycles > 0):
+            raise ValueError("cycles must be a finite positive number (None: until stopped)")
         if not 0 < self.speed_margin <= 1.0:
             raise ValueError("speed_margin must lie in (0, 1]")
-        for name in ("ramp_s", "stop_ramp_s", "ramp_speed_fraction", "stop_speed_fraction"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be positive")
+        if not (math.isfinite(self.speed_scale) and self.speed_scale > 0):
+            raise ValueError("speed_scale must be a finite positive number")
+        for name in ("ramp_s", "stop_ramp_s"):
+            if not 0 < getattr(self, name) <= MAX_RAMP_S:
+                raise ValueError(f"{name} must lie in (0, {MAX_RAMP_S:g}] s")
+        for name in ("ramp_speed_fraction", "stop_speed_fraction"):
+            if not 0 < getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} must lie in (0, 1]")
 
 
 @dataclass(frozen=True)
@@ -111,6 +153,9 @@ class PlayResult:
     torque_off_failures: tuple[int, ...]
     warnings: tuple[str, ...]
     dry_run: bool
+    work_p99_s: float = 0.0  # p99 of one tick's work (send, read, check, log) [s]
+    signals: int = 0  # stop signals received during the run
+    telemetry_cut: str | None = None  # why the telemetry log was cut short (None: complete)
 
     @property
     def exit_code(self) -> int:
@@ -154,52 +199,73 @@ class Player:
         )
         self.period_s = 1.0 / cfg.rate_hz
         self.ticks = 0
-        self._t0 = 0.0
+        self._t0 = self.clock.now_s()  # provisional: set again when the run starts
         self._jitter: list[float] = []
+        self._work_s: list[float] = []
         self._overruns = 0
         self._skipped = 0
         self._phases: dict[str, int] = {}
         self._clips = [0, 0]
         self._last_present: tuple[int, np.ndarray] | None = None
         self._actual_span_s: list[float] = []  # first and last tick start [s]
+        self._adapter_lost = False
 
     # -- public -----------------------------------------------------------------------------------
     def request_stop(self, reason: StopReason, message: str) -> None:
         self.watchdog.request(reason, message, self.ticks, self._now_rel())
 
     def run(self) -> PlayResult:
-        """Pre-flight, then play until done or stopped; raises PlayerError if refused."""
+        """Pre-flight, then play until done or stopped; raises PlayerError if refused.
+
+        The stop signals are caught from before pre-flight until the torque-off has been sent
+        and the telemetry stop row written (see `hardware.watchdog`): whatever arrives, and
+        however often, the run ends ramp to rest → torque off, never killed half-way."""
+        with stop_on_signals(self.watchdog, lambda: (self.ticks, self._now_rel())):
+            warnings, present = self._preflight()
+            return self._play_accepted(present, warnings)
+
+    def _preflight(self) -> tuple[list[str], np.ndarray | dict[int, int]]:
         cfg = self.config
         warnings, _ = check_offline(
             self.robot,
             self.gait,
             self.calibration,
             cfg.speed_scale,
-            self.allowed_speed_rad_s,
+            self.gate.enforced_speed_rad_s,
             cfg.force,
+            rate_hz=cfg.rate_hz,
+            cycles=cfg.cycles,
         )
         if self.bus is not None:
-            present = check_bus(
-                self.robot, self.calibration, self.bus, cfg.limits, cfg.pose_tolerance_rad
-            )
+            try:
+                present: np.ndarray | dict[int, int] = check_bus(
+                    self.robot, self.calibration, self.bus, cfg.limits, cfg.pose_tolerance_rad
+                )
+            except ADAPTER_ERRORS as exc:
+                raise PlayerError(f"pre-flight: serial adapter failed: {_os_text(exc)}") from None
         else:
             present = self.calibration.rad_to_ticks(self.robot.nominal_stance_rad)
+        return warnings, present
+
+    def _play_accepted(
+        self, present: np.ndarray | dict[int, int], warnings: list[str]
+    ) -> PlayResult:
+        cfg = self.config
         self.gate.seed(present)
         safe_at = math.nan
         torque_failures: tuple[int, ...] = ()
         completed_cleanly = False
         try:
-            with stop_on_signals(self.watchdog, lambda: (self.ticks, self._now_rel())):
-                self._t0 = self.clock.now_s() + self.period_s
-                if not cfg.dry_run and self.bus is not None:
-                    try:
-                        self.bus.torque_on(self.ids)
-                    except BusError as exc:
-                        self._stop_for(exc, StopReason.BUS_ERROR)
-                self._play()
-                self._ramp_to_rest()
-                safe_at = self._now_rel()
-                completed_cleanly = True
+            self._start_clock()
+            if not cfg.dry_run and self.bus is not None and self.watchdog.stop is None:
+                try:
+                    self.bus.torque_on(self.ids)
+                except BUS_FAILURES as exc:
+                    self._stop_for(exc, StopReason.BUS_ERROR)
+            self._play()
+            self._ramp_to_rest()
+            safe_at = self._now_rel()
+            completed_cleanly = True
         finally:
             if not cfg.dry_run and self.bus is not None:
                 if cfg.on_stop is OnStop.TORQUE_OFF or not completed_cleanly:
@@ -211,26 +277,56 @@ class Player:
                 self._now_rel(),
             )
             if self.telemetry is not None:
-                self.telemetry.finish(stop.reason.value, stop.message, self.ticks, self._now_rel())
+                self.telemetry.finish(
+                    stop.reason.value, stop.message, self.ticks, self._now_rel(), stop.t_s
+                )
         return self._result(stop, safe_at, torque_failures, tuple(warnings))
 
     # -- the loop -------------------------------------------------------------------------------
+    def _start_clock(self) -> None:
+        """Times are relative to the first deadline; a stop requested before it (a signal
+        during pre-flight) keeps its time, now negative."""
+        t0 = self.clock.now_s() + self.period_s
+        stop = self.watchdog.stop
+        if stop is not None:
+            self.watchdog.stop = replace(stop, t_s=stop.t_s - (t0 - self._t0))
+        self._t0 = t0
+
     def _now_rel(self) -> float:
         return self.clock.now_s() - self._t0
 
     def _stop_for(self, exc: BaseException, reason: StopReason) -> None:
+        """A bus call failed: an adapter failure (AdapterLost, or an OSError such as EIO
+        escaping the driver) stops with ADAPTER_LOST, anything else with `reason`."""
+        if isinstance(exc, ADAPTER_ERRORS):
+            self._adapter_lost = True
+            lost = isinstance(exc, AdapterLost)
+            self.watchdog.request(
+                StopReason.ADAPTER_LOST,
+                str(exc) if lost else f"serial adapter lost: {_os_text(exc)}",
+                self.ticks,
+                self._now_rel(),
+            )
+            return
         self.watchdog.request(reason, f"bus: {exc}", self.ticks, self._now_rel())
+
+    @property
+    def _bus_dead(self) -> bool:
+        stop = self.watchdog.stop
+        return stop is not None and stop.reason in (StopReason.BUS_ERROR, StopReason.ADAPTER_LOST)
 
     def _play(self) -> None:
         cfg = self.config
-        first_pose = self.gait.joint_targets(0.0)
-        ramp = ramp_to(
+        entry = gait_entry(
+            self.gait,
             self.gate.last_rad,
-            first_pose,
             self.allowed_speed_rad_s * cfg.ramp_speed_fraction,
             cfg.ramp_s,
+            time_scale=cfg.speed_scale,
         )
+        ramp = entry.ramp
         n_ramp = math.ceil(ramp.duration_s * cfg.rate_hz - 1e-9)
+        n_blend = max(1, round(entry.blend_s * cfg.rate_hz))  # its ticks span exactly blend_s
         n_gait: int | None = None
         if cfg.cycles is not None:
             n_gait = round(cfg.cycles * self.gait.period_s / cfg.speed_scale * cfg.rate_hz)
@@ -238,7 +334,10 @@ class Player:
         while self.watchdog.stop is None:
             if k < n_ramp:
                 phase, target = "ramp_in", ramp.positions((k + 1) * self.period_s)
-            elif n_gait is not None and k - n_ramp > n_gait:
+            elif k < n_ramp + n_blend:
+                t_blend = (k - n_ramp) * entry.blend_s / n_blend  # then the gait at t = 0
+                phase, target = "blend_in", entry.positions(ramp.duration_s + t_blend)
+            elif n_gait is not None and k - n_ramp - n_blend > n_gait:
                 self.watchdog.request(
                     StopReason.COMPLETED,
                     f"played {cfg.cycles:g} cycle(s)",
@@ -247,14 +346,14 @@ class Player:
                 )
                 break
             else:
-                t_gait = (k - n_ramp) * self.period_s * cfg.speed_scale
+                t_gait = (k - n_ramp - n_blend) * self.period_s * cfg.speed_scale
                 phase, target = "gait", self.gait.joint_targets(t_gait)
             k = self._tick(k, phase, target, watch=True)
 
     def _ramp_to_rest(self) -> None:
         cfg = self.config
         stop = self.watchdog.stop
-        if stop is None or stop.reason is StopReason.BUS_ERROR or self.watchdog.urgent:
+        if stop is None or self._bus_dead or self.watchdog.urgent:
             return
         start = self.gate.last_rad
         if cfg.rest is RestPose.STANCE:
@@ -271,7 +370,7 @@ class Player:
         k = k0
         while k - k0 < n and not self.watchdog.urgent:
             k = self._tick(k, "ramp_out", ramp.positions((k - k0 + 1) * self.period_s), watch=False)
-            if self.watchdog.stop is not None and self.watchdog.stop.reason is StopReason.BUS_ERROR:
+            if self._bus_dead:
                 return
 
     def _next_k(self) -> int:
@@ -286,7 +385,7 @@ class Player:
         actual = self.clock.now_s()
         try:
             cmd = self.gate.command(target)
-        except BusError as exc:
+        except BUS_FAILURES as exc:
             self._stop_for(exc, StopReason.BUS_ERROR)
             return k + 1
         present, status = self._read(watch)
@@ -296,6 +395,7 @@ class Player:
         if self.on_tick is not None:
             self.on_tick(self.ticks - 1, t_rel)  # instrumentation: part of the tick's work
         done = self.clock.now_s()
+        self._work_s.append(done - actual)
         next_k = k + 1
         overrun = done > self._t0 + next_k * self.period_s
         if overrun:  # run the latest passed deadline now (late); skip older ones: no burst
@@ -349,10 +449,10 @@ class Player:
         except (NoResponse, CorruptPacket) as exc:
             if watch:
                 wd.read_missed(exc, self.ticks, t_rel)
-        except BusError as exc:
+        except BUS_FAILURES as exc:
             self._stop_for(exc, StopReason.BUS_ERROR)
         status = None
-        if self.ticks % self.config.limits.status_every_ticks == 0:
+        if self.ticks % self.config.limits.status_every_ticks == 0 and not self._bus_dead:
             try:
                 status = self.bus.read_status(self.ids)
             except (NoResponse, CorruptPacket) as exc:
@@ -360,25 +460,42 @@ class Player:
                 # enough stops the run: an overheating servo must not go unnoticed
                 if watch:
                     wd.status_missed(exc, self.ticks, t_rel)
-            except BusError as exc:
+            except BUS_FAILURES as exc:
                 self._stop_for(exc, StopReason.BUS_ERROR)
             if status is not None and watch:
                 wd.status(status, self.ticks, t_rel)
         return present, status
 
     def _torque_off(self) -> tuple[int, ...]:
-        """Broadcast torque off, then confirm servo by servo; returns the ids not confirmed."""
+        """Broadcast torque off, then confirm servo by servo; returns the ids not confirmed.
+
+        Bounded: once the adapter has failed (now or during the run) only the broadcast is
+        tried (best effort, one write), and the confirmations stop after
+        `TORQUE_OFF_BUDGET_S` — every id not confirmed by then is reported."""
         assert self.bus is not None
         try:
             self.bus.sync_write("torque_enable", {i: 0 for i in self.ids})
+        except BUS_FAILURES as exc:
+            if isinstance(exc, ADAPTER_ERRORS):
+                self._stop_for(exc, StopReason.BUS_ERROR)
         except HardwareError:
-            pass
+            pass  # not on the bus (cannot happen today): the confirmations below will tell
+        if self._adapter_lost:
+            return tuple(self.ids)
         failed = []
-        for i in self.ids:
+        give_up_at = self.clock.now_s() + TORQUE_OFF_BUDGET_S
+        for n, i in enumerate(self.ids):
+            if self.clock.now_s() > give_up_at:
+                failed.extend(self.ids[n:])
+                break
             try:
                 self.bus.write(i, "torque_enable", 0)
             except ServoFault:
                 continue  # it answered (with its error flags): the write arrived
+            except ADAPTER_ERRORS as exc:
+                self._stop_for(exc, StopReason.BUS_ERROR)
+                failed.extend(self.ids[n:])
+                break
             except HardwareError:
                 failed.append(i)
         return tuple(failed)
@@ -411,4 +528,7 @@ class Player:
             torque_off_failures=torque_failures,
             warnings=warnings,
             dry_run=self.config.dry_run,
+            work_p99_s=float(np.percentile(self._work_s, 99)) if self._work_s else 0.0,
+            signals=self.watchdog.signals,
+            telemetry_cut=None if self.telemetry is None else self.telemetry.cut,
         )

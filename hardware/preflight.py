@@ -2,10 +2,13 @@
 
 Offline (no bus): the gait was planned for this robot build (fingerprint, joint names, limits),
 the calibration belongs to the same build and joint order, the time scaling keeps every joint
-below its allowed speed, and the gait's `validation` verdict is a pass (else `force` turns the
-refusal into a warning). On the bus: every servo answers a ping with the catalogue model
-number, voltage and temperature are in range with no hardware-error flags, and the present pose
-lies within the joint limits (± `pose_tolerance_rad`).
+below the speed the safety gate enforces at the requested rate (`SafetyGate.enforced_speed_rad_s`:
+the same number the step limiter uses, so pre-flight and enforcement agree), one gait cycle
+lasts at most `MAX_CYCLE_S` and a finite run at most `MAX_RUN_S` (a gait file with period_s =
+1e300 is refused, not played for ever), and the gait's `validation` verdict is a pass (else
+`force` turns the refusal into a warning). On the bus: every servo answers a ping with the
+catalogue model number, voltage and temperature are in range with no hardware-error flags, and
+the present pose lies within the joint limits (± `pose_tolerance_rad`).
 """
 
 from __future__ import annotations
@@ -26,6 +29,8 @@ from robots.gait import Gait
 from robots.robot import Robot
 
 SPEED_SAMPLES_PER_KNOT = 8
+MAX_CYCLE_S = 120.0  # one gait cycle at the requested speed scale, at most [s]
+MAX_RUN_S = 24 * 3600.0  # a run of a given number of cycles, at most [s] (0 cycles: no bound)
 
 
 @dataclass(frozen=True)
@@ -61,8 +66,13 @@ def check_offline(
     speed_scale: float,
     allowed_speed_rad_s: np.ndarray,
     force: bool,
+    rate_hz: float | None = None,
+    cycles: float | None = None,
 ) -> tuple[list[str], np.ndarray]:
-    """Checks that need no bus; returns (warnings, peak speeds at `speed_scale`)."""
+    """Checks that need no bus; returns (warnings, peak speeds at `speed_scale`).
+
+    `allowed_speed_rad_s`: the speed the gate enforces (at `rate_hz`, named in the refusal);
+    `cycles`: cycles to play (None: until stopped)."""
     try:
         gait.check_robot(robot)
     except GaitFileError as exc:
@@ -77,6 +87,19 @@ def check_offline(
         )
     if not (np.isfinite(speed_scale) and speed_scale > 0):
         raise PreflightError("--speed-scale", f"must be a positive number, got {speed_scale}")
+    cycle_s = gait.period_s / speed_scale
+    if not (np.isfinite(cycle_s) and cycle_s <= MAX_CYCLE_S):
+        raise PreflightError(
+            "gait period_s",
+            f"{gait.period_s:g} s at --speed-scale {speed_scale:g} makes one cycle last "
+            f"{cycle_s:g} s, over the {MAX_CYCLE_S:g} s the player accepts; is the file right?",
+        )
+    if cycles is not None and not cycles * cycle_s <= MAX_RUN_S:
+        raise PreflightError(
+            "--cycles",
+            f"{cycles:g} cycles of {cycle_s:g} s would run {cycles * cycle_s:g} s, over "
+            f"{MAX_RUN_S:g} s; ask for fewer, or 0 to play until stopped",
+        )
     peaks = gait_peak_speeds_rad_s(gait) * speed_scale
     over = peaks / allowed_speed_rad_s
     worst = int(np.argmax(over))
@@ -86,6 +109,7 @@ def check_offline(
             float(peaks[worst]),
             float(allowed_speed_rad_s[worst]),
             speed_scale,
+            rate_hz,
         )
     warnings = []
     if not validation_passed(gait.validation):

@@ -5,8 +5,14 @@ Every command path — ramp-in, gait streaming, ramp to rest — hands the gate 
 
 1. clips it to the joint limits, expressed in whole ticks *inside* the limits
    (so the ticks on the wire decode to angles within [lower_rad, upper_rad]);
-2. clips the change from the previously sent goal to `max_step_ticks` per joint
-   (⌊ω_allowed · ticks_per_rad / rate⌋ with ω_allowed = margin · the servo's no-load speed);
+2. clips the change from the previously sent goal to the joint's step budget, a token bucket
+   refilled by s = ω_allowed · ticks_per_rad / rate ticks per tick (ω_allowed = margin · the
+   servo's no-load speed) that carries at most one unused tick over: a single step is at most
+   ⌊s + 1⌋ ticks (`max_step_ticks`) and any n consecutive steps move at most n·s + 1 ticks, so
+   the speed enforced equals ω_allowed to within one tick at every rate
+   (`enforced_speed_rad_s`). Flooring s to whole ticks instead would enforce
+   ⌊s⌋/s of ω_allowed: 0.72 of it for an STS3215 at 1000 Hz (s = 2.76), which pre-flight
+   would not know about;
 3. converts to ticks through the calibration and sync-writes them (unless dry-run).
 
 Limits are applied before the step clip: if the robot starts (within the pre-flight tolerance)
@@ -25,6 +31,7 @@ import numpy as np
 from hardware.calibration import Calibration
 
 GoalSink = Callable[[Mapping[int, int]], None]
+CARRY_TICKS = 1.0  # unused step budget carried to the next tick, at most [ticks]
 
 
 @dataclass(frozen=True)
@@ -35,7 +42,8 @@ class JointGate:
     bus_id: int
     lo_tick: int
     hi_tick: int
-    max_step_ticks: int
+    max_step_ticks: int  # ⌊s + 1⌋: the largest single step (see the module docstring)
+    step_ticks: float  # s: the budget refill per tick
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,25 +83,34 @@ class SafetyGate:
             hi = min(math.floor(max(a, b) + 1e-9), j.max_tick)
             if lo > hi:
                 raise ValueError(f"joint {j.name!r}: limits map to no valid tick")
-            step = max(1, math.floor(float(w) * j.ticks_per_rad / self.rate_hz))
-            joints.append(JointGate(j.name, j.bus_id, lo, hi, step))
+            s = float(w) * j.ticks_per_rad / self.rate_hz
+            joints.append(JointGate(j.name, j.bus_id, lo, hi, math.floor(s + CARRY_TICKS), s))
         self.joints = tuple(joints)
         self._ids = [j.bus_id for j in calibration.joints]
         self._zero = np.array([j.zero_offset_ticks for j in calibration.joints], float)
         self._scale = np.array([j.direction * j.ticks_per_rad for j in calibration.joints], float)
         self._lo = np.array([g.lo_tick for g in joints], float)
         self._hi = np.array([g.hi_tick for g in joints], float)
-        self._step = np.array([g.max_step_ticks for g in joints], float)
+        self._step = np.array([g.step_ticks for g in joints], float)
+        self._budget = self._step.copy()
         self._last: np.ndarray | None = None
         self.commands = 0
 
     @property
     def max_step_ticks(self) -> np.ndarray:
-        return self._step.astype(int)
+        """The largest single step [ticks] per joint (⌊s + 1⌋)."""
+        return np.array([g.max_step_ticks for g in self.joints], int)
 
     @property
-    def max_step_rad(self) -> np.ndarray:
-        return np.asarray(self._step / np.abs(self._scale))
+    def step_ticks(self) -> np.ndarray:
+        """The step budget refilled per tick [ticks] per joint (s, fractional)."""
+        return self._step.copy()
+
+    @property
+    def enforced_speed_rad_s(self) -> np.ndarray:
+        """The joint speed the step limit enforces [rad/s] (= the allowed speed: no flooring);
+        pre-flight judges the gait against this."""
+        return np.asarray(self._step * self.rate_hz / np.abs(self._scale))
 
     @property
     def seeded(self) -> bool:
@@ -128,6 +145,7 @@ class SafetyGate:
         if ticks.shape != (len(self._ids),) or not np.all(np.isfinite(ticks)):
             raise ValueError(f"seed needs {len(self._ids)} finite tick values")
         self._last = np.round(ticks)
+        self._budget = self._step.copy()
 
     def command(self, target_rad: np.ndarray | Sequence[float]) -> GateCommand:
         """Clip, convert and send one goal pose; returns what was sent."""
@@ -141,8 +159,11 @@ class SafetyGate:
         wanted = np.round(wanted)
         in_limits = np.clip(wanted, self._lo, self._hi)
         limit_clipped = int(np.count_nonzero(in_limits != wanted))
-        ticks = np.clip(in_limits, self._last - self._step, self._last + self._step)
+        allowed = np.floor(self._budget + 1e-9)
+        ticks = np.clip(in_limits, self._last - allowed, self._last + allowed)
         step_clipped = int(np.count_nonzero(ticks != in_limits))
+        used = np.abs(ticks - self._last)
+        self._budget = np.minimum(self._budget - used, CARRY_TICKS) + self._step
         self._last = ticks  # assume delivered even if the write raises (conservative next step)
         sent = tuple(int(t) for t in ticks)
         if self._sink is not None:

@@ -5,7 +5,15 @@ per joint ``<j>``: ``<j>_target_rad, <j>_target_ticks, <j>_present_rad, <j>_load
 <j>_temperature_c, <j>_voltage_v``. Times are seconds since the run's first deadline;
 ``jitter_s = t_actual_s − t_sched_s`` (wake-up lateness). Present values are empty when that
 tick's read failed; load / temperature / voltage are filled on status ticks only. The last row
-has ``phase = "stop"``, ``event`` = the `StopReason` value and ``message`` its one-line reason.
+has ``phase = "stop"``, ``event`` = the `StopReason` value, ``message`` its one-line reason,
+``t_sched_s`` when the stop was requested and ``t_actual_s`` when the torque-off had been sent
+(their difference is the stop latency).
+
+The file is created at the first row, i.e. only once pre-flight has accepted the run: a refused
+run leaves no file behind (and does not truncate an older one at that path). Losing the log
+never changes how the robot stops: a write that fails (disk full, ENOSPC; file system gone)
+closes the file, the writer records why in `cut` and drops every later row, and the player
+plays and stops as it would have.
 `plot_telemetry` draws target vs present per joint and the loop jitter (matplotlib, Agg).
 """
 
@@ -13,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -69,17 +78,46 @@ class TelemetryWriter:
         self.path = Path(path)
         self.joint_names = tuple(joint_names)
         self.bus_ids = tuple(bus_ids)
+        if self.path.is_dir():
+            raise IsADirectoryError(21, "is a directory", str(self.path))
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._fh: IO[str] | None = self.path.open("w", newline="", encoding="utf-8")
-        self._csv = csv.writer(self._fh)
-        self._csv.writerow(columns(self.joint_names))
-        self._fh.flush()
+        if not os.access(self.path.parent, os.W_OK):
+            raise PermissionError(13, "directory not writable", str(self.path.parent))
+        self._fh: IO[str] | None = None
         self.rows = 0
-        self.finished = False
+        self.finished = False  # the stop row was written
+        self._closed = False
+        self.cut: str | None = None  # why the log was cut short (None: complete so far)
+
+    def _open(self) -> bool:
+        """Create the file and its header at the first row; False once the log is cut."""
+        if self.cut is not None or self._closed:
+            return False
+        if self._fh is None:
+            try:
+                self._fh = self.path.open("w", newline="", encoding="utf-8")
+                self._csv = csv.writer(self._fh)
+                self._csv.writerow(columns(self.joint_names))
+            except OSError as exc:
+                self._cut(exc)
+                return False
+        return True
+
+    def _cut(self, exc: OSError) -> None:
+        self.cut = f"{exc.strerror or exc} after {self.rows} row(s)"
+        fh, self._fh = self._fh, None
+        if fh is not None:
+            try:
+                fh.close()
+            except OSError:
+                pass  # the buffered bytes cannot be written either
 
     def write(self, rec: TickRecord) -> None:
-        if self._fh is None:
+        if self._closed:
             raise ValueError("telemetry file is closed")
+        if not self._open():
+            return
+        assert self._fh is not None
         jitter = rec.t_actual_s - rec.t_sched_s
         row = [
             str(rec.tick), rec.phase, _num(rec.t_sched_s), _num(rec.t_actual_s), _num(jitter),
@@ -93,24 +131,43 @@ class TelemetryWriter:
                 row += ["", "", ""]
             else:
                 row += [_num(st.load_pct), _num(st.temperature_c), _num(st.voltage_v)]
-        self._csv.writerow(row)
-        self._fh.flush()
+        try:
+            self._csv.writerow(row)
+            self._fh.flush()
+        except OSError as exc:
+            self._cut(exc)
+            return
         self.rows += 1
 
-    def finish(self, reason: str, message: str, tick: int, t_s: float) -> None:
-        """The stop row; then the file is closed."""
-        if self._fh is None:
+    def finish(
+        self, reason: str, message: str, tick: int, t_s: float, requested_s: float = math.nan
+    ) -> None:
+        """The stop row (`requested_s`: when the stop was requested, `t_s`: now, torque off);
+        then the file is closed. Does nothing once the log was cut."""
+        if not self._open():
+            self._closed = True
             return
+        assert self._fh is not None
         width = len(columns(self.joint_names))
-        row = [str(tick), STOP_PHASE, _num(t_s), "", "", "", "", reason, message]
-        self._csv.writerow(row + [""] * (width - len(row)))
-        self.finished = True
+        row = [str(tick), STOP_PHASE, _num(requested_s), _num(t_s), "", "", "", reason, message]
+        try:
+            self._csv.writerow(row + [""] * (width - len(row)))
+            self._fh.flush()
+        except OSError as exc:
+            self._cut(exc)
+        else:
+            self.finished = True
         self.close()
 
     def close(self) -> None:
+        """Close the file (if one was created: a run that never wrote a row leaves none)."""
+        self._closed = True
         if self._fh is not None:
-            self._fh.flush()
-            self._fh.close()
+            try:
+                self._fh.flush()
+                self._fh.close()
+            except OSError as exc:
+                self._cut(exc)
             self._fh = None
 
 
@@ -130,6 +187,8 @@ class Telemetry:
     present_rad: np.ndarray  # (K, J), NaN where the read failed
     stop_reason: str | None
     stop_message: str | None
+    stop_requested_s: float  # when the stop was requested (NaN: not recorded)
+    stop_done_s: float  # when torque-off had been sent
 
 
 def _f(text: str) -> float:
@@ -176,6 +235,8 @@ def read_telemetry(path: str | Path) -> Telemetry:
             present_rad=joint_col(2),
             stop_reason=stops[-1][7] if stops else None,
             stop_message=stops[-1][8] if stops else None,
+            stop_requested_s=_f(stops[-1][2]) if stops else math.nan,
+            stop_done_s=_f(stops[-1][3]) if stops else math.nan,
         )
     except (IndexError, ValueError) as exc:
         raise ValueError(f"{path}: malformed row: {exc}") from None

@@ -1,7 +1,6 @@
 """A virtual robot on a `VirtualServoBus`: the robot's servos, placed at a chosen pose.
 
-`VirtualServoBus.from_robot` starts every servo at mid-range (tick 2048), which for most joints
-is not a pose the robot can be in (e.g. a knee limited to [-2.6, -0.2] rad). `virtual_robot_bus`
+`VirtualServoBus.from_robot` starts every servo at the robot's nominal stance. `virtual_robot_bus`
 places each servo at the ticks of a given joint pose [rad] (default: the robot's stance, slumped
 by `slump_rad` on every joint towards the middle of its range, so the player has a real ramp-in
 to do).

@@ -18,14 +18,23 @@ message, tick, time, servo id). Budgets:
   run on unwatched; one successful status read resets the count.
 
 Exit codes (`EXIT_CODES`, also the CLI's): 0 completed, 2 refused to start, 3 no response,
-4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 8 status lost, 130 SIGINT,
-143 SIGTERM.
+4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 8 status lost, 9 adapter lost
+(the serial adapter itself failed: unplugged, EIO), 129 SIGHUP (the terminal closed),
+130 SIGINT (Ctrl-C), 131 SIGQUIT (Ctrl-\\), 143 SIGTERM.
+
+Signals (`stop_on_signals`): SIGINT, SIGTERM, SIGHUP and SIGQUIT all mean the same thing: stop
+safely (ramp to rest, then torque off). The first one is the stop reason (unless the run had
+already stopped for another reason, which is then kept); every later one only makes the stop
+urgent (skip what is left of the ramp to rest, straight to torque off). The handlers never
+raise, so no signal, however many and however close together, can cut the torque-off short;
+they stay installed until the player has written the torque-off and its telemetry stop row.
 """
 
 from __future__ import annotations
 
 import signal
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -44,12 +53,15 @@ class StopReason(str, Enum):
     COMPLETED = "completed"
     SIGINT = "sigint"
     SIGTERM = "sigterm"
+    SIGHUP = "sighup"
+    SIGQUIT = "sigquit"
     NO_RESPONSE = "no_response"
     SERVO_FAULT = "servo_fault"
     OVER_TEMPERATURE = "over_temperature"
     LOW_VOLTAGE = "low_voltage"
     BUS_ERROR = "bus_error"
     STATUS_LOST = "status_lost"
+    ADAPTER_LOST = "adapter_lost"
 
     @property
     def exit_code(self) -> int:
@@ -64,9 +76,20 @@ EXIT_CODES: Mapping[StopReason, int] = {
     StopReason.LOW_VOLTAGE: 6,
     StopReason.BUS_ERROR: 7,
     StopReason.STATUS_LOST: 8,
-    StopReason.SIGINT: 130,  # 128 + SIGINT, the shell convention
-    StopReason.SIGTERM: 143,  # 128 + SIGTERM
+    StopReason.ADAPTER_LOST: 9,
+    StopReason.SIGHUP: 129,  # 128 + SIGHUP (1), the shell convention
+    StopReason.SIGINT: 130,  # 128 + SIGINT (2)
+    StopReason.SIGQUIT: 131,  # 128 + SIGQUIT (3)
+    StopReason.SIGTERM: 143,  # 128 + SIGTERM (15)
 }
+# every signal that would end the process: what it is called in the stop message
+STOP_SIGNALS: Mapping[int, tuple[StopReason, str]] = {
+    signal.SIGINT: (StopReason.SIGINT, "Ctrl-C (SIGINT)"),
+    signal.SIGTERM: (StopReason.SIGTERM, "SIGTERM"),
+    signal.SIGHUP: (StopReason.SIGHUP, "SIGHUP (terminal closed)"),
+    signal.SIGQUIT: (StopReason.SIGQUIT, "SIGQUIT"),
+}
+SIGNAL_REASONS = frozenset(r for r, _ in STOP_SIGNALS.values())
 EXIT_PREFLIGHT = 2  # refused to start (also used for bad arguments / files)
 
 _OVERHEAT_FLAGS = frozenset({"overheat", "overheating"})
@@ -135,7 +158,8 @@ class Watchdog:
         self.status_misses = 0
         self._status_missed_by: list[int | None] = []  # servo ids blamed in the current streak
         self.stop: StopEvent | None = None
-        self.urgent = False  # a second signal: skip the ramp to rest
+        self.urgent = False  # a later signal: skip the ramp to rest
+        self.signals = 0  # stop signals received
 
     def _who(self, servo_id: int | None) -> str:
         if servo_id is None or servo_id < 0:
@@ -150,9 +174,19 @@ class Watchdog:
         with self._lock:
             if self.stop is None:
                 self.stop = StopEvent(reason, message, tick, t_s, servo_id)
-            elif reason in (StopReason.SIGINT, StopReason.SIGTERM):
+            elif reason in SIGNAL_REASONS:
                 self.urgent = True
             return self.stop
+
+    def on_signal(self, signum: int, tick: int, t_s: float) -> None:
+        """A stop signal (called from the signal handler: takes no lock, never raises). The
+        first stop request is kept; a signal after it makes the stop urgent."""
+        reason, name = STOP_SIGNALS[signum]
+        self.signals += 1
+        if self.stop is None:
+            self.stop = StopEvent(reason, f"{name} received: stopping safely", tick, t_s)
+        else:
+            self.urgent = True
 
     # -- per-tick feeds ---------------------------------------------------------------------
     def read_ok(self) -> None:
@@ -269,21 +303,46 @@ class Watchdog:
         return None
 
 
+_early_signals: list[tuple[int, float]] = []  # (signum, monotonic time) before a player ran
+
+
+def _latch(signum: int, frame: FrameType | None) -> None:
+    _early_signals.append((signum, time.monotonic()))
+
+
+def latch_stop_signals() -> None:
+    """Catch the stop signals process-wide from now on (the CLI calls this first thing): a
+    signal that arrives while the CLI loads or the player is not running is remembered, and
+    the next `stop_on_signals` starts with it as its stop request, instead of the signal
+    killing the process half-way (or, for SIGINT, a KeyboardInterrupt traceback)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for s in STOP_SIGNALS:
+        signal.signal(s, _latch)
+
+
+def latched_signals() -> tuple[tuple[int, float], ...]:
+    """Signals caught by `latch_stop_signals` and not yet handed to a player."""
+    return tuple(_early_signals)
+
+
 @contextmanager
 def stop_on_signals(watchdog: Watchdog, where: Callable[[], tuple[int, float]]) -> Iterator[None]:
-    """SIGINT / SIGTERM → a stop request (a second one makes the stop urgent). Restores the
-    previous handlers on exit; a no-op outside the main thread (signals cannot be caught there)."""
+    """SIGINT / SIGTERM / SIGHUP / SIGQUIT → `watchdog.on_signal` (see the module docstring).
+    Signals latched before (`latch_stop_signals`) are handed over on entry. Restores the
+    previous handlers on exit: callers keep the block open until torque is off. A no-op
+    outside the main thread (signals cannot be caught there)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def handler(signum: int, frame: FrameType | None) -> None:
         tick, t_s = where()
-        reason = StopReason.SIGINT if signum == signal.SIGINT else StopReason.SIGTERM
-        name = "Ctrl-C (SIGINT)" if signum == signal.SIGINT else "SIGTERM"
-        watchdog.request(reason, f"{name} received: stopping safely", tick, t_s)
+        watchdog.on_signal(signum, tick, t_s)
 
-    previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    previous = {s: signal.signal(s, handler) for s in STOP_SIGNALS}
+    while _early_signals:
+        handler(_early_signals.pop(0)[0], None)
     try:
         yield
     finally:

@@ -1,7 +1,14 @@
 """Where a written gait cycle starts: the knot the player ramps into from rest.
 
-The player and the simulator ramp from the standing pose to the gait's phase-0 sample, hold it
-for an instant, and start the cycle (`robots.ramp`). With servo goals (`planner.servo_loop`)
+Since issue #12 the player and the simulator no longer ramp to the phase-0 sample: they ramp to
+the gait's mean pose and blend the gait in over whole cycles (`robots.ramp.gait_entry`), because
+the straight ramp to phase 0 turned the robot 7–18° before its first step (the swing groups sit
+at opposite ends of their strides there, so the robot ended up on one diagonal while its feet
+moved apart). Phase 0 is now only where the blend ends, already in motion; the history below is
+why it was chosen as it is, and the choice stays harmless.
+
+Before, the player and the simulator ramped from the standing pose to the gait's phase-0 sample,
+held it for an instant, and started the cycle. With servo goals (`planner.servo_loop`)
 that sample is not just a pose: goal = q + τ/kp carries the planned *dynamic* load of each leg,
 so the servos push as if the robot were mid-stride. If phase 0 falls where a foot is in swing or
 the planned load is lopsided (a landing impact, a leg about to lift), the robot standing still at

@@ -13,8 +13,13 @@ dual solution with IPOPT's ``warm_start_init_point``.
 
 from __future__ import annotations
 
+import signal
+import threading
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from types import FrameType
 from typing import Any
 
 import casadi as ca
@@ -35,6 +40,30 @@ from planner.variables import (
     variable_scale,
 )
 from robots import ContactSchedule, Gait, Robot, Velocity
+
+_USER_STOP = ("User_Requested_Stop",)
+
+
+@contextmanager
+def _sigint_watch() -> Iterator[Callable[[], bool]]:
+    """Record a Ctrl-C that arrives while IPOPT runs (CasADi catches the KeyboardInterrupt and
+    ends the solve with a failure status); yields "was there one?". Main thread only."""
+    hits: list[int] = []
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield lambda: False  # Ctrl-C ignored (SIG_IGN) or not ours to watch
+        return
+    handler = previous
+
+    def on_sigint(signum: int, frame: FrameType | None) -> None:
+        hits.append(signum)
+        handler(signum, frame)  # the default handler raises KeyboardInterrupt: IPOPT stops
+
+    signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield lambda: bool(hits)
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 #: Warm-start policy for "same robot, new schedule/speed/period" (basin-CMA's inner loop):
 #: reuse the last primal point only and restart the multipliers from zero. Measured on quad12
@@ -219,16 +248,18 @@ class GaitPlanner:
         elif not WARM_START_DUALS:
             start = WarmStart(start.x, np.zeros_like(start.lam_x), np.zeros_like(start.lam_g))
         xs, gs = self._x_scale, self._g_scale
-        sol = self._solver(  # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
-            x0=start.x / xs,
-            lam_x0=start.lam_x * xs,
-            lam_g0=start.lam_g * gs,
-            p=p,
-            lbx=self._lbx / xs,
-            ubx=self._ubx / xs,
-            lbg=self._lbg / gs,
-            ubg=self._ubg / gs,
-        )
+        with _sigint_watch() as interrupted:
+            # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
+            sol = self._solver(
+                x0=start.x / xs,
+                lam_x0=start.lam_x * xs,
+                lam_g0=start.lam_g * gs,
+                p=p,
+                lbx=self._lbx / xs,
+                ubx=self._ubx / xs,
+                lbg=self._lbg / gs,
+                ubg=self._ubg / gs,
+            )
         sol = {
             "x": np.asarray(sol["x"]).ravel() * xs,
             "lam_x": np.asarray(sol["lam_x"]).ravel() / xs,
@@ -236,6 +267,10 @@ class GaitPlanner:
             "f": float(sol["f"]),
         }
         stats = self._solver.stats()
+        if interrupted() or stats.get("return_status") in _USER_STOP:
+            # CasADi swallows Ctrl-C (NonIpopt_Exception_Thrown), IPOPT's own handler returns
+            # User_Requested_Stop: either way the user stopped it, the gait is not infeasible
+            raise KeyboardInterrupt(f"IPOPT stopped ({stats.get('return_status')})")
         elapsed = time.perf_counter() - t0
         result = self._result(schedule, speed_m_s, p, sol, stats, elapsed)
         if result.feasible:

@@ -30,7 +30,7 @@ from planner.gait_search import (
 from planner.spacetime import GaitPlanner
 from planner.templates import gait_family
 from robots import Robot
-from robots.gait import atomic_write_text
+from robots.files import atomic_path, atomic_write_text
 
 
 @dataclass(frozen=True)
@@ -183,10 +183,11 @@ def plot(rows: Sequence[SweepRow], path: str | Path, title: str) -> None:
     top.set_xlabel("Froude number v²/(g·L)")
     fig.suptitle(title)
     fig.tight_layout()
-    tmp = Path(path).with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        with atomic_path(path) as tmp:  # temp + rename; a failed write is an OutputWriteError
+            fig.savefig(tmp, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def write_sweep(rows: Sequence[SweepRow], out_dir: str | Path, robot: Robot) -> dict[str, Path]:

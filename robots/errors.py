@@ -25,3 +25,10 @@ class GaitFileError(RobotsError):
         self.field = field
         self.problem = problem
         super().__init__(f"{file}: {field}: {problem}")
+
+
+class OutputWriteError(RobotsError, OSError):
+    """An output file cannot be written (missing or read-only folder, full disk, …).
+
+    Also an `OSError`, so code that caught the plain `OSError` of a failed write still does.
+    """

@@ -1,23 +1,49 @@
-"""Ramp-in: move the joints smoothly from the present pose to a gait's first pose (numpy only).
+"""Ramp-in: move the joints smoothly from the present pose into a gait (numpy only).
 
 The player (`hardware`) and the simulator (`sim.validate`) both start a gait this way, so the
-simulator sees the same transient the servos will: a minimum-jerk joint-space move
-(Flash & Hogan 1985, eq. 2: s(u) = 10u³ − 15u⁴ + 6u⁵, u = t/T) from the present pose to the gait's
-pose at phase 0, then the gait starts at phase 0. Velocity and acceleration are zero at both ends
-of the ramp; peak speed is 1.875·|Δq|/T (at u = ½).
+simulator sees the same transient the servos will.
 
-`ramp_duration_s` picks T: at least `min_duration_s` (1 s by default), longer if the largest joint
-move would otherwise exceed `max_speed_rad_s` at the mid-point.
+`ramp_to` is the building block: a minimum-jerk joint-space move (Flash & Hogan 1985, eq. 2:
+s(u) = 10u³ − 15u⁴ + 6u⁵, u = t/T) from one pose to another. Velocity and acceleration are zero at
+both ends; peak speed is 1.875·|Δq|/T (at u = ½). `ramp_duration_s` picks T: at least
+`min_duration_s` (1 s by default), longer if the largest joint move would otherwise exceed
+`max_speed_rad_s` at the mid-point.
+
+`gait_entry` is how a gait is started (issue #12). Ramping straight to the gait's phase-0 pose
+turned the robot before its first step: phase 0 of a trot or tripod has the swing groups at
+opposite ends of their strides, so the joint-space path there is not symmetric — on quad12 the
+FL/HR diagonal dipped 4 mm below FR/HL half-way through the ramp, FR and HL left the ground, and
+the robot stood on one diagonal while those two feet moved 5–8 cm in the body frame along
+different directions; sticking to the ground, they rotated the body by the change of direction
+of the line between them (quad12 trot −14.5°, hex18 tripod −6.9°, a modified quad −13.2°).
+A slower ramp does not help (3 s: −11.3°, −6.3°, −10.1°): the turn is kinematic, not dynamic.
+Instead the entry ramps to the gait's *mean pose* — the cycle average of its joint samples,
+which is left–right symmetric for a symmetric gait, so every foot moves by the mirror image of
+its partner and all stay loaded — and then blends the gait in around that pose:
+
+    q(τ) = m + α(τ)·(g(τ) − m),   α = s(τ / (k·T)),   0 ≤ τ ≤ k·T,
+
+with g the gait's targets, m the mean pose, T the period and s the same minimum-jerk profile.
+The strides and lifts grow from zero over k whole cycles, so the blend ends exactly at the
+gait's phase 0 with its full motion, C² (α′ = α″ = 0 at both ends). k is the fewest cycles
+(≥ `min_blend_cycles`) for which the blend's own contribution to joint speed, α′·|g − m| ≤
+1.875·max|g − m|/(k·T), stays within the ramp's speed cap on top of the gait's planned speed.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from robots.gait import Gait
+
 MIN_JERK_PEAK_SPEED = 1.875  # max over u of ds/du for the quintic above
 DEFAULT_RAMP_S = 1.0
+DEFAULT_MIN_BLEND_CYCLES = 1
 
 
 def min_jerk(u: float | np.ndarray) -> np.ndarray:
@@ -98,3 +124,102 @@ def ramp_to(
     """The ramp the player and the simulator use: min-jerk, ≥ `min_duration_s`, speed-capped."""
     duration = ramp_duration_s(present_rad, target_rad, max_speed_rad_s, min_duration_s)
     return MinJerkRamp(np.asarray(present_rad, float), np.asarray(target_rad, float), duration)
+
+
+def gait_mean_pose(gait: Gait) -> np.ndarray:
+    """Cycle average of `gait.joint_targets` (J,): exactly the mean of its N knots.
+
+    For a uniform periodic cubic spline ∫S = h·Σyᵢ − (h³/24)·ΣMᵢ, and summing the spline's
+    equations Mᵢ₋₁ + 4Mᵢ + Mᵢ₊₁ = 6/h²·(yᵢ₋₁ − 2yᵢ + yᵢ₊₁) over the cycle gives ΣMᵢ = 0.
+    """
+    return np.asarray(np.mean(gait.knots_rad, axis=0), dtype=float)
+
+
+def blend_cycles(
+    gait: Gait,
+    max_speed_rad_s: float | np.ndarray,
+    time_scale: float = 1.0,
+    min_cycles: int = DEFAULT_MIN_BLEND_CYCLES,
+) -> int:
+    """Fewest whole cycles (≥ `min_cycles`) whose blend term stays within `max_speed_rad_s`."""
+    if min_cycles < 1:
+        raise ValueError("min_cycles must be at least 1")
+    if not time_scale > 0:
+        raise ValueError("time_scale must be positive")
+    knots = gait.knots_rad
+    amplitude = np.max(np.abs(knots - gait_mean_pose(gait)), axis=0)
+    speed = np.broadcast_to(np.asarray(max_speed_rad_s, dtype=float), amplitude.shape)
+    if np.any(speed <= 0):
+        raise ValueError("max_speed_rad_s must be positive")
+    # wall-clock blend term: time_scale · 1.875 · A / (k · T) ≤ cap
+    needed = np.max(MIN_JERK_PEAK_SPEED * time_scale * amplitude / (gait.period_s * speed))
+    return max(int(min_cycles), math.ceil(float(needed) - 1e-9))
+
+
+@dataclass(frozen=True, eq=False)
+class GaitEntry:
+    """Min-jerk `ramp` to the gait's mean pose, then the gait blended in (module docstring).
+
+    `time_scale` is gait seconds per second of the clock (the player's speed scale). After
+    `duration_s` the caller plays `gait.joint_targets(time_scale·(t − duration_s))`: the entry
+    ends at the gait's phase 0.
+    """
+
+    ramp: MinJerkRamp
+    gait: Gait
+    cycles: int
+    time_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.cycles, int) and self.cycles >= 1):
+            raise ValueError(f"blend cycles must be a positive integer, got {self.cycles!r}")
+        if not self.time_scale > 0:
+            raise ValueError("time_scale must be positive")
+
+    @property
+    def mean_rad(self) -> np.ndarray:
+        return self.ramp.end_rad
+
+    @property
+    def start_rad(self) -> np.ndarray:
+        return self.ramp.start_rad
+
+    @property
+    def blend_s(self) -> float:
+        return self.cycles * self.gait.period_s / self.time_scale
+
+    @property
+    def duration_s(self) -> float:
+        return self.ramp.duration_s + self.blend_s
+
+    def blend_weight(self, t_s: float | np.ndarray) -> np.ndarray:
+        """α at time(s) `t_s` since the entry began: 0 during the ramp, 1 at the end."""
+        t = np.asarray(t_s, dtype=float)
+        return min_jerk((t - self.ramp.duration_s) / self.blend_s)
+
+    def positions(self, t_s: float | np.ndarray) -> np.ndarray:
+        """Joint targets at time(s) `t_s` since the entry began ((J,) or (K, J)); after
+        `duration_s` the gait's phase-0 pose."""
+        t = np.asarray(t_s, dtype=float)
+        ramp = self.ramp.positions(np.minimum(t, self.ramp.duration_s))
+        tau = np.clip(t - self.ramp.duration_s, 0.0, self.blend_s) * self.time_scale
+        gait = self.gait.joint_targets(tau)
+        alpha = np.asarray(self.blend_weight(t))[..., None]
+        mean = self.mean_rad
+        in_blend = np.asarray(t > self.ramp.duration_s)[..., None]
+        return np.asarray(np.where(in_blend, mean + alpha * (gait - mean), ramp))
+
+
+def gait_entry(
+    gait: Gait,
+    present_rad: np.ndarray,
+    max_speed_rad_s: float | np.ndarray,
+    min_duration_s: float = DEFAULT_RAMP_S,
+    *,
+    time_scale: float = 1.0,
+    min_blend_cycles: int = DEFAULT_MIN_BLEND_CYCLES,
+) -> GaitEntry:
+    """How the player and the simulator start `gait` from `present_rad` (module docstring)."""
+    ramp = ramp_to(present_rad, gait_mean_pose(gait), max_speed_rad_s, min_duration_s)
+    k = blend_cycles(gait, max_speed_rad_s, time_scale, min_blend_cycles)
+    return GaitEntry(ramp, gait, k, float(time_scale))

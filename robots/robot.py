@@ -222,7 +222,10 @@ def parse_robot_toml(text: str, file: str) -> RobotSpec:
     foot_radius = _number(file, "[robot].foot_radius_m", head.get("foot_radius_m"), positive=True)
     joints = tuple(_parse_joint(file, n, t) for n, t in _table(file, data, "joints").items())
     first = joints[0].servo
-    baud = _integer(file, "[robot].bus_baud", head.get("bus_baud", first.default_baud), 1, 10**7)
+    lowest_baud = 0 if first.default_baud == 0 else 1  # 0: PWM servos, no serial bus
+    baud = _integer(
+        file, "[robot].bus_baud", head.get("bus_baud", first.default_baud), lowest_baud, 10**7
+    )
     seen: dict[int, str] = {}
     for j in joints:
         if j.bus_id in seen:

@@ -17,7 +17,15 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 CATALOGUE_PATH = Path(__file__).with_name("servos.toml")
-PROTOCOLS = ("dynamixel2", "dynamixel1", "feetech_sts")
+PROTOCOLS = (
+    "dynamixel2",
+    "dynamixel1",
+    "feetech_sts",
+    "feetech_scs",
+    "dynamixel2_xl320",
+    "hiwonder_bus",
+    "pwm",
+)
 
 
 @dataclass(frozen=True)
@@ -97,7 +105,22 @@ def _parse_servo(file: str, name: str, table: Any) -> ServoModel:
         raise RobotConfigError(file, f"{where}.position_max_tick", "must exceed position_min_tick")
     if not values["voltage_min_v"] <= values["nominal_voltage_v"] <= values["voltage_max_v"]:
         raise RobotConfigError(file, f"{where}.nominal_voltage_v", "outside voltage_min_v..max_v")
+    _check_bus_fields(file, where, values)
     return ServoModel(**values)
+
+
+def _check_bus_fields(file: str, where: str, values: dict[str, Any]) -> None:
+    """PWM servos have no bus: model_number and default_baud are 0; bus servos have a baud rate."""
+    if values["protocol"] == "pwm":
+        for key in ("model_number", "default_baud"):
+            if values[key] != 0:
+                raise RobotConfigError(
+                    file, f"{where}.{key}", "must be 0 for a PWM servo (no bus, nothing answers)"
+                )
+    elif values["default_baud"] == 0:
+        raise RobotConfigError(
+            file, f"{where}.default_baud", f"a {values['protocol']} bus servo needs its baud rate"
+        )
 
 
 def parse_catalogue(text: str, file: str = str(CATALOGUE_PATH)) -> dict[str, ServoModel]:
@@ -134,6 +157,10 @@ DYNAMIXEL_X_KPP_SCALE = 128.0  # e-Manual: K_PP = KPP(TBL) / 128
 DYNAMIXEL_1_COMPLIANCE_SLOPE_TICKS = 32.0  # AX-12A e-Manual: CW/CCW compliance slope default
 FEETECH_STS_P_DEFAULT = 32.0  # STS memory table: P coefficient default
 FEETECH_STS_DUTY_PER_P_RAD = 0.166  # BAM (Duclusaud & Passault 2025): duty per (P · rad)
+# Protocols whose factory position loop no vendor document states as a gain we can convert:
+# hobby PWM servos (analogue/digital pulse-stretcher boards), Hiwonder bus servos (move-in-time
+# commands, no gain register), Feetech SCS and the XL-320 (P registers, unpublished output scale).
+STAND_IN_LOOP_PROTOCOLS = ("feetech_scs", "dynamixel2_xl320", "hiwonder_bus", "pwm")
 
 
 def factory_gains(servo: ServoModel) -> tuple[float, float]:
@@ -150,6 +177,10 @@ def factory_gains(servo: ServoModel) -> tuple[float, float]:
     - Feetech STS: P coefficient default 32; Duclusaud & Passault, "Extended friction models for
       the physics simulation of servo actuators" (2025, BAM), measured on an STS3215:
       duty = 0.166 · P · error[rad] → g_p = 5.31 /rad; no D term.
+    - `STAND_IN_LOOP_PROTOCOLS` (PWM hobby servos, Hiwonder bus, Feetech SCS, XL-320): no
+      published gain. Stand-in, not a figure for these servos: the one hobby-servo loop that has
+      been measured, the STS3215's above (full duty at 10.8° of error), so that they plan and
+      simulate; measure the servo (BAM's rig) before trusting its tracking in simulation.
 
     Used by `sim` (the servo actuator model) and `planner` (servo-goal output), so both see the
     same servo.
@@ -159,7 +190,7 @@ def factory_gains(servo: ServoModel) -> tuple[float, float]:
         return kpp * servo.ticks_per_rad / DYNAMIXEL_X_PWM_FULL, 0.0
     if servo.protocol == "dynamixel1":
         return servo.ticks_per_rad / DYNAMIXEL_1_COMPLIANCE_SLOPE_TICKS, 0.0
-    if servo.protocol == "feetech_sts":
+    if servo.protocol == "feetech_sts" or servo.protocol in STAND_IN_LOOP_PROTOCOLS:
         return FEETECH_STS_P_DEFAULT * FEETECH_STS_DUTY_PER_P_RAD, 0.0
     raise RobotConfigError(
         str(CATALOGUE_PATH), f"[{servo.name}].protocol",

@@ -1,8 +1,27 @@
-"""Metrics of one run, computed from a `Trajectory` over its steady cycles.
+"""Metrics of one run, computed from a `Trajectory`.
 
-The steady window starts `warmup_cycles` gait cycles after the ramp-in ends (the gait starts from
-rest, so the first cycles are a transient) and ends with the run. Falls are looked for over the
-whole run, ramp included.
+Two windows:
+
+- **the whole run, in the world frame, from its first sample** (the rest pose before the hold and
+  the ramp-in): heading and path. A robot that turns 15° while ramping in and then walks straight
+  walks straight *on the wrong heading*; only a comparison with where it stood at the start shows
+  it. The commanded velocity (vx, vy, yaw rate) is in the body frame; from the start pose
+  (x₀, y₀, ψ₀) it defines the expected path: a straight line along R(ψ₀)·(vx, vy) for a zero
+  yaw rate, else the circle of radius |v|/|ω| tangent to it (the path does not depend on speed,
+  so a slow gait is not counted as drifting). Lateral drift is the signed distance from that path
+  at the end of the run (left positive), per metre travelled along it; heading error is the yaw
+  change over the run minus the turn commanded over the gait's time (ω·(t_end − t_gait)); the yaw
+  accumulated before the gait starts (hold + ramp-in) is reported on its own (`ramp_yaw_rad`).
+- **the steady cycles**: `warmup_cycles` gait cycles after the ramp-in ends (the gait starts from
+  rest, so the first cycles are a transient) to the end of the run — speed, torque, slip, tilt,
+  tracking, and the steady turning rate (`yaw_drift_rad`). Speed is measured along the commanded
+  direction of the run-start frame (the heading the robot was told to walk on), so a turned robot
+  walks slower along it.
+
+`achieved_vx_m_s`, `achieved_vy_m_s`, `achieved_yaw_rate_rad_s` are the mean base velocity from
+the gait's start to the end of the run, in the world frame rotated by the start heading ψ₀ (the
+frame in which the commanded (vx, vy) point at the start; the world frame itself when the robot
+starts facing +x, as `sim.validate` runs do). Falls are looked for over the whole run.
 """
 
 from __future__ import annotations
@@ -12,7 +31,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from robots.gait import Gait
+from robots.gait import Gait, Velocity
 from sim.model import SimModel
 from sim.rollout import Trajectory
 
@@ -35,15 +54,21 @@ class Metrics:
     steady_duration_s: float
     cycles_run: int
     commanded_speed_m_s: float
-    achieved_speed_m_s: float  # along the commanded direction (planar speed when commanded 0)
-    achieved_vx_m_s: float  # body frame
+    # steady cycles, along the commanded direction in the run-start frame (planar speed at v = 0)
+    achieved_speed_m_s: float
+    # mean velocity from the gait's start to the end, run-start frame (see the module docstring)
+    achieved_vx_m_s: float
     achieved_vy_m_s: float
     achieved_yaw_rate_rad_s: float
     speed_error_fraction: float | None
-    distance_m: float
-    lateral_drift_m: float
-    lateral_drift_per_m: float | None
-    yaw_drift_rad: float
+    distance_m: float  # steady cycles, along the commanded direction
+    run_distance_m: float  # whole run, along the commanded path from the start pose
+    lateral_drift_m: float  # whole run: signed distance from the commanded path at the end (left +)
+    lateral_drift_per_m: float | None  # |lateral_drift_m| / run_distance_m
+    heading_change_rad: float  # yaw at the end − yaw at the start of the run (world frame)
+    heading_error_rad: float  # heading change − the commanded turn ω·(t_end − t_gait)
+    ramp_yaw_rad: float  # yaw at the gait's start − yaw at the start of the run (hold + ramp-in)
+    yaw_drift_rad: float  # steady cycles: yaw change − commanded turn (steady turning)
     yaw_drift_rad_per_m: float | None
     fell: bool
     fall_time_s: float | None
@@ -152,6 +177,83 @@ def _stance_slips(slip_speed: np.ndarray, down: np.ndarray, dt: float) -> list[f
     return out
 
 
+@dataclass(frozen=True)
+class RunPath:
+    """Heading and path of the whole run in the world frame, against the commanded path."""
+
+    heading_change_rad: float
+    heading_error_rad: float
+    ramp_yaw_rad: float
+    distance_m: float  # along the commanded path (arc length of its closest point)
+    lateral_m: float  # signed distance from the commanded path at the end, left positive
+    gait_velocity: tuple[float, float, float]  # (vx, vy, yaw rate) from gait start, start frame
+
+
+def commanded_direction(velocity: Velocity, heading_rad: float) -> np.ndarray | None:
+    """Unit world-frame direction of the commanded (vx, vy) at `heading_rad`; None at v = 0."""
+    speed = math.hypot(velocity.vx_m_s, velocity.vy_m_s)
+    if speed <= 1e-9:
+        return None
+    c, s = math.cos(heading_rad), math.sin(heading_rad)
+    vx, vy = velocity.vx_m_s / speed, velocity.vy_m_s / speed
+    return np.array([c * vx - s * vy, s * vx + c * vy])
+
+
+def path_offset(
+    velocity: Velocity, start_xy: np.ndarray, heading_rad: float, xy: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(distance along, signed lateral offset) of the track `xy` (K, 2) from the commanded path.
+
+    The path starts at `start_xy` with heading `heading_rad`: the line along the commanded
+    direction for ω = 0, else the circle of radius |v|/|ω| tangent to it there (centre on the
+    left for ω > 0); the distance is the arc length to the closest point of the path, unwrapped
+    along the track (so more than half a turn counts). At v = 0 there is no path: the distance is
+    0 and the offset is the planar displacement.
+    """
+    d = np.atleast_2d(np.asarray(xy, dtype=float)) - np.asarray(start_xy, dtype=float)
+    u = commanded_direction(velocity, heading_rad)
+    if u is None:
+        return np.zeros(len(d)), np.hypot(d[:, 0], d[:, 1])
+    left = np.array([-u[1], u[0]])
+    w = velocity.yaw_rate_rad_s
+    speed = math.hypot(velocity.vx_m_s, velocity.vy_m_s)
+    if abs(w) * 1e3 <= speed:  # radius above 1 km: a straight line to µm over metres
+        return d @ u, d @ left
+    radius = speed / abs(w)
+    sign = math.copysign(1.0, w)
+    centre = sign * radius * left  # relative to the start
+    r = d - centre
+    cross = -centre[0] * r[:, 1] + centre[1] * r[:, 0]  # (−centre) × r
+    swept = sign * np.unwrap(np.arctan2(cross, r @ -centre))
+    return radius * swept, sign * (radius - np.hypot(r[:, 0], r[:, 1]))
+
+
+def run_path(traj: Trajectory, velocity: Velocity) -> RunPath:
+    """`RunPath` of `traj`: everything measured from its first sample (the rest pose)."""
+    yaw = np.unwrap(yaw_of(traj.base_quat))
+    xy = traj.base_pos_m[:, :2]
+    psi0 = float(yaw[0])
+    g = min(int(np.searchsorted(traj.time_s, traj.gait_start_s - 1e-9)), len(yaw) - 1)
+    gait_time = max(float(traj.time_s[-1]) - float(traj.time_s[g]), 0.0)
+    change = float(yaw[-1] - psi0)
+    along_m, lateral_m = path_offset(velocity, xy[0], psi0, xy)
+    along, lateral = float(along_m[-1]), float(lateral_m[-1])
+    c, s = math.cos(psi0), math.sin(psi0)
+    if gait_time > 0:
+        dx, dy = (xy[-1] - xy[g]) / gait_time
+        gait_v = (c * dx + s * dy, -s * dx + c * dy, float(yaw[-1] - yaw[g]) / gait_time)
+    else:
+        gait_v = (0.0, 0.0, 0.0)
+    return RunPath(
+        heading_change_rad=change,
+        heading_error_rad=change - velocity.yaw_rate_rad_s * gait_time,
+        ramp_yaw_rad=float(yaw[g] - psi0),
+        distance_m=along,
+        lateral_m=lateral,
+        gait_velocity=(float(gait_v[0]), float(gait_v[1]), float(gait_v[2])),
+    )
+
+
 def compute(
     traj: Trajectory,
     gait: Gait,
@@ -165,25 +267,24 @@ def compute(
     t = traj.time_s[w]
     span = float(t[-1] - t[0] + dt)
     yaw = np.unwrap(yaw_of(traj.base_quat))
-    c, s = np.cos(yaw), np.sin(yaw)
-    v = traj.base_linvel_m_s
-    v_fwd = c * v[:, 0] + s * v[:, 1]
-    v_lat = -s * v[:, 0] + c * v[:, 1]
-    fwd, lat = float(np.sum(v_fwd[w]) * dt), float(np.sum(v_lat[w]) * dt)
-    vx, vy = fwd / span, lat / span
-    yaw_rate = float(yaw[w][-1] - yaw[w][0] + 0.0) / max(span - dt, dt)
     cmd = gait.velocity
     cmd_speed = math.hypot(cmd.vx_m_s, cmd.vy_m_s)
+    path = run_path(traj, cmd)
+    v = traj.base_linvel_m_s[w, :2]
+    # commanded direction over the steady window: the start heading, turned at the commanded rate
+    heading_cmd = float(yaw[0]) + cmd.yaw_rate_rad_s * np.maximum(t - traj.gait_start_s, 0.0)
     if cmd_speed > 1e-9:
-        ux, uy = cmd.vx_m_s / cmd_speed, cmd.vy_m_s / cmd_speed
-        achieved = vx * ux + vy * uy
-        lateral = (-uy * fwd + ux * lat) - 0.0
-        along = fwd * ux + lat * uy
+        u = np.array([commanded_direction(cmd, float(h)) for h in heading_cmd])
+        along = float(np.sum(np.einsum("ij,ij->i", v, u)) * dt)
+        achieved = along / span
         speed_err: float | None = abs(achieved - cmd_speed) / cmd_speed
     else:
-        achieved, lateral, along, speed_err = math.hypot(vx, vy), lat, fwd, None
+        disp = np.sum(v, axis=0) * dt
+        along, speed_err = 0.0, None
+        achieved = float(np.hypot(disp[0], disp[1])) / span
     yaw_drift = float(yaw[w][-1] - yaw[w][0]) - cmd.yaw_rate_rad_s * (span - dt)
     per_m = abs(along) >= MIN_DISTANCE_FOR_DRIFT_M
+    run_per_m = abs(path.distance_m) >= MIN_DISTANCE_FOR_DRIFT_M
     fall_t, fall_why = detect_fall(traj, sim, falls)
     roll, pitch = roll_pitch_of(traj.base_quat[w])
     down = foot_down(traj, sim)[w]
@@ -202,13 +303,17 @@ def compute(
         cycles_run=traj.cycles_run,
         commanded_speed_m_s=cmd_speed,
         achieved_speed_m_s=achieved,
-        achieved_vx_m_s=vx,
-        achieved_vy_m_s=vy,
-        achieved_yaw_rate_rad_s=yaw_rate,
+        achieved_vx_m_s=path.gait_velocity[0],
+        achieved_vy_m_s=path.gait_velocity[1],
+        achieved_yaw_rate_rad_s=path.gait_velocity[2],
         speed_error_fraction=speed_err,
         distance_m=along,
-        lateral_drift_m=lateral,
-        lateral_drift_per_m=abs(lateral) / abs(along) if per_m else None,
+        run_distance_m=path.distance_m,
+        lateral_drift_m=path.lateral_m,
+        lateral_drift_per_m=abs(path.lateral_m) / abs(path.distance_m) if run_per_m else None,
+        heading_change_rad=path.heading_change_rad,
+        heading_error_rad=path.heading_error_rad,
+        ramp_yaw_rad=path.ramp_yaw_rad,
         yaw_drift_rad=yaw_drift,
         yaw_drift_rad_per_m=abs(yaw_drift) / abs(along) if per_m else None,
         fell=fall_t is not None,

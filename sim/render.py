@@ -1,4 +1,5 @@
-"""Offscreen video of a run (MP4 or GIF) with a camera that follows the robot's body.
+"""Offscreen video of a run (MP4 or GIF): a camera gliding along with the robot at its walking
+speed (smoothed, fixed height) over the lit floor grid, so its progress over the ground shows.
 
 Rendering is headless: `MUJOCO_GL=egl` (set by `sim/__init__` before mujoco is imported). If
 mujoco was imported earlier without it and there is no display, `_offscreen_context_class`
@@ -8,6 +9,7 @@ switches MuJoCo's renderer to EGL (then OSMesa) itself. Files are written atomic
 from __future__ import annotations
 
 import os
+import shutil
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -16,6 +18,7 @@ import imageio.v2 as imageio
 import mujoco
 import numpy as np
 
+from robots.errors import OutputWriteError
 from robots.files import atomic_path
 from sim.errors import RenderError
 from sim.model import SimModel
@@ -40,14 +43,103 @@ def _ensure_offscreen_gl() -> None:
         return
 
 
+#: how much of the body's forward motion the camera's smoothing averages out [s]: about a gait
+#: cycle, so the camera glides along at the walking speed while steps and sway stay visible
+CAMERA_SMOOTHING_S = 1.0
+
+#: headlight (a light at the camera) that keeps any robot and floor readable whatever its MJCF
+#: lights; visual only, physics is unaffected
+HEADLIGHT_AMBIENT = 0.45
+HEADLIGHT_DIFFUSE = 0.6
+HEADLIGHT_SPECULAR = 0.15
+
+
+#: self-illumination given to the materials of ground planes, so a dark floor texture's grid
+#: still reads in the video (visual only)
+FLOOR_EMISSION = 0.35
+
+
+def _light_the_scene(model: mujoco.MjModel) -> None:
+    """Brighten the render: the MJCF's own lights stay, the headlight is switched on and made
+    brighter (MuJoCo's default 0.1 ambient / 0.4 diffuse left most models very dark), and the
+    ground planes' materials glow a little so the floor grid shows."""
+    planes = model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE
+    for mat in set(model.geom_matid[planes].tolist()) - {-1}:
+        model.mat_emission[mat] = max(float(model.mat_emission[mat]), FLOOR_EMISSION)
+    light = model.vis.headlight
+    light.active = 1
+    light.ambient[:] = np.maximum(light.ambient, HEADLIGHT_AMBIENT)
+    light.diffuse[:] = np.maximum(light.diffuse, HEADLIGHT_DIFFUSE)
+    light.specular[:] = np.maximum(light.specular, HEADLIGHT_SPECULAR)
+
+
+def _moving_average(values: np.ndarray, window: int) -> np.ndarray:
+    """Centred moving average with the ends held (no shrink towards zero at the edges)."""
+    if window <= 1 or values.size == 0:
+        return values.astype(float)
+    pad = window // 2
+    head, tail = np.full(pad, values[0]), np.full(window - 1 - pad, values[-1])
+    padded = np.concatenate([head, values, tail])
+    return np.convolve(padded, np.ones(window) / window, mode="valid")
+
+
+def camera_lookat(sim: SimModel, traj: Trajectory, idx: np.ndarray, fps: float) -> np.ndarray:
+    """Per-frame camera target (F × 3): the body's x and y smoothed over `CAMERA_SMOOTHING_S`,
+    z at the stance height — the camera glides at the walking speed and does not copy the body's
+    bobbing or sway, so the floor grid shows the robot's progress; a robot drifting sideways or
+    turning stays in the frame (the distance marks show the drift)."""
+    adr = int(sim.model.jnt_qposadr[0])  # the root (free) joint: x, y, z, quaternion
+    x = traj.qpos[idx, adr]
+    y = traj.qpos[idx, adr + 1]
+    window = max(1, round(CAMERA_SMOOTHING_S * fps))
+    lookat = np.empty((len(idx), 3))
+    lookat[:, 0] = _moving_average(x, window)
+    lookat[:, 1] = _moving_average(y, window)
+    lookat[:, 2] = sim.robot.stance_base_height_m
+    return lookat
+
+
+#: spacing of the distance marks drawn on the floor from where the clip starts [m]
+DISTANCE_MARK_M = 0.25
+
+
+def distance_marks(start_x_m: float, end_x_m: float, spacing_m: float = DISTANCE_MARK_M
+                   ) -> list[tuple[float, str]]:
+    """(x, label) of lines across the path every `spacing_m` from the clip's start x."""
+    lo, hi = sorted((start_x_m, end_x_m))
+    n_back = int(np.floor((lo - start_x_m) / spacing_m)) - 1
+    n_ahead = int(np.ceil((hi - start_x_m) / spacing_m)) + 1
+    return [(start_x_m + k * spacing_m, f"{k * spacing_m:g} m") for k in range(n_back, n_ahead + 1)]
+
+
+def _draw_marks(scene: mujoco.MjvScene, marks: list[tuple[float, str]], y_m: float,
+                half_width_m: float) -> None:
+    """Thin light lines on the floor (z = 0) across the walking direction, labelled."""
+    for x, label in marks:
+        if scene.ngeom + 2 > scene.maxgeom:
+            return
+        mujoco.mjv_initGeom(
+            scene.geoms[scene.ngeom], mujoco.mjtGeom.mjGEOM_BOX,
+            np.array([0.004, half_width_m, 0.0005]), np.array([x, y_m, 0.0005]),
+            np.eye(3).ravel(), np.array([1.0, 1.0, 1.0, 0.7]))
+        # the label at the line's camera end (the camera looks from −y), clear of the robot
+        label_geom = scene.geoms[scene.ngeom + 1]
+        mujoco.mjv_initGeom(
+            label_geom, mujoco.mjtGeom.mjGEOM_SPHERE, np.array([0.001, 0.0, 0.0]),
+            np.array([x, y_m - 0.9 * half_width_m, 0.001]), np.eye(3).ravel(),
+            np.array([0.0, 0.0, 0.0, 0.0]))
+        label_geom.label = label
+        scene.ngeom += 2
+
+
 def _camera(sim: SimModel) -> mujoco.MjvCamera:
+    """A free camera three-quarters from the side, slightly above (targets set per frame)."""
     cam = mujoco.MjvCamera()
-    cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
-    cam.trackbodyid = sim.root_body
+    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     robot = sim.robot
-    cam.distance = float(max(6.0 * robot.leg_length_m, 3.0 * sim.model.stat.extent * 0.5, 0.4))
-    cam.azimuth = 135.0
-    cam.elevation = -20.0
+    cam.distance = float(max(7.0 * robot.leg_length_m, 3.0 * sim.model.stat.extent * 0.5, 0.5))
+    cam.azimuth = 120.0
+    cam.elevation = -25.0
     cam.lookat[:] = (0.0, 0.0, robot.stance_base_height_m)
     return cam
 
@@ -80,6 +172,7 @@ def iter_frames(
     if width > model.vis.global_.offwidth or height > model.vis.global_.offheight:
         model.vis.global_.offwidth = max(width, model.vis.global_.offwidth)
         model.vis.global_.offheight = max(height, model.vis.global_.offheight)
+    _light_the_scene(model)
     if not high_quality:  # visual-only fields; physics is unaffected
         model.vis.quality.offsamples = 0
         model.light_castshadow[:] = 0
@@ -97,14 +190,36 @@ def iter_frames(
         ) from None
     data = mujoco.MjData(model)
     cam = _camera(sim)
+    lookat = camera_lookat(sim, traj, idx, fps)
+    adr = int(model.jnt_qposadr[0])
+    marks = distance_marks(float(traj.qpos[idx[0], adr]), float(traj.qpos[idx[-1], adr])) \
+        if len(idx) else []
     try:
-        for i in idx:
+        for frame, i in enumerate(idx):
             data.qpos[:] = traj.qpos[i]
             mujoco.mj_forward(model, data)
+            cam.lookat[:] = lookat[frame]
             renderer.update_scene(data, camera=cam)
+            _draw_marks(renderer.scene, marks, float(lookat[frame, 1]), 2.0 * cam.distance / 7.0)
             yield renderer.render().copy()
     finally:
         renderer.close()
+
+
+def _check_mp4(tmp: Path, n_frames: int, target: Path) -> None:
+    """ffmpeg's exit status is not checked by imageio: a full disk or a killed encoder leaves a
+    truncated file. Decode it and count the frames before it may replace `target`."""
+    import imageio_ffmpeg
+
+    try:
+        decoded, _ = imageio_ffmpeg.count_frames_and_secs(str(tmp))
+    except Exception:  # ffmpeg cannot read it at all
+        decoded = 0
+    if decoded != n_frames:
+        free_kib = shutil.disk_usage(tmp.parent).free // 1024
+        raise RenderError(
+            f"{target}: the video encoder wrote {decoded} of {n_frames} frames (disk full? "
+            f"{free_kib} KiB free); no video written")
 
 
 def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float = 30.0) -> Path:
@@ -116,8 +231,8 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float = 30.
     suffix = p.suffix.lower()
     if suffix not in VIDEO_SUFFIXES:
         raise RenderError(f"{p}: video must end in {' or '.join(VIDEO_SUFFIXES)}")
-    try:
-        with atomic_path(p) as tmp:
+    with atomic_path(p) as tmp:  # an OSError of our own (folder, rename) is OutputWriteError
+        try:
             if suffix == ".gif":
                 frames = list(frames)
                 if not frames:
@@ -140,10 +255,15 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float = 30.
                         count += 1
                 if not count:
                     raise RenderError(f"{p}: no frames to write")
-    except RenderError:
-        raise
-    except Exception as exc:
-        raise RenderError(f"{p}: cannot write video: {exc}") from None
+                _check_mp4(tmp, count, p)
+        except (RenderError, OutputWriteError):
+            raise
+        except Exception as exc:  # imageio/ffmpeg: the first line says what failed
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            if "Broken pipe" in first:  # ffmpeg died: usually it could not write its output
+                free_kib = shutil.disk_usage(tmp.parent).free // 1024
+                first = f"the encoder (ffmpeg) stopped; disk full? {free_kib} KiB free"
+            raise RenderError(f"{p}: cannot write video: {first}") from None
     return p
 
 

@@ -12,6 +12,7 @@ from robots.gait import Gait, atomic_write_text
 from sim import plots
 from sim.errors import ReportError
 from sim.model import SimModel
+from sim.robustness import RobustnessResult
 from sim.validate import ValidationResult
 
 _CSS = """
@@ -59,10 +60,32 @@ def _img(png: bytes, alt: str) -> str:
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"/>'
 
 
+def _robustness_html(sweep: RobustnessResult) -> list[str]:
+    """The robustness sweep as a table: one row per perturbed run."""
+    parts = [
+        f"<h2>Robustness</h2><p>{sweep.pass_fraction:.0%} of {len(sweep.runs)} perturbed runs "
+        "pass.</p><table><tr><th>factor</th><th>value</th><th>verdict</th>"
+        "<th>speed [m/s]</th><th>peak τ/stall</th><th>fell</th><th>why</th></tr>"
+    ]
+    for r in sweep.runs:
+        cls = "pass" if r.passed else "fail"
+        parts.append(
+            f"<tr><td>{html.escape(r.factor)}</td><td>{r.value:g}</td>"
+            f"<td class='{cls}'>{'pass' if r.passed else 'FAIL'}</td>"
+            f"<td>{r.achieved_speed_m_s:.3f}</td><td>{r.peak_torque_fraction:.0%}</td>"
+            f"<td>{'yes' if r.fell else 'no'}</td>"
+            f"<td>{html.escape('; '.join(r.reasons)) or '—'}</td></tr>"
+        )
+    parts.append("</table>")
+    return parts
+
+
 def render_html(
-    result: ValidationResult, gait: Gait, sim: SimModel, *, title: str | None = None
+    result: ValidationResult, gait: Gait, sim: SimModel, *, title: str | None = None,
+    robustness: RobustnessResult | None = None,
 ) -> str:
-    """The report as an HTML string (needs `result.trajectory`)."""
+    """The report as an HTML string (needs `result.trajectory`); with `robustness`, the
+    perturbed runs of the robustness sweep as a table after the per-joint one."""
     traj = result.trajectory
     if traj is None:
         raise ReportError(
@@ -105,6 +128,8 @@ def render_html(
             f"<td>{j.peak_speed_rad_s:.2f}</td></tr>"
         )
     parts.append("</table>")
+    if robustness is not None:
+        parts.extend(_robustness_html(robustness))
     try:
         figures = (
             ("Joint angles: planned vs simulated (last cycles)", plots.joints_plot(traj, sim)),
@@ -123,12 +148,10 @@ def render_html(
     return "\n".join(parts)
 
 
-def write_report(path: str | Path, result: ValidationResult, gait: Gait, sim: SimModel) -> Path:
-    """Write the HTML report atomically."""
+def write_report(path: str | Path, result: ValidationResult, gait: Gait, sim: SimModel, *,
+                 robustness: RobustnessResult | None = None) -> Path:
+    """Write the HTML report atomically (with the robustness table if given)."""
     p = Path(path)
-    text = render_html(result, gait, sim)
-    try:
-        atomic_write_text(p, text)
-    except OSError as exc:
-        raise ReportError(f"{p}: cannot write the report: {exc}") from None
+    text = render_html(result, gait, sim, robustness=robustness)
+    atomic_write_text(p, text)  # a failed write is an OutputWriteError naming the file
     return p

@@ -1,8 +1,9 @@
-"""One validation run: rest → hold → min-jerk ramp-in → the gait's cycles, on flat ground.
+"""One validation run: rest → hold → ramp-in → the gait's cycles, on flat ground.
 
 The player's target stream is open-loop (a function of time only), so the whole control sequence
-is computed up front: stance hold for `settle_s`, the shared `robots.ramp` move to the gait's
-phase-0 pose, then `gait.joint_targets(t)`; sampled at the stream rate, held and delayed by
+is computed up front: stance hold for `settle_s`, the shared `robots.ramp.gait_entry` (min-jerk
+move to the gait's mean pose, then the gait blended in over whole cycles, ending at its phase 0),
+then `gait.joint_targets(t)`; sampled at the stream rate, held and delayed by
 `sim.servo.held_targets`. The physics runs natively (`mujoco.rollout`) one gait cycle at a time so
 a fall can stop the run early and progress can be reported.
 """
@@ -18,7 +19,7 @@ import mujoco.rollout
 import numpy as np
 
 from robots.gait import Gait
-from robots.ramp import MinJerkRamp, ramp_to
+from robots.ramp import GaitEntry, gait_entry
 from sim.errors import SimConfigError, SimDivergedError
 from sim.model import SimModel
 from sim.servo import DEFAULT_RATE_HZ, held_targets
@@ -54,7 +55,7 @@ class Trajectory:
 
     time_s: np.ndarray  # (T,) time at the end of each step
     gait_start_s: float
-    ramp: MinJerkRamp
+    ramp: GaitEntry  # hold → ramp-in → blend; the gait proper starts at gait_start_s
     period_s: float
     cycles_run: int
     stopped_early: bool
@@ -94,25 +95,33 @@ class Trajectory:
 
 def stream_targets(
     gait: Gait, sim: SimModel, settings: RunSettings
-) -> tuple[np.ndarray, MinJerkRamp, float]:
+) -> tuple[np.ndarray, GaitEntry, float]:
     """The player's target stream at `rate_hz` for the whole run: (K, J), ramp, gait start [s]."""
     robot = sim.robot
     stance = np.asarray(robot.nominal_stance_rad, dtype=float)
-    first = gait.joint_targets(0.0)
     speed = RAMP_SPEED_FRACTION * np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
-    ramp = ramp_to(stance, first, speed, settings.ramp_min_s)
-    tick = 1.0 / settings.rate_hz
-    gait_start = math.ceil((settings.settle_s + ramp.duration_s) / tick - 1e-9) * tick
+    ramp = gait_entry(gait, stance, speed, settings.ramp_min_s)
+    settle = _settle_s(ramp, settings)
+    gait_start = settle + ramp.duration_s
     end = gait_start + settings.cycles * gait.period_s
+    tick = 1.0 / settings.rate_hz
     t = np.arange(math.ceil(end / tick - 1e-9) + 1) * tick
-    out = reference(gait, stance, ramp, settings.settle_s, gait_start, t)
+    out = reference(gait, stance, ramp, settle, gait_start, t)
     return out, ramp, gait_start
+
+
+def _settle_s(entry: GaitEntry, settings: RunSettings) -> float:
+    """The stance hold, stretched (< one tick) so that the min-jerk ramp ends on a tick and the
+    blend starts there, as in the player (whose gait then follows the blend without a pause)."""
+    tick = 1.0 / settings.rate_hz
+    ramp_end = math.ceil((settings.settle_s + entry.ramp.duration_s) / tick - 1e-9) * tick
+    return ramp_end - entry.ramp.duration_s
 
 
 def reference(
     gait: Gait,
     stance_rad: np.ndarray,
-    ramp: MinJerkRamp,
+    ramp: GaitEntry,
     settle_s: float,
     gait_start_s: float,
     t_s: np.ndarray,
@@ -193,7 +202,7 @@ def _trajectory(
     sim: SimModel,
     settings: RunSettings,
     stream: np.ndarray,
-    ramp: MinJerkRamp,
+    ramp: GaitEntry,
     gait_start: float,
     st: np.ndarray,
     sd: np.ndarray,
@@ -213,8 +222,9 @@ def _trajectory(
         n_steps=n,
         initial_rad=stance,
     )
-    planned = reference(gait, stance, ramp, settings.settle_s, gait_start, time_s)
-    expected = reference(gait, stance, ramp, settings.settle_s, gait_start, time_s, expected=True)
+    settle = _settle_s(ramp, settings)
+    planned = reference(gait, stance, ramp, settle, gait_start, time_s)
+    expected = reference(gait, stance, ramp, settle, gait_start, time_s, expected=True)
 
     def cols(prefix: str, names: tuple[str, ...]) -> np.ndarray:
         return np.stack([sim.sensor(sd, f"{prefix}{x}") for x in names], axis=1)

@@ -34,6 +34,7 @@ from hardware.virtual.faults import NO_FAULTS, FaultPlan
 from hardware.virtual.servo import VirtualServo
 from hardware.virtual_rig import place_servos
 from robots.robot import Robot
+from sim.metrics import yaw_of
 from sim.model import STATE_SPEC, SimConditions, build_sim_model
 
 MAX_CATCH_UP_S = 1.0  # a (real-time) clock jump larger than this is not simulated step by step
@@ -45,6 +46,7 @@ class BaseSample:
 
     t_s: float
     position_m: tuple[float, float, float]
+    yaw_rad: float = 0.0  # heading in the world frame, wrapped to (−π, π]
 
 
 class MujocoTwin:
@@ -124,7 +126,8 @@ class MujocoTwin:
 
     def _record(self) -> None:
         x, y, z = (float(v) for v in self.data.qpos[0:3])
-        self.history.append(BaseSample(float(self.data.time), (x, y, z)))
+        yaw = float(yaw_of(np.asarray(self.data.qpos[3:7])))
+        self.history.append(BaseSample(float(self.data.time), (x, y, z), yaw))
 
     # -- results ---------------------------------------------------------------------------
     @property
@@ -145,6 +148,11 @@ class MujocoTwin:
         p = np.array([h.position_m for h in self.history], dtype=float).reshape(-1, 3)
         return t, p
 
+    def heading_change_rad(self) -> float:
+        """Yaw now − yaw when the twin was created (unwrapped over the recorded history)."""
+        yaw = np.unwrap(np.array([h.yaw_rad for h in self.history]))
+        return float(yaw[-1] - yaw[0])
+
     def mean_velocity_m_s(self, t0_s: float, t1_s: float) -> np.ndarray:
         """Average base velocity [m/s] between sim times `t0_s` and `t1_s` (x, y, z)."""
         t, p = self.base_track()
@@ -159,5 +167,6 @@ class MujocoTwin:
         t = self.sim_time_s
         return (
             f"twin: {t:.2f} s simulated ({self.steps} steps); base moved x {x:+.3f} m, "
-            f"y {y:+.3f} m; height {z:.3f} m"
+            f"y {y:+.3f} m, turned {np.degrees(self.heading_change_rad()):+.1f}°; "
+            f"height {z:.3f} m"
         )

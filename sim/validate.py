@@ -2,7 +2,8 @@
 
 The run starts at rest in the nominal stance on flat ground, holds, ramps in the way the player
 does (`robots.ramp`), then plays `cycles` gait cycles streamed at `rate_hz` with `latency_s`.
-Metrics (see `sim.metrics`) are taken over the steady cycles; the verdict applies `PassCriteria`.
+Metrics (see `sim.metrics`): heading and path over the whole run in the world frame from the rest
+pose, the rest over the steady cycles; the verdict applies `PassCriteria`.
 """
 
 from __future__ import annotations
@@ -32,8 +33,12 @@ class PassCriteria:
     speed_rel_tol: float = 0.10  # |achieved − commanded| ≤ 10 % of commanded speed
     speed_abs_tol_m_s: float = 0.01  # … or this, whichever is larger (standing gaits)
     max_peak_torque_fraction: float = 0.80  # peak |τ| ≤ 80 % of stall on every joint
-    max_lateral_drift_per_m: float = 0.15  # sideways metres per metre walked
-    max_yaw_drift_rad_per_m: float = 0.35  # ≈ 20° of unwanted turn per metre walked
+    # Heading and path over the whole run, from the rest pose (ramp-in included). 5° of heading
+    # error puts an open-loop walk 0.09 m off its line per metre (tan 5°), the same order as a
+    # foot's width on these robots; a 15° turn during the ramp-in (0.27 m/m) fails both checks.
+    max_heading_error_rad: float = math.radians(5.0)  # |yaw change − commanded turn| over the run
+    max_lateral_drift_per_m: float = 0.15  # metres off the commanded path per metre along it
+    max_yaw_drift_rad_per_m: float = 0.35  # steady turning: ≈ 20° of unwanted turn per metre
     max_tilt_rad: float = math.radians(20.0)  # body tilt in the steady cycles
     max_mean_slip_m: float = 0.02  # mean contact-point travel per stance
     falls: FallThresholds = field(default_factory=FallThresholds)
@@ -93,6 +98,15 @@ def judge(m: Metrics, c: PassCriteria) -> tuple[tuple[str, bool, str], ...]:
             f"(limit {c.max_peak_torque_fraction:.0%})",
         )
     )
+    checks.append(
+        (
+            "heading",
+            abs(m.heading_error_rad) <= c.max_heading_error_rad,
+            f"turned {math.degrees(m.heading_error_rad):+.1f}° off the commanded heading over "
+            f"the run, {math.degrees(m.ramp_yaw_rad):+.1f}° of it before the gait started "
+            f"(limit ±{math.degrees(c.max_heading_error_rad):.0f}°)",
+        )
+    )
     lat = m.lateral_drift_per_m
     checks.append(
         (
@@ -100,7 +114,8 @@ def judge(m: Metrics, c: PassCriteria) -> tuple[tuple[str, bool, str], ...]:
             lat is None or lat <= c.max_lateral_drift_per_m,
             "n/a (no distance)"
             if lat is None
-            else f"{lat:.3f} m/m (limit {c.max_lateral_drift_per_m:.2f})",
+            else f"{lat:.3f} m/m ({m.lateral_drift_m:+.3f} m off the commanded path after "
+            f"{m.run_distance_m:.2f} m; limit {c.max_lateral_drift_per_m:.2f})",
         )
     )
     yaw = m.yaw_drift_rad_per_m

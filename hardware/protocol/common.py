@@ -47,14 +47,24 @@ class FrameStream:
     (`prefix_len`), the frame length from that prefix (`_frame_length`, None when the length is
     impossible) and the frame parser (`_parse`). Corrupt frames are skipped and counted in
     `corrupt`; the stream resynchronises on the next header.
+
+    `max_frame` (bytes, optional): a reader that knows how long the frames it waits for can be
+    treats a declared length above it as impossible, so a false header in line noise cannot
+    hold the stream back waiting for hundreds of bytes that will never come.
     """
 
     header: bytes = b""
     prefix_len: int = 0
 
-    def __init__(self) -> None:
+    def __init__(self, max_frame: int | None = None) -> None:
         self._buf = bytearray()
         self.corrupt = 0
+        self.max_frame = max_frame
+
+    @property
+    def buffered(self) -> int:
+        """Bytes held back: an incomplete frame (or header) waiting for the rest."""
+        return len(self._buf)
 
     def _frame_length(self, buf: bytearray) -> int | None:
         raise NotImplementedError
@@ -82,6 +92,8 @@ class FrameStream:
             if self._resync(buf):
                 continue
             total = self._frame_length(buf)
+            if total is not None and self.max_frame is not None and total > self.max_frame:
+                total = None
             if total is None:
                 self.corrupt += 1
                 del buf[:1]

@@ -78,8 +78,8 @@ class StreamParser(FrameStream):
     header = HEADER
     prefix_len = 4  # header, id, length
 
-    def __init__(self, direction: Direction) -> None:
-        super().__init__()
+    def __init__(self, direction: Direction, max_frame: int | None = None) -> None:
+        super().__init__(max_frame)
         self.direction: Direction = direction
 
     def _resync(self, buf: bytearray) -> bool:

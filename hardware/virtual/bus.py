@@ -3,6 +3,8 @@
 `process(data, now_wall_s)` takes instruction bytes as written by the host (any chunking) and
 returns the status packets as (release wall-time [s], bytes), in bus order, after fault
 injection (drop / corrupt / delay / vanished servos / no reply to reads of given registers).
+Release times never decrease: like bytes through a USB adapter, a delayed reply holds back
+the replies after it instead of being overtaken.
 Servo physics run on the injectable `clock` (bus time); release times are wall-clock so a
 transport can honour delays.
 Reach it in-process with `VirtualPort` or on a pseudo-terminal with `PtyServer`.
@@ -16,6 +18,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Protocol
 
+from hardware.bus import MAX_SERVO_ID, bounded_int
 from hardware.control_table import table_for_protocol
 from hardware.protocol import dynamixel2 as dxl
 from hardware.protocol import feetech as ft
@@ -66,6 +69,8 @@ class VirtualServoBus:
     ) -> None:
         if not servos:
             raise ValueError("a virtual bus needs at least one servo")
+        for servo_id in servos:
+            bounded_int("virtual servo id", servo_id, 0, MAX_SERVO_ID)
         protocols = {m.protocol for m in servos.values()}
         protocol = protocol or (protocols.pop() if len(protocols) == 1 else "")
         if protocol not in PROTOCOLS:
@@ -84,12 +89,43 @@ class VirtualServoBus:
         )
         self._registered: dict[int, tuple[int, bytes]] = {}  # Feetech REG WRITE buffer
         self.instructions = 0  # packets handled (for tests and benchmarks)
+        self._last_release = 0.0  # wall time [s] of the latest reply released (FIFO order)
         self.plant: ServoPlant | None = None  # optional external physics (see ServoPlant)
 
     @classmethod
-    def from_robot(cls, robot: Any, **kwargs: Any) -> VirtualServoBus:
-        """Servos at the robot's bus ids with the robot's servo models."""
-        return cls({j.bus_id: j.servo for j in robot.joints}, **kwargs)
+    def from_robot(
+        cls, robot: Any, pose_rad: Sequence[float] | None = None, **kwargs: Any
+    ) -> VirtualServoBus:
+        """Servos at the robot's bus ids with the robot's servo models, standing at `pose_rad`
+        (default: the robot's nominal stance), converted to ticks through each joint's mounting
+        (zero offset, direction) — a pose the robot allows, so a player can start on it.
+        Servos left mid-range (tick 2048) would sit outside many joints' limits."""
+        vbus = cls({j.bus_id: j.servo for j in robot.joints}, **kwargs)
+        pose = robot.nominal_stance_rad if pose_rad is None else pose_rad
+        vbus.place(_pose_ticks(robot, pose))
+        return vbus
+
+    def place(self, ticks: Mapping[int, int]) -> None:
+        """Re-create the named servos at rest at the given present positions [ticks] (factory
+        registers, torque off, goal = present)."""
+        now = self.clock()
+        with self._lock:
+            self.servos = [
+                VirtualServo(
+                    s.servo_id, s.model, s.table, now, position_tick=int(ticks[s.servo_id])
+                )
+                if s.servo_id in ticks
+                else s
+                for s in self.servos
+            ]
+
+    def unplug(self) -> None:
+        """The adapter vanishes from now on (see `FaultPlan.adapter_lost_at_s`)."""
+        self.faults = _replace_plan(self._faults, adapter_lost_at_s=self.clock())
+
+    def adapter_lost(self) -> bool:
+        """Whether the port has failed (`FaultPlan.adapter_lost_at_s` reached on the bus clock)."""
+        return self._faults.is_adapter_lost(self.clock())
 
     # -- fault control (thread-safe, live) ----------------------------------------------------
     @property
@@ -141,7 +177,10 @@ class VirtualServoBus:
                         continue
                     injected = self._inject(servo, reply, now)
                     if injected is not None:
-                        out.append((wall + injected[0], injected[1]))
+                        # a serial stream is FIFO: a late reply holds back the ones after it
+                        release = max(wall + injected[0], self._last_release)
+                        self._last_release = release
+                        out.append((release, injected[1]))
         return out
 
     def _read_lost(self, p: Packet) -> bool:
@@ -169,8 +208,13 @@ class VirtualServoBus:
             buf[i] ^= rng.randrange(1, 256)
             reply = bytes(buf)
         delay = 0.0
-        if plan.delay_s and rng.random() < plan.delay_probability:
+        if (plan.delay_s or plan.delay_jitter_s) and rng.random() < plan.delay_probability:
             delay = plan.delay_s
+            if plan.delay_jitter_s:
+                delay += rng.uniform(0.0, plan.delay_jitter_s)
+        if plan.noise_probability and rng.random() < plan.noise_probability:
+            noise = bytes(rng.randrange(256) for _ in range(rng.randint(1, plan.noise_max_bytes)))
+            reply = noise + reply
         return delay, reply
 
     def _targets(self, servo_id: int) -> list[VirtualServo]:
@@ -301,6 +345,24 @@ def _u16(b: bytes, i: int) -> int:
 
 def _le16(v: int) -> bytes:
     return bytes((v & 0xFF, (v >> 8) & 0xFF))
+
+
+def _pose_ticks(robot: Any, pose_rad: Sequence[float]) -> dict[int, int]:
+    joints = list(robot.joints)
+    pose = [float(q) for q in pose_rad]
+    if len(pose) != len(joints):
+        raise ValueError(f"expected {len(joints)} joint angles, got {len(pose)}")
+    out = {}
+    for j, q in zip(joints, pose, strict=True):
+        tick = round(j.angle_to_ticks(q))
+        out[j.bus_id] = min(max(tick, j.servo.position_min_tick), j.servo.position_max_tick)
+    return out
+
+
+def _replace_plan(plan: FaultPlan, **changes: Any) -> FaultPlan:
+    from dataclasses import replace
+
+    return replace(plan, **changes)
 
 
 def _replace(plan: FaultPlan, **changes: Iterable[int]) -> FaultPlan:

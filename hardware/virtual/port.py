@@ -10,11 +10,16 @@ of USB latency allowance). Here the allowance is `latency_ms` (drivers set it fr
 `BusConfig.timeout_s`) and the default baud is 1 Mbps, so a missing reply costs milliseconds,
 not tens of milliseconds. Replies are available as soon as the bus releases them (immediately,
 or after an injected delay on the wall clock).
+
+Adapter loss (`FaultPlan.adapter_lost_at_s`, `VirtualServoBus.unplug`): from then on every
+read, write, flush and wait raises OSError EIO, like pyserial on an unplugged USB adapter.
 """
 
 from __future__ import annotations
 
 import bisect
+import errno
+import os
 import time
 from collections.abc import Sequence
 
@@ -68,6 +73,7 @@ class VirtualPort:
 
     def clearPort(self) -> None:
         """Discard bytes already received (like reset_input_buffer); in-flight replies stay."""
+        self._check_adapter()
         self._release()
         self._rx.clear()
 
@@ -88,10 +94,21 @@ class VirtualPort:
         return self.baudrate
 
     def getBytesAvailable(self) -> int:
+        self._check_adapter()
         self._release()
         return len(self._rx)
 
+    def wait_for_input(self, timeout_s: float) -> None:
+        """Sleep until a reply is due or `timeout_s` passes (gaitsmith extension: lets a driver
+        wait without spinning)."""
+        self._check_adapter()
+        if self._rx:
+            return
+        due = self._pending[0][0] - time.monotonic() if self._pending else timeout_s
+        time.sleep(max(0.0, min(timeout_s, due)))
+
     def readPort(self, length: int) -> bytes:
+        self._check_adapter()
         self._release()
         if not self._rx:
             if self._pending:
@@ -103,6 +120,7 @@ class VirtualPort:
         return out
 
     def writePort(self, packet: Sequence[int] | bytes) -> int:
+        self._check_adapter()
         data = bytes(packet)
         self.bytes_written += len(data)
         for release, reply in self.bus.process(data, time.monotonic()):
@@ -132,6 +150,12 @@ class VirtualPort:
         return self.getCurrentTime() - self.packet_start_time
 
     # -- internals ------------------------------------------------------------------------------
+    def _check_adapter(self) -> None:
+        if self.bus.adapter_lost():
+            self._rx.clear()
+            self._pending.clear()
+            raise OSError(errno.EIO, os.strerror(errno.EIO))
+
     def _release(self) -> None:
         if not self._pending:
             return

@@ -4,6 +4,10 @@ A thread owns the master side of `os.openpty()`: it feeds the host's bytes to th
 writes the replies back when the bus releases them (honouring injected delays). The slave path
 (`server.path`, e.g. /dev/pts/7) behaves like a USB-serial adapter for the unmodified SDKs'
 own `PortHandler(path)`; the baud rate a client sets is accepted and ignored.
+
+Adapter loss (`FaultPlan.adapter_lost_at_s`, `VirtualServoBus.unplug`): the server closes
+both its ends of the pty, so a client's reads and writes fail with EIO as on an unplugged USB
+adapter (`lost` is then set); `stop()` is still needed to join the thread.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ class PtyServer:
         self._stop = threading.Event()
         self.path = ""
         self.error: BaseException | None = None
+        self.lost = False  # the emulated adapter was unplugged (FaultPlan.adapter_lost_at_s)
 
     def start(self) -> str:
         """Create the pty and start serving; returns the device path."""
@@ -69,6 +74,9 @@ class PtyServer:
         seq = 0
         try:
             while not self._stop.is_set():
+                if self.bus.adapter_lost():
+                    self._unplug()
+                    return
                 now = time.monotonic()
                 wait = 0.05 if not pending else max(0.0, min(0.05, pending[0][0] - now))
                 ready, _, _ = select.select([self._master], [], [], wait)
@@ -90,6 +98,13 @@ class PtyServer:
                     self._write_all(reply)
         except BaseException as exc:  # pragma: no cover - surfaced through .error
             self.error = exc
+
+    def _unplug(self) -> None:
+        self.lost = True  # before the close: the client may see EIO the instant it happens
+        for fd in (self._master, self._slave):
+            if fd >= 0:
+                os.close(fd)
+        self._master = self._slave = -1
 
     def _write_all(self, data: bytes) -> None:
         view = memoryview(data)

@@ -37,7 +37,15 @@ def test_readme_main_command_plans_simulates_and_renders(tmp_path: Path) -> None
 
 
 def test_readme_test_command_is_what_ci_runs() -> None:
+    """CI builds a fresh venv and runs the README's test command verbatim (read from the README)."""
     commands = _commands("Run the tests")
+    assert commands[0][:3] == ["pip", "install", "-e"]
+    assert commands[1][:3] == ["python", "-m", "pytest"]
     ci = (README.parent / ".ci" / "run").read_text()
-    assert commands[0][:3] == ["pip", "install", "-e"] and commands[0][3] in ci
-    assert commands[1][:3] == ["python", "-m", "pytest"] and "-m pytest" in ci
+    assert "python3 -m venv" in ci and "/venv/bin/activate" in ci
+    pattern = re.search(r"grep -m1 -E '([^']+)' README\.md", ci)
+    assert pattern is not None, "CI no longer reads the test command from the README"
+    lines = [ln for ln in README.read_text().splitlines() if re.match(pattern.group(1), ln)]
+    assert lines and shlex.split(lines[0].replace("&&", " && ")) == [
+        *commands[0], "&&", *commands[1]
+    ]

@@ -61,3 +61,11 @@ def test_bad_specs_raise_a_value_error_naming_them(text: str) -> None:
         parse_fault(text, range(1, 13))
     assert isinstance(info.value, ValueError)
     assert str(info.value).startswith(f"--fault {text!r}: ") and "accepted: " in str(info.value)
+
+
+@pytest.mark.parametrize("text", ["sag=1e308", "sag=1e308@0.5", "delay=1e9"])
+def test_fault_values_beyond_the_fault_plans_bounds_are_one_line(text: str) -> None:
+    with pytest.raises(FaultSpecError) as info:
+        parse_fault(text)
+    msg = str(info.value)
+    assert ("outside" in msg or "must lie in" in msg) and "\n" not in msg

@@ -14,6 +14,7 @@ from hardware.play_errors import PreflightError, SpeedScaleError
 from hardware.player import Player, PlayerConfig, RestPose
 from hardware.virtual import FaultPlan
 from hardware.watchdog import StopReason
+from robots.ramp import gait_mean_pose
 from tests.hardware.test_player_support import (
     FAST_BUS,
     assert_wire_safe,
@@ -65,8 +66,8 @@ def test_ramp_from_far_away_is_smooth_and_step_limited_on_the_wire(tmp_path: Pat
     assert steps[0].max() <= 1 and steps[-1].max() <= 1
     biggest = int(np.argmax(steps.max(axis=1)))
     assert 0.3 < biggest / len(steps) < 0.7
-    # and it ends on the gait's first pose
-    end = rig.gait.joint_targets(0.0)
+    # and it ends on the gait's mean pose, where the blend into the gait starts (robots.ramp)
+    end = gait_mean_pose(rig.gait)
     assert np.all(np.abs(player.gate.ticks_to_rad(ramp[-1]) - end) <= 1.0 / tpr)
 
 

@@ -66,3 +66,37 @@ def test_plot_writes_a_png(tmp_path: Path) -> None:
     w.finish("completed", "played 1 cycle(s)", 20, 0.2)
     out = plot_telemetry(read_telemetry(path), tmp_path / "p.png")
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_no_file_until_the_first_row_and_none_for_a_run_that_never_wrote(tmp_path: Path) -> None:
+    path = tmp_path / "t.csv"
+    w = TelemetryWriter(path, NAMES, IDS)
+    assert not path.exists()  # a run refused by pre-flight leaves nothing behind
+    w.close()
+    assert not path.exists()
+    w = TelemetryWriter(path, NAMES, IDS)
+    w.finish("sigterm", "SIGTERM received: stopping safely", 0, 0.0, -0.3)
+    tel = read_telemetry(path)  # stopped before the first tick: header + stop row
+    assert len(tel.tick) == 0 and tel.stop_reason == "sigterm" and tel.stop_requested_s == -0.3
+
+
+def test_stop_row_holds_request_and_done_times(tmp_path: Path) -> None:
+    path = tmp_path / "t.csv"
+    w = TelemetryWriter(path, NAMES, IDS)
+    w.write(_record(0))
+    w.finish("sigint", "Ctrl-C (SIGINT) received: stopping safely", 1, 0.75, 0.25)
+    tel = read_telemetry(path)
+    assert tel.stop_requested_s == 0.25 and tel.stop_done_s == 0.75
+
+
+def test_a_full_disk_cuts_the_log_without_raising(tmp_path: Path) -> None:
+    w = TelemetryWriter("/dev/full", NAMES, IDS)
+    for k in range(3):
+        w.write(_record(k))  # ENOSPC at the first flush: recorded, not raised
+    w.finish("completed", "played 1 cycle(s)", 3, 0.03, 0.02)
+    assert w.cut == "No space left on device after 0 row(s)" and not w.finished
+
+
+def test_an_unwritable_place_fails_up_front(tmp_path: Path) -> None:
+    with pytest.raises(IsADirectoryError):
+        TelemetryWriter(tmp_path, NAMES, IDS)

@@ -108,7 +108,13 @@ def test_exit_codes_are_distinct_and_completed_is_zero() -> None:
 
 
 @pytest.mark.parametrize(
-    ("signum", "reason"), [(signal.SIGINT, StopReason.SIGINT), (signal.SIGTERM, StopReason.SIGTERM)]
+    ("signum", "reason"),
+    [
+        (signal.SIGINT, StopReason.SIGINT),
+        (signal.SIGTERM, StopReason.SIGTERM),
+        (signal.SIGHUP, StopReason.SIGHUP),
+        (signal.SIGQUIT, StopReason.SIGQUIT),
+    ],
 )
 def test_signals_become_stop_requests_and_handlers_are_restored(
     signum: int, reason: StopReason
@@ -149,3 +155,37 @@ def test_a_status_read_that_arrives_resets_the_count() -> None:
 def test_status_budget_must_be_at_least_one() -> None:
     with pytest.raises(ValueError, match="max_consecutive_status_misses"):
         WatchdogLimits(max_consecutive_status_misses=0)
+
+
+def test_exit_codes_of_the_new_stop_reasons() -> None:
+    assert StopReason.SIGHUP.exit_code == 129 and StopReason.SIGQUIT.exit_code == 131
+    assert StopReason.ADAPTER_LOST.exit_code == 9
+
+
+def test_a_signal_storm_keeps_the_first_reason_and_only_escalates() -> None:
+    dog = _dog()
+    dog.request(StopReason.NO_RESPONSE, "servo 3: 4 consecutive missed reads", 10, 0.1)
+    with stop_on_signals(dog, lambda: (11, 0.11)):
+        for signum in [signal.SIGTERM, signal.SIGINT, signal.SIGHUP] * 100:
+            os.kill(os.getpid(), signum)
+    assert dog.stop is not None and dog.stop.reason is StopReason.NO_RESPONSE
+    assert dog.urgent and dog.signals == 300
+
+
+def test_signals_latched_before_the_player_become_its_stop_request() -> None:
+    import hardware.watchdog as wd
+
+    saved = {s: signal.getsignal(s) for s in wd.STOP_SIGNALS}
+    try:
+        wd.latch_stop_signals()
+        os.kill(os.getpid(), signal.SIGHUP)  # while the CLI loads: remembered, not fatal
+        os.kill(os.getpid(), signal.SIGINT)  # no KeyboardInterrupt either
+        assert [s for s, _ in wd.latched_signals()] == [signal.SIGHUP, signal.SIGINT]
+        dog = _dog()
+        with stop_on_signals(dog, lambda: (0, -0.5)):
+            assert dog.stop is not None and dog.stop.reason is StopReason.SIGHUP and dog.urgent
+        assert wd.latched_signals() == ()
+        assert signal.getsignal(signal.SIGTERM) is wd._latch  # back to the latch, not default
+    finally:
+        for s, h in saved.items():
+            signal.signal(s, h)

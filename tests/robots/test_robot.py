@@ -61,7 +61,7 @@ def _edit(path: Path, old: str, new: str, count: int = 1) -> None:
             "direction = 1\nzero_offset_ticks = 2048\nstance_deg = 0.0\n\n[joints.fl_knee]",
             "fl_ankle",
         ),
-        ("robot.toml", 'servo = "STS3215_7V4"', 'servo = "MG996R"', "servo"),
+        ("robot.toml", 'servo = "STS3215_7V4"', 'servo = "HS_999_NOT_A_SERVO"', "servo"),
         ("robot.toml", "bus_id = 2\n", "bus_id = 1\n", "bus_id"),
         ("robot.toml", "direction = 1", "direction = 2", "direction"),
         ("robot.toml", "stance_deg = -80.0", "stance_deg = 10.0", "stance_deg"),

@@ -48,7 +48,7 @@ def test_ticks_per_rad() -> None:
 
 def test_unknown_model_names_the_known_ones() -> None:
     with pytest.raises(RobotConfigError, match="XL430_W250"):
-        servo_model("MG996R")
+        servo_model("HS_999_NOT_A_SERVO")
 
 
 @pytest.mark.parametrize(

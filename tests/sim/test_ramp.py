@@ -1,11 +1,23 @@
-"""robots.ramp: the shared min-jerk ramp-in (used by sim.validate and the hardware player)."""
+"""robots.ramp: the shared min-jerk ramp and gait entry (used by sim.validate and the player)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from robots.ramp import MIN_JERK_PEAK_SPEED, MinJerkRamp, min_jerk, ramp_duration_s, ramp_to
+from robots.gait import Gait
+from robots.ramp import (
+    MIN_JERK_PEAK_SPEED,
+    GaitEntry,
+    MinJerkRamp,
+    blend_cycles,
+    gait_entry,
+    gait_mean_pose,
+    min_jerk,
+    ramp_duration_s,
+    ramp_to,
+)
+from robots.robot import Robot
 
 
 def test_min_jerk_endpoints_and_symmetry() -> None:
@@ -42,3 +54,51 @@ def test_bad_inputs() -> None:
         MinJerkRamp(np.zeros(2), np.zeros(2), 0.0)
     with pytest.raises(ValueError):
         ramp_duration_s(np.zeros(2), np.ones(2), 0.0)
+
+
+# -- gait_entry: ramp to the mean pose, then blend the gait in (issue #12) ----------------------
+
+
+def test_gait_mean_pose_is_the_cycle_average(hex_tripod: Gait) -> None:
+    phase = np.linspace(0.0, 1.0, 4001)[:-1]
+    average = hex_tripod.joint_targets(phase * hex_tripod.period_s).mean(axis=0)
+    np.testing.assert_allclose(gait_mean_pose(hex_tripod), average, atol=1e-9)
+
+
+def test_gait_entry_starts_at_rest_and_ends_in_the_gait(hex18: Robot, hex_tripod: Gait) -> None:
+    gait = hex_tripod
+    present = np.asarray(hex18.nominal_stance_rad) + 0.05
+    entry = gait_entry(gait, present, 2.0, 0.8)
+    assert entry.cycles >= 1 and entry.ramp.duration_s >= 0.8
+    assert entry.duration_s == pytest.approx(entry.ramp.duration_s + entry.cycles * gait.period_s)
+    np.testing.assert_allclose(entry.positions(0.0), present)
+    np.testing.assert_allclose(entry.positions(entry.ramp.duration_s), gait_mean_pose(gait))
+    np.testing.assert_allclose(entry.positions(entry.duration_s), gait.joint_targets(0.0))
+    # C¹ into the gait: the entry's speed at its end is the gait's speed at phase 0
+    h = 1e-5
+    end_speed = (entry.positions(entry.duration_s) - entry.positions(entry.duration_s - h)) / h
+    gait_speed = (gait.joint_targets(0.0) - gait.joint_targets(-h)) / h
+    np.testing.assert_allclose(end_speed, gait_speed, atol=1e-3)
+    # the stream is continuous throughout (no step between ramp, blend and gait)
+    t = np.linspace(0.0, entry.duration_s, 20001)
+    assert np.max(np.abs(np.diff(entry.positions(t), axis=0))) < 1e-3
+    assert entry.blend_weight(0.0) == 0.0 and entry.blend_weight(entry.duration_s) == 1.0
+
+
+def test_blend_cycles_respect_the_speed_cap(hex_tripod: Gait) -> None:
+    gait = hex_tripod
+    amplitude = np.max(np.abs(gait.knots_rad - gait_mean_pose(gait)))
+    cap = MIN_JERK_PEAK_SPEED * amplitude / (2.5 * gait.period_s)  # needs 2.5 → 3 cycles
+    assert blend_cycles(gait, cap) == 3
+    assert blend_cycles(gait, cap, time_scale=0.5) == 2  # played at half speed: slower per cycle
+    assert blend_cycles(gait, 100.0) == 1 and blend_cycles(gait, 100.0, min_cycles=2) == 2
+    entry = gait_entry(gait, gait_mean_pose(gait), cap)
+    t = np.linspace(entry.ramp.duration_s, entry.duration_s, 4001)
+    blend_term = np.gradient(entry.blend_weight(t), t)[:, None] * (
+        gait.joint_targets(t - entry.ramp.duration_s) - gait_mean_pose(gait)
+    )
+    assert np.max(np.abs(blend_term)) <= cap * 1.001
+    with pytest.raises(ValueError):
+        blend_cycles(gait, 0.0)
+    with pytest.raises(ValueError):
+        GaitEntry(entry.ramp, gait, 0)

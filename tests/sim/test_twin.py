@@ -99,6 +99,10 @@ def test_planned_trot_walks_through_the_twin(quad: Robot, planned_trot: Gait) ->
     assert gait.planner["joint_angles"] == "servo_goal"  # the player streams servo goals
     assert sim_ratio >= 0.9  # issue 6 acceptance: within 10 % in sim.validate
     assert ratio >= 0.8, f"{ratio:.0%} of {commanded} m/s through the twin"
+    # issue 12: the entry through the mean pose does not turn it (a straight ramp to phase 0 put
+    # it 15° off and 0.3 m sideways after 1.2 m); measured from the twin's start, stop included
+    x, y, _ = twin.base_position_m
+    assert abs(y) < 0.05 * x, f"y = {y:+.3f} m after x = {x:.3f} m"
 
 
 def test_hardware_twin_is_reachable_only_lazily() -> None:
