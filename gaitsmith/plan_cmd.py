@@ -136,8 +136,12 @@ def _check_options(speed: float, knots: int, period: float | None, duty: str | N
     check_speed("--speed", speed, allow_zero=not search)  # the search needs CoT and Froude > 0
     check_knots("--knots", knots)
     check_number("--period", period, 0.0, MAX_PERIOD_S, lo_open=True, unit="s")
-    # --duty (one value or one per leg) is checked against the robot's legs by
-    # planner.user_schedule once the robot is loaded (before the NLP is built)
+    if duty is not None and "," not in duty:  # a list is checked per leg once the robot is loaded
+        try:
+            single: float | None = float(duty)
+        except ValueError:
+            single = None  # not a number: planner.user_schedule names it
+        check_number("--duty", single, 0.0, 1.0, lo_open=True, hi_open=True)
     check_friction("--mu", mu)
     if search:
         check_search_options(st.executor, st.generations, st.popsize, st.workers,
