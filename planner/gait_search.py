@@ -32,9 +32,11 @@ satisfy the NLP: optimised timings exploit the model (feet that barely touch, kn
 balance) in ways the templates do not. `planner` never imports `sim`; the CLI wires them.
 
 Resolution: the search projects each sample with a coarse NLP (`search_knots`, default 12, and
-IPOPT capped at `search_max_iter`; a sample that does not converge in that budget counts as
-infeasible), then re-solves up to `FINAL_CANDIDATES` of the best timings at the full `n_knots`
-for the gait file, judged by `final_acceptance`; the first that is feasible and accepted wins.
+IPOPT capped at `search_max_iter`; a sample stopped by the cap counts as feasible only if the
+point it stopped at meets every constraint — `planner.diagnostics.judge` — and its cost is then
+an upper bound of its local optimum), then re-solves up to `FINAL_CANDIDATES` of the best
+timings at the full `n_knots` for the gait file, judged by `final_acceptance`; the first that
+is feasible and accepted wins.
 The 12-knot NLP builds in 2.8 s instead of 8.5 s and solves in about half the time of the
 30-knot one; it ranked quad12's four symmetric templates in the same order as the 30-knot NLP at
 0.15 and at 0.3 m/s, though its costs are lower (the final cost is reported next to the search

@@ -329,3 +329,20 @@ def test_nondimensional_nlp_has_the_same_optimum(
     assert a.feasible and b.feasible, (a.message, b.message)
     assert b.cost == pytest.approx(a.cost, rel=1e-3)
     np.testing.assert_allclose(b.joint_angles_rad, a.joint_angles_rad, atol=2e-2)
+
+
+@pytest.mark.slow
+def test_plan_command_solves_a_schedule_file(
+    mini4: robots.Robot, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sched = tmp_path / "walk.toml"
+    sched.write_text("period_s = 0.5\n" + "".join(
+        f"[legs.{leg}]\ntouchdown_phase = {ph}\nduty_factor = 0.75\n"
+        for leg, ph in zip(mini4.foot_names, (0.25, 0.75, 0.0, 0.5), strict=True)))
+    out = tmp_path / "walk.json"
+    code = cli.main(["plan", str(mini4.root_dir), "--schedule", str(sched), "--speed", "0.1",
+                     "--knots", "12", "-o", str(out)])
+    assert code == 0, capsys.readouterr()
+    gait = robots.gait.load(out, mini4)
+    assert gait.gait_label == "custom" and gait.period_s == pytest.approx(0.5)
+    assert "joint_limit_clearance" in gait.planner
