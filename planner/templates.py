@@ -105,7 +105,7 @@ def stance_foot_positions_m(robot: Robot) -> np.ndarray:
     cached = _STANCE_CACHE.get(key)
     if cached is not None:
         return cached.copy()
-    model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
+    model = robot.mj_model()
     data = mujoco.MjData(model)
     data.qpos[:] = model.qpos0
     data.qpos[0:7] = (0, 0, 0, 1, 0, 0, 0)

@@ -1,0 +1,1 @@
+"""The zoo: robot folders that are not built-ins (see tests/zoo/fixtures.py)."""
