@@ -122,8 +122,10 @@ def small_quadruped(
     hip_pitch_deg: float = 37.0,
     foot_radius_m: float = 0.006,
     name: str = "mini4",
+    head: bool = False,
 ) -> Path:
-    """A 0.23 kg quadruped, legs 7.5 cm from hip to foot at stance, 18 g servos in every link."""
+    """A 0.23 kg quadruped, legs 7.5 cm from hip to foot at stance, 18 g servos in every link;
+    `head`: plus a head servo in no leg (robot.toml ``role = "hold"``)."""
     folder.mkdir(parents=True, exist_ok=True)
     servo_kg = 0.018
     knee_deg = -2 * hip_pitch_deg
@@ -165,6 +167,14 @@ def small_quadruped(
             f'[legs.{leg}]\nfoot_site = "{leg}_foot"\n'
             f'joints = ["{leg}_roll", "{leg}_pitch", "{leg}_knee"]\n\n'
         )
+    if head:
+        xml.append(f"""      <body name="head" pos="0.065 0 0.012">
+        <joint name="head_pan" axis="0 0 1" range="-1 1"/>
+        <inertial pos="0.01 0 0" mass="{servo_kg}" diaginertia="2e-6 2e-6 2e-6"/>
+      </body>
+""")
+        toml.append(_joint_toml("head_pan", servo, bus, 0.0).replace(
+            "stance_deg", 'role = "hold"\nstance_deg'))
     xml.append("    </body>\n  </worldbody>\n</mujoco>\n")
     (folder / "robot.xml").write_text("".join(xml))
     (folder / "robot.toml").write_text("".join(toml + legs))

@@ -46,7 +46,7 @@ def star5(tmp_path_factory: pytest.TempPathFactory) -> robots.Robot:
 
 @pytest.fixture(scope="module")
 def mini4(tmp_path_factory: pytest.TempPathFactory) -> robots.Robot:
-    return robots.load(small_quadruped(tmp_path_factory.mktemp("bots") / "mini4"))
+    return robots.load(small_quadruped(tmp_path_factory.mktemp("bots") / "mini4", head=True))
 
 
 # -- templates for any leg count ------------------------------------------------------------
@@ -93,6 +93,13 @@ def test_other_leg_counts_never_have_an_empty_template_list(tmp_path: Path) -> N
     assert default_gait_for(six) == "tripod"
     seven = robots.load(star_robot(tmp_path / "s7", 7, name="s7"))
     assert default_gait_for(seven) == "ripple" and "wave" in templates_for(seven)
+
+
+def test_held_joints_outside_the_legs_change_nothing_about_the_templates(tmp_path: Path) -> None:
+    bot = robots.load(small_quadruped(tmp_path / "headed", head=True))
+    assert bot.hold_joint_names == ("head_pan",) and len(bot.legs) == 4
+    assert default_gait_for(bot) == "trot" and mirror_permutation(bot) == (1, 0, 3, 2)
+    assert TimingSpace.for_robot(bot).symmetric
 
 
 def test_builtin_robots_keep_their_named_defaults() -> None:
