@@ -40,7 +40,8 @@ from gaitsmith.search_options import (
 from planner.config import PlannerOptions
 from planner.errors import InfeasibleGaitError
 from planner.spacetime import GaitPlanner, PlanResult
-from planner.templates import TEMPLATES, make_schedule
+from planner.templates import TEMPLATES
+from planner.user_schedule import command_schedule
 from robots.voltage import nominal_supply_v, robot_at_voltage, voltage_margin
 
 
@@ -59,7 +60,15 @@ def plan(
     period: float | None = typer.Option(
         None, "--period", help="cycle period [s] (default: template)"
     ),
-    duty: float | None = typer.Option(None, "--duty", help="duty factor (default: template)"),
+    duty: str | None = typer.Option(
+        None, "--duty", help="duty factor: one value, or one per leg in robot.toml order "
+        "(default: template; 0.6 with --phases)"),
+    phases: str | None = typer.Option(
+        None, "--phases", help="touchdown phase per leg in robot.toml order, e.g. 0,0.5,0.25,0.75 "
+        "(replaces the template)"),
+    schedule_file: Path | None = typer.Option(
+        None, "--schedule", help="JSON/TOML file: touchdown_phase and duty_factor per leg name "
+        "(replaces the template)"),
     mu: float = typer.Option(0.5, "--mu", help="friction coefficient of the contact cone"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
     search: bool = typer.Option(
@@ -102,8 +111,10 @@ def plan(
         _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v)
         return
     gait = gait or default_gait(bot)
-    check_gait_fits(bot, gait)
-    schedule = make_schedule(bot, gait, period_s=period, duty_factor=duty)
+    if phases is None and schedule_file is None:
+        check_gait_fits(bot, gait)
+    schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
+                                      schedule_file=schedule_file, period_s=period)
     options = PlannerOptions(mu=mu, print_level=5 if verbose else 0)
     console.print(
         f"planning [bold]{gait}[/] for [bold]{bot.name}[/] at {speed:.3f} m/s, period "
@@ -130,14 +141,19 @@ def plan(
     _write(gait_obj, bot, output, simulate, cycles)
 
 
-def _check_options(speed: float, knots: int, period: float | None, duty: float | None,
+def _check_options(speed: float, knots: int, period: float | None, duty: str | None,
                    mu: float, search: bool, st: SearchSettings, simulate: bool,
                    cycles: int) -> None:
     """Every option in range before the robot is loaded and the NLP built (one-line errors)."""
     check_speed("--speed", speed, allow_zero=not search)  # the search needs CoT and Froude > 0
     check_knots("--knots", knots)
     check_number("--period", period, 0.0, MAX_PERIOD_S, lo_open=True, unit="s")
-    check_number("--duty", duty, 0.0, 1.0, lo_open=True, hi_open=True)
+    if duty is not None and "," not in duty:  # a list is checked per leg once the robot is loaded
+        try:
+            single: float | None = float(duty)
+        except ValueError:
+            single = None  # not a number: planner.user_schedule names it
+        check_number("--duty", single, 0.0, 1.0, lo_open=True, hi_open=True)
     check_friction("--mu", mu)
     if search:
         check_search_options(st.executor, st.generations, st.popsize, st.workers,

@@ -21,7 +21,7 @@ import numpy as np
 
 from planner.config import PlannerOptions
 from planner.model import RobotModel
-from planner.variables import Symbols
+from planner.variables import Symbols, time_unit_s
 
 GOAL_SPEED_SAMPLES_PER_KNOT = 8  # as the player's pre-flight (hardware.play.preflight)
 GOAL_SPEED_INSIDE = 0.98  # the slope is quadratic between samples: measured overshoot ≈ 0.6 %
@@ -35,6 +35,9 @@ class Group:
     expr: Any
     lb: np.ndarray
     ub: np.ndarray
+    #: typical magnitude of a row (group units); the solver sees expr / scale (see
+    #: `row_scales`), reports and bounds stay in group units
+    scale: float | np.ndarray = 1.0
 
 
 @dataclass(frozen=True)
@@ -127,6 +130,12 @@ def build_groups(
     pose = ca.vertcat(sym.base, sym.q)
     inv_h = n / sym.period_s
     n_rates = (6 + nj) * n
+    # row scales (nondimensional NLP, see `planner.variables.variable_scale`): lengths in leg
+    # lengths, rates in units of √(L/g)
+    length = model.robot.leg_length_m
+    t0 = time_unit_s(length, float(np.linalg.norm(model.gravity_m_s2)) or 9.81)
+    rate = np.r_[[length / t0] * 3, [1.0 / t0] * (3 + nj)]
+    fd_scale = np.r_[np.tile(rate, n), np.tile(rate / t0, n)]
     groups = [
         # cyclic central differences tie the lifted rates to the poses (linear in x)
         Group(
@@ -137,6 +146,7 @@ def build_groups(
             ),
             zeros(2 * n_rates),
             zeros(2 * n_rates),
+            fd_scale,
         ),
         # W&P eqs 7-8: the floating base is unactuated — whole-body linear/angular momentum rate
         # equals gravity + contact forces (the six base rows of the inverse dynamics vanish).
@@ -149,7 +159,7 @@ def build_groups(
             zeros(nj * n),
         ),
         # eq 2: stance foot-sphere centre at the sphere radius
-        Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n)),
+        Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n), length),
         # eq 3: stance feet move with the treadmill (−v along x) and do not slide sideways (with
         # `vertical_contact_transitions` also over the last swing interval before touchdown and
         # the first one after lift-off)
@@ -161,6 +171,7 @@ def build_groups(
             ),
             zeros(2 * nf * n),
             zeros(2 * nf * n),
+            length,
         ),
         # eq 1 for feet + anti-scuffing clearance profile in swing
         Group(
@@ -168,13 +179,15 @@ def build_groups(
             col(feet_z - r - sym.min_height_m),
             zeros(nf * n),
             np.full(nf * n, inf),
+            length,
         ),
         # eq 1: the body stays clear of the ground
         Group(
             "body clearance",
-            col(kq.body_z_m - options.body_clearance_m),
+            col(kq.body_z_m - options.body_clearance_for(model.robot.leg_length_m)),
             zeros(model.n_bodies * n),
             np.full(model.n_bodies * n, inf),
+            length,
         ),
         *_servo_goal_groups(model, sym, kq, n, options, inv_h),
         # eq 9: friction pyramid inscribed in the cone µ
@@ -218,6 +231,13 @@ def build_groups(
     return groups
 
 
+def row_scales(groups: list[Group]) -> np.ndarray:
+    """One scale per row of g, in the order of `groups`."""
+    return np.concatenate(
+        [np.broadcast_to(np.asarray(grp.scale, dtype=float), grp.lb.shape) for grp in groups]
+    )
+
+
 def _servo_goal_groups(
     model: RobotModel,
     sym: Symbols,
@@ -246,7 +266,7 @@ def _servo_goal_groups(
         + kq.qd * ca.repmat(ca.DM(damping / kp), 1, n)
     )
     lo, hi = model.joint_limits_rad()
-    margin = np.minimum(options.joint_limit_margin_rad, 0.25 * (hi - lo))
+    margin = options.joint_limit_margins_rad(lo, hi)
     omega0 = ca.DM([j.servo.no_load_speed_rad_s for j in model.robot.joints])
     # the player streams the periodic cubic spline through the goals (`Gait.joint_targets`) and its
     # pre-flight rejects a gait whose spline is faster than margin·ω₀ anywhere. Knot slopes s_k of

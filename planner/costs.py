@@ -19,6 +19,7 @@ def cost_terms(model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: int
     """Unweighted objective terms (MX scalars), keyed like `CostWeights` fields."""
     stall = ca.DM([j.servo.stall_torque_nm for j in model.robot.joints])
     tau_rel = kq.tau_nm / ca.repmat(stall, 1, n_knots)
+    stance = ca.DM(list(model.robot.nominal_stance_rad))
     n = float(n_knots)
     return {
         # eq 13: servo effort Σ(τ/τ_stall)²
@@ -31,6 +32,8 @@ def cost_terms(model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: int
         "orientation_rad2": ca.sumsqr(sym.base[3:6, :]) / n,
         "angular_velocity_s2": ca.sumsqr(kq.omega_world) / n,
         "joint_accel_s4": ca.sumsqr(kq.qdd) / n,
+        # distance from the stance pose (CostWeights.posture_rad2)
+        "posture_rad2": ca.sumsqr(sym.q - ca.repmat(stance, 1, n_knots)) / n,
     }
 
 

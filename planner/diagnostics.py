@@ -25,8 +25,42 @@ LIMIT_GROUPS = (
 #: so their active rows at an infeasible iterate say what ran out
 SERVO_LIMITS = ("joint speed", "torque envelope", "joint limits", "tilt")
 ACTIVE_TOL = 1e-4
+#: At an infeasible iterate (IPOPT stopped before converging) limits are rarely met exactly: a
+#: servo limit within this much (group units: rad, or fractions of the servo's limit) counts as
+#: the one that ran out when nothing else is violated.
+NEAR_TOL = 1e-2
 
 FEASIBILITY_TOL = 1e-4
+
+#: IPOPT return statuses after which the last iterate is used when it meets every constraint
+#: within `FEASIBILITY_TOL` (our own check in `judge`): the solver stopped early or could not
+#: make progress, but the point it stopped at is a valid (if not proven locally optimal) gait.
+#: Before this, a run stopped by the iteration cap with every row met to 1e-8 was reported as
+#: "no feasible gait". Statuses that say the problem is infeasible or the numbers broke
+#: (Infeasible_Problem_Detected, Invalid_Number_Detected, Diverging_Iterates) are never accepted.
+OPTIMAL_STATUSES = ("Solve_Succeeded",)
+ACCEPT_IF_FEASIBLE = (
+    "Solved_To_Acceptable_Level",
+    "Maximum_Iterations_Exceeded",
+    "Maximum_CpuTime_Exceeded",
+    "Maximum_WallTime_Exceeded",
+    "Search_Direction_Becomes_Too_Small",
+    "Restoration_Failed",
+    "Error_In_Step_Computation",
+    "Feasible_Point_Found",
+)
+
+
+def judge(status: str, max_violation: float) -> tuple[bool, bool]:
+    """(feasible, optimal) for an IPOPT return status and our own worst constraint violation.
+
+    Feasible: every constraint group and variable bound is met within `FEASIBILITY_TOL` and the
+    status is `Solve_Succeeded` or one of `ACCEPT_IF_FEASIBLE`. Optimal: IPOPT also proved the
+    point a local optimum to its tolerance (`Solve_Succeeded`).
+    """
+    met = bool(np.isfinite(max_violation) and max_violation <= FEASIBILITY_TOL)
+    feasible = met and (status in OPTIMAL_STATUSES or status in ACCEPT_IF_FEASIBLE)
+    return feasible, feasible and status in OPTIMAL_STATUSES
 
 
 @dataclass(frozen=True)
@@ -39,6 +73,8 @@ class GroupReport:
     multiplier_sum: float
     n_active: int = 0
     first_active: str = ""
+    n_near: int = 0
+    first_near: str = ""
 
 
 def group_reports(
@@ -57,16 +93,16 @@ def group_reports(
         i = int(np.argmax(viol)) if viol.size else 0
         row_labels = labels.get(name)
         where = row_labels[i] if row_labels is not None and i < len(row_labels) else f"row {i}"
-        active = np.flatnonzero(np.minimum(np.abs(gv - lo), np.abs(gv - hi)) <= ACTIVE_TOL)
-        first = (
-            (
-                row_labels[active[0]]
-                if row_labels is not None and active[0] < len(row_labels)
-                else f"row {active[0]}"
-            )
-            if active.size
-            else ""
-        )
+        slack = np.minimum(np.abs(gv - lo), np.abs(gv - hi))
+        active = np.flatnonzero(slack <= ACTIVE_TOL)
+        near = np.flatnonzero(slack <= NEAR_TOL)
+
+        def label(rows: np.ndarray, labels: list[str] | None = row_labels) -> str:
+            if not rows.size:
+                return ""
+            r = int(rows[0])
+            return labels[r] if labels is not None and r < len(labels) else f"row {r}"
+
         out.append(
             GroupReport(
                 name,
@@ -74,7 +110,9 @@ def group_reports(
                 where,
                 float(np.abs(lam_g[sl]).sum()),
                 int(active.size),
-                first,
+                label(active),
+                int(near.size),
+                label(near),
             )
         )
     return out
@@ -88,6 +126,7 @@ def bound_report(
     near = np.minimum(np.abs(x - lbx), np.abs(ubx - x))
     i = int(np.argmax(viol)) if viol.max(initial=0.0) > 0 else int(np.argmin(near))
     active = np.flatnonzero(near <= ACTIVE_TOL)
+    close = np.flatnonzero(near <= NEAR_TOL)
     return GroupReport(
         name,
         float(viol.max(initial=0.0)),
@@ -95,6 +134,8 @@ def bound_report(
         float(np.abs(lam_x).sum()),
         int(active.size),
         labels[active[0]] if active.size else "",
+        int(close.size),
+        labels[close[0]] if close.size else "",
     )
 
 
@@ -113,13 +154,13 @@ def binding_limits(reports: list[GroupReport], feasible: bool) -> tuple[tuple[st
             (
                 r
                 for r in limits
-                if r.name in SERVO_LIMITS and r.n_active and r.max_violation <= FEASIBILITY_TOL
+                if r.name in SERVO_LIMITS and r.n_near and r.max_violation <= FEASIBILITY_TOL
             ),
-            key=lambda r: -r.n_active,
+            key=lambda r: (-r.n_active, -r.n_near),
         )
         if violated or saturated:
             return tuple((r.name, r.max_violation) for r in violated) + tuple(
-                (r.name, float(r.n_active)) for r in saturated
+                (r.name, float(r.n_active or r.n_near)) for r in saturated
             )
     total = sum(r.multiplier_sum for r in limits) or 1.0
     active = sorted(
@@ -138,6 +179,11 @@ def explain(reports: list[GroupReport], binding: tuple[tuple[str, float], ...], 
             parts.append(f"{name} (violated by {r.max_violation:.3g} at {r.worst_row})")
         elif r.name in SERVO_LIMITS and r.n_active:
             parts.append(f"{name} (at its limit in {r.n_active} rows, e.g. {r.first_active})")
+        elif r.name in SERVO_LIMITS and r.n_near:
+            parts.append(
+                f"{name} (within {NEAR_TOL:g} of its limit in {r.n_near} rows, e.g. "
+                f"{r.first_near})"
+            )
         else:
             parts.append(
                 f"{name} ({100 * value:.0f}% of the limit multipliers, e.g. {r.worst_row})"

@@ -7,10 +7,12 @@ other variable (poses, forces) for that timing. Basin-CMA then searches f∘g ov
 
 Encoding (`TimingSpace`): the touchdown phase of the first foot is pinned to 0 (a cycle has no
 preferred start, so a global phase shift is not a degree of freedom). With ``symmetric=True``
-(the default) each right leg runs half a period after its left mirror with the same duty factor
-— the left/right half-period symmetry of walk, trot and pace, which halves the search; bound,
-gallop and pronk need ``symmetric=False``. Phases are searched on an unwrapped interval and
-wrapped modulo 1 when decoded.
+(the default) each foot with a mirror image under y → −y (detected from the stance foot
+positions, `planner.templates.mirror_permutation`; no left/right roles or leg names) runs half
+a period after it with the same duty factor — the half-period symmetry of walk, trot and pace,
+which halves the search; feet on the midline are searched freely, and a robot with no mirror
+pairs (any leg count and layout) gets the asymmetric space. Bound, gallop and pronk need
+``symmetric=False``. Phases are searched on an unwrapped interval and wrapped modulo 1.
 
 The search starts from the hand templates: every template that fits the encoding is solved
 first, and the best becomes the initial CMA mean — so the search result is never worse than the
@@ -30,9 +32,11 @@ satisfy the NLP: optimised timings exploit the model (feet that barely touch, kn
 balance) in ways the templates do not. `planner` never imports `sim`; the CLI wires them.
 
 Resolution: the search projects each sample with a coarse NLP (`search_knots`, default 12, and
-IPOPT capped at `search_max_iter`; a sample that does not converge in that budget counts as
-infeasible), then re-solves up to `FINAL_CANDIDATES` of the best timings at the full `n_knots`
-for the gait file, judged by `final_acceptance`; the first that is feasible and accepted wins.
+IPOPT capped at `search_max_iter`; a sample stopped by the cap counts as feasible only if the
+point it stopped at meets every constraint — `planner.diagnostics.judge` — and its cost is then
+an upper bound of its local optimum), then re-solves up to `FINAL_CANDIDATES` of the best
+timings at the full `n_knots` for the gait file, judged by `final_acceptance`; the first that
+is feasible and accepted wins.
 The 12-knot NLP builds in 2.8 s instead of 8.5 s and solves in about half the time of the
 30-knot one; it ranked quad12's four symmetric templates in the same order as the 30-knot NLP at
 0.15 and at 0.3 m/s, though its costs are lower (the final cost is reported next to the search
@@ -56,7 +60,13 @@ from planner.errors import PlannerConfigError
 from planner.executors import Executor, make_executor
 from planner.spacetime import GaitPlanner, PlanResult
 from planner.support import TippingCost
-from planner.templates import label_gait, leg_roles, make_schedule, templates_for
+from planner.templates import (
+    label_gait,
+    make_schedule,
+    mirror_permutation,
+    stance_foot_positions_m,
+    templates_for,
+)
 from robots import ContactSchedule, Gait, Robot
 from robots import load as load_robot
 
@@ -105,17 +115,23 @@ class TimingSpace:
 
     @staticmethod
     def for_robot(robot: Robot, symmetric: bool = True) -> TimingSpace:
+        """The timing space of `robot`. `symmetric` pairs each foot with its mirror image
+        under y → −y (`planner.templates.mirror_permutation`: detected from the stance foot
+        positions, never from leg names) and runs the +y foot half a period before it; feet on
+        the midline are searched freely. A robot without mirror-image feet (e.g. a 5-leg star
+        turned so no leg points forward) gets the asymmetric space whatever `symmetric` says."""
         unit = math.sqrt(robot.leg_length_m / 9.81)
         bounds = (PERIOD_BOUNDS_SQRT_L_G[0] * unit, PERIOD_BOUNDS_SQRT_L_G[1] * unit)
         n = len(robot.legs)
-        if symmetric:
-            roles = leg_roles(robot)
-            left = sorted((r for r in roles if r.startswith("L")), key=lambda r: roles[r])
-            searched = tuple(roles[r] for r in left)
-            mirror = tuple(roles["R" + r[1:]] for r in left)
-        else:
-            searched, mirror = tuple(range(n)), ()
-        return TimingSpace(robot.foot_names, mirror, searched, symmetric, bounds)
+        perm = mirror_permutation(robot) if symmetric else None
+        pos = stance_foot_positions_m(robot)
+        left = [f for f in range(n) if perm is not None and perm[f] != f and pos[f, 1] > 0]
+        if not left or perm is None:
+            return TimingSpace(robot.foot_names, (), tuple(range(n)), False, bounds)
+        middle = [f for f in range(n) if perm[f] == f]
+        searched = tuple(left + middle)
+        mirror = tuple(perm[f] for f in left)
+        return TimingSpace(robot.foot_names, mirror, searched, True, bounds)
 
     @property
     def dim(self) -> int:
@@ -153,12 +169,19 @@ class TimingSpace:
         ref = ph[self.searched[0]]
         rel = (ph - ref) % 1.0
         if self.symmetric:
-            for left, right in zip(self.searched, self.mirror, strict=True):
+            for left, right in zip(self.searched[: len(self.mirror)], self.mirror, strict=True):
                 if abs(((rel[right] - rel[left] - 0.5 + 0.5) % 1.0) - 0.5) > 1e-9 \
                         or abs(du[right] - du[left]) > 1e-9:
                     return None
         s = list(self.searched)
         return np.r_[schedule.period_s, rel[s[1:]], du[s]].astype(float)
+
+
+def searchable_templates(robot: Robot) -> list[str]:
+    """The templates that seed the search: those whose duty factors lie in `DUTY_BOUNDS`
+    (`stand` never lifts a foot and cannot move at a speed > 0)."""
+    return [name for name in templates_for(robot)
+            if max(make_schedule(robot, name).duty_factor) <= DUTY_BOUNDS[1]]
 
 
 def cost_of_transport(result: PlanResult, robot: Robot) -> float:
@@ -304,6 +327,7 @@ class GaitSearchResult:
     search_knots: int
     accepted: bool | None  # the final gait passed the acceptance check (None: no check)
     planner: GaitPlanner  # the final planner (builds the gait file from `best`)
+    symmetric: bool = True  # the search used the mirror half-period symmetry (TimingSpace)
 
     @property
     def froude(self) -> float:
@@ -359,6 +383,12 @@ def search_gait(
     if not 0 < sigma_fraction <= 1:
         raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
     space = TimingSpace.for_robot(robot, symmetric)
+    if space.symmetric and all(space.encode(make_schedule(robot, name)) is None
+                               for name in searchable_templates(robot)):
+        # mirror pairs exist but no template runs them half a period apart (e.g. the azimuth
+        # wave/ripple of a 5-leg star): search every foot's timing instead
+        space = TimingSpace.for_robot(robot, False)
+    symmetric = space.symmetric
     tipping = TippingCost.for_robot(robot, tipping_weight)
     search_options = replace(options, max_iter=min(options.max_iter, search_max_iter))
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
@@ -381,7 +411,8 @@ def search_gait(
         if progress is not None:
             progress(SearchLogRow(-1, math.inf, math.inf, 0, 0, time.perf_counter() - t0, 0.0,
                                   (), (), "seeding with the templates"))
-        named = [(name, space.encode(make_schedule(robot, name))) for name in templates_for(robot)]
+        named = [(name, space.encode(make_schedule(robot, name)))
+                 for name in searchable_templates(robot)]
         named_x = [(name, x) for name, x in named if x is not None]
         if not named_x:
             raise PlannerConfigError(f"no template of {robot.name} fits the search encoding")
@@ -425,7 +456,7 @@ def search_gait(
         support_cost=tipping(schedule), tipping_amplification=tipping.amplification(schedule),
         log=tuple(log), cma=cma, elapsed_s=time.perf_counter() - t0,
         cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
-        accepted=accepted, planner=final,
+        accepted=accepted, planner=final, symmetric=symmetric,
     )
 
 
@@ -472,5 +503,6 @@ __all__ = [
     "TimingSpace",
     "cost_of_transport",
     "search_gait",
+    "searchable_templates",
     "write_search_log",
 ]

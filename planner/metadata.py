@@ -37,6 +37,36 @@ def servo_load(planner: GaitPlanner, result: PlanResult) -> dict[str, dict[str, 
     return out
 
 
+def joint_limit_clearance(planner: GaitPlanner, result: PlanResult) -> dict[str, dict[str, float]]:
+    """Per joint: the closest approach of the planned angles (and, with servo goals, of the
+    streamed goals) to the joint's lower and upper limits over the cycle, and the margin the
+    planner kept (`PlannerOptions.joint_limit_margins_rad`). All in rad; `closest_rad` is the
+    smaller of the two distances, `closest_fraction_of_range` the same over the joint's range."""
+    lo, hi = planner.model.joint_limits_rad()
+    margin = planner.options.joint_limit_margins_rad(lo, hi)
+    q = np.asarray(result.joint_angles_rad)
+    series = [q]
+    if planner.options.servo_goals:
+        from planner.servo_loop import factory_servo_loops, servo_goals_rad
+
+        series.append(servo_goals_rad(q, result.joint_speeds_rad_s, result.joint_torques_nm,
+                                      factory_servo_loops(planner.robot)))
+    allq = np.concatenate(series, axis=0)
+    out = {}
+    for j, joint in enumerate(planner.robot.joints):
+        to_lower = float(np.min(allq[:, j]) - lo[j])
+        to_upper = float(hi[j] - np.max(allq[:, j]))
+        closest = min(to_lower, to_upper)
+        out[joint.name] = {
+            "to_lower_rad": to_lower,
+            "to_upper_rad": to_upper,
+            "closest_rad": closest,
+            "closest_fraction_of_range": closest / float(hi[j] - lo[j]),
+            "margin_rad": float(margin[j]),
+        }
+    return out
+
+
 def joint_angle_semantics(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]:
     """What the gait file's joint samples mean, and what the consumer needs to check them.
 
@@ -70,7 +100,8 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
         "mu": o.mu,
         "torque_margin": o.torque_margin,
         "speed_margin": o.speed_margin,
-        "swing_clearance_m": o.swing_clearance_m,
+        "swing_clearance_m": planner.swing_clearance_m,
+        "body_clearance_m": planner.body_clearance_m,
         "treadmill": "stance feet move at -v along x; base_pose x excludes the progress v*t",
         "base_orientation": "R = Rz(yaw) Ry(pitch) Rx(roll)",
         "weights": weights,
@@ -83,9 +114,15 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
             "solve_time_s": result.solve_time_s,
             "build_time_s": planner.build_time_s,
             "max_violation": result.max_violation,
+            "optimal": result.optimal,
+            "message": result.message,
         },
         "active_limits": [[name, float(v)] for name, v in result.binding],
         "servo_load": servo_load(planner, result),
+        "joint_limit_clearance": joint_limit_clearance(planner, result),
+        "joint_limit_margin_rad": o.joint_limit_margin_rad,
+        "joint_limit_margin_fraction": o.joint_limit_margin_fraction,
+        "nondimensional": o.nondimensional,
         **joint_angle_semantics(planner, result),
         "versions": package_versions(),
     }

@@ -27,14 +27,20 @@ import numpy as np
 
 from planner import diagnostics
 from planner.config import PlannerOptions
-from planner.constraints import build_groups, group_labels, knot_quantities
+from planner.constraints import build_groups, group_labels, knot_quantities, row_scales
 from planner.costs import cost_terms, weighted_objective
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.model import RobotModel
-from planner.variables import Layout, initial_guess, make_symbols, parameter_vector, variable_bounds
+from planner.variables import (
+    Layout,
+    initial_guess,
+    make_symbols,
+    parameter_vector,
+    variable_bounds,
+    variable_scale,
+)
 from robots import ContactSchedule, Gait, Robot, Velocity
 
-_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 _USER_STOP = ("User_Requested_Stop",)
 
 
@@ -99,6 +105,9 @@ class PlanResult:
     message: str
     warm_start: WarmStart
     stats: dict[str, Any] = field(default_factory=dict)
+    #: IPOPT proved the point locally optimal (`Solve_Succeeded`); a feasible result with
+    #: optimal=False is the point IPOPT stopped at (`diagnostics.ACCEPT_IF_FEASIBLE`)
+    optimal: bool = True
 
 
 class GaitPlanner:
@@ -115,7 +124,12 @@ class GaitPlanner:
         self.options = options or PlannerOptions()
         self.model = RobotModel(robot)
         self.layout = Layout(n_knots, self.model.n_joints, self.model.n_feet)
-        sym = make_symbols(self.layout)
+        # nondimensional NLP: the solver sees x / x_scale and g / g_scale (see variable_scale)
+        nondim = self.options.nondimensional
+        self._x_scale = (
+            variable_scale(self.layout, self.model) if nondim else np.ones(self.layout.size)
+        )
+        sym = make_symbols(self.layout, self._x_scale if nondim else None)
         kq = knot_quantities(self.model, sym, n_knots)
         groups = build_groups(self.model, sym, kq, n_knots, self.options)
         terms = cost_terms(self.model, sym, kq, n_knots)
@@ -123,6 +137,8 @@ class GaitPlanner:
         g = ca.vertcat(*[grp.expr for grp in groups])
         self._lbg = np.concatenate([grp.lb for grp in groups])
         self._ubg = np.concatenate([grp.ub for grp in groups])
+        self._g_scale = row_scales(groups) if nondim else np.ones(self._lbg.shape)
+        g_solver = g / ca.DM(self._g_scale) if nondim else g
         slices, start = [], 0
         for grp in groups:
             size = int(grp.expr.shape[0])
@@ -130,15 +146,25 @@ class GaitPlanner:
             start += size
         self._slices = slices
         self._labels = group_labels(self.model, n_knots)
+        self._x_labels = self.layout.labels(self.robot.joint_names)
         self._lbx, self._ubx = variable_bounds(self.layout, self.model, self.options)
         self._term_names = list(terms)
         self._evaluate = ca.Function(
             "evaluate", [sym.x, sym.p], [g, kq.tau_nm, kq.qd, *terms.values()]
         )
-        self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g}
+        self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
         self._solver = self._make_solver()
         self._last: WarmStart | None = None
         self.build_time_s = time.perf_counter() - t0
+
+    @property
+    def swing_clearance_m(self) -> float:
+        """The swing clearance this planner uses (option or scaling law, `planner.config`)."""
+        return self.options.swing_clearance_for(self.robot.leg_length_m)
+
+    @property
+    def body_clearance_m(self) -> float:
+        return self.options.body_clearance_for(self.robot.leg_length_m)
 
     def _make_solver(self) -> Any:
         """One IPOPT instance for cold and warm solves (building the derivatives is the slow part).
@@ -191,6 +217,14 @@ class GaitPlanner:
         if not (np.isfinite(speed_m_s) and 0.0 <= speed_m_s <= 10.0):
             raise PlannerConfigError(f"speed must be in [0, 10] m/s, got {speed_m_s!r}")
         contact = schedule.contact_matrix(self.n_knots)
+        if speed_m_s > 0:
+            for foot, duty in zip(schedule.feet, schedule.duty_factor, strict=True):
+                if duty >= 1.0 - 1e-9 or contact[:, schedule.feet.index(foot)].all():
+                    raise PlannerConfigError(
+                        f"foot {foot} never lifts off (duty factor {duty:g} at {self.n_knots} "
+                        "knots): a foot that never swings cannot keep up at a speed > 0; use "
+                        "speed 0 (stand) or a shorter duty factor"
+                    )
         if not contact.any(axis=0).all():
             raise PlannerConfigError(
                 f"with {self.n_knots} knots some foot never touches down; "
@@ -205,7 +239,7 @@ class GaitPlanner:
     ) -> PlanResult:
         """Plan one gait cycle. `warm_start`: None → the last solution if any, False → cold."""
         self._check(schedule, speed_m_s)
-        p = parameter_vector(schedule, self.n_knots, speed_m_s, self.options.swing_clearance_m)
+        p = self._solver_parameters(schedule, speed_m_s)
         start = self._last if warm_start is None or warm_start is True else warm_start or None
         t0 = time.perf_counter()
         if start is None:
@@ -213,17 +247,25 @@ class GaitPlanner:
             start = WarmStart(x0, np.zeros_like(x0), np.zeros_like(self._lbg))
         elif not WARM_START_DUALS:
             start = WarmStart(start.x, np.zeros_like(start.lam_x), np.zeros_like(start.lam_g))
+        xs, gs = self._x_scale, self._g_scale
         with _sigint_watch() as interrupted:
+            # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
             sol = self._solver(
-                x0=start.x,
-                lam_x0=start.lam_x,
-                lam_g0=start.lam_g,
+                x0=start.x / xs,
+                lam_x0=start.lam_x * xs,
+                lam_g0=start.lam_g * gs,
                 p=p,
-                lbx=self._lbx,
-                ubx=self._ubx,
-                lbg=self._lbg,
-                ubg=self._ubg,
+                lbx=self._lbx / xs,
+                ubx=self._ubx / xs,
+                lbg=self._lbg / gs,
+                ubg=self._ubg / gs,
             )
+        sol = {
+            "x": np.asarray(sol["x"]).ravel() * xs,
+            "lam_x": np.asarray(sol["lam_x"]).ravel() / xs,
+            "lam_g": np.asarray(sol["lam_g"]).ravel() / gs,
+            "f": float(sol["f"]),
+        }
         stats = self._solver.stats()
         if interrupted() or stats.get("return_status") in _USER_STOP:
             # CasADi swallows Ctrl-C (NonIpopt_Exception_Thrown), IPOPT's own handler returns
@@ -234,6 +276,9 @@ class GaitPlanner:
         if result.feasible:
             self._last = result.warm_start
         return result
+
+    def _solver_parameters(self, schedule: ContactSchedule, speed_m_s: float) -> np.ndarray:
+        return parameter_vector(schedule, self.n_knots, speed_m_s, self.swing_clearance_m)
 
     def _result(
         self,
@@ -246,7 +291,7 @@ class GaitPlanner:
     ) -> PlanResult:
         x = np.asarray(sol["x"]).ravel()
         lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
-        g, tau, qd, *terms = (np.asarray(v) for v in self._evaluate(x, p))
+        g, tau, qd, *terms = (np.asarray(v) for v in self._evaluate(x / self._x_scale, p))
         g = g.ravel()
         reports = diagnostics.group_reports(
             self._slices, g, self._lbg, self._ubg, lam_g, self._labels
@@ -274,11 +319,27 @@ class GaitPlanner:
                 [f"roll/pitch/yaw@{k}" for k in range(self.n_knots) for _ in range(3)],
             )
         )
+        # every other variable bound (base height, f_z ≥ 0, …): IPOPT keeps them to within its
+        # bound relaxation, but the verdict below must not take that on trust
+        reports.append(
+            diagnostics.bound_report(
+                "variable bounds", x, self._lbx, self._ubx, np.zeros_like(x), self._x_labels
+            )
+        )
         max_violation = max(r.max_violation for r in reports)
         status = str(stats.get("return_status", "unknown"))
-        feasible = bool(status in _SUCCESS and max_violation <= diagnostics.FEASIBILITY_TOL)
+        feasible, optimal = diagnostics.judge(status, max_violation)
         binding = diagnostics.binding_limits(reports, feasible)
-        message = "ok" if feasible else diagnostics.explain(reports, binding, status)
+        if not feasible:
+            message = diagnostics.explain(reports, binding, status)
+        elif optimal:
+            message = "ok"
+        else:
+            message = (
+                f"ok: IPOPT stopped with {status} at a point that meets every constraint within "
+                f"{diagnostics.FEASIBILITY_TOL:g} (worst {max_violation:.1e}); feasible, not "
+                "proven locally optimal"
+            )
         base, q, f = self.layout.unpack(x)
         weight_n = self.model.total_mass_kg * float(np.linalg.norm(self.model.gravity_m_s2))
         term_values = {
@@ -302,8 +363,10 @@ class GaitPlanner:
             binding=binding,
             message=message,
             warm_start=WarmStart(x, lam_x, lam_g),
+            optimal=optimal,
             stats={
                 "return_status": status,
+                "optimal": optimal,
                 "iter_count": int(stats.get("iter_count", -1)),
                 "t_wall_total_s": elapsed,
                 "iterations": _iteration_log(stats),

@@ -75,6 +75,20 @@ class Layout:
         f = x[self.n_base + self.n_q : self.n_base + self.n_q + self.n_f].reshape(n, self.n_feet, 3)
         return base, q, f
 
+    def labels(self, joints: tuple[str, ...]) -> list[str]:
+        """A name for every entry of the decision vector (for reports)."""
+        n = self.n_knots
+        dofs = ["x", "y", "z", "roll", "pitch", "yaw", *joints]
+        out = [f"base {d}@knot {k}" for k in range(n) for d in dofs[:6]]
+        out += [f"{j}@knot {k}" for k in range(n) for j in joints]
+        out += [f"foot {f} f{a}@knot {k}" for k in range(n) for f in range(self.n_feet)
+                for a in "xyz"]
+        out += [f"d/dt {d}@knot {k}" for k in range(n) for d in dofs]
+        out += [f"d2/dt2 {d}@knot {k}" for k in range(n) for d in dofs]
+        out += [f"torque {j}@knot {k}" for k in range(n) for j in joints]
+        out += [f"goal slope {j}@knot {k}" for k in range(n) for j in joints]
+        return out
+
     def pack(
         self, base: np.ndarray, q: np.ndarray, f: np.ndarray, lifted: np.ndarray | None = None
     ) -> np.ndarray:
@@ -89,7 +103,7 @@ class Layout:
 class Symbols:
     """The CasADi symbols: matrices with one column per knot."""
 
-    x: Any  # flat decision vector
+    x: Any  # flat decision vector of the solver (scaled by `variable_scale` if given)
     base: Any  # 6 × N
     q: Any  # J × N
     forces: Any  # 3F × N (units of m·g)
@@ -104,9 +118,42 @@ class Symbols:
     period_s: Any
 
 
-def make_symbols(layout: Layout) -> Symbols:
+def time_unit_s(leg_length_m: float, gravity_m_s2: float = 9.81) -> float:
+    """√(L/g): the pendulum time of the leg, the time unit of dynamic similarity."""
+    return float(np.sqrt(leg_length_m / gravity_m_s2))
+
+
+def variable_scale(layout: Layout, model: RobotModel) -> np.ndarray:
+    """Typical magnitude of every decision variable, in the units of `Layout`.
+
+    The solver works on x̃ = x / scale (W&P §3.2 normalise forces by body weight; we also
+    normalise the rest): lengths by the leg length L, times by √(L/g), torques by m·g·L, angles
+    and forces (already in m·g) by 1. Used with `PlannerOptions.nondimensional` (see there for
+    the iteration counts measured with and without it).
+    """
+    n, nj = layout.n_knots, layout.n_joints
+    length = model.robot.leg_length_m
+    t0 = time_unit_s(length, float(np.linalg.norm(model.gravity_m_s2)) or 9.81)
+    torque = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2)) * length
+    pose = np.r_[[length] * 3, [1.0] * 3]
+    rate = np.r_[[length / t0] * 3, [1.0 / t0] * 3, [1.0 / t0] * nj]
+    acc = rate / t0
+    return np.concatenate([
+        np.tile(pose, n),
+        np.ones(layout.n_q + layout.n_f),
+        np.tile(rate, n),
+        np.tile(acc, n),
+        np.full(layout.n_q, torque),
+        np.full(layout.n_q, 1.0 / t0),
+    ])
+
+
+def make_symbols(layout: Layout, scale: np.ndarray | None = None) -> Symbols:
+    """Symbols of the NLP. With `scale`, `Symbols.x` is the solver's scaled vector x̃ and every
+    other symbol is the physical quantity x = scale·x̃."""
     n, nj, nf = layout.n_knots, layout.n_joints, layout.n_feet
-    x = ca.MX.sym("x", layout.size)
+    xs = ca.MX.sym("x", layout.size)
+    x = xs if scale is None else xs * ca.DM(np.asarray(scale, dtype=float))
     # knot-major packing: column k holds knot k (reshape is column-major)
     base = ca.reshape(x[: layout.n_base], 6, n)
     q = ca.reshape(x[layout.n_base : layout.n_base + layout.n_q], nj, n)
@@ -122,7 +169,7 @@ def make_symbols(layout: Layout) -> Symbols:
     contact = ca.reshape(p[: nf * n], nf, n)
     min_height = ca.reshape(p[nf * n : 2 * nf * n], nf, n)
     return Symbols(
-        x,
+        xs,
         base,
         q,
         forces,
@@ -175,7 +222,7 @@ def variable_bounds(
     base_lo = np.tile([-inf, -inf, z_min, -tilt, -tilt, -tilt], (n, 1))
     base_hi = np.tile([inf, inf, 2.0 * model.robot.leg_length_m + 0.5, tilt, tilt, tilt], (n, 1))
     lo, hi = model.joint_limits_rad()
-    margin = np.minimum(options.joint_limit_margin_rad, 0.25 * (hi - lo))
+    margin = options.joint_limit_margins_rad(lo, hi)
     q_lo, q_hi = np.tile(lo + margin, (n, 1)), np.tile(hi - margin, (n, 1))
     # held joints (role = "hold": a head, arm, tail …) stay at their stance angle at every knot;
     # their torque is still the inverse dynamics' and still bounded by their servo's envelope

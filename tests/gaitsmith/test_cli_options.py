@@ -146,13 +146,13 @@ def test_a_full_disk_is_refused_before_the_work(
     assert "is full" in _error_line(capsys)
 
 
-def test_default_gait_follows_the_leg_count() -> None:
+def test_default_gait_follows_the_leg_count(tmp_path: Path) -> None:
     assert default_gait(robots.load("quad12")) == "trot"
     assert default_gait(robots.load("hex18")) == "tripod"
-    biped = SimpleNamespace(name="bip", legs=(object(), object()))
-    assert default_gait(biped) == "biped_walk"  # type: ignore[arg-type]
-    with pytest.raises(TemplateError, match="no gait template for 5 legs"):
-        default_gait(SimpleNamespace(name="pent", legs=(object(),) * 5))  # type: ignore[arg-type]
+    # any other leg count gets an azimuth template (planner.templates.default_gait_for)
+    from tests.planner.robot_factory import star_robot
+
+    assert default_gait(robots.load(star_robot(tmp_path / "star5", 5))) == "ripple"
 
 
 def test_plan_hex18_without_gait_plans_a_tripod(

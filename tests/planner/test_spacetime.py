@@ -30,7 +30,7 @@ def _solve_and_check(planner: GaitPlanner, gait: str, speed: float, tmp_path: Pa
         c.stance_slip_m < 1e-4
     )  # stance feet stay put in the ground frame (move at −v on the treadmill)
     assert c.min_swing_height_m > -1e-4
-    assert c.max_swing_apex_m > 0.9 * o.swing_clearance_m
+    assert c.max_swing_apex_m > 0.9 * planner.swing_clearance_m
     assert c.friction_excess < 1e-3 * weight
     assert c.min_normal_force_n > -1e-3 * weight
     assert c.max_swing_force_n < 1e-3 * weight
