@@ -49,6 +49,8 @@ def show(
         f"stance base height {r.stance_base_height_m:.3f} m  leg length {r.leg_length_m:.3f} m  "
         f"bus {r.servo_protocol} @ {r.bus_baud} baud"
     )
+    for notice in r.notices:
+        console.print(f"note: {notice}", markup=False, highlight=False)
     table = Table()
     for col in (
         "joint",
@@ -68,7 +70,7 @@ def show(
     for j in r.joints:
         table.add_row(
             j.name,
-            leg_of[j.name],
+            leg_of.get(j.name, "(held)"),
             f"{math.degrees(j.lower_rad):.1f}",
             f"{math.degrees(j.upper_rad):.1f}",
             f"{math.degrees(j.stance_rad):.1f}",

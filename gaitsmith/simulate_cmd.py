@@ -18,7 +18,6 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
-import robots
 import robots.gait as gait_io
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
@@ -135,7 +134,7 @@ def simulate_command(
     if write_validation:
         check_output_file("--write-validation", gait_path)
     gait = gait_io.load(gait_path)
-    bot = robots.load(robot or gait.robot)
+    bot = gait_io.robot_for(gait, gait_path, robot)  # --robot > robot_dir > built-in name
     gait.check_robot(bot, str(gait_path))
     criteria = PassCriteria()
     with Progress(

@@ -86,7 +86,8 @@ def bringup_gait(
     knots = np.empty((n_knots, len(robot.joints)))
     for j, joint in enumerate(robot.joints):
         shift = leg_phase.get(joint.name, 0.0)
-        knots[:, j] = stance[j] + amplitude_rad * np.sin(2 * np.pi * (phase - shift))
+        swing = 0.0 if joint.role == "hold" else amplitude_rad  # held joints stay at stance
+        knots[:, j] = stance[j] + swing * np.sin(2 * np.pi * (phase - shift))
     knots = np.clip(knots, lo, hi)
     touchdown = tuple(float(leg_phase[leg.joints[0]]) for leg in robot.legs)
     schedule = ContactSchedule(period_s, robot.foot_names, touchdown, (0.6,) * len(robot.legs))

@@ -85,7 +85,7 @@ class RobotModel:
 
     def __init__(self, robot: Robot) -> None:
         self.robot = robot
-        mj = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
+        mj = robot.mj_model()  # the prepared model (robots.mjcf), shared with sim
         self.mj_model = mj
         self.n_joints = len(robot.joints)
         self.n_feet = len(robot.legs)

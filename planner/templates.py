@@ -92,7 +92,7 @@ TEMPLATES: dict[str, Template] = {
 
 def stance_foot_positions_m(robot: Robot) -> np.ndarray:
     """F × 3 foot-site positions (base frame, base at the origin) at the nominal stance."""
-    model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
+    model = robot.mj_model()
     data = mujoco.MjData(model)
     data.qpos[:] = model.qpos0
     data.qpos[0:7] = (0, 0, 0, 1, 0, 0, 0)

@@ -167,7 +167,8 @@ def swing_height_profile(schedule: ContactSchedule, n_knots: int, clearance_m: f
 def variable_bounds(
     layout: Layout, model: RobotModel, options: PlannerOptions
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Box bounds: joint limits (minus a margin), tilt, unilateral normal force f_z ≥ 0."""
+    """Box bounds: joint limits (minus a margin), held joints fixed at stance, tilt, unilateral
+    normal force f_z ≥ 0."""
     n = layout.n_knots
     tilt, inf = options.max_tilt_rad, np.inf
     z_min = options.min_base_height_fraction * model.robot.stance_base_height_m
@@ -176,6 +177,11 @@ def variable_bounds(
     lo, hi = model.joint_limits_rad()
     margin = np.minimum(options.joint_limit_margin_rad, 0.25 * (hi - lo))
     q_lo, q_hi = np.tile(lo + margin, (n, 1)), np.tile(hi - margin, (n, 1))
+    # held joints (role = "hold": a head, arm, tail …) stay at their stance angle at every knot;
+    # their torque is still the inverse dynamics' and still bounded by their servo's envelope
+    held = np.array([j.held for j in model.robot.joints], dtype=bool)
+    stance = np.asarray(model.robot.nominal_stance_rad, dtype=float)
+    q_lo[:, held] = q_hi[:, held] = stance[held]
     f_lo = np.full((n, layout.n_feet, 3), -inf)
     f_lo[:, :, 2] = 0.0
     f_hi = np.full((n, layout.n_feet, 3), inf)
@@ -192,7 +198,8 @@ def initial_guess(layout: Layout, model: RobotModel, schedule: ContactSchedule) 
     base[:, 2] = model.robot.stance_base_height_m
     q = np.tile(np.asarray(model.robot.nominal_stance_rad), (n, 1))
     lo, hi = model.joint_limits_rad()
-    q = np.clip(q, lo + 0.05, hi - 0.05)
+    held = np.array([j.held for j in model.robot.joints], dtype=bool)
+    q = np.where(held, q, np.clip(q, lo + 0.05, hi - 0.05))
     contact = schedule.contact_matrix(n).astype(float)
     f = np.zeros((n, layout.n_feet, 3))
     f[:, :, 2] = contact / np.maximum(contact.sum(axis=1, keepdims=True), 1.0)

@@ -19,12 +19,23 @@ JSON with ``"schema": "gaitsmith.gait/1"``. Layout (all angles in radians, SI un
   world frame), ``joint_torques_nm`` (N × joints).
 - ``planner``: metadata (objective terms, solver stats, seed, package versions);
   ``validation``: written by `sim` (verdict, metrics), or null.
+- ``robot_dir`` (optional): where the user's robot folder is, ``{"absolute": "/…/mybot",
+  "relative": "../mybot"}`` (relative to the gait file's folder); absent for built-in robots.
+  `robot_for` finds the robot: ``--robot`` override > relative to the gait file > the stored
+  absolute path > the robot name (built-in, or a folder of that name in the working directory);
+  the fingerprint still refuses a different build.
+
+Loading bounds sizes and magnitudes (issue #12): at most `MAX_KNOTS` knots, `MAX_JOINTS` joints,
+`MAX_FEET` feet, `MAX_GAIT_BYTES` of text; numbers must be JSON numbers (not strings) of
+plausible size (`period_s` ≤ `MAX_PERIOD_S`, angles ≤ `MAX_ANGLE_RAD`, …); anything else is a
+`GaitFileError` naming the field.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -32,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robots.errors import GaitFileError
+from robots.errors import GaitFileError, RobotsError
 from robots.files import atomic_write_text
 from robots.schedule import ContactSchedule, ScheduleError
 from robots.spline import PeriodicSpline
@@ -42,6 +53,25 @@ if TYPE_CHECKING:
 
 SCHEMA = "gaitsmith.gait/1"
 PERIODIC_TOL_RAD = 1e-6
+MAX_GAIT_BYTES = 64 << 20  # 1000 knots × 256 joints with every optional array fits
+MAX_KNOTS = 1000  # the periodic spline solves a dense N × N system (8 MB at the bound)
+MAX_JOINTS = 256
+MAX_FEET = 64
+MAX_NAME_CHARS = 256
+MAX_INT_DIGITS = 30  # JSON integers longer than this are refused before float conversion
+MAX_METADATA_DEPTH = 32  # nesting of the planner / validation objects
+MAX_PERIOD_S = 60.0
+MAX_SPEED_M_S = 50.0
+MAX_YAW_RATE_RAD_S = 50.0
+MAX_ANGLE_RAD = 4.0 * math.pi
+# per-knot optional arrays: field → largest magnitude accepted
+_ARRAY_BOUNDS = {
+    "joint_angles_rad": MAX_ANGLE_RAD,
+    "expected_joint_angles_rad": MAX_ANGLE_RAD,
+    "base_pose": 1e4,  # m (treadmill frame) and rad
+    "contact_forces_n": 1e7,
+    "joint_torques_nm": 1e5,
+}
 _KEYS = {
     "schema",
     "robot",
@@ -58,6 +88,7 @@ _KEYS = {
     "expected_joint_angles_rad",
     "planner",
     "validation",
+    "robot_dir",
 }
 
 
@@ -86,6 +117,8 @@ class Gait:
     planner: dict[str, Any] = field(default_factory=dict)
     validation: dict[str, Any] | None = None
     expected_joint_angles_rad: np.ndarray | None = None  # (N, J), see the module docstring
+    robot_dir: str | None = None  # absolute robot folder (None: built-in robot)
+    robot_dir_relative: str | None = None  # as stored: relative to the gait file's folder
 
     @staticmethod
     def create(
@@ -117,6 +150,7 @@ class Gait:
             joint_torques_nm=joint_torques_nm,
             planner=dict(planner or {}),
             expected_joint_angles_rad=expected_knots_rad,
+            robot_dir=_robot_dir_of(robot),
         )
         return from_dict(to_dict(gait), "<new gait>")  # one validation path for all gaits
 
@@ -197,8 +231,16 @@ def _arr(a: np.ndarray | None) -> Any:
     return None if a is None else np.asarray(a, dtype=float).tolist()
 
 
-def to_dict(gait: Gait) -> dict[str, Any]:
-    return {
+def _robot_dir_of(robot: Robot) -> str | None:
+    from robots.robot import BUILTIN_DIR
+
+    root = Path(robot.root_dir).resolve()
+    return None if root.parent == BUILTIN_DIR.resolve() else str(root)
+
+
+def to_dict(gait: Gait, path: str | Path | None = None) -> dict[str, Any]:
+    """The JSON document; `path` (where it will be written) sets ``robot_dir.relative``."""
+    out: dict[str, Any] = {
         "schema": SCHEMA,
         "robot": gait.robot,
         "robot_fingerprint": gait.robot_fingerprint,
@@ -223,32 +265,90 @@ def to_dict(gait: Gait) -> dict[str, Any]:
         "planner": gait.planner,
         "validation": gait.validation,
     }
+    if gait.robot_dir is not None:
+        rel = gait.robot_dir_relative
+        if path is not None:
+            try:
+                rel = os.path.relpath(gait.robot_dir, Path(path).resolve().parent)
+            except ValueError:  # another drive (Windows)
+                rel = None
+        out["robot_dir"] = {"absolute": gait.robot_dir, "relative": rel}
+    return out
 
 
 def _str(file: str, d: dict[str, Any], key: str) -> str:
     v = d.get(key)
     if not isinstance(v, str) or not v:
         raise GaitFileError(file, key, "missing or not a non-empty string")
+    if len(v) > MAX_NAME_CHARS:
+        raise GaitFileError(file, key, f"longer than {MAX_NAME_CHARS} characters")
     return v
 
 
-def _num(file: str, where: str, v: Any) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise GaitFileError(file, where, f"must be a finite number, got {v!r}")
-    return float(v)
-
-
-def _matrix(file: str, where: str, v: Any, shape: tuple[int, ...]) -> np.ndarray:
+def _num(file: str, where: str, v: Any, bound: float = math.inf) -> float:
+    """A JSON number (not a string, not a boolean), finite and |v| ≤ `bound`."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise GaitFileError(file, where, f"must be a JSON number, got {type(v).__name__} {v!r:.40}")
     try:
-        a = np.asarray(v, dtype=float)
-    except (TypeError, ValueError):
-        raise GaitFileError(file, where, f"must be a numeric array of shape {shape}") from None
-    if a.shape != shape:
+        x = float(v)
+    except OverflowError:
+        raise GaitFileError(file, where, "is too large a number") from None
+    if not math.isfinite(x):
+        raise GaitFileError(file, where, f"must be a finite number, got {v!r}")
+    if abs(x) > bound:
+        raise GaitFileError(file, where, f"is {x:g}; at most {bound:g} in magnitude")
+    return x
+
+
+def _check_numeric(file: str, where: str, v: Any, shape: tuple[int, ...]) -> None:
+    """Nested JSON lists of exactly `shape` holding JSON numbers only (no strings, booleans)."""
+    if not shape:
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise GaitFileError(
+                file, where, f"must be a JSON number, got {type(v).__name__} {v!r:.40}"
+            )
+        return
+    if not isinstance(v, list):
+        raise GaitFileError(file, where, f"must be a list (array of shape {shape})")
+    if len(v) != shape[0]:
+        raise GaitFileError(file, where, f"has {len(v)} entries, expected {shape[0]}")
+    for i, item in enumerate(v):
+        _check_numeric(file, f"{where}[{i}]", item, shape[1:])
+
+
+def _matrix(
+    file: str, where: str, v: Any, shape: tuple[int, ...], bound: float = math.inf
+) -> np.ndarray:
+    _check_numeric(file, where, v, shape)
+    with np.errstate(over="ignore"):
+        try:
+            a = np.asarray(v, dtype=float)
+        except OverflowError:
+            a = np.full(shape, np.inf)
+    if a.shape != shape:  # pragma: no cover - _check_numeric guarantees it
         raise GaitFileError(file, where, f"has shape {a.shape}, expected {shape}")
-    if not np.all(np.isfinite(a)):
-        idx = tuple(int(x) for x in np.argwhere(~np.isfinite(a))[0])
-        raise GaitFileError(file, f"{where}{list(idx)}", "is NaN or infinite")
+    bad = ~np.isfinite(a)
+    if np.any(bad):
+        idx = tuple(int(x) for x in np.argwhere(bad)[0])
+        raise GaitFileError(file, f"{where}{list(idx)}", "is NaN, infinite or too large")
+    big = np.abs(a) > bound
+    if np.any(big):
+        idx = tuple(int(x) for x in np.argwhere(big)[0])
+        raise GaitFileError(
+            file, f"{where}{list(idx)}", f"is {a[idx]:g}; at most {bound:g} in magnitude"
+        )
     return a
+
+
+def _depth(v: Any, limit: int) -> int:
+    """Nesting depth of a JSON value, stopping early past `limit`."""
+    if limit < 0:
+        return 1
+    if isinstance(v, dict):
+        return 1 + max((_depth(x, limit - 1) for x in v.values()), default=0)
+    if isinstance(v, list):
+        return 1 + max((_depth(x, limit - 1) for x in v), default=0)
+    return 0
 
 
 def _json_obj(file: str, where: str, v: Any, *, nullable: bool) -> dict[str, Any] | None:
@@ -256,7 +356,30 @@ def _json_obj(file: str, where: str, v: Any, *, nullable: bool) -> dict[str, Any
         return None
     if not isinstance(v, dict):
         raise GaitFileError(file, where, "must be a JSON object" + (" or null" if nullable else ""))
+    if _depth(v, MAX_METADATA_DEPTH) > MAX_METADATA_DEPTH:
+        raise GaitFileError(file, where, f"nested more than {MAX_METADATA_DEPTH} levels deep")
     return v
+
+
+def _robot_dir(file: str, v: Any) -> tuple[str | None, str | None]:
+    if v is None:
+        return None, None
+    if not isinstance(v, dict) or not set(v) <= {"absolute", "relative"} or "absolute" not in v:
+        raise GaitFileError(
+            file, "robot_dir", 'must be {"absolute": path, "relative": path or null}'
+        )
+    out: list[str | None] = []
+    for key in ("absolute", "relative"):
+        p = v.get(key)
+        if p is None and key == "relative":
+            out.append(None)
+            continue
+        if not isinstance(p, str) or not p or len(p) > 4096 or "\0" in p:
+            raise GaitFileError(file, f"robot_dir.{key}", "must be a folder path (a string)")
+        out.append(p)
+    if not os.path.isabs(str(out[0])):
+        raise GaitFileError(file, "robot_dir.absolute", "must be an absolute path")
+    return out[0], out[1]
 
 
 def from_dict(d: Any, file: str = "<gait>") -> Gait:
@@ -265,18 +388,22 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
         raise GaitFileError(file, "<root>", "must be a JSON object")
     if d.get("schema") != SCHEMA:
         raise GaitFileError(
-            file, "schema", f"unknown schema {d.get('schema')!r}; expected {SCHEMA!r}"
+            file, "schema", f"unknown schema {d.get('schema')!r:.60}; expected {SCHEMA!r}"
         )
     unknown = sorted(set(d) - _KEYS)
     if unknown:
-        raise GaitFileError(file, unknown[0], "unknown field")
+        raise GaitFileError(file, unknown[0][:60], "unknown field")
     names = d.get("joint_names")
     if not isinstance(names, list) or not names or not all(isinstance(n, str) and n for n in names):
         raise GaitFileError(file, "joint_names", "must be a non-empty list of joint names")
+    if len(names) > MAX_JOINTS or max(len(n) for n in names) > MAX_NAME_CHARS:
+        raise GaitFileError(
+            file, "joint_names", f"at most {MAX_JOINTS} names of ≤ {MAX_NAME_CHARS} characters"
+        )
     if len(set(names)) != len(names):
         raise GaitFileError(file, "joint_names", "has duplicates")
     n_j = len(names)
-    period = _num(file, "period_s", d.get("period_s"))
+    period = _num(file, "period_s", d.get("period_s"), MAX_PERIOD_S)
     if period <= 0:
         raise GaitFileError(file, "period_s", "must be positive")
     vel = _json_obj(file, "velocity", d.get("velocity"), nullable=False)
@@ -284,14 +411,22 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
     if set(vel) != {"vx_m_s", "vy_m_s", "yaw_rate_rad_s"}:
         raise GaitFileError(file, "velocity", "needs exactly vx_m_s, vy_m_s, yaw_rate_rad_s")
     velocity = Velocity(
-        *(_num(file, f"velocity.{k}", vel[k]) for k in ("vx_m_s", "vy_m_s", "yaw_rate_rad_s"))
+        _num(file, "velocity.vx_m_s", vel["vx_m_s"], MAX_SPEED_M_S),
+        _num(file, "velocity.vy_m_s", vel["vy_m_s"], MAX_SPEED_M_S),
+        _num(file, "velocity.yaw_rate_rad_s", vel["yaw_rate_rad_s"], MAX_YAW_RATE_RAD_S),
     )
     raw = d.get("joint_angles_rad")
     if not isinstance(raw, list) or len(raw) < 4:
         raise GaitFileError(
             file, "joint_angles_rad", "must be a list of at least 3 knots + the closing row"
         )
-    samples = _matrix(file, "joint_angles_rad", raw, (len(raw), n_j))
+    if len(raw) > MAX_KNOTS + 1:
+        raise GaitFileError(
+            file, "joint_angles_rad", f"has {len(raw) - 1} knots; at most {MAX_KNOTS}"
+        )
+    samples = _matrix(
+        file, "joint_angles_rad", raw, (len(raw), n_j), _ARRAY_BOUNDS["joint_angles_rad"]
+    )
     gap = np.abs(samples[-1] - samples[0])
     if np.max(gap) > PERIODIC_TOL_RAD:
         j = int(np.argmax(gap))
@@ -309,13 +444,19 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
     feet = sch["feet"]
     if not isinstance(feet, list) or not feet or not all(isinstance(f, str) for f in feet):
         raise GaitFileError(file, "schedule.feet", "must be a non-empty list of foot names")
+    if len(feet) > MAX_FEET or max(len(f) for f in feet) > MAX_NAME_CHARS:
+        raise GaitFileError(
+            file, "schedule.feet", f"at most {MAX_FEET} names of ≤ {MAX_NAME_CHARS} characters"
+        )
     phases = [
-        _num(file, f"schedule.touchdown_phase[{i}]", v)
-        for i, v in enumerate(_list(file, "schedule.touchdown_phase", sch["touchdown_phase"]))
+        _num(file, f"schedule.touchdown_phase[{i}]", v, 1.0)
+        for i, v in enumerate(
+            _list(file, "schedule.touchdown_phase", sch["touchdown_phase"], len(feet))
+        )
     ]
     duties = [
-        _num(file, f"schedule.duty_factor[{i}]", v)
-        for i, v in enumerate(_list(file, "schedule.duty_factor", sch["duty_factor"]))
+        _num(file, f"schedule.duty_factor[{i}]", v, 1.0)
+        for i, v in enumerate(_list(file, "schedule.duty_factor", sch["duty_factor"], len(feet)))
     ]
     try:
         schedule = ContactSchedule(period, tuple(feet), tuple(phases), tuple(duties))
@@ -329,9 +470,12 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
         ("joint_torques_nm", (n_k, n_j)),
         ("expected_joint_angles_rad", (n_k, n_j)),
     ):
-        optional[key] = None if d.get(key) is None else _matrix(file, key, d[key], shape)
+        optional[key] = (
+            None if d.get(key) is None else _matrix(file, key, d[key], shape, _ARRAY_BOUNDS[key])
+        )
     planner = _json_obj(file, "planner", d.get("planner", {}), nullable=False)
     validation = _json_obj(file, "validation", d.get("validation"), nullable=True)
+    robot_dir, robot_dir_rel = _robot_dir(file, d.get("robot_dir"))
     return Gait(
         robot=_str(file, d, "robot"),
         robot_fingerprint=_str(file, d, "robot_fingerprint"),
@@ -343,19 +487,40 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
         gait_label=_str(file, d, "gait_label"),
         planner=dict(planner or {}),
         validation=validation,
+        robot_dir=robot_dir,
+        robot_dir_relative=robot_dir_rel,
         **optional,
     )
 
 
-def _list(file: str, where: str, v: Any) -> list[Any]:
+def _list(file: str, where: str, v: Any, length: int) -> list[Any]:
     if not isinstance(v, list):
         raise GaitFileError(file, where, "must be a list")
+    if len(v) != length:
+        raise GaitFileError(file, where, f"has {len(v)} entries; needs one per foot ({length})")
     return v
 
 
+class _HugeInteger(ValueError):
+    pass
+
+
+def _parse_int(text: str) -> int:
+    if len(text.lstrip("-")) > MAX_INT_DIGITS:
+        raise _HugeInteger(text[:20])
+    return int(text)
+
+
 def loads(text: str, file: str = "<gait>") -> Gait:
+    if len(text) > MAX_GAIT_BYTES:
+        raise GaitFileError(file, "<file>", f"is {len(text)} characters; at most {MAX_GAIT_BYTES}")
     try:
-        doc = json.loads(text)  # NaN/Infinity parse; field checks reject them by name
+        # NaN/Infinity parse; field checks reject them by name
+        doc = json.loads(text, parse_int=_parse_int)
+    except _HugeInteger as exc:
+        raise GaitFileError(
+            file, "<json>", f"integer {exc}… has more than {MAX_INT_DIGITS} digits"
+        ) from None
     except (ValueError, RecursionError) as exc:
         raise GaitFileError(file, "<json>", f"not valid JSON: {exc}") from None
     return from_dict(doc, file)
@@ -365,6 +530,8 @@ def load(path: str | Path, robot: Robot | None = None) -> Gait:
     """Read and validate a gait file; with `robot`, also check it was planned for that build."""
     p = Path(path)
     try:
+        if p.stat().st_size > MAX_GAIT_BYTES:
+            raise GaitFileError(str(p), "<file>", f"larger than {MAX_GAIT_BYTES} bytes")
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise GaitFileError(str(p), "<file>", f"cannot read: {exc}") from None
@@ -374,9 +541,52 @@ def load(path: str | Path, robot: Robot | None = None) -> Gait:
     return gait
 
 
-def dumps(gait: Gait) -> str:
+def robot_for(
+    gait: Gait,
+    gait_path: str | Path | None = None,
+    robot: str | Path | None = None,
+    servo_catalogue: str | Path | None = None,
+) -> Robot:
+    """The robot a gait was planned for, checked against its fingerprint.
+
+    Found by: `robot` (the ``--robot`` override) > ``robot_dir.relative`` to the gait file's
+    folder > ``robot_dir.absolute`` > the gait's robot name (built-in, or a folder of that name in
+    the working directory). Raises GaitFileError (or RobotConfigError) saying what to do.
+    """
+    from robots.robot import load as load_robot
+
+    file = str(gait_path) if gait_path is not None else "<gait>"
+    if robot is not None:
+        found = load_robot(robot, servo_catalogue)
+        gait.check_robot(found, file)
+        return found
+    candidates: list[Path] = []
+    if gait.robot_dir_relative is not None and gait_path is not None:
+        candidates.append((Path(gait_path).resolve().parent / gait.robot_dir_relative).resolve())
+    if gait.robot_dir is not None:
+        candidates.append(Path(gait.robot_dir))
+    for folder in candidates:
+        if (folder / "robot.toml").is_file() and (folder / "robot.xml").is_file():
+            found = load_robot(folder, servo_catalogue)
+            gait.check_robot(found, file)
+            return found
     try:
-        return json.dumps(to_dict(gait), indent=1, allow_nan=False)
+        found = load_robot(gait.robot, servo_catalogue)
+    except RobotsError:
+        where = ", ".join(str(c) for c in candidates) or "no robot_dir stored"
+        raise GaitFileError(
+            file,
+            "robot_dir" if candidates else "robot",
+            f"cannot find robot {gait.robot!r} (looked in: {where}; not a built-in robot); "
+            "give its folder with --robot FOLDER",
+        ) from None
+    gait.check_robot(found, file)
+    return found
+
+
+def dumps(gait: Gait, path: str | Path | None = None) -> str:
+    try:
+        return json.dumps(to_dict(gait, path), indent=1, allow_nan=False)
     except (TypeError, ValueError) as exc:
         raise GaitFileError(
             "<gait>", "planner/validation", f"not JSON-serialisable: {exc}"
@@ -384,5 +594,6 @@ def dumps(gait: Gait) -> str:
 
 
 def save(gait: Gait, path: str | Path) -> None:
-    """Write the gait file atomically (temp file + rename)."""
-    atomic_write_text(path, dumps(gait) + "\n")
+    """Write the gait file atomically (temp file + rename); ``robot_dir.relative`` is computed
+    from the file's folder."""
+    atomic_write_text(path, dumps(gait, path) + "\n")

@@ -3,18 +3,14 @@
 from __future__ import annotations
 
 import math
-import sys
+import os
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from robots import toml_schema as ts
 from robots.errors import RobotConfigError
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 CATALOGUE_PATH = Path(__file__).with_name("servos.toml")
 PROTOCOLS = (
@@ -61,50 +57,54 @@ class ServoModel:
         return max(0.0, self.stall_torque_nm * frac * margin)
 
 
-_FLOAT_FIELDS = (
-    "nominal_voltage_v",
-    "voltage_min_v",
-    "voltage_max_v",
-    "stall_torque_nm",
-    "no_load_speed_rad_s",
-    "ticks_per_rev",
-    "mass_kg",
-    "max_temperature_c",
-)
-_INT_FIELDS = ("model_number", "position_min_tick", "position_max_tick", "default_baud")
+# field → (lower, upper) bound: generous physical limits, so a typo (1e308, 5e-324) is refused
+_FLOAT_FIELDS: dict[str, tuple[float, float]] = {
+    "nominal_voltage_v": (0.0, 100.0),
+    "voltage_min_v": (0.0, 100.0),
+    "voltage_max_v": (0.0, 100.0),
+    "stall_torque_nm": (1e-4, 1000.0),
+    "no_load_speed_rad_s": (1e-3, 1000.0),
+    "ticks_per_rev": (1.0, 1e7),
+    "mass_kg": (1e-4, 100.0),
+    "max_temperature_c": (1.0, 300.0),
+}
+_INT_FIELDS: dict[str, tuple[int, int]] = {
+    "model_number": (0, 65535),
+    "position_min_tick": (0, 10**7),
+    "position_max_tick": (0, 10**7),
+    "default_baud": (0, 10**8),  # 0: a PWM servo (no bus), see _check_bus_fields
+}
+SERVO_FIELDS = ("vendor", "protocol", *_FLOAT_FIELDS, *_INT_FIELDS)
+ENV_CATALOGUE = "GAITSMITH_SERVOS"
 
 
-def _parse_servo(file: str, name: str, table: Any) -> ServoModel:
-    where = f"[{name}]"
+def parse_servo(file: str, where: str, name: str, table: Any) -> ServoModel:
+    """Validate one servo model's table (`where` is its TOML path, e.g. "[servos.MY_SERVO]").
+
+    The one validation for the built-in catalogue, a user catalogue file and robot.toml's
+    [servos] tables: exactly the fields of `ServoModel`, each bounded.
+    """
     if not isinstance(table, dict):
         raise RobotConfigError(file, where, "must be a table of servo figures")
-    known = {"vendor", "protocol", *_FLOAT_FIELDS, *_INT_FIELDS}
-    unknown = sorted(set(table) - known)
-    if unknown:
-        raise RobotConfigError(
-            file, f"{where}.{unknown[0]}", f"unknown field; known: {sorted(known)}"
-        )
+    ts.string(file, f"{where} (the servo model's name)", name)
+    ts.check_keys(file, where, table, set(SERVO_FIELDS))
     values: dict[str, Any] = {"name": name}
     for key in ("vendor", "protocol"):
-        if not isinstance(table.get(key), str):
-            raise RobotConfigError(file, f"{where}.{key}", "missing or not a string")
-        values[key] = table[key]
+        values[key] = ts.string(file, f"{where}.{key}", table.get(key))
     if values["protocol"] not in PROTOCOLS:
-        raise RobotConfigError(file, f"{where}.protocol", f"must be one of {PROTOCOLS}")
-    for key in _FLOAT_FIELDS:
-        v = table.get(key)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-            raise RobotConfigError(file, f"{where}.{key}", "missing or not a positive number")
-        values[key] = float(v)
-    for key in _INT_FIELDS:
-        v = table.get(key)
-        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-            raise RobotConfigError(file, f"{where}.{key}", "missing or not a non-negative integer")
-        values[key] = v
+        raise RobotConfigError(
+            file, f"{where}.protocol", f"is {values['protocol']!r}; must be one of {PROTOCOLS}"
+        )
+    for key, (lo, hi) in _FLOAT_FIELDS.items():
+        values[key] = ts.number(file, f"{where}.{key}", table.get(key), lo, hi, lo_open=True)
+    for key, (ilo, ihi) in _INT_FIELDS.items():
+        values[key] = ts.integer(file, f"{where}.{key}", table.get(key), ilo, ihi)
     if values["position_max_tick"] <= values["position_min_tick"]:
         raise RobotConfigError(file, f"{where}.position_max_tick", "must exceed position_min_tick")
     if not values["voltage_min_v"] <= values["nominal_voltage_v"] <= values["voltage_max_v"]:
-        raise RobotConfigError(file, f"{where}.nominal_voltage_v", "outside voltage_min_v..max_v")
+        raise RobotConfigError(
+            file, f"{where}.nominal_voltage_v", "must lie within voltage_min_v..voltage_max_v"
+        )
     _check_bus_fields(file, where, values)
     return ServoModel(**values)
 
@@ -123,13 +123,16 @@ def _check_bus_fields(file: str, where: str, values: dict[str, Any]) -> None:
         )
 
 
+def parse_servo_tables(file: str, prefix: str, tables: Any) -> dict[str, ServoModel]:
+    """Servo models from a table of tables; `prefix` "" (a catalogue) or "servos." (robot.toml)."""
+    if not isinstance(tables, dict):
+        raise RobotConfigError(file, f"[{prefix.rstrip('.')}]", "must be a table of servo tables")
+    return {name: parse_servo(file, f"[{prefix}{name}]", name, t) for name, t in tables.items()}
+
+
 def parse_catalogue(text: str, file: str = str(CATALOGUE_PATH)) -> dict[str, ServoModel]:
     """Parse a servo catalogue's TOML text; raises RobotConfigError naming the field at fault."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise RobotConfigError(file, "<toml>", f"not valid TOML: {exc}") from None
-    return {name: _parse_servo(file, name, table) for name, table in data.items()}
+    return parse_servo_tables(file, "", ts.read_toml(text, file))
 
 
 @lru_cache(maxsize=1)
@@ -138,9 +141,44 @@ def load_catalogue() -> dict[str, ServoModel]:
     return parse_catalogue(CATALOGUE_PATH.read_text(encoding="utf-8"))
 
 
-def servo_model(name: str) -> ServoModel:
-    """Look up one catalogue entry; raises RobotConfigError listing the known models."""
-    catalogue = load_catalogue()
+def read_catalogue_file(path: str | Path) -> dict[str, ServoModel]:
+    """A user's servo catalogue file (same format and validation as robots/servos.toml)."""
+    p = Path(path).expanduser()
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RobotConfigError(
+            str(p),
+            "<file>",
+            f"cannot read the servo catalogue: {exc}; check --servos / {ENV_CATALOGUE}",
+        ) from None
+    return parse_catalogue(text, str(p))
+
+
+def user_catalogue_path(servo_catalogue: str | Path | None = None) -> Path | None:
+    """The user catalogue in force: the argument (`--servos FILE`), else $GAITSMITH_SERVOS."""
+    if servo_catalogue is not None and str(servo_catalogue) != "":
+        return Path(servo_catalogue).expanduser()
+    env = os.environ.get(ENV_CATALOGUE, "").strip()
+    return Path(env).expanduser() if env else None
+
+
+def servo_catalogue(servo_catalogue: str | Path | None = None) -> dict[str, ServoModel]:
+    """Built-in catalogue overlaid with the user catalogue in force (see `user_catalogue_path`).
+
+    Precedence of a servo model's name: robot.toml's [servos] (applied by `robots.load`) >
+    the user catalogue file (`--servos FILE` or $GAITSMITH_SERVOS) > the built-in catalogue.
+    """
+    merged = dict(load_catalogue())
+    path = user_catalogue_path(servo_catalogue)
+    if path is not None:
+        merged.update(read_catalogue_file(path))
+    return merged
+
+
+def servo_model(name: str, servo_catalogue_file: str | Path | None = None) -> ServoModel:
+    """Look up one model (built-in + user catalogue); raises RobotConfigError listing the known."""
+    catalogue = servo_catalogue(servo_catalogue_file)
     if name not in catalogue:
         raise RobotConfigError(
             str(CATALOGUE_PATH), name, f"unknown servo model; known: {sorted(catalogue)}"
@@ -193,6 +231,7 @@ def factory_gains(servo: ServoModel) -> tuple[float, float]:
     if servo.protocol == "feetech_sts" or servo.protocol in STAND_IN_LOOP_PROTOCOLS:
         return FEETECH_STS_P_DEFAULT * FEETECH_STS_DUTY_PER_P_RAD, 0.0
     raise RobotConfigError(
-        str(CATALOGUE_PATH), f"[{servo.name}].protocol",
+        str(CATALOGUE_PATH),
+        f"[{servo.name}].protocol",
         f"no factory position-loop gains known for protocol {servo.protocol!r}",
     )

@@ -7,7 +7,8 @@ rollout runs natively in `mujoco.rollout`:
 - base: frame position, quaternion and linear velocity of the root (freejoint) body;
 - per joint: position, velocity, actuator force (the clipped drive of `sim.servo`);
 - per foot: foot-site position, linear and angular velocity, and a contact sensor between the
-  foot geom and the world body (number of contacts, net force);
+  foot body (all its geoms: a foot of several geoms is one foot) and the world body (number of
+  contacts, net force);
 - one contact sensor between the whole robot and the world body: the number of robot–ground
   contacts; any beyond the feet' count means the body (or a shin) touched the ground.
 """
@@ -57,7 +58,7 @@ class SimModel:
     qpos_adr: np.ndarray  # (J,) qpos index of each robot joint, in robot.joints order
     dof_adr: np.ndarray  # (J,)
     root_body: int
-    foot_geoms: tuple[int, ...]
+    foot_geoms: tuple[tuple[int, ...], ...]  # per leg: every collidable geom of its foot body
     mass_kg: float  # robot + payload
     sensors: dict[str, slice] = field(default_factory=dict)
 
@@ -97,23 +98,18 @@ class SimModel:
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
 
-def _foot_geom(model: mujoco.MjModel, site_id: int, site_name: str) -> int:
-    """The collidable geom nearest the foot site, on the site's body."""
-    body = int(model.site_bodyid[site_id])
-    best, best_d = -1, math.inf
-    for g in range(model.ngeom):
-        if model.geom_bodyid[g] != body or (
-            model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0
-        ):
-            continue
-        d = float(np.linalg.norm(model.geom_pos[g] - model.site_pos[site_id]))
-        if d < best_d:
-            best, best_d = g, d
-    if best < 0:
-        raise SimSetupError(
-            f"foot site {site_name!r}: its body has no collidable geom to touch the ground"
-        )
-    return best
+def _foot_geom_ids(model: mujoco.MjModel, robot: Robot) -> tuple[tuple[int, ...], ...]:
+    """Per leg, the ids of its foot geoms (every collidable geom of the foot body, as
+    `robots.load` found them in the prepared model)."""
+    out = []
+    for leg in robot.legs:
+        ids = tuple(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in leg.foot_geoms)
+        if not ids or min(ids) < 0:
+            raise SimSetupError(
+                f"foot {leg.name}: foot geoms {list(leg.foot_geoms)} not in the prepared model"
+            )
+        out.append(ids)
+    return tuple(out)
 
 
 def build_sim_model(
@@ -124,15 +120,11 @@ def build_sim_model(
     timestep_s: float | None = None,
 ) -> SimModel:
     """Compile the robot's MJCF with one servo per joint and the logging sensors."""
-    try:
-        spec = mujoco.MjSpec.from_file(str(robot.mjcf_path))
+    try:  # the prepared model (robots.mjcf): its own actuators removed, floor, absolute paths
+        spec = robot.mj_spec()
         base = spec.compile()
     except Exception as exc:  # mujoco raises ValueError with its parser's message
         raise SimSetupError(f"{robot.mjcf_path}: MuJoCo cannot load it: {exc}") from None
-    if base.nu:
-        raise SimSetupError(
-            f"{robot.mjcf_path}: has {base.nu} actuators; gaitsmith adds the servos itself"
-        )
     if servos is None:
         servos = tuple(servo_params(j.servo, strength=conditions.strength) for j in robot.joints)
     elif len(servos) != robot.dof:
@@ -168,12 +160,7 @@ def build_sim_model(
         model.opt.timestep = timestep_s
     if conditions.friction is not None:
         model.geom_friction[:, 0] = conditions.friction
-    foot_geoms = tuple(
-        _foot_geom(
-            model, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site), leg.foot_site
-        )
-        for leg in robot.legs
-    )
+    foot_geoms = _foot_geom_ids(model, robot)
     sensors = {}
     for name in names:
         sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name)
@@ -230,19 +217,16 @@ def _add_sensors(
             f"gs_servo_{j.name}",
         )
     for leg in robot.legs:
-        sid = mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site)
-        geom = _foot_geom(base, sid, leg.foot_site)
-        gname = mujoco.mj_id2name(base, mujoco.mjtObj.mjOBJ_GEOM, geom)
-        if not gname:
-            raise SimSetupError(f"foot {leg.name}: give the foot geom a name in the MJCF")
+        if not leg.foot_body:
+            raise SimSetupError(f"foot {leg.name}: the robot was loaded without its foot body")
         add(f"gs_foot_pos_{leg.name}", mujoco.mjtSensor.mjSENS_FRAMEPOS, site, leg.foot_site)
         add(f"gs_foot_vel_{leg.name}", mujoco.mjtSensor.mjSENS_FRAMELINVEL, site, leg.foot_site)
         add(f"gs_foot_angvel_{leg.name}", mujoco.mjtSensor.mjSENS_FRAMEANGVEL, site, leg.foot_site)
         add(
             f"gs_foot_contact_{leg.name}",
             mujoco.mjtSensor.mjSENS_CONTACT,
-            mujoco.mjtObj.mjOBJ_GEOM,
-            gname,
+            mujoco.mjtObj.mjOBJ_BODY,  # every geom of the foot body counts as the foot
+            leg.foot_body,
             mujoco.mjtObj.mjOBJ_BODY,
             world,
             (1 << CONTACT_FOUND | 1 << CONTACT_FORCE, REDUCE_NETFORCE, 1),

@@ -33,7 +33,7 @@ class _LegIK:
 
     def __init__(self, robot: Robot) -> None:
         self.robot = robot
-        self.model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
+        self.model = robot.mj_model()
         self.data = mujoco.MjData(self.model)
         m = self.model
         self.qadr = np.array(

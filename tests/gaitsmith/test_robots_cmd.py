@@ -29,3 +29,13 @@ def test_unknown_robot_is_one_clear_line_not_a_traceback() -> None:
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     assert "no such robot folder" in proc.stderr and "nobot" in proc.stderr
+
+
+def test_robots_show_a_users_robot_with_held_joints(capsys: pytest.CaptureFixture[str]) -> None:
+    from pathlib import Path
+
+    folder = Path(__file__).parents[1] / "robots" / "fixtures" / "heldquad"
+    assert main(["robots", "show", str(folder)]) == 0  # before: KeyError on the held head
+    out = capsys.readouterr().out
+    assert "head_pan" in out and "(held)" in out and "MY_STS" in out
+    assert "removed its 2 actuator(s)" in out and "gs_floor" in out
