@@ -92,6 +92,16 @@ class RobotModel:
         self.foot_radius_m = float(robot.foot_radius_m)
         self.gravity_m_s2 = np.array(mj.opt.gravity, dtype=float)
         self._bodies, self._sites = self._read_tree(mj, robot)
+        # flat feet (`robots.sole`): the contact point is the sole centre, not the foot site
+        from robots.sole import sole_frame_local
+
+        #: indices (Robot.legs order) of the flat feet; their contact carries a moment too
+        self.flat_feet = tuple(i for i, leg in enumerate(robot.legs) if leg.is_flat)
+        self._sole_rot_local: list[np.ndarray] = []
+        for i in self.flat_feet:
+            centre, rot = sole_frame_local(mj, robot.legs[i])
+            self._sites[i] = (self._sites[i][0], centre)
+            self._sole_rot_local.append(rot)
         self.n_bodies = len(self._bodies)
         self.total_mass_kg = float(sum(b.mass_kg for b in self._bodies))
         self.armature = np.zeros(6 + self.n_joints)
@@ -250,6 +260,7 @@ class RobotModel:
         v_b, w_b = ca.SX.sym("v_base", 3), ca.SX.sym("w_base", 3)
         a_b, dw_b = ca.SX.sym("a_base", 3), ca.SX.sym("dw_base", 3)
         forces = ca.SX.sym("f_feet", 3, nf)
+        moments = ca.SX.sym("m_feet", 3, nf)  # contact moments about the contact points
         rots, origins, hinges = self._frames(pos, rpy, qj)
         feet = ca.horzcat(*[origins[b] + rots[b] @ ca.DM(p) for b, p in self._sites])
         body_origins = ca.horzcat(*origins)
@@ -263,7 +274,26 @@ class RobotModel:
         mass = self.total_mass_kg
         weighted = (b.mass_kg * c for b, c in zip(self._bodies, coms, strict=True))
         com = sum(weighted, ca.SX.zeros(3)) / mass
-        #: fk(base_pos, base_rpy, q) -> (feet 3×F foot-site centres, body_origins 3×B, com 3)
+        #: soles(base_pos, base_rpy, q) -> 3×3·F_flat world rotations of the flat feet's sole
+        #: frames, side by side (the sole centres are `fk`'s feet columns of those feet)
+        self.soles = ca.Function(
+            "soles",
+            [pos, rpy, qj],
+            [
+                ca.horzcat(
+                    *[
+                        rots[self._sites[i][0]] @ ca.DM(r)
+                        for i, r in zip(self.flat_feet, self._sole_rot_local, strict=True)
+                    ]
+                )
+                if self.flat_feet
+                else ca.SX.zeros(3, 0)
+            ],
+            ["base_pos", "base_rpy", "q"],
+            ["rot"],
+        )
+        #: fk(base_pos, base_rpy, q) -> (feet 3×F contact points: foot-site centres, sole
+        #: centres for flat feet; body_origins 3×B, com 3)
         self.fk = ca.Function(
             "fk",
             [pos, rpy, qj],
@@ -287,7 +317,9 @@ class RobotModel:
             )
         for f, (b, _) in enumerate(self._sites):
             foot = feet[:, f]
-            wrench[b] = wrench[b] - ca.vertcat(ca.cross(foot, forces[:, f]), forces[:, f])
+            wrench[b] = wrench[b] - ca.vertcat(
+                ca.cross(foot, forces[:, f]) + moments[:, f], forces[:, f]
+            )
         for i in reversed(range(self.n_bodies)):  # backward pass: subtree wrenches
             parent = self._bodies[i].parent
             if parent >= 0:
@@ -326,10 +358,22 @@ class RobotModel:
             "qdd",
             "f_feet",
         ]
+        #: inverse_dynamics_wrench(..., f_feet, m_feet) -> as `inverse_dynamics` with contact
+        #: wrenches: world force f and world moment m about each contact point (flat feet) —
+        #: MuJoCo's qfrc_inverse minus Jᵀ(f, m) with the contact point's Jacobian
+        self.inverse_dynamics_wrench = ca.Function(
+            "inverse_dynamics_wrench",
+            [*args, moments],
+            [base_rows, joint_rows],
+            [*names, "m_feet"],
+            ["base_rows", "tau"],
+        )
+        zero_m = ca.SX.zeros(3, nf)
+        point_rows = ca.substitute([base_rows, joint_rows], [moments], [zero_m])
         #: inverse_dynamics(...) -> (base_rows 6: world force + body-frame torque about the base
         #: origin, joint_rows J: joint torques [N·m]) — MuJoCo's qfrc_inverse minus Jᵀf
         self.inverse_dynamics = ca.Function(
-            "inverse_dynamics", args, [base_rows, joint_rows], names, ["base_rows", "tau"]
+            "inverse_dynamics", args, point_rows, names, ["base_rows", "tau"]
         )
         ang_com = ang_o - ca.cross(com, lin)
         #: momentum(base_pos, base_rpy, q, v_base, w_base, qd) -> (linear [kg·m/s], angular about

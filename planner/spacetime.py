@@ -114,7 +114,9 @@ class GaitPlanner:
         self.n_knots = n_knots
         self.options = options or PlannerOptions()
         self.model = RobotModel(robot)
-        self.layout = Layout(n_knots, self.model.n_joints, self.model.n_feet)
+        self.layout = Layout(
+            n_knots, self.model.n_joints, self.model.n_feet, len(self.model.flat_feet)
+        )
         sym = make_symbols(self.layout)
         kq = knot_quantities(self.model, sym, n_knots)
         groups = build_groups(self.model, sym, kq, n_knots, self.options)

@@ -407,7 +407,9 @@ def _parse_legs(
                 for i, v in enumerate(sole)
             )
             half = (0.5 * length, 0.5 * width)
-        legs.append(Leg(leg_name, site, tuple(chain), foot_kind=str(kind), sole_half_extents_m=half))
+        legs.append(
+            Leg(leg_name, site, tuple(chain), foot_kind=str(kind), sole_half_extents_m=half)
+        )
     loose = [n for n, r in roles.items() if r == "leg" and n not in used]
     if loose:
         raise RobotConfigError(

@@ -53,7 +53,7 @@ def resolve_sole(model: Any, spec_leg: Any, leg: Any, toml_file: str, mjcf_file:
         raise RobotConfigError(
             toml_file,
             f"{where}.foot",
-            f'a flat foot needs one collidable box geom on body {leg.foot_body!r} in {mjcf_file} '
+            f"a flat foot needs one collidable box geom on body {leg.foot_body!r} in {mjcf_file} "
             f"(found {found}), or sole_size_m = [length, width] with the foot site at the sole "
             "centre",
         )
