@@ -315,36 +315,44 @@ class RobotModel:
                     f_ang + ca.cross(w, h_ang) + ca.cross(vo, h_lin), f_lin + ca.cross(w, h_lin)
                 )
             )
-        for f, (b, _) in enumerate(self._sites):
-            foot = feet[:, f]
-            wrench[b] = wrench[b] - ca.vertcat(
-                ca.cross(foot, forces[:, f]) + moments[:, f], forces[:, f]
+        body_wrench = wrench
+
+        def generalised_forces(contact_moments: Any) -> list[Any]:
+            """[base_rows, joint_rows] with the contact forces (and moments, unless None)."""
+            wrench = list(body_wrench)
+            for f, (b, _) in enumerate(self._sites):
+                foot = feet[:, f]
+                ang = ca.cross(foot, forces[:, f])
+                if contact_moments is not None:
+                    ang = ang + contact_moments[:, f]
+                wrench[b] = wrench[b] - ca.vertcat(ang, forces[:, f])
+            for i in reversed(range(self.n_bodies)):  # backward pass: subtree wrenches
+                parent = self._bodies[i].parent
+                if parent >= 0:
+                    wrench[parent] = wrench[parent] + wrench[i]
+            tau = [ca.SX(0)] * nj
+            for i, body in enumerate(self._bodies):
+                for jt, (anchor, axis) in zip(body.joints, hinges[i], strict=False):
+                    tau[jt.index] = ca.dot(ca.vertcat(axis, ca.cross(anchor, axis)), wrench[i])
+            root = wrench[0]
+            base_force = root[3:]
+            base_torque = rots[0].T @ (root[:3] - ca.cross(pos, base_force))
+            arm, damp = self.armature, self.damping
+            joint_rows = (
+                ca.vertcat(*tau)
+                + ca.DM(arm[6:]) * qddj
+                + ca.DM(damp[6:]) * qdj
+                + ca.DM(self.stiffness) * (qj - ca.DM(self.spring_ref_rad))
             )
-        for i in reversed(range(self.n_bodies)):  # backward pass: subtree wrenches
-            parent = self._bodies[i].parent
-            if parent >= 0:
-                wrench[parent] = wrench[parent] + wrench[i]
-        tau = [ca.SX(0)] * nj
-        for i, body in enumerate(self._bodies):
-            for jt, (anchor, axis) in zip(body.joints, hinges[i], strict=False):
-                tau[jt.index] = ca.dot(ca.vertcat(axis, ca.cross(anchor, axis)), wrench[i])
-        root = wrench[0]
-        base_force = root[3:]
-        base_torque = rots[0].T @ (root[:3] - ca.cross(pos, base_force))
-        arm, damp = self.armature, self.damping
-        joint_rows = (
-            ca.vertcat(*tau)
-            + ca.DM(arm[6:]) * qddj
-            + ca.DM(damp[6:]) * qdj
-            + ca.DM(self.stiffness) * (qj - ca.DM(self.spring_ref_rad))
-        )
-        base_acc_body = ca.vertcat(a_b, rots[0].T @ dw_b)
-        base_vel_body = ca.vertcat(v_b, rots[0].T @ w_b)
-        base_rows = (
-            ca.vertcat(base_force, base_torque)
-            + ca.DM(arm[:6]) * base_acc_body
-            + ca.DM(damp[:6]) * base_vel_body
-        )
+            base_acc_body = ca.vertcat(a_b, rots[0].T @ dw_b)
+            base_vel_body = ca.vertcat(v_b, rots[0].T @ w_b)
+            base_rows = (
+                ca.vertcat(base_force, base_torque)
+                + ca.DM(arm[:6]) * base_acc_body
+                + ca.DM(damp[:6]) * base_vel_body
+            )
+            return [base_rows, joint_rows]
+
         args = [pos, rpy, qj, v_b, w_b, qdj, a_b, dw_b, qddj, forces]
         names = [
             "base_pos",
@@ -364,16 +372,14 @@ class RobotModel:
         self.inverse_dynamics_wrench = ca.Function(
             "inverse_dynamics_wrench",
             [*args, moments],
-            [base_rows, joint_rows],
+            generalised_forces(moments),
             [*names, "m_feet"],
             ["base_rows", "tau"],
         )
-        zero_m = ca.SX.zeros(3, nf)
-        point_rows = ca.substitute([base_rows, joint_rows], [moments], [zero_m])
         #: inverse_dynamics(...) -> (base_rows 6: world force + body-frame torque about the base
         #: origin, joint_rows J: joint torques [N·m]) — MuJoCo's qfrc_inverse minus Jᵀf
         self.inverse_dynamics = ca.Function(
-            "inverse_dynamics", args, point_rows, names, ["base_rows", "tau"]
+            "inverse_dynamics", args, generalised_forces(None), names, ["base_rows", "tau"]
         )
         ang_com = ang_o - ca.cross(com, lin)
         #: momentum(base_pos, base_rpy, q, v_base, w_base, qd) -> (linear [kg·m/s], angular about
