@@ -16,11 +16,13 @@ from planner.flat_foot import (
     N_CWC_ROWS,
     _knot_function,
     cwc_rows,
+    moment_scale,
     sole_tilt_rad,
     wrench_of_corner_forces,
 )
 from planner.model import RobotModel
 from planner.rotations import rpy_to_matrix_np
+from robots.sole import sole_corners_local
 
 BIPED = Path(__file__).parent / "fixtures" / "biped12"
 X, Y, MU = 0.05, 0.03, 0.5
@@ -210,3 +212,52 @@ def test_soles_and_contact_points_match_mujoco(biped_model: RobotModel) -> None:
         np.testing.assert_allclose(rots[:, 3 * f : 3 * f + 3], rot, atol=1e-12)
     tilt = sole_tilt_rad(m, base[None, :], q[None, :])
     assert tilt.shape == (1, 2) and np.all(tilt >= 0)
+
+
+@pytest.mark.slow
+def test_biped_plans_keep_the_soles_flat_and_inside_the_cone() -> None:
+    """N = 12 stand and slow walk: stance soles level (< 1°), no yaw slip, swing soles clear of
+    the ground at all four corners, every wrench inside the CWC."""
+    from planner.spacetime import GaitPlanner
+    from planner.variables import swing_height_profile
+    from robots import ContactSchedule
+
+    robot = robots.load(BIPED)
+    planner = GaitPlanner(robot, n_knots=12)
+    model, feet = planner.model, robot.foot_names
+    cases = {
+        "stand": (ContactSchedule(1.0, feet, (0.0, 0.0), (1.0, 1.0)), 0.0),
+        "walk": (ContactSchedule(1.0, feet, (0.0, 0.5), (0.75, 0.75)), 0.05),
+    }
+    weight_n = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2))
+    for label, (schedule, speed) in cases.items():
+        result = planner.solve(schedule, speed, warm_start=False)
+        assert result.feasible, (label, result.message)
+        contact = schedule.contact_matrix(12)
+        tilt = sole_tilt_rad(model, result.base_pose, result.joint_angles_rad)
+        assert np.degrees(tilt[contact]).max() < 1.0, label
+        moments = planner.layout.unpack_moments(result.warm_start.x) * moment_scale(model)
+        clearance = swing_height_profile(schedule, 12, planner.options.swing_clearance_m)
+        heading = np.zeros((12, 2))
+        for k in range(12):
+            b, q = result.base_pose[k], result.joint_angles_rad[k]
+            centres = np.asarray(model.fk(b[:3], b[3:], q)[0])
+            rots = np.asarray(model.soles(b[:3], b[3:], q))
+            for f, leg in enumerate(robot.legs):
+                rot = rots[:, 3 * f : 3 * f + 3]
+                heading[k, f] = np.arctan2(rot[1, 0], rot[0, 0])
+                corners = centres[:, f] + sole_corners_local(leg) @ rot.T
+                if contact[k, f]:
+                    assert np.abs(corners[:, 2]).max() < 1e-5
+                else:
+                    assert corners[:, 2].min() >= clearance[k, f] - 1e-6
+                hx, hy = leg.sole_half_extents_m
+                wrench = (
+                    rot.T @ result.contact_forces_n[k, f] / weight_n,
+                    rot.T @ moments[k, f] / weight_n,
+                )
+                rows = cwc_rows(*wrench, hx, hy, planner.options.mu / np.sqrt(2.0))
+                assert rows.min() > -1e-6, (label, k, f)
+        held = contact & np.roll(contact, -1, axis=0)
+        change = np.abs(np.angle(np.exp(1j * (np.roll(heading, -1, axis=0) - heading))))
+        assert np.degrees(change[held]).max() < 1e-3, label
