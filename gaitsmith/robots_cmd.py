@@ -15,6 +15,14 @@ from robots.robot import Leg
 robots_app = typer.Typer(help="List the built-in robots or show one.", invoke_without_command=True)
 
 
+def _foot_text(leg: Leg) -> str:
+    """`name (site)`, or for a flat foot `name (site, flat sole L × W mm)`."""
+    if leg.is_flat and leg.sole_half_extents_m is not None:
+        hx, hy = leg.sole_half_extents_m
+        return f"{leg.name} ({leg.foot_site}, flat sole {2e3 * hx:.0f} × {2e3 * hy:.0f} mm)"
+    return f"{leg.name} ({leg.foot_site})"
+
+
 @robots_app.callback()
 def list_robots(ctx: typer.Context) -> None:
     """List the built-in robots (legs, DOF, mass, servos)."""
@@ -88,11 +96,3 @@ def show(
 
 def register(app: typer.Typer) -> None:
     app.add_typer(robots_app, name="robots")
-
-
-def _foot_text(leg: Leg) -> str:
-    """`name (site)`, or for a flat foot `name (site, flat sole L × W mm)`."""
-    if leg.is_flat and leg.sole_half_extents_m is not None:
-        hx, hy = leg.sole_half_extents_m
-        return f"{leg.name} ({leg.foot_site}, flat sole {2e3 * hx:.0f} × {2e3 * hy:.0f} mm)"
-    return f"{leg.name} ({leg.foot_site})"

@@ -39,12 +39,3 @@ def test_robots_show_a_users_robot_with_held_joints(capsys: pytest.CaptureFixtur
     out = capsys.readouterr().out
     assert "head_pan" in out and "(held)" in out and "MY_STS" in out
     assert "removed its 2 actuator(s)" in out and "gs_floor" in out
-
-
-def test_robots_show_names_flat_feet_and_their_sole(capsys: pytest.CaptureFixture[str]) -> None:
-    from pathlib import Path
-
-    folder = Path(__file__).parents[1] / "planner" / "fixtures" / "biped12"
-    assert main(["robots", "show", str(folder)]) == 0
-    out = capsys.readouterr().out
-    assert "left (l_foot, flat sole 110 × 70 mm)" in out
