@@ -20,7 +20,13 @@ import casadi as ca
 import numpy as np
 
 from planner.config import PlannerOptions
-from planner.flat_foot import contact_offsets, flat_foot_groups, flat_foot_labels, moments_world
+from planner.flat_foot import (
+    body_clearance_lower_bounds,
+    contact_offsets,
+    flat_foot_groups,
+    flat_foot_labels,
+    moments_world,
+)
 from planner.model import RobotModel
 from planner.variables import Symbols
 
@@ -186,7 +192,7 @@ def build_groups(
         Group(
             "body clearance",
             col(kq.body_z_m - options.body_clearance_m),
-            zeros(model.n_bodies * n),
+            body_clearance_lower_bounds(model, n),  # 0; a flat foot's ankle: its sole instead
             np.full(model.n_bodies * n, inf),
         ),
         *_servo_goal_groups(model, sym, kq, n, options, inv_h),

@@ -109,6 +109,29 @@ def contact_offsets(model: RobotModel, n_knots: int) -> Any:
     return ca.repmat(ca.DM(offsets), 1, n_knots)
 
 
+#: bodies whose origin is this close to a flat foot's body origin are part of its ankle
+ANKLE_COINCIDENT_M = 1e-3
+
+
+def body_clearance_lower_bounds(model: RobotModel, n_knots: int) -> np.ndarray:
+    """Lower bounds of the "body clearance" rows (body-major within each knot): 0, except −∞
+    for a flat foot's body and its ancestors whose origin coincides with it (a 2-DOF ankle built
+    of bodies at one point). Their origin is the ankle, which stands only its height above the
+    sole; the sole's corners (the "sole clearance" group) keep that part off the ground instead.
+    """
+    lb = np.zeros(model.n_bodies)
+    if model.flat_feet:
+        q_ref = np.asarray(model.mj_model.qpos0)[model.joint_qposadr]
+        origins = np.asarray(model.fk(np.zeros(3), np.zeros(3), q_ref)[1])
+        for i in model.flat_feet:
+            body = model.foot_body_index(i)
+            ankle = origins[:, body].copy()
+            while body >= 0 and np.linalg.norm(origins[:, body] - ankle) < ANKLE_COINCIDENT_M:
+                lb[body] = -np.inf
+                body = model.body_parent(body)
+    return np.tile(lb, n_knots)
+
+
 def moment_scale(model: RobotModel) -> float:
     """[N·m] per unit of the moment variables: m·g·L."""
     weight_n = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2))

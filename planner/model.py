@@ -417,6 +417,14 @@ class RobotModel:
         qpos[self.joint_qposadr] = q_rad
         return qpos
 
+    def foot_body_index(self, foot: int) -> int:
+        """Index (in `fk`'s body_origins columns) of the body carrying foot `foot`."""
+        return self._sites[foot][0]
+
+    def body_parent(self, body: int) -> int:
+        """Index of a body's parent, −1 for the floating base."""
+        return self._bodies[body].parent
+
     def joint_limits_rad(self) -> tuple[np.ndarray, np.ndarray]:
         return (
             np.array([j.lower_rad for j in self.robot.joints]),

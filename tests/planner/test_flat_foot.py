@@ -261,3 +261,16 @@ def test_biped_plans_keep_the_soles_flat_and_inside_the_cone() -> None:
         held = contact & np.roll(contact, -1, axis=0)
         change = np.abs(np.angle(np.exp(1j * (np.roll(heading, -1, axis=0) - heading))))
         assert np.degrees(change[held]).max() < 1e-3, label
+
+
+def test_body_clearance_spares_only_the_flat_feet_ankles(biped_model: RobotModel) -> None:
+    from planner.flat_foot import body_clearance_lower_bounds
+
+    lb = body_clearance_lower_bounds(biped_model, 3).reshape(3, biped_model.n_bodies)
+    spared = {biped_model.foot_body_index(f) for f in range(2)} | {
+        biped_model.body_parent(biped_model.foot_body_index(f)) for f in range(2)
+    }
+    assert set(np.flatnonzero(np.isinf(lb[0]))) == spared and len(spared) == 4
+    assert np.all(lb[:, [b for b in range(biped_model.n_bodies) if b not in spared]] == 0.0)
+    quad = RobotModel(robots.load("quad12"))
+    assert np.all(body_clearance_lower_bounds(quad, 3) == 0.0)
