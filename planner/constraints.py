@@ -21,11 +21,11 @@ import numpy as np
 
 from planner.config import PlannerOptions
 from planner.flat_foot import (
-    body_clearance_lower_bounds,
     contact_offsets,
     flat_foot_groups,
     flat_foot_labels,
     moments_world,
+    spare_flat_foot_ankles,
 )
 from planner.model import RobotModel
 from planner.variables import Symbols
@@ -192,7 +192,7 @@ def build_groups(
         Group(
             "body clearance",
             col(kq.body_z_m - options.body_clearance_m),
-            body_clearance_lower_bounds(model, n),  # 0; a flat foot's ankle: its sole instead
+            zeros(model.n_bodies * n),
             np.full(model.n_bodies * n, inf),
         ),
         *_servo_goal_groups(model, sym, kq, n, options, inv_h),
@@ -235,7 +235,7 @@ def build_groups(
         ),
         *flat_foot_groups(model, sym, n, options, stick, Group),
     ]
-    return groups
+    return spare_flat_foot_ankles(model, groups, n)
 
 
 def _servo_goal_groups(

@@ -35,6 +35,7 @@ spatial force, i.e. Jᵀ(f, m) with the foot body's Jacobian.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -130,6 +131,18 @@ def body_clearance_lower_bounds(model: RobotModel, n_knots: int) -> np.ndarray:
                 lb[body] = -np.inf
                 body = model.body_parent(body)
     return np.tile(lb, n_knots)
+
+
+def spare_flat_foot_ankles(model: RobotModel, groups: list[Any], n_knots: int) -> list[Any]:
+    """`groups` with the "body clearance" rows of flat-foot ankles unbounded below
+    (`body_clearance_lower_bounds`); unchanged without flat feet."""
+    if not model.flat_feet:
+        return groups
+    lb = body_clearance_lower_bounds(model, n_knots)
+    return [
+        dataclasses.replace(g, lb=np.minimum(g.lb, lb)) if g.name == "body clearance" else g
+        for g in groups
+    ]
 
 
 def moment_scale(model: RobotModel) -> float:
