@@ -4,6 +4,7 @@ derivatives, the contact moment in the inverse dynamics, and plans of a biped wi
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import casadi as ca
 import mujoco
@@ -214,6 +215,14 @@ def test_soles_and_contact_points_match_mujoco(biped_model: RobotModel) -> None:
     assert tilt.shape == (1, 2) and np.all(tilt >= 0)
 
 
+def _swing_clearance_m(planner: Any) -> float:
+    """The planner's swing clearance h [m] (a fixed option, or its law in the leg length)."""
+    fixed = planner.options.swing_clearance_m
+    if fixed is not None:
+        return float(fixed)
+    return float(planner.options.swing_clearance_for(planner.robot.leg_length_m))
+
+
 @pytest.mark.slow
 def test_biped_plans_keep_the_soles_flat_and_inside_the_cone() -> None:
     """N = 12 stand and slow walk: stance soles level (< 1°), no yaw slip, swing soles clear of
@@ -237,7 +246,7 @@ def test_biped_plans_keep_the_soles_flat_and_inside_the_cone() -> None:
         tilt = sole_tilt_rad(model, result.base_pose, result.joint_angles_rad)
         assert np.degrees(tilt[contact]).max() < 1.0, label
         moments = planner.layout.unpack_moments(result.warm_start.x) * moment_scale(model)
-        clearance = swing_height_profile(schedule, 12, planner.options.swing_clearance_m)
+        clearance = swing_height_profile(schedule, 12, _swing_clearance_m(planner))
         heading = np.zeros((12, 2))
         for k in range(12):
             b, q = result.base_pose[k], result.joint_angles_rad[k]
