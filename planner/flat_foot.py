@@ -26,7 +26,12 @@ and the planner imposes:
   |τ_z| ≤ µ_t f_z. µ is the linear pyramid inscribed in the Coulomb cone, µ_opt/√2, as for the
   point feet (W&P eq 9), applied at every corner of the sole, so the rows are conservative. With
   f_z = 0 (swing: the "swing force" group) they force the whole wrench to zero;
-- in swing the whole sole clears the ground: all four corners at least the swing profile H high.
+- in swing the whole sole clears the ground: all four corners at least the swing profile H high;
+- the "body clearance" rows (W&P eq 1) spare the ankle: a flat foot's body and the ancestors
+  sharing its origin stand only the ankle height above the sole, which its corners keep clear.
+
+Point feet are untouched: without flat feet none of this is built and the NLP is the same, bit
+for bit (checked on quad12 and hex18: g, torques and cost terms at random points).
 
 Whole-body dynamics (Newton–Euler balance and the joint torques) take the moment through
 `RobotModel.inverse_dynamics_wrench`: a world moment m at the foot body adds m to the body's
