@@ -13,8 +13,17 @@ from rich.table import Table
 
 import robots
 from gaitsmith.console import console
+from robots.robot import Leg
 
 robots_app = typer.Typer(help="List the built-in robots or show one.", invoke_without_command=True)
+
+
+def _foot_text(leg: Leg) -> str:
+    """`name (site)`, or for a flat foot `name (site, flat sole L × W mm)`."""
+    if leg.is_flat and leg.sole_half_extents_m is not None:
+        hx, hy = leg.sole_half_extents_m
+        return f"{leg.name} ({leg.foot_site}, flat sole {2e3 * hx:.0f} × {2e3 * hy:.0f} mm)"
+    return f"{leg.name} ({leg.foot_site})"
 
 
 @robots_app.callback()
@@ -85,7 +94,7 @@ def show(
             f"{j.servo.no_load_speed_rad_s:.2f}",
         )
     console.print(table)
-    console.print("feet: " + ", ".join(f"{leg.name} ({leg.foot_site})" for leg in r.legs))
+    console.print("feet: " + ", ".join(_foot_text(leg) for leg in r.legs))
 
 
 def _parse_limit(text: str) -> tuple[str, tuple[float, float]]:

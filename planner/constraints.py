@@ -20,6 +20,13 @@ import casadi as ca
 import numpy as np
 
 from planner.config import PlannerOptions
+from planner.flat_foot import (
+    contact_offsets,
+    flat_foot_groups,
+    flat_foot_labels,
+    moments_world,
+    spare_flat_foot_ankles,
+)
 from planner.model import RobotModel
 from planner.variables import Symbols, time_unit_s
 
@@ -63,7 +70,10 @@ def _shift(m: Any, k: int) -> Any:
 
 
 def knot_function(model: RobotModel) -> ca.Function:
-    """SX function of one knot: dynamics residual, torques, feet, body heights, ω."""
+    """SX function of one knot: dynamics residual, torques, feet, body heights, ω.
+
+    With flat feet it takes their contact moments too (last input "m", `planner.flat_foot`).
+    """
     nj, nf = model.n_joints, model.n_feet
     b, bd, bdd = ca.SX.sym("b", 6), ca.SX.sym("bd", 6), ca.SX.sym("bdd", 6)
     q, qd, qdd = ca.SX.sym("q", nj), ca.SX.sym("qd", nj), ca.SX.sym("qdd", nj)
@@ -73,16 +83,24 @@ def knot_function(model: RobotModel) -> ca.Function:
     w, dw = model.base_rates(b[3:], bd[3:], bdd[3:])
     v_base = bd[:3] + ca.vertcat(v, 0, 0)
     forces = ca.reshape(f, 3, nf) * weight_n
-    base_rows, tau = model.inverse_dynamics(
-        b[:3], b[3:], q, v_base, w, qd, bdd[:3], dw, qdd, forces
-    )
+    inputs, names = [b, q, bd, qd, bdd, qdd, f, v], ["b", "q", "bd", "qd", "bdd", "qdd", "f", "v"]
+    if model.flat_feet:
+        m = ca.SX.sym("m", 3 * len(model.flat_feet))
+        inputs, names = [*inputs, m], [*names, "m"]
+        base_rows, tau = model.inverse_dynamics_wrench(
+            b[:3], b[3:], q, v_base, w, qd, bdd[:3], dw, qdd, forces, moments_world(model, m)
+        )
+    else:
+        base_rows, tau = model.inverse_dynamics(
+            b[:3], b[3:], q, v_base, w, qd, bdd[:3], dw, qdd, forces
+        )
     feet, origins, _ = model.fk(b[:3], b[3:], q)
     scale = ca.DM([1, 1, 1, *[1.0 / model.robot.leg_length_m] * 3]) / weight_n
     return ca.Function(
         "knot",
-        [b, q, bd, qd, bdd, qdd, f, v],
+        inputs,
         [base_rows * scale, tau, ca.reshape(feet, 3 * nf, 1), origins[2, :].T, w],
-        ["b", "q", "bd", "qd", "bdd", "qdd", "f", "v"],
+        names,
         ["base_rows", "tau", "feet", "body_z", "w"],
     )
 
@@ -91,8 +109,9 @@ def knot_quantities(model: RobotModel, sym: Symbols, n_knots: int) -> KnotQuanti
     bd, qd = sym.vel[:6, :], sym.vel[6:, :]
     bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
     fn = knot_function(model).map(n_knots)
+    flat = [sym.moments] if model.flat_feet else []
     base_rows, tau, feet, body_z, w = fn(
-        sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s
+        sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s, *flat
     )
     return KnotQuantities(base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w)
 
@@ -102,7 +121,7 @@ def build_groups(
 ) -> list[Group]:
     """All constraint groups, in the order they appear in g."""
     n, nf = n_knots, model.n_feet
-    r = model.foot_radius_m
+    r = contact_offsets(model, n)  # foot radius; 0 for a flat foot's sole centre
     c = sym.contact
     feet_x = kq.feet_m[0::3, :]
     feet_y = kq.feet_m[1::3, :]
@@ -227,8 +246,9 @@ def build_groups(
             zeros(2),
             zeros(2),
         ),
+        *flat_foot_groups(model, sym, n, options, stick, Group),
     ]
-    return groups
+    return spare_flat_foot_ankles(model, groups, n)
 
 
 def row_scales(groups: list[Group]) -> np.ndarray:
@@ -335,4 +355,5 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         "body clearance": [
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)
         ],
+        **flat_foot_labels(model, n_knots),
     }

@@ -92,6 +92,16 @@ class RobotModel:
         self.foot_radius_m = float(robot.foot_radius_m)
         self.gravity_m_s2 = np.array(mj.opt.gravity, dtype=float)
         self._bodies, self._sites = self._read_tree(mj, robot)
+        # flat feet (`robots.sole`): the contact point is the sole centre, not the foot site
+        from robots.sole import sole_frame_local
+
+        #: indices (Robot.legs order) of the flat feet; their contact carries a moment too
+        self.flat_feet = tuple(i for i, leg in enumerate(robot.legs) if leg.is_flat)
+        self._sole_rot_local: list[np.ndarray] = []
+        for i in self.flat_feet:
+            centre, rot = sole_frame_local(mj, robot.legs[i])
+            self._sites[i] = (self._sites[i][0], centre)
+            self._sole_rot_local.append(rot)
         self.n_bodies = len(self._bodies)
         self.total_mass_kg = float(sum(b.mass_kg for b in self._bodies))
         self.armature = np.zeros(6 + self.n_joints)
@@ -250,6 +260,7 @@ class RobotModel:
         v_b, w_b = ca.SX.sym("v_base", 3), ca.SX.sym("w_base", 3)
         a_b, dw_b = ca.SX.sym("a_base", 3), ca.SX.sym("dw_base", 3)
         forces = ca.SX.sym("f_feet", 3, nf)
+        moments = ca.SX.sym("m_feet", 3, nf)  # contact moments about the contact points
         rots, origins, hinges = self._frames(pos, rpy, qj)
         feet = ca.horzcat(*[origins[b] + rots[b] @ ca.DM(p) for b, p in self._sites])
         body_origins = ca.horzcat(*origins)
@@ -263,7 +274,26 @@ class RobotModel:
         mass = self.total_mass_kg
         weighted = (b.mass_kg * c for b, c in zip(self._bodies, coms, strict=True))
         com = sum(weighted, ca.SX.zeros(3)) / mass
-        #: fk(base_pos, base_rpy, q) -> (feet 3×F foot-site centres, body_origins 3×B, com 3)
+        #: soles(base_pos, base_rpy, q) -> 3×3·F_flat world rotations of the flat feet's sole
+        #: frames, side by side (the sole centres are `fk`'s feet columns of those feet)
+        self.soles = ca.Function(
+            "soles",
+            [pos, rpy, qj],
+            [
+                ca.horzcat(
+                    *[
+                        rots[self._sites[i][0]] @ ca.DM(r)
+                        for i, r in zip(self.flat_feet, self._sole_rot_local, strict=True)
+                    ]
+                )
+                if self.flat_feet
+                else ca.SX.zeros(3, 0)
+            ],
+            ["base_pos", "base_rpy", "q"],
+            ["rot"],
+        )
+        #: fk(base_pos, base_rpy, q) -> (feet 3×F contact points: foot-site centres, sole
+        #: centres for flat feet; body_origins 3×B, com 3)
         self.fk = ca.Function(
             "fk",
             [pos, rpy, qj],
@@ -285,34 +315,44 @@ class RobotModel:
                     f_ang + ca.cross(w, h_ang) + ca.cross(vo, h_lin), f_lin + ca.cross(w, h_lin)
                 )
             )
-        for f, (b, _) in enumerate(self._sites):
-            foot = feet[:, f]
-            wrench[b] = wrench[b] - ca.vertcat(ca.cross(foot, forces[:, f]), forces[:, f])
-        for i in reversed(range(self.n_bodies)):  # backward pass: subtree wrenches
-            parent = self._bodies[i].parent
-            if parent >= 0:
-                wrench[parent] = wrench[parent] + wrench[i]
-        tau = [ca.SX(0)] * nj
-        for i, body in enumerate(self._bodies):
-            for jt, (anchor, axis) in zip(body.joints, hinges[i], strict=False):
-                tau[jt.index] = ca.dot(ca.vertcat(axis, ca.cross(anchor, axis)), wrench[i])
-        root = wrench[0]
-        base_force = root[3:]
-        base_torque = rots[0].T @ (root[:3] - ca.cross(pos, base_force))
-        arm, damp = self.armature, self.damping
-        joint_rows = (
-            ca.vertcat(*tau)
-            + ca.DM(arm[6:]) * qddj
-            + ca.DM(damp[6:]) * qdj
-            + ca.DM(self.stiffness) * (qj - ca.DM(self.spring_ref_rad))
-        )
-        base_acc_body = ca.vertcat(a_b, rots[0].T @ dw_b)
-        base_vel_body = ca.vertcat(v_b, rots[0].T @ w_b)
-        base_rows = (
-            ca.vertcat(base_force, base_torque)
-            + ca.DM(arm[:6]) * base_acc_body
-            + ca.DM(damp[:6]) * base_vel_body
-        )
+        body_wrench = wrench
+
+        def generalised_forces(contact_moments: Any) -> list[Any]:
+            """[base_rows, joint_rows] with the contact forces (and moments, unless None)."""
+            wrench = list(body_wrench)
+            for f, (b, _) in enumerate(self._sites):
+                foot = feet[:, f]
+                ang = ca.cross(foot, forces[:, f])
+                if contact_moments is not None:
+                    ang = ang + contact_moments[:, f]
+                wrench[b] = wrench[b] - ca.vertcat(ang, forces[:, f])
+            for i in reversed(range(self.n_bodies)):  # backward pass: subtree wrenches
+                parent = self._bodies[i].parent
+                if parent >= 0:
+                    wrench[parent] = wrench[parent] + wrench[i]
+            tau = [ca.SX(0)] * nj
+            for i, body in enumerate(self._bodies):
+                for jt, (anchor, axis) in zip(body.joints, hinges[i], strict=False):
+                    tau[jt.index] = ca.dot(ca.vertcat(axis, ca.cross(anchor, axis)), wrench[i])
+            root = wrench[0]
+            base_force = root[3:]
+            base_torque = rots[0].T @ (root[:3] - ca.cross(pos, base_force))
+            arm, damp = self.armature, self.damping
+            joint_rows = (
+                ca.vertcat(*tau)
+                + ca.DM(arm[6:]) * qddj
+                + ca.DM(damp[6:]) * qdj
+                + ca.DM(self.stiffness) * (qj - ca.DM(self.spring_ref_rad))
+            )
+            base_acc_body = ca.vertcat(a_b, rots[0].T @ dw_b)
+            base_vel_body = ca.vertcat(v_b, rots[0].T @ w_b)
+            base_rows = (
+                ca.vertcat(base_force, base_torque)
+                + ca.DM(arm[:6]) * base_acc_body
+                + ca.DM(damp[:6]) * base_vel_body
+            )
+            return [base_rows, joint_rows]
+
         args = [pos, rpy, qj, v_b, w_b, qdj, a_b, dw_b, qddj, forces]
         names = [
             "base_pos",
@@ -326,10 +366,20 @@ class RobotModel:
             "qdd",
             "f_feet",
         ]
+        #: inverse_dynamics_wrench(..., f_feet, m_feet) -> as `inverse_dynamics` with contact
+        #: wrenches: world force f and world moment m about each contact point (flat feet) —
+        #: MuJoCo's qfrc_inverse minus Jᵀ(f, m) with the contact point's Jacobian
+        self.inverse_dynamics_wrench = ca.Function(
+            "inverse_dynamics_wrench",
+            [*args, moments],
+            generalised_forces(moments),
+            [*names, "m_feet"],
+            ["base_rows", "tau"],
+        )
         #: inverse_dynamics(...) -> (base_rows 6: world force + body-frame torque about the base
         #: origin, joint_rows J: joint torques [N·m]) — MuJoCo's qfrc_inverse minus Jᵀf
         self.inverse_dynamics = ca.Function(
-            "inverse_dynamics", args, [base_rows, joint_rows], names, ["base_rows", "tau"]
+            "inverse_dynamics", args, generalised_forces(None), names, ["base_rows", "tau"]
         )
         ang_com = ang_o - ca.cross(com, lin)
         #: momentum(base_pos, base_rpy, q, v_base, w_base, qd) -> (linear [kg·m/s], angular about
@@ -366,6 +416,14 @@ class RobotModel:
         qpos[3:7] = rpy_to_quat_np(base_pose[3:6])
         qpos[self.joint_qposadr] = q_rad
         return qpos
+
+    def foot_body_index(self, foot: int) -> int:
+        """Index (in `fk`'s body_origins columns) of the body carrying foot `foot`."""
+        return self._sites[foot][0]
+
+    def body_parent(self, body: int) -> int:
+        """Index of a body's parent, −1 for the floating base."""
+        return self._bodies[body].parent
 
     def joint_limits_rad(self) -> tuple[np.ndarray, np.ndarray]:
         return (

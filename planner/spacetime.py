@@ -123,7 +123,9 @@ class GaitPlanner:
         self.n_knots = n_knots
         self.options = options or PlannerOptions()
         self.model = RobotModel(robot)
-        self.layout = Layout(n_knots, self.model.n_joints, self.model.n_feet)
+        self.layout = Layout(
+            n_knots, self.model.n_joints, self.model.n_feet, len(self.model.flat_feet)
+        )
         # nondimensional NLP: the solver sees x / x_scale and g / g_scale (see variable_scale)
         nondim = self.options.nondimensional
         self._x_scale = (

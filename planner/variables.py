@@ -39,12 +39,19 @@ from robots import ContactSchedule
 class Layout:
     """Sizes and packing order of the decision vector.
 
-    Order: [vec(B), vec(Q), vec(F), vec(V), vec(A), vec(τ), vec(S)], each knot-major.
+    Order: [vec(B), vec(Q), vec(F), vec(V), vec(A), vec(τ), vec(S), vec(M)], each knot-major;
+    M: the flat feet's contact moments (3 per flat foot, units of m·g·L; `planner.flat_foot`),
+    absent without flat feet.
     """
 
     n_knots: int
     n_joints: int
     n_feet: int
+    n_flat_feet: int = 0
+
+    @property
+    def n_m(self) -> int:
+        return 3 * self.n_flat_feet * self.n_knots
 
     @property
     def n_base(self) -> int:
@@ -64,7 +71,12 @@ class Layout:
 
     @property
     def size(self) -> int:
-        return self.n_base + self.n_q + self.n_f + 2 * self.n_rates + 2 * self.n_q
+        return self.n_base + self.n_q + self.n_f + 2 * self.n_rates + 2 * self.n_q + self.n_m
+
+    def unpack_moments(self, x: np.ndarray) -> np.ndarray:
+        """N × F_flat × 3 flat-foot moments (units of m·g·L) from the flat vector."""
+        x = np.asarray(x, dtype=float).ravel()
+        return x[self.size - self.n_m :].reshape(self.n_knots, self.n_flat_feet, 3)
 
     def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(base N×6, joints N×J, forces N×F×3 in units of m·g) from the flat vector."""
@@ -90,13 +102,23 @@ class Layout:
         return out
 
     def pack(
-        self, base: np.ndarray, q: np.ndarray, f: np.ndarray, lifted: np.ndarray | None = None
+        self,
+        base: np.ndarray,
+        q: np.ndarray,
+        f: np.ndarray,
+        lifted: np.ndarray | None = None,
+        moments: np.ndarray | None = None,
     ) -> np.ndarray:
         """Flat vector; `lifted` = velocities, accelerations ((6+J)·N each), torques and goal
-        slopes (J·N each), zeros by default (consistent with a constant pose at rest)."""
+        slopes (J·N each), zeros by default (consistent with a constant pose at rest);
+        `moments` = the flat feet's moments (zeros by default)."""
         if lifted is None:
             lifted = np.zeros(2 * self.n_rates + 2 * self.n_q)
-        return np.concatenate([np.ravel(base), np.ravel(q), np.ravel(f), np.ravel(lifted)])
+        if moments is None:
+            moments = np.zeros(self.n_m)
+        return np.concatenate(
+            [np.ravel(base), np.ravel(q), np.ravel(f), np.ravel(lifted), np.ravel(moments)]
+        )
 
 
 @dataclass(frozen=True)
@@ -116,6 +138,7 @@ class Symbols:
     min_height_m: Any  # F × N
     speed_m_s: Any
     period_s: Any
+    moments: Any = None  # 3·F_flat × N flat-foot moments (units of m·g·L), None without
 
 
 def time_unit_s(leg_length_m: float, gravity_m_s2: float = 9.81) -> float:
@@ -145,6 +168,7 @@ def variable_scale(layout: Layout, model: RobotModel) -> np.ndarray:
         np.tile(acc, n),
         np.full(layout.n_q, torque),
         np.full(layout.n_q, 1.0 / t0),
+        np.ones(layout.n_m),  # flat feet's contact moments (appended last), in m·g·L already
     ])
 
 
@@ -164,7 +188,9 @@ def make_symbols(layout: Layout, scale: np.ndarray | None = None) -> Symbols:
     acc = ca.reshape(x[start + layout.n_rates : start + 2 * layout.n_rates], 6 + nj, n)
     start += 2 * layout.n_rates
     tau = ca.reshape(x[start : start + layout.n_q], nj, n)
-    goal_slope = ca.reshape(x[start + layout.n_q :], nj, n)
+    goal_slope = ca.reshape(x[start + layout.n_q : start + 2 * layout.n_q], nj, n)
+    start += 2 * layout.n_q
+    moments = ca.reshape(x[start:], 3 * layout.n_flat_feet, n) if layout.n_flat_feet else None
     p = ca.MX.sym("p", 2 * nf * n + 2)
     contact = ca.reshape(p[: nf * n], nf, n)
     min_height = ca.reshape(p[nf * n : 2 * nf * n], nf, n)
@@ -182,6 +208,7 @@ def make_symbols(layout: Layout, scale: np.ndarray | None = None) -> Symbols:
         min_height,
         p[2 * nf * n],
         p[2 * nf * n + 1],
+        moments,
     )
 
 
@@ -235,7 +262,11 @@ def variable_bounds(
     free = np.full(2 * layout.n_rates + 2 * layout.n_q, inf)
     if not options.servo_goals:
         free[2 * layout.n_rates + layout.n_q :] = 0.0  # no goals: slopes fixed (IPOPT drops them)
-    return layout.pack(base_lo, q_lo, f_lo, -free), layout.pack(base_hi, q_hi, f_hi, free)
+    m_free = np.full(layout.n_m, inf)  # the contact wrench cone bounds them (planner.flat_foot)
+    return (
+        layout.pack(base_lo, q_lo, f_lo, -free, -m_free),
+        layout.pack(base_hi, q_hi, f_hi, free, m_free),
+    )
 
 
 def initial_guess(layout: Layout, model: RobotModel, schedule: ContactSchedule) -> np.ndarray:

@@ -88,6 +88,18 @@ class Leg:
     joints: tuple[str, ...]
     foot_body: str = ""
     foot_geoms: tuple[str, ...] = ()
+    #: "point" (a sphere: the site is its centre) or "flat" (a rectangular sole lying on the
+    #: ground in stance, see `robots.sole`)
+    foot_kind: str = "point"
+    #: flat feet: sole half length (along the sole frame's x) and half width (y) [m]
+    sole_half_extents_m: tuple[float, float] | None = None
+    #: flat feet: the box geom the sole is the bottom face of, "" when robot.toml gives
+    #: sole_size_m (then the foot site is the sole centre and its frame the sole frame)
+    sole_geom: str = ""
+
+    @property
+    def is_flat(self) -> bool:
+        return self.foot_kind == "flat"
 
 
 @dataclass(frozen=True)
@@ -176,7 +188,9 @@ _JOINT_KEYS = {
     "damping_nm_s_per_rad",
     "armature_kg_m2",
 }
-_LEG_KEYS = {"foot_site", "joints"}
+_LEG_KEYS = {"foot_site", "joints", "foot", "sole_size_m"}
+FOOT_KINDS = ("point", "flat")
+MAX_SOLE_SIZE_M = 1.0
 MAX_FOOT_RADIUS_M = 1.0
 MIN_FOOT_RADIUS_M = 1e-4
 MAX_STANCE_HEIGHT_M = 100.0
@@ -372,7 +386,30 @@ def _parse_legs(
                     file, f"{where}.joints", f"joint {c!r} is already in [legs.{used[c]}]"
                 )
             used[c] = leg_name
-        legs.append(Leg(leg_name, site, tuple(chain)))
+        kind = table.get("foot", "point")
+        if kind not in FOOT_KINDS:
+            raise RobotConfigError(
+                file, f"{where}.foot", f'must be "point" or "flat", got {kind!r:.40}'
+            )
+        sole = table.get("sole_size_m")
+        half: tuple[float, float] | None = None
+        if sole is not None:
+            if kind != "flat":
+                raise RobotConfigError(
+                    file, f"{where}.sole_size_m", 'only a flat foot has a sole; add foot = "flat"'
+                )
+            if not isinstance(sole, list) or len(sole) != 2:
+                raise RobotConfigError(
+                    file, f"{where}.sole_size_m", "must be [length, width] in metres"
+                )
+            length, width = (
+                ts.number(file, f"{where}.sole_size_m[{i}]", v, 1e-3, MAX_SOLE_SIZE_M, unit="m")
+                for i, v in enumerate(sole)
+            )
+            half = (0.5 * length, 0.5 * width)
+        legs.append(
+            Leg(leg_name, site, tuple(chain), foot_kind=str(kind), sole_half_extents_m=half)
+        )
     loose = [n for n, r in roles.items() if r == "leg" and n not in used]
     if loose:
         raise RobotConfigError(
@@ -596,12 +633,20 @@ def _build(
                 f"carries foot site {leg.foot_site!r} ([legs.{leg.name}]) but no collidable "
                 "geom; give the foot a geom with contype/conaffinity set",
             )
-        legs.append(Leg(leg.name, leg.foot_site, leg.joints, body_name, geoms))
+        built = Leg(leg.name, leg.foot_site, leg.joints, body_name, geoms)
+        # the contact point's height: the sphere's centre (its radius is added below) or, for a
+        # flat foot, the sole centre lifted by the radius so both kinds compare alike
+        foot = float(data.site_xpos[sid][2])
+        if leg.is_flat:
+            from robots.sole import resolve_sole, sole_pose_world
+
+            built = resolve_sole(model, leg, built, tfile, mfile)
+            foot = float(sole_pose_world(model, data, built)[0][2]) + spec.foot_radius_m
+        legs.append(built)
         first = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, leg.joints[0])
         anchor = data.xanchor[first]
-        foot = data.site_xpos[sid]
-        foot_z.append(float(foot[2]))
-        leg_lengths.append(float(anchor[2] - foot[2]))
+        foot_z.append(foot)
+        leg_lengths.append(float(anchor[2] - foot) + (spec.foot_radius_m if leg.is_flat else 0.0))
     height = spec.foot_radius_m - min(foot_z)
     if not 0.0 < height <= MAX_STANCE_HEIGHT_M:
         raise RobotConfigError(

@@ -20,6 +20,8 @@ import numpy as np
 
 from robots.gait import Gait
 from robots.ramp import GaitEntry, gait_entry
+from robots.robot import Robot
+from robots.sole import sole_pose_world
 from sim.errors import SimConfigError, SimDivergedError
 from sim.model import SimModel
 from sim.servo import DEFAULT_RATE_HZ, held_targets
@@ -197,6 +199,27 @@ def run(
     return _trajectory(gait, sim, settings, stream, ramp, gait_start, st_all, sd_all, stopped)
 
 
+def _sole_centre_velocity(
+    model: mujoco.MjModel,
+    qpos: np.ndarray,
+    robot: Robot,
+    flat: list[int],
+    site_pos: np.ndarray,
+    site_vel: np.ndarray,
+    site_w: np.ndarray,
+) -> np.ndarray:
+    """(T, len(flat), 2) horizontal world velocity of the flat feet's sole centres,
+    v_site + ω × (p_sole − p_site), from the foot-site sensors and the recorded qpos."""
+    data = mujoco.MjData(model)
+    offset = np.zeros((len(qpos), len(flat), 3))
+    for t, qp in enumerate(qpos):
+        data.qpos[:] = qp
+        mujoco.mj_kinematics(model, data)
+        for i, f in enumerate(flat):
+            offset[t, i] = sole_pose_world(model, data, robot.legs[f])[0] - site_pos[t, f]
+    return (site_vel[:, flat] + np.cross(site_w[:, flat], offset))[..., :2]
+
+
 def _trajectory(
     gait: Gait,
     sim: SimModel,
@@ -239,6 +262,11 @@ def _trajectory(
     # velocity of the sphere's lowest point: v + ω × (−r ẑ) = v + r·(−ω_y, ω_x, 0)
     r = robot.foot_radius_m
     slip_xy = foot_vel[..., :2] + r * np.stack([-foot_w[..., 1], foot_w[..., 0]], axis=-1)
+    flat = [f for f, leg in enumerate(robot.legs) if leg.is_flat]
+    if flat:  # a flat foot slips where its sole centre moves (robots.sole)
+        slip_xy[:, flat] = _sole_centre_velocity(
+            model, qpos, robot, flat, foot_pos, foot_vel, foot_w
+        )
     contact = cols("gs_foot_contact_", feet)
     return Trajectory(
         time_s=time_s,
