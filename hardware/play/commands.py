@@ -1,4 +1,4 @@
-"""`gaitsmith-play run | calibrate | plot | budget`: the player's commands (on hardware.cli).
+"""`gaitsmith-play run | calibrate | plot | report | budget`: the player's commands.
 
 Exit codes: 0 completed, 2 refused (pre-flight, bad file or option), 3 no response,
 4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 8 status lost (servo health
@@ -519,9 +519,50 @@ def plot(
     console.print(f"plot: {out} ({len(tel.tick)} ticks, stop: {tel.stop_reason})", highlight=False)
 
 
+def report(
+    telemetry: Path = typer.Argument(..., help="Telemetry CSV from `run --telemetry`."),
+    gait: Path = typer.Argument(..., help="The gait file that was played (with its validation)."),
+    output: Path = typer.Option(Path("run.html"), "--output", "-o", help="HTML page to write."),
+    robot: str | None = typer.Option(
+        None, "--robot", help="Robot name or folder: load in N·m against the servo envelope."
+    ),
+    speed_scale: float = typer.Option(
+        1.0, "--speed-scale", help="The --speed-scale the run was played at."
+    ),
+    departure_factor: float = typer.Option(
+        3.0, "--departure-factor", help="Departure: this many × a joint's median plan error."
+    ),
+    departure_rad: float = typer.Option(
+        0.1, "--departure-rad", help="Departure: absolute plan error cap \\[rad]."
+    ),
+) -> None:
+    """Planned vs measured after a run: tracking, load, temperature, loop timing, and where
+    the run departed from the plan (self-contained HTML)."""
+    from hardware.play.run_report import DepartureRule, write_report
+    from robots.errors import OutputWriteError
+
+    problem = check_option("--speed-scale", speed_scale)
+    if problem is not None:
+        raise _fail(problem)
+    try:
+        rule = DepartureRule(
+            factor=departure_factor, abs_rad=departure_rad,
+            floor_rad=min(DepartureRule.floor_rad, departure_rad),
+        )
+        rep = write_report(telemetry, gait, output, robot_name=robot, speed_scale=speed_scale,
+                           rule=rule)
+    except (HardwareError, OutputWriteError) as exc:
+        raise _fail(str(exc)) from None
+    for w in rep.warnings:
+        err_console.print(f"[bold yellow]WARNING: {escape(w)}[/]", highlight=False)
+    console.print(rep.departure_line(), highlight=False, soft_wrap=True)
+    console.print(f"report: {output}", highlight=False, soft_wrap=True)
+
+
 def register(app: typer.Typer) -> None:
-    """Add `run`, `calibrate`, `plot` and `budget` to the `gaitsmith-play` app."""
+    """Add `run`, `calibrate`, `plot`, `report` and `budget` to the `gaitsmith-play` app."""
     app.command("run", cls=_RunCommand)(run)
     app.command("calibrate")(calibrate)
     app.command("plot")(plot)
+    app.command("report")(report)
     app.command("budget")(budget)

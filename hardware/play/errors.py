@@ -5,7 +5,8 @@ Hierarchy (extends `hardware.errors` additively)::
     HardwareError
     └── PlayerError               the player refuses to start or cannot go on
         ├── PreflightError        a pre-flight check failed (names the servo / field at fault)
-        └── SpeedScaleError       --speed-scale would drive a joint faster than allowed
+        ├── SpeedScaleError       --speed-scale would drive a joint faster than allowed
+        └── RunReportError        `report`: a telemetry / gait file missing, garbled or mismatched
 """
 
 from __future__ import annotations
@@ -48,3 +49,13 @@ class SpeedScaleError(PlayerError):
             f"above its allowed {allowed_rad_s:.2f} rad/s{at} "
             f"(largest allowed scale {scale * allowed_rad_s / speed_rad_s:.3f})"
         )
+
+
+class RunReportError(PlayerError):
+    """`gaitsmith-play report` cannot read its inputs: `source` names the file (or option),
+    `problem` says what is wrong and what to do."""
+
+    def __init__(self, source: str, problem: str) -> None:
+        self.source = source
+        self.problem = problem
+        super().__init__(f"{source}: {problem}")

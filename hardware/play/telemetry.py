@@ -189,6 +189,10 @@ class Telemetry:
     stop_message: str | None
     stop_requested_s: float  # when the stop was requested (NaN: not recorded)
     stop_done_s: float  # when torque-off had been sent
+    loop_s: np.ndarray  # (K,) tick work [s]
+    load_pct: np.ndarray  # (K, J) % of max, signed; NaN off status ticks
+    temperature_c: np.ndarray  # (K, J); NaN off status ticks
+    voltage_v: np.ndarray  # (K, J); NaN off status ticks
 
 
 def _f(text: str) -> float:
@@ -237,6 +241,10 @@ def read_telemetry(path: str | Path) -> Telemetry:
             stop_message=stops[-1][8] if stops else None,
             stop_requested_s=_f(stops[-1][2]) if stops else math.nan,
             stop_done_s=_f(stops[-1][3]) if stops else math.nan,
+            loop_s=np.array([_f(r[5]) for r in ticks]),
+            load_pct=joint_col(3),
+            temperature_c=joint_col(4),
+            voltage_v=joint_col(5),
         )
     except (IndexError, ValueError) as exc:
         raise ValueError(f"{path}: malformed row: {exc}") from None
