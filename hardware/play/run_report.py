@@ -38,7 +38,9 @@ gait phase, capped at an absolute 0.1 rad, never below 0.02 rad so that a near-p
 quantisation does not count, 3 ticks so that one noisy read does not); the earliest joint is
 named. Missing reads never count as exceeding.
 
-No mujoco, no sim import: everything here reads files (`hardware` never imports sim).
+No sim import (`hardware` never imports sim): without ``--robot`` the report reads files only and
+never loads mujoco; with ``--robot``, `robots.load` parses the robot's MJCF with mujoco, as
+every player command that loads a robot does.
 """
 
 from __future__ import annotations
