@@ -229,3 +229,19 @@ def test_departure_rule_rejects_nonsense() -> None:
         DepartureRule(factor=0.0)
     with pytest.raises(RunReportError, match="floor_rad"):
         DepartureRule(abs_rad=0.01, floor_rad=0.02)
+
+
+def test_a_run_stopped_in_the_ramp_is_reported_without_a_departure(
+    telemetry: Path, gait_file: Path, tmp_path: Path
+) -> None:
+    """A log cut short in ramp_in (no gait ticks, no stop row) still gives a page saying so."""
+    short = tmp_path / "ramp.csv"
+    short.write_text(
+        "\n".join(telemetry.read_text(encoding="utf-8").splitlines()[:31]) + "\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "run.html"
+    code, text = _report(str(short), str(gait_file), "-o", str(out))
+    assert code == 0, text
+    assert "no departure can be judged" in text
+    assert "no stop row" in out.read_text(encoding="utf-8")
