@@ -544,6 +544,10 @@ def report(
     problem = check_option("--speed-scale", speed_scale)
     if problem is not None:
         raise _fail(problem)
+    for name, value in (("--departure-factor", departure_factor),
+                        ("--departure-rad", departure_rad)):
+        if not (math.isfinite(value) and value > 0):
+            raise _fail(f"{name} {value:g}: must be a finite positive number")
     try:
         rule = DepartureRule(
             factor=departure_factor, abs_rad=departure_rad,

@@ -193,6 +193,7 @@ def test_truncated_row_missing_files_and_mismatched_gait(
         ((str(telemetry), str(tmp_path / "none.json")), "none.json"),
         ((str(telemetry), str(gait_file), "--robot", "hex18"), "robot_fingerprint"),
         ((str(telemetry), str(gait_file), "--speed-scale", "0"), "--speed-scale 0"),
+        ((str(telemetry), str(gait_file), "--departure-rad", "nan"), "--departure-rad nan"),
     ]:
         code, text = _report(*args, "-o", str(out))
         assert code == 2, (args, text)
