@@ -210,10 +210,14 @@ def test_hybrids_between_different_trees_are_refused(tmp_path: Path) -> None:
     shutil.copytree(BUILTIN / "quad12", folder)
     xml = (folder / "robot.xml").read_text()
     # a foot body under the hind-right shank: one more body on that chain
-    xml = xml.replace(
+    foot_geom = ('<geom name="hr_foot" class="collide" type="sphere" pos="0 0 -0.12" '
+                 'size="0.012" rgba="0.1 0.1 0.1 1"/>')
+    assert foot_geom in xml
+    xml = xml.replace(foot_geom, "").replace(
         '<site name="hr_foot" pos="0 0 -0.12" size="0.005"/>',
         '<body name="hr_toe" pos="0 0 -0.12"><inertial pos="0 0 0" mass="0.01" '
-        'diaginertia="1e-6 1e-6 1e-6"/><site name="hr_foot" pos="0 0 0" size="0.005"/></body>')
+        'diaginertia="1e-6 1e-6 1e-6"/><geom name="hr_foot" class="collide" type="sphere" '
+        'size="0.012"/><site name="hr_foot" pos="0 0 0" size="0.005"/></body>')
     (folder / "robot.xml").write_text(xml)
     other = robots.load(folder)
     with pytest.raises(HybridBodyError, match="bodies"):
