@@ -1,11 +1,18 @@
 """Spacetime planner benchmark: NLP build time, cold solve, median warm solve over 10 schedules.
 
     python benchmarks/planner_bench.py            # quad12 trot N=30 and hex18 tripod N=30
+    python benchmarks/planner_bench.py --section build   # only the build-once measurement
 
 Each warm solve starts from the previous solution with a perturbed schedule (touchdown phases
 ±0.03, duty ±0.03, period ±5 %) — what basin-CMA's inner loop does. Prints times, the
 warm/cold ratio and the ratio against the previous warm-start policy (last multipliers reused),
 measured in the same run on the same schedules.
+
+The `build` section measures what a disk cache of the built NLP (issue #16) could save, in one
+run: the cold build split into the symbolic part (model, knot quantities, constraint groups) and
+`nlpsol` creation (IPOPT with ``expand``: SX expansion, Jacobian and Lagrangian Hessian), then
+the same solver written with CasADi's serialiser (`Function.save`) and read back
+(`Function.load`): "cached build" = symbolic part + load, ratio = cold / cached.
 """
 
 from __future__ import annotations
@@ -13,10 +20,13 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
+import tempfile
 import time
+from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
+import casadi as ca
 import numpy as np
 
 import robots
@@ -77,14 +87,45 @@ def bench(robot_name: str, gait: str, speed: float, n_knots: int, n_warm: int, s
     )
 
 
+def build_bench(robot_name: str, n_knots: int) -> None:
+    """Cold NLP build vs the same solver loaded from CasADi's serialised form (one run)."""
+    robot = robots.load(robot_name)
+    planner = GaitPlanner(robot, n_knots=n_knots)
+    cold = planner.build_time_s
+    t0 = time.perf_counter()
+    planner._solver = planner._make_solver()  # nlpsol creation alone, on the same NLP
+    nlpsol_s = time.perf_counter() - t0
+    symbolic_s = max(0.0, cold - nlpsol_s)
+    with tempfile.TemporaryDirectory(prefix="planner_bench_") as tmp:
+        path = Path(tmp) / "spacetime.casadi"
+        t0 = time.perf_counter()
+        planner._solver.save(str(path))
+        save_s = time.perf_counter() - t0
+        size_mb = path.stat().st_size / 1e6
+        t0 = time.perf_counter()
+        ca.Function.load(str(path))
+        load_s = time.perf_counter() - t0
+    cached = symbolic_s + load_s
+    print(
+        f"{robot_name} N={n_knots} build: cold {cold:.2f} s (symbolic {symbolic_s:.2f} s, "
+        f"nlpsol {nlpsol_s:.2f} s) | serialised solver {size_mb:.0f} MB, save {save_s:.2f} s, "
+        f"load {load_s:.2f} s | cached build {cached:.2f} s | cold/cached {cold / cached:.2f}"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--knots", type=int, default=30)
     ap.add_argument("--warm", type=int, default=10)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--section", choices=("all", "build", "solve"), default="all")
     args = ap.parse_args()
-    bench("quad12", "trot", 0.25, args.knots, args.warm, args.seed)
-    bench("hex18", "tripod", 0.15, args.knots, args.warm, args.seed)
+    if args.section in ("all", "build"):
+        build_bench("quad12", args.knots)
+        build_bench("hex18", args.knots)
+    if args.section in ("all", "solve"):
+        bench("quad12", "trot", 0.25, args.knots, args.warm, args.seed)
+        bench("hex18", "tripod", 0.15, args.knots, args.warm, args.seed)
 
 
 if __name__ == "__main__":
