@@ -13,6 +13,9 @@ run: the cold build split into the symbolic part (model, knot quantities, constr
 `nlpsol` creation (IPOPT with ``expand``: SX expansion, Jacobian and Lagrangian Hessian), then
 the same solver written with CasADi's serialiser (`Function.save`) and read back
 (`Function.load`): "cached build" = symbolic part + load, ratio = cold / cached.
+For scale it also prints the instruction counts of the NLP's Jacobian and Lagrangian Hessian
+next to those of one knot (`planner.constraints.knot_function`) and the time to build the
+knot's own derivatives: the whole-NLP derivatives are N expanded copies of the knot's.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -31,6 +35,7 @@ import numpy as np
 
 import robots
 from planner import spacetime
+from planner.constraints import knot_function
 from planner.spacetime import GaitPlanner, PlanResult
 from planner.templates import make_schedule
 
@@ -90,12 +95,22 @@ def bench(robot_name: str, gait: str, speed: float, n_knots: int, n_warm: int, s
 def build_bench(robot_name: str, n_knots: int) -> None:
     """Cold NLP build vs the same solver loaded from CasADi's serialised form (one run)."""
     robot = robots.load(robot_name)
-    planner = GaitPlanner(robot, n_knots=n_knots)
-    cold = planner.build_time_s
-    t0 = time.perf_counter()
-    planner._solver = planner._make_solver()  # nlpsol creation alone, on the same NLP
-    nlpsol_s = time.perf_counter() - t0
-    symbolic_s = max(0.0, cold - nlpsol_s)
+    nlpsol_times: list[float] = []
+    real_nlpsol = ca.nlpsol
+
+    def timed_nlpsol(*args: Any, **kwargs: Any) -> Any:
+        t0 = time.perf_counter()
+        solver = real_nlpsol(*args, **kwargs)
+        nlpsol_times.append(time.perf_counter() - t0)
+        return solver
+
+    ca.nlpsol = timed_nlpsol  # time nlpsol creation inside the one cold build
+    try:
+        planner = GaitPlanner(robot, n_knots=n_knots)
+    finally:
+        ca.nlpsol = real_nlpsol
+    cold, nlpsol_s = planner.build_time_s, sum(nlpsol_times)
+    symbolic_s = cold - nlpsol_s
     with tempfile.TemporaryDirectory(prefix="planner_bench_") as tmp:
         path = Path(tmp) / "spacetime.casadi"
         t0 = time.perf_counter()
@@ -106,11 +121,29 @@ def build_bench(robot_name: str, n_knots: int) -> None:
         ca.Function.load(str(path))
         load_s = time.perf_counter() - t0
     cached = symbolic_s + load_s
+    nlp_jac = planner._solver.get_function("nlp_jac_g").n_instructions()
+    nlp_hess = planner._solver.get_function("nlp_hess_l").n_instructions()
+    knot_s, knot_jac, knot_hess = _knot_derivatives(planner)
     print(
         f"{robot_name} N={n_knots} build: cold {cold:.2f} s (symbolic {symbolic_s:.2f} s, "
         f"nlpsol {nlpsol_s:.2f} s) | serialised solver {size_mb:.0f} MB, save {save_s:.2f} s, "
-        f"load {load_s:.2f} s | cached build {cached:.2f} s | cold/cached {cold / cached:.2f}"
+        f"load {load_s:.2f} s | cached build {cached:.2f} s | cold/cached {cold / cached:.2f}\n"
+        f"  instructions: NLP Jacobian {nlp_jac}, Hessian {nlp_hess} | one knot: Jacobian "
+        f"{knot_jac}, Hessian {knot_hess}, built in {knot_s:.2f} s"
     )
+
+
+def _knot_derivatives(planner: GaitPlanner) -> tuple[float, int, int]:
+    """(build s, Jacobian instructions, Lagrangian-Hessian instructions) of one knot in SX."""
+    t0 = time.perf_counter()
+    knot = knot_function(planner.model)
+    ins = [ca.SX.sym(knot.name_in(i), knot.sparsity_in(i)) for i in range(knot.n_in())]
+    x = ca.vertcat(*[ca.vec(v) for v in ins])
+    out = ca.vertcat(*[ca.vec(v) for v in knot.call(ins)])
+    lam = ca.SX.sym("lam", out.shape[0])
+    jac = ca.Function("knot_jac", [x], [ca.jacobian(out, x)])
+    hess = ca.Function("knot_hess", [x, lam], [ca.tril(ca.hessian(ca.dot(lam, out), x)[0])])
+    return time.perf_counter() - t0, jac.n_instructions(), hess.n_instructions()
 
 
 def main() -> None:
