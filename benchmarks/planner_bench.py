@@ -1,11 +1,21 @@
 """Spacetime planner benchmark: NLP build time, cold solve, median warm solve over 10 schedules.
 
     python benchmarks/planner_bench.py            # quad12 trot N=30 and hex18 tripod N=30
+    python benchmarks/planner_bench.py --section build   # only the build-once measurement
 
 Each warm solve starts from the previous solution with a perturbed schedule (touchdown phases
 ±0.03, duty ±0.03, period ±5 %) — what basin-CMA's inner loop does. Prints times, the
 warm/cold ratio and the ratio against the previous warm-start policy (last multipliers reused),
 measured in the same run on the same schedules.
+
+The `build` section measures what a disk cache of the built NLP (issue #16) could save, in one
+run: the cold build split into the symbolic part (model, knot quantities, constraint groups) and
+`nlpsol` creation (IPOPT with ``expand``: SX expansion, Jacobian and Lagrangian Hessian), then
+the same solver written with CasADi's serialiser (`Function.save`) and read back
+(`Function.load`): "cached build" = symbolic part + load, ratio = cold / cached.
+For scale it also prints the instruction counts of the NLP's Jacobian and Lagrangian Hessian
+next to those of one knot (`planner.constraints.knot_function`) and the time to build the
+knot's own derivatives: the whole-NLP derivatives are N expanded copies of the knot's.
 """
 
 from __future__ import annotations
@@ -13,14 +23,19 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
+import tempfile
 import time
+from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
+import casadi as ca
 import numpy as np
 
 import robots
 from planner import spacetime
+from planner.constraints import knot_function
 from planner.spacetime import GaitPlanner, PlanResult
 from planner.templates import make_schedule
 
@@ -77,14 +92,73 @@ def bench(robot_name: str, gait: str, speed: float, n_knots: int, n_warm: int, s
     )
 
 
+def build_bench(robot_name: str, n_knots: int) -> None:
+    """Cold NLP build vs the same solver loaded from CasADi's serialised form (one run)."""
+    robot = robots.load(robot_name)
+    nlpsol_times: list[float] = []
+    real_nlpsol = ca.nlpsol
+
+    def timed_nlpsol(*args: Any, **kwargs: Any) -> Any:
+        t0 = time.perf_counter()
+        solver = real_nlpsol(*args, **kwargs)
+        nlpsol_times.append(time.perf_counter() - t0)
+        return solver
+
+    ca.nlpsol = timed_nlpsol  # time nlpsol creation inside the one cold build
+    try:
+        planner = GaitPlanner(robot, n_knots=n_knots)
+    finally:
+        ca.nlpsol = real_nlpsol
+    cold, nlpsol_s = planner.build_time_s, sum(nlpsol_times)
+    symbolic_s = cold - nlpsol_s
+    with tempfile.TemporaryDirectory(prefix="planner_bench_") as tmp:
+        path = Path(tmp) / "spacetime.casadi"
+        t0 = time.perf_counter()
+        planner._solver.save(str(path))
+        save_s = time.perf_counter() - t0
+        size_mb = path.stat().st_size / 1e6
+        t0 = time.perf_counter()
+        ca.Function.load(str(path))
+        load_s = time.perf_counter() - t0
+    cached = symbolic_s + load_s
+    nlp_jac = planner._solver.get_function("nlp_jac_g").n_instructions()
+    nlp_hess = planner._solver.get_function("nlp_hess_l").n_instructions()
+    knot_s, knot_jac, knot_hess = _knot_derivatives(planner)
+    print(
+        f"{robot_name} N={n_knots} build: cold {cold:.2f} s (symbolic {symbolic_s:.2f} s, "
+        f"nlpsol {nlpsol_s:.2f} s) | serialised solver {size_mb:.0f} MB, save {save_s:.2f} s, "
+        f"load {load_s:.2f} s | cached build {cached:.2f} s | cold/cached {cold / cached:.2f}\n"
+        f"  instructions: NLP Jacobian {nlp_jac}, Hessian {nlp_hess} | one knot: Jacobian "
+        f"{knot_jac}, Hessian {knot_hess}, built in {knot_s:.2f} s"
+    )
+
+
+def _knot_derivatives(planner: GaitPlanner) -> tuple[float, int, int]:
+    """(build s, Jacobian instructions, Lagrangian-Hessian instructions) of one knot in SX."""
+    t0 = time.perf_counter()
+    knot = knot_function(planner.model)
+    ins = [ca.SX.sym(knot.name_in(i), knot.sparsity_in(i)) for i in range(knot.n_in())]
+    x = ca.vertcat(*[ca.vec(v) for v in ins])
+    out = ca.vertcat(*[ca.vec(v) for v in knot.call(ins)])
+    lam = ca.SX.sym("lam", out.shape[0])
+    jac = ca.Function("knot_jac", [x], [ca.jacobian(out, x)])
+    hess = ca.Function("knot_hess", [x, lam], [ca.tril(ca.hessian(ca.dot(lam, out), x)[0])])
+    return time.perf_counter() - t0, jac.n_instructions(), hess.n_instructions()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--knots", type=int, default=30)
     ap.add_argument("--warm", type=int, default=10)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--section", choices=("all", "build", "solve"), default="all")
     args = ap.parse_args()
-    bench("quad12", "trot", 0.25, args.knots, args.warm, args.seed)
-    bench("hex18", "tripod", 0.15, args.knots, args.warm, args.seed)
+    if args.section in ("all", "build"):
+        build_bench("quad12", args.knots)
+        build_bench("hex18", args.knots)
+    if args.section in ("all", "solve"):
+        bench("quad12", "trot", 0.25, args.knots, args.warm, args.seed)
+        bench("hex18", "tripod", 0.15, args.knots, args.warm, args.seed)
 
 
 if __name__ == "__main__":
