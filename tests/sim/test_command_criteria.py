@@ -14,7 +14,7 @@ from sim.validate import PassCriteria, judge
 
 
 def _metrics(**values: float) -> Metrics:
-    fields = {f.name: 0.0 for f in dataclasses.fields(Metrics)}
+    fields: dict[str, object] = {f.name: 0.0 for f in dataclasses.fields(Metrics)}
     fields.update(fell=False, fall_time_s=None, fall_reason=None, cycles_run=20, stances=40,
                   lateral_drift_per_m=None, yaw_drift_rad_per_m=None, speed_error_fraction=None,
                   cost_of_transport=None)
