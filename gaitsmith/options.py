@@ -53,6 +53,30 @@ def check_speed(option: str, value: float, *, allow_zero: bool = True) -> None:
     check_number(option, value, 0.0, MAX_SPEED_M_S, lo_open=not allow_zero, unit="m/s")
 
 
+def check_velocity(option: str, value: float) -> None:
+    """A body-frame velocity component that may be negative (backwards, to the right)."""
+    check_number(option, value, -MAX_SPEED_M_S, MAX_SPEED_M_S, unit="m/s")
+
+
+#: The largest yaw rate the CLI plans, in units of √(g/L) (L: the robot's leg length). The feet
+#: stand about a leg length from the turning centre, so they sweep at W·L: at W = 0.5·√(g/L)
+#: that is a Froude number (W·L)²/(g·L) = 0.25, half the walk-to-run transition (Fr ≈ 0.5,
+#: Alexander & Jayes 1983) — a turning speed no walking gait reaches. 3.7 rad/s at L = 0.18 m.
+MAX_YAW_RATE_SQRT_G_PER_L = 0.5
+
+
+def max_yaw_rate_rad_s(robot: Robot) -> float:
+    """`MAX_YAW_RATE_SQRT_G_PER_L`·√(g/L) for `robot`'s leg length L."""
+    return MAX_YAW_RATE_SQRT_G_PER_L * math.sqrt(9.81 / robot.leg_length_m)
+
+
+def check_yaw_rate(option: str, value: float, robot: Robot) -> None:
+    """A yaw rate [rad/s] within ±`max_yaw_rate_rad_s` (scaled with the robot's leg length)."""
+    bound = max_yaw_rate_rad_s(robot)
+    check_number(option, value, -bound, bound,
+                 unit=f"rad/s (0.5·√(g/L) for {robot.name}'s {robot.leg_length_m:.3f} m legs)")
+
+
 def check_knots(option: str, value: int) -> None:
     check_integer(option, value, *KNOTS_RANGE)
 

@@ -1,4 +1,8 @@
-"""`gaitsmith plan ROBOT --gait trot --speed 0.25 -o trot.json`: one spacetime solve → gait file.
+"""`gaitsmith plan ROBOT --gait trot --vx 0.25 -o trot.json`: one spacetime solve → gait file.
+
+`--vx` (alias `--speed`), `--vy` and `--yaw-rate` command a body-frame velocity: the cycle is
+periodic up to the planar motion they define (`planner.command`), so the same templates turn,
+side-step and walk backwards.
 
 `--search` runs basin-CMA over the contact timings (starting from the templates) and writes the
 best gait plus a search log next to it; `--simulate` validates the gait in MuJoCo and writes the
@@ -17,6 +21,7 @@ from rich.table import Table
 
 import robots
 from gaitsmith.console import console
+from gaitsmith.errors import OptionError
 from gaitsmith.gait_choice import check_gait_fits, default_gait
 from gaitsmith.options import (
     MAX_PERIOD_S,
@@ -27,6 +32,8 @@ from gaitsmith.options import (
     check_output_file,
     check_speed,
     check_supply_v,
+    check_velocity,
+    check_yaw_rate,
 )
 from gaitsmith.search_options import (
     check_search_options,
@@ -54,7 +61,13 @@ def plan(
         help=f"gait template: {', '.join(TEMPLATES)} (default: the robot's walking-pace "
         "template, e.g. trot on 4 legs, tripod on 6; with --search: all templates)",
     ),
-    speed: float = typer.Option(0.25, "--speed", help="forward speed [m/s]"),
+    speed: float = typer.Option(
+        0.25, "--vx", "--speed", help="forward speed [m/s] (body frame; negative: backwards)"
+    ),
+    vy: float = typer.Option(0.0, "--vy", help="lateral speed [m/s] (body frame, left +)"),
+    yaw_rate: float = typer.Option(
+        0.0, "--yaw-rate", help="yaw rate [rad/s] (left turn +; at most 0.5·√(g/L))"
+    ),
     output: Path = typer.Option(..., "--output", "-o", help="gait file to write (JSON)"),
     knots: int = typer.Option(30, "--knots", help="knots per cycle (N)"),
     period: float | None = typer.Option(
@@ -102,8 +115,10 @@ def plan(
     settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
                               address, search_knots, tipping_weight, sim_accept)
     _check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
+    _check_command(speed, vy, yaw_rate, search)
     check_output_file("--output", output)
     bot = robots.load(robot)
+    check_yaw_rate("--yaw-rate", yaw_rate, bot)
     check_supply_v("--supply-v", supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
     supply_meta = None if supply_v is None else {"supply_v": supply_v}
@@ -116,36 +131,50 @@ def plan(
     schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
                                       schedule_file=schedule_file, period_s=period)
     options = PlannerOptions(mu=mu, print_level=5 if verbose else 0)
+    command = f"{speed:.3f} m/s" + (
+        f", vy {vy:+.3f} m/s, yaw rate {yaw_rate:+.3f} rad/s" if vy or yaw_rate else "")
     console.print(
-        f"planning [bold]{gait}[/] for [bold]{bot.name}[/] at {speed:.3f} m/s, period "
+        f"planning [bold]{gait}[/] for [bold]{bot.name}[/] at {command}, period "
         f"{schedule.period_s:.3f} s, duty {schedule.duty_factor[0]:.2f}, N={knots}, µ={mu}"
     )
     with console.status("building the NLP (CasADi)…"):
         planner = GaitPlanner(bot, n_knots=knots, options=options)
     console.print(f"NLP built in {planner.build_time_s:.1f} s ({planner.layout.size} variables)")
     if verbose:
-        result = planner.solve(schedule, speed)
+        result = planner.solve(schedule, speed, vy_m_s=vy, yaw_rate_rad_s=yaw_rate)
     else:
         with console.status("solving (IPOPT)…"):
-            result = planner.solve(schedule, speed)
+            result = planner.solve(schedule, speed, vy_m_s=vy, yaw_rate_rad_s=yaw_rate)
         _print_progress(result)
     _print_summary(planner, result)
     if supply_v is not None and result.feasible:
         console.print(voltage_margin(bot, result.joint_torques_nm, supply_v).summary())
     if not result.feasible:
         raise InfeasibleGaitError(
-            f"{bot.name} {gait} at {speed} m/s: {result.message}; no gait file written",
+            f"{bot.name} {gait} at {command}: {result.message}; no gait file written",
             result.binding,
         )
     gait_obj = planner.to_gait(result, gait, extra_metadata=supply_meta)
     _write(gait_obj, bot, output, simulate, cycles)
 
 
+def _check_command(vx: float, vy: float, yaw_rate: float, search: bool) -> None:
+    """--vx/--vy finite and bounded (any sign), --yaw-rate finite (its bound needs the robot);
+    the search plans forward gaits only (its cost of transport and Froude number)."""
+    check_velocity("--vx/--speed", vx)
+    check_velocity("--vy", vy)
+    check_number("--yaw-rate", yaw_rate, -1e3, 1e3, unit="rad/s")
+    if search and (vy or yaw_rate):
+        raise OptionError("--search plans forward gaits only: drop --vy/--yaw-rate, or plan a "
+                          "template without --search")
+
+
 def _check_options(speed: float, knots: int, period: float | None, duty: str | None,
                    mu: float, search: bool, st: SearchSettings, simulate: bool,
                    cycles: int) -> None:
     """Every option in range before the robot is loaded and the NLP built (one-line errors)."""
-    check_speed("--speed", speed, allow_zero=not search)  # the search needs CoT and Froude > 0
+    if search:
+        check_speed("--vx/--speed", speed, allow_zero=False)  # the search needs CoT and Froude > 0
     check_knots("--knots", knots)
     check_number("--period", period, 0.0, MAX_PERIOD_S, lo_open=True, unit="s")
     if duty is not None and "," not in duty:  # a list is checked per leg once the robot is loaded

@@ -1,9 +1,12 @@
 """Constraints of the spacetime NLP (TOWR-style "constraints" module), W&P 2009 eqs 1-10.
 
 Finite differences are cyclic over the N knots (h = T/N): q̇_k = (q_{k+1} − q_{k−1})/2h,
-q̈_k = (q_{k+1} − 2q_k + q_{k−1})/h². Treadmill convention (W&P §3): the robot stays in place on
-average and **stance feet move at −v** along x; the dynamics see the true base velocity ẋ + v
-(Galilean shift, so the torques are the ground-frame ones).
+q̈_k = (q_{k+1} − 2q_k + q_{k−1})/h². Treadmill convention (W&P §3), generalised to the command
+frame of `planner.command` (vx, vy, yaw rate W): the robot stays in place on average in a frame
+that moves with the commanded planar motion, neighbouring knots are compared in one frame
+(knot k±1 as Δ(±h)∘b_{k±1}; at W = vy = 0 a shift by ±v·h along x), so **stance feet move
+with −Δ(h)** (−v along x on a treadmill); the dynamics see the true base velocity ẋ + v, ẏ + vy
+and yaw rate + W (Galilean shift, so the torques are the ground-frame ones).
 
 Every group is a column of MX expressions with numeric bounds; the contact schedule switches rows
 on and off through the activity parameter C (stance rows are multiplied by C, the force bound is
@@ -19,6 +22,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from planner.command import MotionSymbols
 from planner.config import PlannerOptions
 from planner.flat_foot import (
     contact_offsets,
@@ -59,7 +63,7 @@ class KnotQuantities:
     qd: Any  # J × N
     qdd: Any  # J × N
     base_d: Any  # 6 × N base pose rates
-    omega_world: Any  # 3 × N
+    omega_world: Any  # 3 × N: base ω in the world minus the commanded turn (0, 0, W)
 
 
 def _shift(m: Any, k: int) -> Any:
@@ -78,12 +82,14 @@ def knot_function(model: RobotModel) -> ca.Function:
     b, bd, bdd = ca.SX.sym("b", 6), ca.SX.sym("bd", 6), ca.SX.sym("bdd", 6)
     q, qd, qdd = ca.SX.sym("q", nj), ca.SX.sym("qd", nj), ca.SX.sym("qdd", nj)
     f = ca.SX.sym("f", 3 * nf)
-    v = ca.SX.sym("v")
+    v, vy, yaw_rate = ca.SX.sym("v"), ca.SX.sym("vy"), ca.SX.sym("yaw_rate")
     weight_n = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2))
-    w, dw = model.base_rates(b[3:], bd[3:], bdd[3:])
-    v_base = bd[:3] + ca.vertcat(v, 0, 0)
+    turn = ca.vertcat(0, 0, yaw_rate)  # the command frame's yaw rate (rpy rates and ω alike)
+    w, dw = model.base_rates(b[3:], bd[3:] + turn, bdd[3:])
+    v_base = bd[:3] + ca.vertcat(v, vy, 0)
     forces = ca.reshape(f, 3, nf) * weight_n
-    inputs, names = [b, q, bd, qd, bdd, qdd, f, v], ["b", "q", "bd", "qd", "bdd", "qdd", "f", "v"]
+    inputs = [b, q, bd, qd, bdd, qdd, f, v, vy, yaw_rate]
+    names = ["b", "q", "bd", "qd", "bdd", "qdd", "f", "v", "vy", "yaw_rate"]
     if model.flat_feet:
         m = ca.SX.sym("m", 3 * len(model.flat_feet))
         inputs, names = [*inputs, m], [*names, "m"]
@@ -99,7 +105,7 @@ def knot_function(model: RobotModel) -> ca.Function:
     return ca.Function(
         "knot",
         inputs,
-        [base_rows * scale, tau, ca.reshape(feet, 3 * nf, 1), origins[2, :].T, w],
+        [base_rows * scale, tau, ca.reshape(feet, 3 * nf, 1), origins[2, :].T, w - turn],
         names,
         ["base_rows", "tau", "feet", "body_z", "w"],
     )
@@ -111,9 +117,21 @@ def knot_quantities(model: RobotModel, sym: Symbols, n_knots: int) -> KnotQuanti
     fn = knot_function(model).map(n_knots)
     flat = [sym.moments] if model.flat_feet else []
     base_rows, tau, feet, body_z, w = fn(
-        sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s, *flat
+        sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,
+        _motion(sym).vy_m_s, _motion(sym).yaw_rate_rad_s, *flat
     )
     return KnotQuantities(base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w)
+
+
+def _motion(sym: Symbols) -> MotionSymbols:
+    if sym.motion is None:
+        raise ValueError("the NLP symbols carry no velocity command block (make_symbols)")
+    return sym.motion
+
+
+def _in_frame(rows: Any, x: Any, y: Any) -> Any:
+    """`rows` (poses, N columns) with its first two rows replaced by x, y."""
+    return ca.vertcat(x, y, rows[2:, :])
 
 
 def build_groups(
@@ -131,7 +149,7 @@ def build_groups(
         # stance at k or k+1 (C is 0/1): the foot is also still over the interval that ends at
         # touchdown and the one that starts at lift-off, so it sets down / lifts off vertically
         stick = c + _shift(c, 1) - stick
-    step = sym.speed_m_s * sym.period_s / n
+    motion = _motion(sym)
     fx, fy, fz = sym.forces[0::3, :], sym.forces[1::3, :], sym.forces[2::3, :]
     mu = options.mu / math.sqrt(2.0)  # inscribed pyramid of the cone (eq 9)
     servos = [j.servo for j in model.robot.joints]
@@ -147,6 +165,12 @@ def build_groups(
         return ca.vec(e)
 
     pose = ca.vertcat(sym.base, sym.q)
+    # neighbours in the command frame of knot k (`planner.command`): only base x, y change
+    nxt, prv = _shift(pose, 1), _shift(pose, -1)
+    nxt = _in_frame(nxt, *motion.next_in_frame(nxt[0, :], nxt[1, :]))
+    prv = _in_frame(prv, *motion.previous_in_frame(prv[0, :], prv[1, :]))
+    # lifted base rates are relative to the command: world velocity − (vx, vy), yaw rate − W
+    command_rate = ca.repmat(ca.vertcat(motion.vx_m_s, motion.vy_m_s, ca.DM.zeros(4 + nj)), 1, n)
     inv_h = n / sym.period_s
     n_rates = (6 + nj) * n
     # row scales (nondimensional NLP, see `planner.variables.variable_scale`): lengths in leg
@@ -155,13 +179,14 @@ def build_groups(
     t0 = time_unit_s(length, float(np.linalg.norm(model.gravity_m_s2)) or 9.81)
     rate = np.r_[[length / t0] * 3, [1.0 / t0] * (3 + nj)]
     fd_scale = np.r_[np.tile(rate, n), np.tile(rate / t0, n)]
+    next_feet_x, next_feet_y = motion.next_in_frame(_shift(feet_x, 1), _shift(feet_y, 1))
     groups = [
         # cyclic central differences tie the lifted rates to the poses (linear in x)
         Group(
             "finite differences",
             ca.vertcat(
-                col(sym.vel - (_shift(pose, 1) - _shift(pose, -1)) * (0.5 * inv_h)),
-                col(sym.acc - (_shift(pose, 1) - 2 * pose + _shift(pose, -1)) * (inv_h * inv_h)),
+                col(sym.vel - ((nxt - prv) * (0.5 * inv_h) - command_rate)),
+                col(sym.acc - (nxt - 2 * pose + prv) * (inv_h * inv_h)),
             ),
             zeros(2 * n_rates),
             zeros(2 * n_rates),
@@ -179,14 +204,15 @@ def build_groups(
         ),
         # eq 2: stance foot-sphere centre at the sphere radius
         Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n), length),
-        # eq 3: stance feet move with the treadmill (−v along x) and do not slide sideways (with
+        # eq 3: stance feet stay put in the world: knot k+1's foot, in the command frame of knot
+        # k, is where it was at k (on a treadmill: moves at −v along x, not sideways); with
         # `vertical_contact_transitions` also over the last swing interval before touchdown and
-        # the first one after lift-off)
+        # the first one after lift-off
         Group(
             "stance no-slip",
             ca.vertcat(
-                col(stick * (_shift(feet_x, 1) - feet_x + step)),
-                col(stick * (_shift(feet_y, 1) - feet_y)),
+                col(stick * (next_feet_x - feet_x)),
+                col(stick * (next_feet_y - feet_y)),
             ),
             zeros(2 * nf * n),
             zeros(2 * nf * n),

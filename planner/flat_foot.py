@@ -223,6 +223,8 @@ def flat_foot_groups(
     hx_k, hy_k = heading[0::2, :], heading[1::2, :]
     nxt_x = ca.horzcat(hx_k[:, 1:], hx_k[:, :1])
     nxt_y = ca.horzcat(hy_k[:, 1:], hy_k[:, :1])
+    if getattr(sym, "motion", None) is not None:  # knot k+1's heading in knot k's command frame
+        nxt_x, nxt_y = sym.motion.rotate_next(nxt_x, nxt_y)
     yaw_slip = hx_k * nxt_y - hy_k * nxt_x  # sin of the heading change from knot k to k+1
     swing = 1 - c
     corner_rows = []

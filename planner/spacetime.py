@@ -13,6 +13,7 @@ dual solution with IPOPT's ``warm_start_init_point``.
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import threading
 import time
@@ -26,6 +27,7 @@ import casadi as ca
 import numpy as np
 
 from planner import diagnostics
+from planner.command import check_command
 from planner.config import PlannerOptions
 from planner.constraints import build_groups, group_labels, knot_quantities, row_scales
 from planner.costs import cost_terms, weighted_objective
@@ -108,6 +110,10 @@ class PlanResult:
     #: IPOPT proved the point locally optimal (`Solve_Succeeded`); a feasible result with
     #: optimal=False is the point IPOPT stopped at (`diagnostics.ACCEPT_IF_FEASIBLE`)
     optimal: bool = True
+    #: the rest of the velocity command (`planner.command`); base_pose is then relative to the
+    #: command frame (the treadmill frame when both are 0)
+    vy_m_s: float = 0.0
+    yaw_rate_rad_s: float = 0.0
 
 
 class GaitPlanner:
@@ -210,22 +216,29 @@ class GaitPlanner:
 
     # -- solving -----------------------------------------------------------------------------
 
-    def _check(self, schedule: ContactSchedule, speed_m_s: float) -> None:
+    def _check(
+        self,
+        schedule: ContactSchedule,
+        speed_m_s: float,
+        vy_m_s: float = 0.0,
+        yaw_rate_rad_s: float = 0.0,
+    ) -> None:
         if tuple(schedule.feet) != self.robot.foot_names:
             raise PlannerConfigError(
                 f"schedule feet {list(schedule.feet)} do not match the robot's legs "
                 f"{list(self.robot.foot_names)}"
             )
-        if not (np.isfinite(speed_m_s) and 0.0 <= speed_m_s <= 10.0):
-            raise PlannerConfigError(f"speed must be in [0, 10] m/s, got {speed_m_s!r}")
+        if not (np.isfinite(speed_m_s) and -10.0 <= speed_m_s <= 10.0):
+            raise PlannerConfigError(f"speed must be in [-10, 10] m/s, got {speed_m_s!r}")
+        check_command(vy_m_s, yaw_rate_rad_s, schedule.period_s, self.n_knots)
         contact = schedule.contact_matrix(self.n_knots)
-        if speed_m_s > 0:
+        if speed_m_s != 0 or vy_m_s != 0 or yaw_rate_rad_s != 0:
             for foot, duty in zip(schedule.feet, schedule.duty_factor, strict=True):
                 if duty >= 1.0 - 1e-9 or contact[:, schedule.feet.index(foot)].all():
                     raise PlannerConfigError(
                         f"foot {foot} never lifts off (duty factor {duty:g} at {self.n_knots} "
-                        "knots): a foot that never swings cannot keep up at a speed > 0; use "
-                        "speed 0 (stand) or a shorter duty factor"
+                        "knots): a foot that never swings cannot keep up with a moving command; "
+                        "use speed 0 (stand) or a shorter duty factor"
                     )
         if not contact.any(axis=0).all():
             raise PlannerConfigError(
@@ -238,10 +251,16 @@ class GaitPlanner:
         schedule: ContactSchedule,
         speed_m_s: float,
         warm_start: WarmStart | bool | None = None,
+        *,
+        vy_m_s: float = 0.0,
+        yaw_rate_rad_s: float = 0.0,
     ) -> PlanResult:
-        """Plan one gait cycle. `warm_start`: None → the last solution if any, False → cold."""
-        self._check(schedule, speed_m_s)
-        p = self._solver_parameters(schedule, speed_m_s)
+        """Plan one gait cycle at the command (vx = `speed_m_s`, `vy_m_s`, `yaw_rate_rad_s`;
+        `planner.command`). `warm_start`: None → the last solution if any, False → cold."""
+        self._check(schedule, speed_m_s, vy_m_s, yaw_rate_rad_s)
+        p = parameter_vector(
+            schedule, self.n_knots, speed_m_s, self.swing_clearance_m, vy_m_s, yaw_rate_rad_s
+        )
         start = self._last if warm_start is None or warm_start is True else warm_start or None
         t0 = time.perf_counter()
         if start is None:
@@ -275,6 +294,8 @@ class GaitPlanner:
             raise KeyboardInterrupt(f"IPOPT stopped ({stats.get('return_status')})")
         elapsed = time.perf_counter() - t0
         result = self._result(schedule, speed_m_s, p, sol, stats, elapsed)
+        result = dataclasses.replace(result, vy_m_s=float(vy_m_s),
+                                     yaw_rate_rad_s=float(yaw_rate_rad_s))
         if result.feasible:
             self._last = result.warm_start
         return result
@@ -411,7 +432,7 @@ class GaitPlanner:
             robot=self.robot,
             knots_rad=knots,
             schedule=result.schedule,
-            velocity=Velocity(vx_m_s=result.speed_m_s),
+            velocity=Velocity(result.speed_m_s, result.vy_m_s, result.yaw_rate_rad_s),
             gait_label=label,
             base_pose=result.base_pose,
             contact_forces_n=result.contact_forces_n,

@@ -19,7 +19,10 @@ Per knot k = 0…N−1 (phase k/N of one period, treadmill frame):
   (two goals, two slopes) instead of a dense one. Fixed at 0 when `servo_goals` is off.
 
 Parameters (change between solves without rebuilding): contact activity C (F×N, 0/1), swing
-minimum foot height H (F×N) [m], speed v [m/s], period T [s].
+minimum foot height H (F×N) [m], speed v [m/s], period T [s], then the rest of the velocity
+command (lateral speed vy, yaw rate W and the planar motion over one knot interval,
+`planner.command.motion_parameters`). Poses are relative to the command frame
+(`planner.command`), the treadmill frame when vy = W = 0.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from planner.command import N_MOTION_PARAMETERS, MotionSymbols, VelocityCommand, motion_parameters
 from planner.config import PlannerOptions
 from planner.model import RobotModel
 from robots import ContactSchedule
@@ -139,6 +143,7 @@ class Symbols:
     speed_m_s: Any
     period_s: Any
     moments: Any = None  # 3·F_flat × N flat-foot moments (units of m·g·L), None without
+    motion: MotionSymbols | None = None  # the velocity command's block (`planner.command`)
 
 
 def time_unit_s(leg_length_m: float, gravity_m_s2: float = 9.81) -> float:
@@ -191,7 +196,7 @@ def make_symbols(layout: Layout, scale: np.ndarray | None = None) -> Symbols:
     goal_slope = ca.reshape(x[start + layout.n_q : start + 2 * layout.n_q], nj, n)
     start += 2 * layout.n_q
     moments = ca.reshape(x[start:], 3 * layout.n_flat_feet, n) if layout.n_flat_feet else None
-    p = ca.MX.sym("p", 2 * nf * n + 2)
+    p = ca.MX.sym("p", 2 * nf * n + 2 + N_MOTION_PARAMETERS)
     contact = ca.reshape(p[: nf * n], nf, n)
     min_height = ca.reshape(p[nf * n : 2 * nf * n], nf, n)
     return Symbols(
@@ -209,19 +214,28 @@ def make_symbols(layout: Layout, scale: np.ndarray | None = None) -> Symbols:
         p[2 * nf * n],
         p[2 * nf * n + 1],
         moments,
+        MotionSymbols.from_parameters(p[2 * nf * n], p[2 * nf * n + 2 :]),
     )
 
 
 def parameter_vector(
-    schedule: ContactSchedule, n_knots: int, speed_m_s: float, swing_clearance_m: float
+    schedule: ContactSchedule,
+    n_knots: int,
+    speed_m_s: float,
+    swing_clearance_m: float,
+    vy_m_s: float = 0.0,
+    yaw_rate_rad_s: float = 0.0,
 ) -> np.ndarray:
-    """Numeric p for a schedule: C (F×N), H (F×N) column-major, then v and T."""
+    """Numeric p for a schedule: C (F×N), H (F×N) column-major, then v (= vx) and T, then the
+    command block (`planner.command.motion_parameters`)."""
+    command = VelocityCommand(speed_m_s, vy_m_s, yaw_rate_rad_s)
     contact = schedule.contact_matrix(n_knots).astype(float)  # N × F
     return np.concatenate(
         [
             contact.ravel(),
             swing_height_profile(schedule, n_knots, swing_clearance_m).ravel(),
             [speed_m_s, schedule.period_s],
+            motion_parameters(command, schedule.period_s, n_knots),
         ]
     )
 

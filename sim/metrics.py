@@ -88,6 +88,9 @@ class Metrics:
     tracking_max_rad: float
     mechanical_power_w: float
     cost_of_transport: float | None
+    # the rest of the commanded velocity (commanded_speed_m_s is |(vx, vy)|), for the verdict
+    commanded_vy_m_s: float = 0.0
+    commanded_yaw_rate_rad_s: float = 0.0
 
     def to_dict(self) -> dict[str, object]:
         return {k: _json(v) for k, v in asdict(self).items()}
@@ -302,6 +305,8 @@ def compute(
         steady_duration_s=span,
         cycles_run=traj.cycles_run,
         commanded_speed_m_s=cmd_speed,
+        commanded_vy_m_s=float(cmd.vy_m_s),
+        commanded_yaw_rate_rad_s=float(cmd.yaw_rate_rad_s),
         achieved_speed_m_s=achieved,
         achieved_vx_m_s=path.gait_velocity[0],
         achieved_vy_m_s=path.gait_velocity[1],

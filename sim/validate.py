@@ -39,6 +39,18 @@ class PassCriteria:
     max_heading_error_rad: float = math.radians(5.0)  # |yaw change − commanded turn| over the run
     max_lateral_drift_per_m: float = 0.15  # metres off the commanded path per metre along it
     max_yaw_drift_rad_per_m: float = 0.35  # steady turning: ≈ 20° of unwanted turn per metre
+    # Turning and side-stepping commands (`gaitsmith plan --yaw-rate/--vy`): the achieved rate,
+    # from the gait's start to the end of the run, within 15 % of the commanded one, or within
+    # the floor for tiny commands (0.02 rad/s: the 5° heading limit over a 4-5 s run; 0.01 m/s
+    # as the speed check). With a commanded yaw rate this replaces the heading and yaw-drift
+    # checks, whose absolute limits (5° over the whole run, 0.35 rad/m) are tighter than 15 % of
+    # any turn longer than a few seconds; the lateral-drift check (the commanded arc) stays. vy
+    # is judged for straight commands only: on an arc the start-frame mean velocity is a chord,
+    # not the body-frame vy (the arc check covers it there).
+    yaw_rate_rel_tol: float = 0.15
+    yaw_rate_abs_tol_rad_s: float = 0.02
+    vy_rel_tol: float = 0.15
+    vy_abs_tol_m_s: float = 0.01
     max_tilt_rad: float = math.radians(20.0)  # body tilt in the steady cycles
     max_mean_slip_m: float = 0.02  # mean contact-point travel per stance
     falls: FallThresholds = field(default_factory=FallThresholds)
@@ -98,11 +110,37 @@ def judge(m: Metrics, c: PassCriteria) -> tuple[tuple[str, bool, str], ...]:
             f"(limit {c.max_peak_torque_fraction:.0%})",
         )
     )
+    turning = m.commanded_yaw_rate_rad_s != 0.0
+    if turning:
+        w_cmd, w_got = m.commanded_yaw_rate_rad_s, m.achieved_yaw_rate_rad_s
+        w_tol = max(c.yaw_rate_rel_tol * abs(w_cmd), c.yaw_rate_abs_tol_rad_s)
+        checks.append(
+            (
+                "yaw rate",
+                abs(w_got - w_cmd) <= w_tol,
+                f"achieved {w_got:+.3f} rad/s vs commanded {w_cmd:+.3f} rad/s "
+                f"(tolerance ±{w_tol:.3f})",
+            )
+        )
+    elif m.commanded_vy_m_s != 0.0:
+        vy_cmd, vy_got = m.commanded_vy_m_s, m.achieved_vy_m_s
+        vy_tol = max(c.vy_rel_tol * abs(vy_cmd), c.vy_abs_tol_m_s)
+        checks.append(
+            (
+                "lateral speed",
+                abs(vy_got - vy_cmd) <= vy_tol,
+                f"achieved vy {vy_got:+.3f} m/s vs commanded {vy_cmd:+.3f} m/s "
+                f"(tolerance ±{vy_tol:.3f})",
+            )
+        )
     checks.append(
         (
             "heading",
-            abs(m.heading_error_rad) <= c.max_heading_error_rad,
-            f"turned {math.degrees(m.heading_error_rad):+.1f}° off the commanded heading over "
+            turning or abs(m.heading_error_rad) <= c.max_heading_error_rad,
+            f"n/a (turning: see yaw rate; {math.degrees(m.heading_error_rad):+.1f}° off the "
+            "commanded turn over the run)"
+            if turning
+            else f"turned {math.degrees(m.heading_error_rad):+.1f}° off the commanded heading over "
             f"the run, {math.degrees(m.ramp_yaw_rad):+.1f}° of it before the gait started "
             f"(limit ±{math.degrees(c.max_heading_error_rad):.0f}°)",
         )
@@ -122,8 +160,10 @@ def judge(m: Metrics, c: PassCriteria) -> tuple[tuple[str, bool, str], ...]:
     checks.append(
         (
             "yaw drift",
-            yaw is None or yaw <= c.max_yaw_drift_rad_per_m,
-            "n/a (no distance)"
+            turning or yaw is None or yaw <= c.max_yaw_drift_rad_per_m,
+            "n/a (turning: see yaw rate)"
+            if turning
+            else "n/a (no distance)"
             if yaw is None
             else f"{math.degrees(yaw):.1f}°/m "
             f"(limit {math.degrees(c.max_yaw_drift_rad_per_m):.0f}°/m)",

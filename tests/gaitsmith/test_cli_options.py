@@ -45,7 +45,7 @@ def _error_line(capsys: pytest.CaptureFixture[str]) -> str:
 
 
 PLAN_MISTAKES = [
-    (["--speed", "-1"], "--speed must be a number in [0, 10] m/s"),
+    (["--speed", "-11"], "--speed must be a number in [-10, 10] m/s"),  # backwards allowed
     (["--speed", "nan"], "--speed must be"),
     (["--speed", "1e9"], "--speed must be"),
     (["--knots", "3"], "--knots must be an integer in [8, 200]"),

@@ -86,7 +86,7 @@ def test_infeasible_request_raises_typed_error(quad_planner: GaitPlanner) -> Non
 def test_bad_requests_are_config_errors(quad_planner: GaitPlanner) -> None:
     schedule = make_schedule(quad_planner.robot, "trot")
     with pytest.raises(PlannerConfigError):
-        quad_planner.solve(schedule, -1.0)
+        quad_planner.solve(schedule, -11.0)  # |vx| ≤ 10 m/s (backwards allowed)
     other = robots.ContactSchedule(0.5, ("a", "b", "c", "d"), (0, 0, 0, 0), (0.5,) * 4)
     with pytest.raises(PlannerConfigError):
         quad_planner.solve(other, 0.2)
