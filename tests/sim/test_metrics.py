@@ -7,11 +7,13 @@ a pass; measured from the rest pose it is 15° off and 0.27 m/m sideways, and it
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
+import robots
 from robots.gait import Gait, Velocity
 from robots.ramp import gait_entry
 from robots.robot import Robot
@@ -84,7 +86,9 @@ def _walking_gait(robot: Robot, velocity: Velocity) -> Gait:
 def _failed(robot: Robot, traj: Trajectory, gait: Gait) -> set[str]:
     sim = build_sim_model(robot, SimConditions())
     metrics, _ = compute(traj, gait, sim)
-    return {name for name, ok, _ in judge(metrics, PassCriteria()) if not ok}
+    return {
+        name for name, ok, _ in judge(metrics, PassCriteria(), robot.leg_length_m) if not ok
+    }
 
 
 def test_a_turn_during_the_ramp_fails_heading_and_drift(quad: Robot) -> None:
@@ -152,3 +156,30 @@ def test_run_path_of_a_standing_run(quad: Robot) -> None:
     traj = _walk(quad, math.radians(2.0))
     path = run_path(traj, Velocity())
     assert math.degrees(path.ramp_yaw_rad) == pytest.approx(2.0, abs=1e-6)
+
+
+def test_the_slip_limit_scales_with_leg_length(quad: Robot) -> None:
+    """10 % of the leg: 17.6 mm on quad12's 17.6 cm legs, 7 mm on star5's 7 cm (a fixed 20 mm
+    was 29 % of those); a fixed limit in metres still wins when set."""
+    from sim.validate import slip_limit_m
+    from tests.zoo.fixtures import ZOO
+
+    star5 = robots.load(ZOO / "star5")
+    assert slip_limit_m(PassCriteria(), quad.leg_length_m) == pytest.approx(0.1 * 0.1762, rel=1e-3)
+    assert slip_limit_m(PassCriteria(), star5.leg_length_m) == pytest.approx(0.00696, rel=1e-2)
+    assert slip_limit_m(PassCriteria(max_mean_slip_m=0.02), star5.leg_length_m) == 0.02
+    gait = _walking_gait(star5, Velocity(vx_m_s=SPEED_M_S))
+    walk = _walk(star5, 0.0)
+    down = (np.floor(walk.time_s / PERIOD_S) % 2 == 0)[:, None] & np.ones(len(star5.legs), bool)
+    traj = dataclasses.replace(
+        walk,
+        foot_contacts=down.astype(float),
+        robot_contacts=down.sum(axis=1).astype(float),
+        foot_slip_speed_m_s=np.full(down.shape, 0.01 / PERIOD_S),  # 10 mm per one-period stance
+    )
+    sim = build_sim_model(star5, SimConditions())
+    m, _ = compute(traj, gait, sim)
+    slip = {n: ok for n, ok, _ in judge(m, PassCriteria(), star5.leg_length_m)}["foot slip"]
+    lax = {n: ok for n, ok, _ in judge(m, PassCriteria(max_mean_slip_m=0.02),
+                                       star5.leg_length_m)}["foot slip"]
+    assert m.slip_mean_m > 0.007 and not slip and lax
