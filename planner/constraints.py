@@ -164,6 +164,7 @@ def build_groups(
     def col(e: Any) -> Any:
         return ca.vec(e)
 
+    clearance = options.body_clearance_for(model.robot.leg_length_m)
     pose = ca.vertcat(sym.base, sym.q)
     # neighbours in the command frame of knot k (`planner.command`): only base x, y change
     nxt, prv = _shift(pose, 1), _shift(pose, -1)
@@ -226,11 +227,12 @@ def build_groups(
             np.full(nf * n, inf),
             length,
         ),
-        # eq 1: the body stays clear of the ground
+        # eq 1: the body stays clear of the ground; links closer to their foot than the
+        # clearance (ankles, soles: `RobotModel.foot_distance_m`) only keep their origin above it
         Group(
             "body clearance",
-            col(kq.body_z_m - options.body_clearance_for(model.robot.leg_length_m)),
-            zeros(model.n_bodies * n),
+            col(kq.body_z_m - clearance),
+            np.tile(np.where(model.foot_distance_m < clearance, -clearance, 0.0), n),
             np.full(model.n_bodies * n, inf),
             length,
         ),

@@ -122,6 +122,7 @@ class RobotModel:
             self.stiffness[i] = mj.jnt_stiffness[jid]
             self.spring_ref_rad[i] = mj.qpos_spring[qadr]
         self._build_functions()
+        self.foot_distance_m = self._foot_distances()
 
     # -- reading the MJCF --------------------------------------------------------------------
 
@@ -185,6 +186,23 @@ class RobotModel:
                 )
             sites.append((index[body], np.array(mj.site_pos[sid], dtype=float)))
         return bodies, sites
+
+    def _foot_distances(self) -> np.ndarray:
+        """Per body, the distance from its origin to the nearest foot site it carries, in the
+        nominal stance (inf for bodies that carry no foot). A body closer to its foot than the
+        body clearance (an ankle or sole link) has its height set by the foot's own contact
+        constraints; `planner.constraints` leaves it out of the body clearance (W&P eq 1)."""
+        feet_dm, origins_dm, _ = self.fk(
+            ca.DM.zeros(3), ca.DM.zeros(3), ca.DM(self.robot.nominal_stance_rad)
+        )
+        feet, origins = np.asarray(feet_dm, dtype=float), np.asarray(origins_dm, dtype=float)
+        out = np.full(self.n_bodies, np.inf)
+        for f, (body, _) in enumerate(self._sites):
+            b = body
+            while b >= 0:
+                out[b] = min(out[b], float(np.linalg.norm(origins[:, b] - feet[:, f])))
+                b = self._bodies[b].parent
+        return out
 
     # -- symbolic functions ------------------------------------------------------------------
 

@@ -131,3 +131,23 @@ def test_base_rates_chain_rule(model: RobotModel) -> None:
         (np.asarray(w_plus) - np.asarray(w_minus)).ravel() / (2 * h),
         atol=1e-6,
     )
+
+
+def test_ankle_and_sole_links_are_left_out_of_the_body_clearance() -> None:
+    """A biped's ankle and sole links sit 1-3 cm above the ground in stance, under the 0.17·L
+    body clearance: bound like the body they made every humanoid20 plan infeasible."""
+    from planner.config import PlannerOptions
+    from tests.zoo.fixtures import ZOO
+
+    clearance = PlannerOptions().body_clearance_for
+    biped = RobotModel(robots.load(ZOO / "humanoid20"))
+    names = [
+        mujoco.mj_id2name(biped.mj_model, mujoco.mjtObj.mjOBJ_BODY, b)
+        for b in range(1, biped.mj_model.nbody)
+    ]
+    near = {n for n, d in zip(names, biped.foot_distance_m, strict=True)
+            if d < clearance(biped.robot.leg_length_m)}
+    assert near == {"l_ankle", "l_foot", "r_ankle", "r_foot"}
+    for name in ("quad12", "hex18"):  # knees and tibias are far from their feet
+        m = RobotModel(robots.load(name))
+        assert np.all(m.foot_distance_m >= clearance(m.robot.leg_length_m))
