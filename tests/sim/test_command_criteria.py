@@ -23,7 +23,7 @@ def _metrics(**values: float) -> Metrics:
 
 
 def _check(m: Metrics, name: str) -> tuple[bool, str]:
-    found = {n: (ok, detail) for n, ok, detail in judge(m, PassCriteria())}
+    found = {n: (ok, detail) for n, ok, detail in judge(m, PassCriteria(), 0.2)}
     return found[name]
 
 
@@ -44,12 +44,12 @@ def test_turning_replaces_heading_and_yaw_drift() -> None:
     # a 0.5 rad/s turn 8 % slow over 10 s is 0.4 rad (23°) off the commanded heading
     m = _metrics(commanded_yaw_rate_rad_s=0.5, achieved_yaw_rate_rad_s=0.46,
                  heading_error_rad=-0.4, yaw_drift_rad_per_m=4.0)
-    found = {n: (ok, d) for n, ok, d in judge(m, PassCriteria())}
+    found = {n: (ok, d) for n, ok, d in judge(m, PassCriteria(), 0.2)}
     assert found["heading"][0] and found["heading"][1].startswith("n/a (turning")
     assert found["yaw drift"][0] and found["yaw drift"][1].startswith("n/a (turning")
     # straight commands keep them
     m = dataclasses.replace(m, commanded_yaw_rate_rad_s=0.0)
-    found = {n: (ok, d) for n, ok, d in judge(m, PassCriteria())}
+    found = {n: (ok, d) for n, ok, d in judge(m, PassCriteria(), 0.2)}
     assert not found["heading"][0] and not found["yaw drift"][0]
     assert "yaw rate" not in found
 
@@ -62,10 +62,10 @@ def test_lateral_speed_within_15_percent(achieved: float, ok: bool) -> None:
 
 
 def test_no_lateral_check_without_a_lateral_command_or_on_an_arc() -> None:
-    names = {n for n, _, _ in judge(_metrics(), PassCriteria())}
+    names = {n for n, _, _ in judge(_metrics(), PassCriteria(), 0.2)}
     assert "lateral speed" not in names and "yaw rate" not in names
     arc = _metrics(commanded_vy_m_s=0.05, commanded_yaw_rate_rad_s=0.3,
                    achieved_yaw_rate_rad_s=0.3)
-    names = {n for n, _, _ in judge(arc, PassCriteria())}
+    names = {n for n, _, _ in judge(arc, PassCriteria(), 0.2)}
     assert "lateral speed" not in names and "yaw rate" in names
     assert math.isclose(PassCriteria().yaw_rate_rel_tol, 0.15)
