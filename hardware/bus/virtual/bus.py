@@ -285,6 +285,16 @@ class VirtualServoBus:
             return list(self.servos)
         return [s for s in self.servos if s.servo_id == servo_id]
 
+    def _action(self, servo_id: int, bcast: bool, status: Callable[..., None]) -> None:
+        """ACTION (both Feetech and Protocol 1.0): apply the REG WRITE buffered per servo; a
+        servo addressed directly answers with a status packet, a broadcast gets no reply."""
+        for s in self._targets(servo_id):
+            pending = self._registered.pop(s.servo_id, None)
+            if pending is not None:
+                s.write(*pending)
+            if not bcast:
+                status(s)
+
     def _dispatch(self, p: Packet, now: float) -> list[tuple[VirtualServo, bytes]]:
         if self.plant is not None:
             self.plant.advance(now, self.servos)
@@ -338,12 +348,7 @@ class VirtualServoBus:
                     )
             return replies
         if inst == ACTION:
-            for s in self._targets(p.servo_id):
-                pending = self._registered.pop(s.servo_id, None)
-                if pending is not None:
-                    s.write(*pending)
-                if not bcast:
-                    status(s)
+            self._action(p.servo_id, bcast, status)
             return replies
         for s in self._targets(p.servo_id):
             if inst == PING:
@@ -432,12 +437,7 @@ class VirtualServoBus:
                         status(s, data)
             return replies
         if inst == ACTION:
-            for s in self._targets(p.servo_id):
-                pending = self._registered.pop(s.servo_id, None)
-                if pending is not None:
-                    s.write(*pending)
-                if not bcast:
-                    status(s)
+            self._action(p.servo_id, bcast, status)
             return replies
         for s in self._targets(p.servo_id):
             if inst == PING:
