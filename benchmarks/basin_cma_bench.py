@@ -34,9 +34,9 @@ from typing import Any  # noqa: E402
 import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
-from planner.basin_cma import LocalResult, basin_cma  # noqa: E402
-from planner.cec2006 import PROBLEMS, CecLocalSolver, solve_basin_cma, solve_penalty_cma  # noqa: E402
-from planner.executors import ProcessExecutor, SerialExecutor  # noqa: E402
+from planner.search.basin_cma import LocalResult, basin_cma  # noqa: E402
+from planner.search.cec2006 import PROBLEMS, CecLocalSolver, solve_basin_cma, solve_penalty_cma  # noqa: E402
+from planner.search.executors import ProcessExecutor, SerialExecutor  # noqa: E402
 
 
 def _median(xs: list[float]) -> float:

@@ -23,7 +23,7 @@ import mujoco
 import numpy as np
 
 import robots
-from planner.spacetime import GaitPlanner, PlanResult
+from planner.nlp.spacetime import GaitPlanner, PlanResult
 from robots import ContactSchedule, Robot
 from robots.sole import sole_pose_world
 

@@ -20,7 +20,7 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import robots
-from planner.gait_search import search_gait
+from planner.search.gait_search import search_gait
 from sim.acceptance import SimAcceptance
 from sim.validate import PassCriteria
 

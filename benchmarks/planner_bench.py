@@ -14,7 +14,7 @@ run: the cold build split into the symbolic part (model, knot quantities, constr
 the same solver written with CasADi's serialiser (`Function.save`) and read back
 (`Function.load`): "cached build" = symbolic part + load, ratio = cold / cached.
 For scale it also prints the instruction counts of the NLP's Jacobian and Lagrangian Hessian
-next to those of one knot (`planner.constraints.knot_function`) and the time to build the
+next to those of one knot (`planner.nlp.constraints.knot_function`) and the time to build the
 knot's own derivatives: the whole-NLP derivatives are N expanded copies of the knot's.
 """
 
@@ -34,9 +34,9 @@ import casadi as ca
 import numpy as np
 
 import robots
-from planner import spacetime
-from planner.constraints import knot_function
-from planner.spacetime import GaitPlanner, PlanResult
+from planner.nlp import spacetime
+from planner.nlp.constraints import knot_function
+from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import make_schedule
 
 

@@ -18,8 +18,8 @@ from robots.files import check_writable
 if TYPE_CHECKING:
     from robots.robot import Robot
 
-MAX_SPEED_M_S = 10.0  # planner.spacetime's own bound
-KNOTS_RANGE = (8, 200)  # planner.spacetime's own bound
+MAX_SPEED_M_S = 10.0  # planner.nlp.spacetime's own bound
+KNOTS_RANGE = (8, 200)  # planner.nlp.spacetime's own bound
 RATE_HZ_RANGE = (1.0, 10000.0)  # sim.rollout's own bound
 MAX_LATENCY_MS = 1000.0  # sim.rollout's own bound (1 s)
 MAX_CYCLES = 100_000

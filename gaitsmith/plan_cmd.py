@@ -1,7 +1,7 @@
 """`gaitsmith plan ROBOT --gait trot --vx 0.25 -o trot.json`: one spacetime solve → gait file.
 
 `--vx` (alias `--speed`), `--vy` and `--yaw-rate` command a body-frame velocity: the cycle is
-periodic up to the planar motion they define (`planner.command`), so the same templates turn,
+periodic up to the planar motion they define (`planner.nlp.command`), so the same templates turn,
 side-step and walk backwards.
 
 `--search` runs basin-CMA over the contact timings (starting from the templates) and writes the
@@ -44,9 +44,9 @@ from gaitsmith.search_options import (
     tipping_weight_option,
     workers_option,
 )
-from planner.config import PlannerOptions
 from planner.errors import InfeasibleGaitError
-from planner.spacetime import GaitPlanner, PlanResult
+from planner.nlp.config import PlannerOptions
+from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
 from robots.voltage import nominal_supply_v, robot_at_voltage, voltage_margin
@@ -237,7 +237,7 @@ class SearchSettings:
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
                  mu: float, st: SearchSettings, simulate: bool, cycles: int,
                  supply_v: float | None = None) -> None:
-    from planner.gait_search import SearchLogRow, search_gait, write_search_log
+    from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
         console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")

@@ -25,8 +25,9 @@ from gaitsmith.options import (
     check_knots,
     check_output_file,
 )
-from planner.config import PlannerOptions
 from planner.errors import InfeasibleGaitError
+from planner.nlp.config import PlannerOptions
+from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.retarget import (
     RetargetResult,
     SolveRecord,
@@ -37,7 +38,6 @@ from planner.retarget import (
     plan_from_scratch,
     retarget,
 )
-from planner.spacetime import GaitPlanner, PlanResult
 from robots.errors import RobotsError
 
 MAX_STEPS = 20

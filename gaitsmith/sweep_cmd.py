@@ -27,9 +27,9 @@ from gaitsmith.search_options import (
     tipping_weight_option,
     workers_option,
 )
-from planner.config import PlannerOptions
-from planner.gait_search import GaitSearchResult, SearchLogRow
-from planner.speed_sweep import SweepRow, Validator, sweep_speeds, to_markdown, write_sweep
+from planner.nlp.config import PlannerOptions
+from planner.search.gait_search import GaitSearchResult, SearchLogRow
+from planner.search.speed_sweep import SweepRow, Validator, sweep_speeds, to_markdown, write_sweep
 from robots.errors import OutputWriteError
 
 

@@ -42,10 +42,10 @@ import mujoco
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from planner.config import PlannerOptions
 from planner.errors import PlannerError
-from planner.servo_loop import factory_servo_loops, servo_goals_rad
-from planner.spacetime import GaitPlanner, PlanResult, WarmStart
+from planner.nlp.config import PlannerOptions
+from planner.nlp.servo_loop import factory_servo_loops, servo_goals_rad
+from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.templates import stance_foot_positions_m
 from robots import ContactSchedule, Gait, Robot
 from robots.spline import PeriodicSpline
@@ -163,7 +163,7 @@ def match_legs(source: Robot, target: Robot) -> LegMatch:
 
 @dataclass(frozen=True, eq=False)
 class Motion:
-    """One gait cycle of one robot sampled at N knots (solver conventions, `planner.variables`)."""
+    """One gait cycle of one robot sampled at N knots (conventions: `planner.nlp.variables`)."""
 
     robot: Robot
     schedule: ContactSchedule
@@ -274,13 +274,13 @@ def map_motion(motion: Motion, target: Robot, match: LegMatch) -> Motion:
 def warm_start(motion: Motion, planner: GaitPlanner) -> WarmStart:
     """An IPOPT start point for `planner` (same robot and N as `motion`): poses, forces,
     torques, and the lifted rates and servo-goal slopes they imply (zero multipliers: the
-    planner restarts them, `planner.spacetime.WARM_START_DUALS`)."""
+    planner restarts them, `planner.nlp.spacetime.WARM_START_DUALS`)."""
     if motion.robot.joint_names != planner.robot.joint_names or motion.n_knots != planner.n_knots:
         raise RetargetError("internal: motion and planner differ in joints or knots")
     n, dt_s = motion.n_knots, motion.schedule.period_s / motion.n_knots
     pose = np.hstack([motion.base_pose, motion.joint_angles_rad])
     pose[:, 3:6] = np.unwrap(pose[:, 3:6], axis=0)
-    # the planner's own differences (planner.constraints): central first, second differences
+    # the planner's own differences (planner.nlp.constraints): central first, second differences
     vel = _cyclic_rate(pose, dt_s)
     acc = (np.roll(pose, -1, axis=0) - 2.0 * pose + np.roll(pose, 1, axis=0)) / dt_s**2
     slopes = np.zeros_like(motion.joint_angles_rad)

@@ -1,6 +1,7 @@
 """MuJoCo acceptance of a gait as a picklable check, for search loops that must not import sim.
 
-`planner.gait_search` can reject timings whose planned gait does not walk under the servo model
+`planner.search.gait_search` can reject timings whose planned gait does not walk under the servo
+model
 (basin-CMA ranks them as infeasible); the command line wires this check in, so that `planner`
 never imports `sim` (DESIGN: the CLI wires the packages). `SimAcceptance` is a frozen, picklable
 factory — each executor worker calls it once and gets a `GaitCheck` bound to its robot.

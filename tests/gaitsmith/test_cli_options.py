@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-import planner.gait_search
+import planner.search.gait_search
 import robots
 from gaitsmith import plan_cmd, simulate_cmd, sweep_cmd
 from gaitsmith.cli import main
@@ -32,7 +32,7 @@ def _too_late(*args: Any, **kwargs: Any) -> Any:
 @pytest.fixture(autouse=True)
 def no_expensive_work(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(plan_cmd, "GaitPlanner", _too_late)
-    monkeypatch.setattr(planner.gait_search, "search_gait", _too_late)
+    monkeypatch.setattr(planner.search.gait_search, "search_gait", _too_late)
     monkeypatch.setattr(sweep_cmd, "sweep_speeds", _too_late)
     monkeypatch.setattr(simulate_cmd, "simulate", _too_late)
 
@@ -194,7 +194,7 @@ def test_plan_onto_a_full_disk_fails_cleanly_after_the_solve(
 ) -> None:
     """The disk fills up during the run: the gait file is not written, no temp file is left,
     one line says why (a real 12-knot solve: ≈ 6 s)."""
-    from planner.spacetime import GaitPlanner
+    from planner.nlp.spacetime import GaitPlanner
 
     monkeypatch.setattr(plan_cmd, "GaitPlanner", GaitPlanner)
 

@@ -11,7 +11,7 @@ import pytest
 import robots
 from gaitsmith import plan_cmd
 from gaitsmith.cli import main
-from planner.spacetime import GaitPlanner
+from planner.nlp.spacetime import GaitPlanner
 from planner.templates import make_schedule
 
 

@@ -13,7 +13,7 @@ import pytest
 
 import robots
 from gaitsmith import cli
-from planner.config import speed_for_froude
+from planner.nlp.config import speed_for_froude
 from tests.zoo.fixtures import ZOO
 
 FROUDE = 0.02

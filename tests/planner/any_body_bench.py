@@ -11,7 +11,7 @@ which has no azimuth templates for 5 legs)::
 `write` builds the robots into a folder and stores each template's schedule and the default
 (Froude) speed; `solve` runs them at N knots with the given `PlannerOptions` fields (omitted:
 the checkout's defaults), and prints iterations, status and time per template.
-The `solve` step imports only `robots` and `planner.spacetime`/`planner.config`.
+The `solve` step imports only `robots` and `planner.nlp.spacetime`/`planner.nlp.config`.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from typing import Any
 
 def write(folder: str, out: str) -> None:
     import robots
-    from planner.config import default_speed_m_s
+    from planner.nlp.config import default_speed_m_s
     from planner.templates import make_schedule, templates_for
     from tests.planner.robot_factory import small_quadruped, star_robot
 
@@ -45,8 +45,8 @@ def write(folder: str, out: str) -> None:
 def solve(path: str, n_knots: int, settings: str | None) -> None:
     """`settings`: PlannerOptions fields as ``name=value,…`` (numbers or true/false)."""
     import robots
-    from planner.config import PlannerOptions
-    from planner.spacetime import GaitPlanner
+    from planner.nlp.config import PlannerOptions
+    from planner.nlp.spacetime import GaitPlanner
 
     kw: dict[str, Any] = {}
     for item in (settings or "").split(","):

@@ -7,7 +7,7 @@ import os
 import pytest
 
 import robots
-from planner.spacetime import GaitPlanner
+from planner.nlp.spacetime import GaitPlanner
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 

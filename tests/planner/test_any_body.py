@@ -15,16 +15,17 @@ import pytest
 
 import robots
 from gaitsmith import cli
-from planner import diagnostics
-from planner.config import (
+from planner.errors import PlannerConfigError, TemplateError
+from planner.nlp import diagnostics
+from planner.nlp.config import (
     SWING_CLEARANCE_LEG_LENGTHS,
     PlannerOptions,
     default_speed_m_s,
     speed_for_froude,
 )
-from planner.errors import PlannerConfigError, TemplateError
-from planner.gait_search import TimingSpace, searchable_templates
-from planner.spacetime import GaitPlanner
+from planner.nlp.spacetime import GaitPlanner
+from planner.nlp.variables import variable_scale
+from planner.search.gait_search import TimingSpace, searchable_templates
 from planner.templates import (
     azimuth_order,
     default_gait_for,
@@ -35,7 +36,6 @@ from planner.templates import (
     templates_for,
 )
 from planner.user_schedule import command_schedule, load_schedule_file, parse_duty, parse_phases
-from planner.variables import variable_scale
 from tests.planner.robot_factory import small_quadruped, star_robot
 
 
@@ -239,8 +239,8 @@ def test_plan_command_rejects_a_bad_schedule_in_one_line(
 
 
 def test_variable_scale_uses_leg_length_time_unit_and_weight(mini4: robots.Robot) -> None:
-    from planner.model import RobotModel
-    from planner.variables import Layout
+    from planner.nlp.model import RobotModel
+    from planner.nlp.variables import Layout
 
     model = RobotModel(mini4)
     layout = Layout(12, model.n_joints, model.n_feet)
@@ -313,7 +313,7 @@ def test_a_feasible_point_at_the_iteration_cap_is_a_gait(mini4_planner: GaitPlan
 
 @pytest.mark.slow
 def test_search_runs_on_five_legs_without_left_right_roles(star5_planner: GaitPlanner) -> None:
-    from planner.gait_search import search_gait
+    from planner.search.gait_search import search_gait
 
     robot = star5_planner.robot
     result = search_gait(robot, 0.1, n_knots=12, max_generations=1, popsize=3, seed=0,

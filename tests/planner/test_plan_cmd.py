@@ -9,7 +9,7 @@ import pytest
 
 import robots
 from gaitsmith import cli, plan_cmd
-from planner.spacetime import GaitPlanner
+from planner.nlp.spacetime import GaitPlanner
 
 
 @pytest.fixture()

@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 import robots
 from hardware.cli import app
 from hardware.play.virtual_rig import bringup_gait
-from planner.servo_loop import factory_servo_loops
+from planner.nlp.servo_loop import factory_servo_loops
 from robots import RobotConfigError, load_catalogue, servo_model
 from robots.gait import save
 from robots.servo import (

@@ -187,7 +187,7 @@ def test_mjcf_damping_double_counting_is_flagged_and_overridable(quad_copy: Path
 
 @pytest.mark.slow
 def test_planner_holds_held_joints_and_checks_their_torque() -> None:
-    from planner.spacetime import GaitPlanner
+    from planner.nlp.spacetime import GaitPlanner
     from planner.templates import make_schedule
     from sim.validate import simulate, validate
 

@@ -6,7 +6,7 @@ hex18 tripod at 0.15 m/s and quad12 trot at 0.25 m/s (template defaults) must pa
 (≈ 10 N·m/rad) sagged the body ≈ 1 cm and lagged, and the optimiser landed the hind feet still
 moving forward and lifted the front feet while swinging — the hind feet dragged through ≈ 45 %
 of their swing. The planner now writes servo goals that invert the position loop and sets feet
-down / lifts them off vertically (`planner.servo_loop`, `PlannerOptions`).
+down / lifts them off vertically (`planner.nlp.servo_loop`, `PlannerOptions`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ pytestmark = pytest.mark.slow
 
 def _plan(robot: Robot, gait: str, speed_m_s: float):  # type: ignore[no-untyped-def]
     from planner import templates
-    from planner.spacetime import GaitPlanner
+    from planner.nlp.spacetime import GaitPlanner
 
     planner = GaitPlanner(robot, n_knots=30)
     result = planner.solve(templates.make_schedule(robot, gait), speed_m_s)

@@ -56,7 +56,7 @@ def test_sole_centre_velocity_is_the_jacobian_velocity_of_the_sole_centre() -> N
 def test_biped_stands_and_walks_in_mujoco_from_its_plans() -> None:
     """Plans with N = 12: the stand passes every simulator check over 10 s; the slow walk
     (0.05 m/s) stays up, on its soles, without slipping."""
-    from planner.spacetime import GaitPlanner
+    from planner.nlp.spacetime import GaitPlanner
     from sim.validate import validate
 
     robot = robots.load(BIPED)

@@ -59,7 +59,7 @@ def long_quad(tmp_path_factory: pytest.TempPathFactory) -> Robot:
 
 @pytest.fixture(scope="module")
 def long_quad_trot(long_quad: Robot) -> Gait:
-    from planner.spacetime import GaitPlanner
+    from planner.nlp.spacetime import GaitPlanner
     from planner.templates import make_schedule
 
     planner = GaitPlanner(long_quad, n_knots=20)

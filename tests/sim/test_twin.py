@@ -77,7 +77,7 @@ def test_twin_agrees_with_sim_validate(quad: Robot) -> None:
 def planned_trot(quad: Robot) -> Gait:
     """A quad12 trot from the spacetime planner (as `gaitsmith plan quad12 --gait trot`)."""
     pytest.importorskip("casadi")
-    from planner.spacetime import GaitPlanner
+    from planner.nlp.spacetime import GaitPlanner
     from planner.templates import make_schedule
 
     planner = GaitPlanner(quad, n_knots=24)

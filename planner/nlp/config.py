@@ -1,0 +1,211 @@
+"""Planner options and objective weights: frozen values with units in their names.
+
+Defaults follow Wampler & Popović 2009 (W&P) §3 where it gives numbers (µ = 0.5) and add the servo
+physics that make a gait deployable (torque–speed envelope with a margin, speed limit).
+
+Scaling with the body (geometric and dynamic similarity; Alexander & Jayes 1983): a robot is
+described by its leg length L (`Robot.leg_length_m`, hip height over the foot at stance) and
+every default that is a length or a speed follows it, so a 7.5 cm hobby quadruped gets the same
+plan *shape* as a 20 cm one instead of lifting its feet a third of its leg:
+
+- swing clearance  h_swing = `SWING_CLEARANCE_LEG_LENGTHS` · L   (0.14 L: 25 mm at L = 0.18 m)
+- body clearance   h_body  = `BODY_CLEARANCE_LEG_LENGTHS` · L    (0.17 L: 30 mm at L = 0.18 m)
+- period           T = k · √(L/g) per template (`planner.templates`)
+- speed            v = √(Fr · g · L) at Froude number Fr (`default_speed_m_s`,
+  `DEFAULT_FROUDE` = 0.035 ≈ 0.25 m/s at L = 0.18 m; walking animals change gait near
+  Fr ≈ 0.5, dynamically similar gaits share Fr)
+- step length      s = v · T = k · √Fr · L, so it scales with L by the two laws above.
+
+`PlannerOptions.swing_clearance_m` / `body_clearance_m` override the laws with fixed metres.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from planner.errors import PlannerConfigError
+
+#: Scaling laws with the leg length L (see the module docstring).
+SWING_CLEARANCE_LEG_LENGTHS = 0.14
+BODY_CLEARANCE_LEG_LENGTHS = 0.17
+DEFAULT_FROUDE = 0.035
+GRAVITY_M_S2 = 9.81
+
+
+def speed_for_froude(froude: float, leg_length_m: float) -> float:
+    """v = √(Fr·g·L): the speed of Froude number `froude` for legs of `leg_length_m`."""
+    if not (math.isfinite(froude) and froude >= 0 and leg_length_m > 0):
+        raise PlannerConfigError(f"Froude number must be ≥ 0, got {froude!r}")
+    return math.sqrt(froude * GRAVITY_M_S2 * leg_length_m)
+
+
+def default_speed_m_s(leg_length_m: float) -> float:
+    """The default planning speed: `DEFAULT_FROUDE` for this leg length (0.25 m/s at 18 cm)."""
+    return speed_for_froude(DEFAULT_FROUDE, leg_length_m)
+
+
+def default_speeds_m_s(leg_length_m: float, froudes: tuple[float, ...] = (0.002, 0.01, 0.03,
+                                                                           0.06)) -> list[float]:
+    """Speeds of a gait-from-speed sweep at fixed Froude numbers (≈ 0.05-0.3 m/s at 18 cm)."""
+    return [round(speed_for_froude(fr, leg_length_m), 4) for fr in froudes]
+
+
+@dataclass(frozen=True)
+class CostWeights:
+    """Weights of the objective terms (W&P eqs 13-16 with servo-normalised effort).
+
+    Every term is averaged over the N knots, so the weights do not depend on N or the period.
+
+    - `effort`: Σ_j (τ_j / τ_stall,j)² — W&P eq 13 (muscle torque²), normalised per servo so
+      it measures heating (I²R ∝ τ²) on mixed servos instead of dividing by body mass.
+    - `joint_speed_s2`: Σ_j q̇_j² [rad²/s²] — eq 14, suppresses wiggling (units s²/rad²).
+    - `bounce_s2_m2`: ẏ² + ż² of the base [m²/s²] — eq 15, head/body motion perpendicular to the
+      gait velocity.
+    - `orientation_rad2`: roll² + pitch² + yaw² — eq 16, ‖R − I‖² to first order (÷2).
+    - `angular_velocity_s2`: |ω_base|² [rad²/s²] — body stability; our addition.
+    - `joint_accel_s4`: Σ_j q̈_j² [rad²/s⁴] — smooth targets a position servo can track; ours.
+    - `posture_rad2`: Σ_j (q_j − q_stance,j)² [rad²] — distance from the robot's stance pose
+      (robot.toml `stance_deg`), the regularising "rest pose" term of W&P-style objectives; it
+      keeps joints the gait does not need (and "hold" joints outside the legs) near their
+      stance instead of wherever the optimiser leaves them. 0.01: a 0.3 rad mean deviation over
+      12 joints costs ≈ 0.01, a few per cent of a walk's objective.
+
+    Default ratios follow W&P's C1:C2:C3:C4 = 25:0.1:25:100 scaled to servo units so the terms have
+    the same general magnitude on a 2 kg robot.
+    """
+
+    effort: float = 1.0
+    joint_speed_s2: float = 1e-3
+    bounce_s2_m2: float = 10.0
+    orientation_rad2: float = 10.0
+    angular_velocity_s2: float = 0.1
+    joint_accel_s4: float = 1e-5
+    posture_rad2: float = 0.01
+
+    def __post_init__(self) -> None:
+        for name, value in self.as_dict().items():
+            if not (math.isfinite(value) and value >= 0):
+                raise PlannerConfigError(
+                    f"cost weight {name} must be a finite number ≥ 0, got {value!r}"
+                )
+
+    def as_dict(self) -> dict[str, float]:
+        return {
+            "effort": self.effort,
+            "joint_speed_s2": self.joint_speed_s2,
+            "bounce_s2_m2": self.bounce_s2_m2,
+            "orientation_rad2": self.orientation_rad2,
+            "angular_velocity_s2": self.angular_velocity_s2,
+            "joint_accel_s4": self.joint_accel_s4,
+            "posture_rad2": self.posture_rad2,
+        }
+
+
+@dataclass(frozen=True)
+class PlannerOptions:
+    """Everything that shapes the NLP except the per-solve parameters (schedule, speed, period).
+
+    - `mu`: friction coefficient of the cone (W&P eq 9 uses 0.5), imposed as the inscribed
+      linear pyramid |f_x|, |f_y| ≤ µ/√2 · f_z — conservative, and linear (a cheaper Hessian).
+    - `torque_margin`: |τ| ≤ margin · τ_stall · (1 − |q̇|/ω₀); 0.8 leaves the servo 20 % for
+      tracking (sim requires peak torque ≤ 80 % of stall).
+    - `speed_margin`: |q̇| ≤ margin · ω₀ (no-load speed).
+    - `swing_clearance_m`: swing foot-sphere bottom ≥ h·sin(π·swing progress); None (default):
+      h = `SWING_CLEARANCE_LEG_LENGTHS`·L (`swing_clearance_for`).
+    - `body_clearance_m`: every body origin stays this high above the ground (W&P eq 1); None
+      (default): `BODY_CLEARANCE_LEG_LENGTHS`·L (`body_clearance_for`).
+    - `max_tilt_rad`: bounds on base roll, pitch and yaw.
+    - `min_base_height_fraction`: base height ≥ this × the robot's nominal stance height, so
+      the optimiser cannot save torque by crouching the body onto the ground.
+    - `joint_limit_margin_rad`, `joint_limit_margin_fraction`: keep every joint (planned
+      angle and servo goal) off its limits by max(margin_rad, fraction × range), at most a
+      quarter of the range — no plan parks a joint on its stop. The closest approach of each
+      joint is written to the gait file (planner metadata ``joint_limit_clearance``).
+    - `max_force_body_weights`: normal force bound in stance, in units of m·g.
+    - `servo_goals`: write servo *goal* positions to the gait file instead of the planned angles:
+      goal = q + (τ + d·q̇)/kp inverts the servo's proportional position loop
+      (`planner.nlp.servo_loop`)
+      so the soft factory loop (STS3215: kp ≈ 10 N·m/rad) achieves the planned motion instead of
+      sagging and lagging behind it. Goals are kept inside the joint limits (same margin) and
+      below the player's step limit `speed_margin`·ω₀. False: the angles themselves (ideal servo).
+    - `vertical_contact_transitions`: a foot keeps its ground-frame x, y from the last swing knot
+      before touchdown to the first swing knot after lift-off, i.e. it sets down and lifts off
+      vertically over one knot interval T/N. Without it the optimiser lands the hind feet still
+      moving forward (≈ 0.3 m/s) and lifts the front feet while they already swing forward
+      (≈ 0.36 m/s) — in one knot interval nothing in the NLP sees the foot in between, but MuJoCo
+      does: impacts and scuffing that pitch the body nose-up and make the hind feet drag.
+    - `nondimensional`: the solver works on variables and constraint rows divided by their
+      natural units (lengths by the leg length L, times by √(L/g), forces by m·g, torques by
+      m·g·L; `planner.nlp.variables.variable_scale`). Results and reports stay in SI units and the
+      optimum is the same (equal costs to 4 digits). Off by default because it did not reduce
+      IPOPT iterations where measured (tests/planner/any_body_bench.py, N = 16, every template,
+      cold): 0.23 kg quadruped 216 vs 212 iterations, 5-leg star 210 vs 191. What made the
+      small robot hit the 150-iteration cap was the clearances fixed in metres (a 25 mm swing
+      on a 76 mm leg) and the missing posture term: main 456 iterations with `pace` stopped at
+      the cap, + posture and limit margins 280, + clearances ∝ L 212, all templates feasible.
+      Forces are already in body weights and the servo rows in fractions of the servo's
+      limits, and IPOPT's gradient-based row scaling covers the rest.
+    - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
+    """
+
+    mu: float = 0.5
+    torque_margin: float = 0.8
+    speed_margin: float = 0.9
+    swing_clearance_m: float | None = None
+    body_clearance_m: float | None = None
+    max_tilt_rad: float = 0.35
+    min_base_height_fraction: float = 0.8
+    joint_limit_margin_rad: float = 0.02
+    joint_limit_margin_fraction: float = 0.02
+    max_force_body_weights: float = 3.0
+    servo_goals: bool = True
+    vertical_contact_transitions: bool = True
+    weights: CostWeights = field(default_factory=CostWeights)
+    nondimensional: bool = False
+    tol: float = 1e-6
+    max_iter: int = 150
+    print_level: int = 0
+    linear_solver: str = "mumps"
+
+    def __post_init__(self) -> None:
+        checks = {
+            "mu": 0 < self.mu <= 5,
+            "torque_margin": 0 < self.torque_margin <= 1,
+            "speed_margin": 0 < self.speed_margin <= 1,
+            "swing_clearance_m": self.swing_clearance_m is None
+            or 0 <= self.swing_clearance_m < 1,
+            "body_clearance_m": self.body_clearance_m is None or 0 <= self.body_clearance_m < 1,
+            "max_tilt_rad": 0 < self.max_tilt_rad < 1.5,
+            "min_base_height_fraction": 0 <= self.min_base_height_fraction < 1.5,
+            "joint_limit_margin_rad": 0 <= self.joint_limit_margin_rad < 0.5,
+            "joint_limit_margin_fraction": 0 <= self.joint_limit_margin_fraction <= 0.25,
+            "max_force_body_weights": self.max_force_body_weights > 0,
+            "tol": 0 < self.tol < 1,
+            "max_iter": self.max_iter > 0,
+        }
+        for name, ok in checks.items():
+            if not ok:
+                raise PlannerConfigError(
+                    f"planner option {name}={getattr(self, name)!r} is out of range"
+                )
+
+    def swing_clearance_for(self, leg_length_m: float) -> float:
+        """Swing clearance [m] for legs of `leg_length_m` (the option, or the scaling law)."""
+        if self.swing_clearance_m is not None:
+            return self.swing_clearance_m
+        return SWING_CLEARANCE_LEG_LENGTHS * leg_length_m
+
+    def body_clearance_for(self, leg_length_m: float) -> float:
+        """Body clearance [m] for legs of `leg_length_m` (the option, or the scaling law)."""
+        if self.body_clearance_m is not None:
+            return self.body_clearance_m
+        return BODY_CLEARANCE_LEG_LENGTHS * leg_length_m
+
+    def joint_limit_margins_rad(self, lower_rad: np.ndarray, upper_rad: np.ndarray) -> np.ndarray:
+        """Per joint: max(margin_rad, fraction × range), capped at a quarter of the range."""
+        span = np.asarray(upper_rad, dtype=float) - np.asarray(lower_rad, dtype=float)
+        margin = np.maximum(self.joint_limit_margin_rad, self.joint_limit_margin_fraction * span)
+        return np.minimum(margin, 0.25 * span)

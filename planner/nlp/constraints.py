@@ -1,0 +1,388 @@
+"""Constraints of the spacetime NLP (TOWR-style "constraints" module), W&P 2009 eqs 1-10.
+
+Finite differences are cyclic over the N knots (h = T/N): q̇_k = (q_{k+1} − q_{k−1})/2h,
+q̈_k = (q_{k+1} − 2q_k + q_{k−1})/h². Treadmill convention (W&P §3), generalised to the command
+frame of `planner.nlp.command` (vx, vy, yaw rate W): the robot stays in place on average in a frame
+that moves with the commanded planar motion, neighbouring knots are compared in one frame
+(knot k±1 as Δ(±h)∘b_{k±1}; at W = vy = 0 a shift by ±v·h along x), so **stance feet move
+with −Δ(h)** (−v along x on a treadmill); the dynamics see the true base velocity ẋ + v, ẏ + vy
+and yaw rate + W (Galilean shift, so the torques are the ground-frame ones).
+
+Every group is a column of MX expressions with numeric bounds; the contact schedule switches rows
+on and off through the activity parameter C (stance rows are multiplied by C, the force bound is
+scaled by C), so the NLP is built once per (robot, N).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from planner.nlp.command import MotionSymbols
+from planner.nlp.config import PlannerOptions
+from planner.nlp.flat_foot import (
+    contact_offsets,
+    flat_foot_groups,
+    flat_foot_labels,
+    moments_world,
+    spare_flat_foot_ankles,
+)
+from planner.nlp.model import RobotModel
+from planner.nlp.variables import Symbols, time_unit_s
+
+GOAL_SPEED_SAMPLES_PER_KNOT = 8  # as the player's pre-flight (hardware.play.preflight)
+GOAL_SPEED_INSIDE = 0.98  # the slope is quadratic between samples: measured overshoot ≈ 0.6 %
+
+
+@dataclass(frozen=True)
+class Group:
+    """One named block of constraint rows lb ≤ expr ≤ ub; `unit` scales violations for reports."""
+
+    name: str
+    expr: Any
+    lb: np.ndarray
+    ub: np.ndarray
+    #: typical magnitude of a row (group units); the solver sees expr / scale (see
+    #: `row_scales`), reports and bounds stay in group units
+    scale: float | np.ndarray = 1.0
+
+
+@dataclass(frozen=True)
+class KnotQuantities:
+    """Mapped per-knot expressions (each with N columns)."""
+
+    base_rows: Any  # 6 × N: residual of the whole-body Newton–Euler balance (scaled)
+    tau_nm: Any  # J × N joint torques (the lifted variables)
+    tau_rnea_nm: Any  # J × N joint torques by inverse dynamics
+    feet_m: Any  # 3F × N foot-sphere centres (treadmill frame)
+    body_z_m: Any  # B × N body-origin heights
+    qd: Any  # J × N
+    qdd: Any  # J × N
+    base_d: Any  # 6 × N base pose rates
+    omega_world: Any  # 3 × N: base ω in the world minus the commanded turn (0, 0, W)
+
+
+def _shift(m: Any, k: int) -> Any:
+    """Cyclic column shift: column i of the result is column (i + k) mod N of m."""
+    n = m.shape[1]
+    k %= n
+    return m if k == 0 else ca.horzcat(m[:, k:], m[:, :k])
+
+
+def knot_function(model: RobotModel) -> ca.Function:
+    """SX function of one knot: dynamics residual, torques, feet, body heights, ω.
+
+    With flat feet it takes their contact moments too (last input "m", `planner.nlp.flat_foot`).
+    """
+    nj, nf = model.n_joints, model.n_feet
+    b, bd, bdd = ca.SX.sym("b", 6), ca.SX.sym("bd", 6), ca.SX.sym("bdd", 6)
+    q, qd, qdd = ca.SX.sym("q", nj), ca.SX.sym("qd", nj), ca.SX.sym("qdd", nj)
+    f = ca.SX.sym("f", 3 * nf)
+    v, vy, yaw_rate = ca.SX.sym("v"), ca.SX.sym("vy"), ca.SX.sym("yaw_rate")
+    weight_n = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2))
+    turn = ca.vertcat(0, 0, yaw_rate)  # the command frame's yaw rate (rpy rates and ω alike)
+    w, dw = model.base_rates(b[3:], bd[3:] + turn, bdd[3:])
+    v_base = bd[:3] + ca.vertcat(v, vy, 0)
+    forces = ca.reshape(f, 3, nf) * weight_n
+    inputs = [b, q, bd, qd, bdd, qdd, f, v, vy, yaw_rate]
+    names = ["b", "q", "bd", "qd", "bdd", "qdd", "f", "v", "vy", "yaw_rate"]
+    if model.flat_feet:
+        m = ca.SX.sym("m", 3 * len(model.flat_feet))
+        inputs, names = [*inputs, m], [*names, "m"]
+        base_rows, tau = model.inverse_dynamics_wrench(
+            b[:3], b[3:], q, v_base, w, qd, bdd[:3], dw, qdd, forces, moments_world(model, m)
+        )
+    else:
+        base_rows, tau = model.inverse_dynamics(
+            b[:3], b[3:], q, v_base, w, qd, bdd[:3], dw, qdd, forces
+        )
+    feet, origins, _ = model.fk(b[:3], b[3:], q)
+    scale = ca.DM([1, 1, 1, *[1.0 / model.robot.leg_length_m] * 3]) / weight_n
+    return ca.Function(
+        "knot",
+        inputs,
+        [base_rows * scale, tau, ca.reshape(feet, 3 * nf, 1), origins[2, :].T, w - turn],
+        names,
+        ["base_rows", "tau", "feet", "body_z", "w"],
+    )
+
+
+def knot_quantities(model: RobotModel, sym: Symbols, n_knots: int) -> KnotQuantities:
+    bd, qd = sym.vel[:6, :], sym.vel[6:, :]
+    bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
+    fn = knot_function(model).map(n_knots)
+    flat = [sym.moments] if model.flat_feet else []
+    base_rows, tau, feet, body_z, w = fn(
+        sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,
+        _motion(sym).vy_m_s, _motion(sym).yaw_rate_rad_s, *flat
+    )
+    return KnotQuantities(base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w)
+
+
+def _motion(sym: Symbols) -> MotionSymbols:
+    if sym.motion is None:
+        raise ValueError("the NLP symbols carry no velocity command block (make_symbols)")
+    return sym.motion
+
+
+def _in_frame(rows: Any, x: Any, y: Any) -> Any:
+    """`rows` (poses, N columns) with its first two rows replaced by x, y."""
+    return ca.vertcat(x, y, rows[2:, :])
+
+
+def build_groups(
+    model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: int, options: PlannerOptions
+) -> list[Group]:
+    """All constraint groups, in the order they appear in g."""
+    n, nf = n_knots, model.n_feet
+    r = contact_offsets(model, n)  # foot radius; 0 for a flat foot's sole centre
+    c = sym.contact
+    feet_x = kq.feet_m[0::3, :]
+    feet_y = kq.feet_m[1::3, :]
+    feet_z = kq.feet_m[2::3, :]
+    stick = c * _shift(c, 1)  # foot in stance at k and k+1
+    if options.vertical_contact_transitions:
+        # stance at k or k+1 (C is 0/1): the foot is also still over the interval that ends at
+        # touchdown and the one that starts at lift-off, so it sets down / lifts off vertically
+        stick = c + _shift(c, 1) - stick
+    motion = _motion(sym)
+    fx, fy, fz = sym.forces[0::3, :], sym.forces[1::3, :], sym.forces[2::3, :]
+    mu = options.mu / math.sqrt(2.0)  # inscribed pyramid of the cone (eq 9)
+    servos = [j.servo for j in model.robot.joints]
+    stall = ca.DM([s.stall_torque_nm for s in servos])
+    omega0 = ca.DM([s.no_load_speed_rad_s for s in servos])
+    tau_n = kq.tau_nm / ca.repmat(stall * options.torque_margin, 1, n)
+    qd_n = kq.qd / ca.repmat(omega0, 1, n)
+    nj = model.n_joints
+    zeros = np.zeros
+    inf = np.inf
+
+    def col(e: Any) -> Any:
+        return ca.vec(e)
+
+    clearance = options.body_clearance_for(model.robot.leg_length_m)
+    pose = ca.vertcat(sym.base, sym.q)
+    # neighbours in the command frame of knot k (`planner.nlp.command`): only base x, y change
+    nxt, prv = _shift(pose, 1), _shift(pose, -1)
+    nxt = _in_frame(nxt, *motion.next_in_frame(nxt[0, :], nxt[1, :]))
+    prv = _in_frame(prv, *motion.previous_in_frame(prv[0, :], prv[1, :]))
+    # lifted base rates are relative to the command: world velocity − (vx, vy), yaw rate − W
+    command_rate = ca.repmat(ca.vertcat(motion.vx_m_s, motion.vy_m_s, ca.DM.zeros(4 + nj)), 1, n)
+    inv_h = n / sym.period_s
+    n_rates = (6 + nj) * n
+    # row scales (nondimensional NLP, see `planner.nlp.variables.variable_scale`): lengths in leg
+    # lengths, rates in units of √(L/g)
+    length = model.robot.leg_length_m
+    t0 = time_unit_s(length, float(np.linalg.norm(model.gravity_m_s2)) or 9.81)
+    rate = np.r_[[length / t0] * 3, [1.0 / t0] * (3 + nj)]
+    fd_scale = np.r_[np.tile(rate, n), np.tile(rate / t0, n)]
+    next_feet_x, next_feet_y = motion.next_in_frame(_shift(feet_x, 1), _shift(feet_y, 1))
+    groups = [
+        # cyclic central differences tie the lifted rates to the poses (linear in x)
+        Group(
+            "finite differences",
+            ca.vertcat(
+                col(sym.vel - ((nxt - prv) * (0.5 * inv_h) - command_rate)),
+                col(sym.acc - (nxt - 2 * pose + prv) * (inv_h * inv_h)),
+            ),
+            zeros(2 * n_rates),
+            zeros(2 * n_rates),
+            fd_scale,
+        ),
+        # W&P eqs 7-8: the floating base is unactuated — whole-body linear/angular momentum rate
+        # equals gravity + contact forces (the six base rows of the inverse dynamics vanish).
+        Group("dynamics", col(kq.base_rows), zeros(6 * n), zeros(6 * n)),
+        # joint torques by inverse dynamics of the floating-base tree (scaled by τ_stall)
+        Group(
+            "inverse dynamics",
+            col((kq.tau_nm - kq.tau_rnea_nm) / ca.repmat(stall, 1, n)),
+            zeros(nj * n),
+            zeros(nj * n),
+        ),
+        # eq 2: stance foot-sphere centre at the sphere radius
+        Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n), length),
+        # eq 3: stance feet stay put in the world: knot k+1's foot, in the command frame of knot
+        # k, is where it was at k (on a treadmill: moves at −v along x, not sideways); with
+        # `vertical_contact_transitions` also over the last swing interval before touchdown and
+        # the first one after lift-off
+        Group(
+            "stance no-slip",
+            ca.vertcat(
+                col(stick * (next_feet_x - feet_x)),
+                col(stick * (next_feet_y - feet_y)),
+            ),
+            zeros(2 * nf * n),
+            zeros(2 * nf * n),
+            length,
+        ),
+        # eq 1 for feet + anti-scuffing clearance profile in swing
+        Group(
+            "swing clearance",
+            col(feet_z - r - sym.min_height_m),
+            zeros(nf * n),
+            np.full(nf * n, inf),
+            length,
+        ),
+        # eq 1: the body stays clear of the ground; links closer to their foot than the
+        # clearance (ankles, soles: `RobotModel.foot_distance_m`) only keep their origin above it
+        Group(
+            "body clearance",
+            col(kq.body_z_m - clearance),
+            np.tile(np.where(model.foot_distance_m < clearance, -clearance, 0.0), n),
+            np.full(model.n_bodies * n, inf),
+            length,
+        ),
+        *_servo_goal_groups(model, sym, kq, n, options, inv_h),
+        # eq 9: friction pyramid inscribed in the cone µ
+        Group(
+            "friction",
+            ca.vertcat(col(mu * fz - fx), col(mu * fz + fx), col(mu * fz - fy), col(mu * fz + fy)),
+            zeros(4 * nf * n),
+            np.full(4 * nf * n, inf),
+        ),
+        # unilateral contact with zero force in swing: 0 ≤ f_z ≤ C·f_max (f_z ≥ 0 is a bound)
+        Group(
+            "swing force",
+            col(c * options.max_force_body_weights - fz),
+            zeros(nf * n),
+            np.full(nf * n, inf),
+        ),
+        # servo no-load speed |q̇| ≤ margin·ω₀
+        Group(
+            "joint speed",
+            col(qd_n),
+            np.full(nj * n, -options.speed_margin),
+            np.full(nj * n, options.speed_margin),
+        ),
+        # torque–speed envelope |τ| ≤ margin·τ_stall·(1 − |q̇|/ω₀), the four faces of the diamond
+        Group(
+            "torque envelope",
+            ca.vertcat(
+                col(tau_n + qd_n), col(tau_n - qd_n), col(-tau_n + qd_n), col(-tau_n - qd_n)
+            ),
+            np.full(4 * nj * n, -inf),
+            np.ones(4 * nj * n),
+        ),
+        # eq 6: remove the treadmill's translation invariance (mean base x, y at the origin)
+        Group(
+            "drift",
+            ca.vertcat(ca.sum2(sym.base[0, :]), ca.sum2(sym.base[1, :])) / n,
+            zeros(2),
+            zeros(2),
+        ),
+        *flat_foot_groups(model, sym, n, options, stick, Group),
+    ]
+    return spare_flat_foot_ankles(model, groups, n)
+
+
+def row_scales(groups: list[Group]) -> np.ndarray:
+    """One scale per row of g, in the order of `groups`."""
+    return np.concatenate(
+        [np.broadcast_to(np.asarray(grp.scale, dtype=float), grp.lb.shape) for grp in groups]
+    )
+
+
+def _servo_goal_groups(
+    model: RobotModel,
+    sym: Symbols,
+    kq: KnotQuantities,
+    n: int,
+    options: PlannerOptions,
+    inv_h: Any,
+) -> list[Group]:
+    """Servo goals (`planner.nlp.servo_loop`) inside the joint limits and the player's speed limit.
+
+    goal = q + (τ + d·q̇)/kp is linear in the lifted variables, and so are the spline's knot
+    slopes (lifted too, see `planner.nlp.variables`) and its slope between knots: all rows are
+    linear
+    and sparse. The player clips goals to the joint limits and their change to `speed_margin`·ω₀
+    per tick (and its pre-flight refuses a faster gait); a goal the player clips is a torque the
+    servo does not produce, so the plan must not need it.
+    """
+    if not options.servo_goals:
+        return []
+    from planner.nlp.servo_loop import factory_servo_loops, loop_arrays
+
+    kp, damping = loop_arrays(factory_servo_loops(model.robot))
+    nj = model.n_joints
+    goal = (
+        sym.q
+        + kq.tau_nm / ca.repmat(ca.DM(kp), 1, n)
+        + kq.qd * ca.repmat(ca.DM(damping / kp), 1, n)
+    )
+    lo, hi = model.joint_limits_rad()
+    margin = options.joint_limit_margins_rad(lo, hi)
+    omega0 = ca.DM([j.servo.no_load_speed_rad_s for j in model.robot.joints])
+    # the player streams the periodic cubic spline through the goals (`Gait.joint_targets`) and its
+    # pre-flight rejects a gait whose spline is faster than margin·ω₀ anywhere. Knot slopes s_k of
+    # the C² periodic spline [rad/s]: s_{k−1} + 4 s_k + s_{k+1} = 3 (g_{k+1} − g_{k−1}) N/T; on
+    # the interval k…k+1 at u ∈ [0, 1) the Hermite form gives the slope
+    # 6(u − u²)(g_{k+1} − g_k) N/T + (1 − 4u + 3u²) s_k + (3u² − 2u) s_{k+1}, sampled like the
+    # pre-flight (GOAL_SPEED_SAMPLES_PER_KNOT per interval).
+    slope = sym.goal_slope
+    tridiagonal = _shift(slope, -1) + 4 * slope + _shift(slope, 1)
+    spline = tridiagonal - 3 * (_shift(goal, 1) - _shift(goal, -1)) * inv_h
+    chord = (_shift(goal, 1) - goal) * inv_h
+    samples = []
+    for u in np.arange(GOAL_SPEED_SAMPLES_PER_KNOT) / GOAL_SPEED_SAMPLES_PER_KNOT:
+        d = 6 * (u - u * u) * chord + (1 - 4 * u + 3 * u * u) * slope
+        samples.append(d + (3 * u * u - 2 * u) * _shift(slope, 1))
+    # rows ordered (sample, knot, joint); labels in group_labels follow the same order
+    rate = ca.vertcat(*[ca.vec(d / ca.repmat(omega0, 1, n)) for d in samples])
+    rows = nj * n * GOAL_SPEED_SAMPLES_PER_KNOT
+    return [
+        Group("servo goal limits", ca.vec(goal), np.tile(lo + margin, n), np.tile(hi - margin, n)),
+        Group(
+            "servo goal spline",
+            ca.vec(spline / ca.repmat(omega0, 1, n)),
+            np.zeros(nj * n),
+            np.zeros(nj * n),
+        ),
+        Group(
+            "servo goal speed",
+            ca.vec(rate),
+            np.full(rows, -GOAL_SPEED_INSIDE * options.speed_margin),
+            np.full(rows, GOAL_SPEED_INSIDE * options.speed_margin),
+        ),
+    ]
+
+
+def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
+    """Human-readable row labels for the groups that need them in reports."""
+    joints = model.robot.joint_names
+    feet = model.robot.foot_names
+    per_joint = [f"{j}@knot {k}" for k in range(n_knots) for j in joints]
+    per_foot = [f"foot {f}@knot {k}" for k in range(n_knots) for f in feet]
+    dofs = ["x", "y", "z", "roll", "pitch", "yaw", *joints]
+    return {
+        "finite differences": [
+            f"{d}@knot {k}" for _ in range(2) for k in range(n_knots) for d in dofs
+        ],
+        "dynamics": [
+            f"{a}@knot {k}" for k in range(n_knots) for a in ("fx", "fy", "fz", "mx", "my", "mz")
+        ],
+        "inverse dynamics": per_joint,
+        "stance height": per_foot,
+        "stance no-slip": per_foot * 2,
+        "swing clearance": per_foot,
+        "swing force": per_foot,
+        "friction": per_foot * 4,
+        "joint speed": per_joint,
+        "servo goal limits": per_joint,
+        "servo goal spline": per_joint,
+        "servo goal speed": [
+            f"{j}@knot {k + i / GOAL_SPEED_SAMPLES_PER_KNOT:g}"
+            for i in range(GOAL_SPEED_SAMPLES_PER_KNOT)
+            for k in range(n_knots)
+            for j in joints
+        ],
+        "torque envelope": per_joint * 4,
+        "body clearance": [
+            f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)
+        ],
+        **flat_foot_labels(model, n_knots),
+    }

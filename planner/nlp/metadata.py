@@ -1,0 +1,128 @@
+"""Planner metadata written into gait files: objective terms, solver stats, weights, versions."""
+
+from __future__ import annotations
+
+import platform
+from importlib import metadata as importlib_metadata
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from planner.nlp.spacetime import GaitPlanner, PlanResult
+
+
+def package_versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for dist in ("gaitsmith", "casadi", "mujoco", "numpy", "scipy"):
+        try:
+            out[dist] = importlib_metadata.version(dist)
+        except importlib_metadata.PackageNotFoundError:
+            out[dist] = "not installed"
+    return out
+
+
+def servo_load(planner: GaitPlanner, result: PlanResult) -> dict[str, dict[str, float]]:
+    """Per joint: peak |τ|/τ_stall and peak |q̇|/ω₀ over the cycle."""
+    out = {}
+    for j, joint in enumerate(planner.robot.joints):
+        out[joint.name] = {
+            "peak_torque_over_stall": float(
+                np.max(np.abs(result.joint_torques_nm[:, j])) / joint.servo.stall_torque_nm
+            ),
+            "peak_speed_over_no_load": float(
+                np.max(np.abs(result.joint_speeds_rad_s[:, j])) / joint.servo.no_load_speed_rad_s
+            ),
+        }
+    return out
+
+
+def joint_limit_clearance(planner: GaitPlanner, result: PlanResult) -> dict[str, dict[str, float]]:
+    """Per joint: the closest approach of the planned angles (and, with servo goals, of the
+    streamed goals) to the joint's lower and upper limits over the cycle, and the margin the
+    planner kept (`PlannerOptions.joint_limit_margins_rad`). All in rad; `closest_rad` is the
+    smaller of the two distances, `closest_fraction_of_range` the same over the joint's range."""
+    lo, hi = planner.model.joint_limits_rad()
+    margin = planner.options.joint_limit_margins_rad(lo, hi)
+    q = np.asarray(result.joint_angles_rad)
+    series = [q]
+    if planner.options.servo_goals:
+        from planner.nlp.servo_loop import factory_servo_loops, servo_goals_rad
+
+        series.append(servo_goals_rad(q, result.joint_speeds_rad_s, result.joint_torques_nm,
+                                      factory_servo_loops(planner.robot)))
+    allq = np.concatenate(series, axis=0)
+    out = {}
+    for j, joint in enumerate(planner.robot.joints):
+        to_lower = float(np.min(allq[:, j]) - lo[j])
+        to_upper = float(hi[j] - np.max(allq[:, j]))
+        closest = min(to_lower, to_upper)
+        out[joint.name] = {
+            "to_lower_rad": to_lower,
+            "to_upper_rad": to_upper,
+            "closest_rad": closest,
+            "closest_fraction_of_range": closest / float(hi[j] - lo[j]),
+            "margin_rad": float(margin[j]),
+        }
+    return out
+
+
+def joint_angle_semantics(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]:
+    """What the gait file's joint samples mean, and what the consumer needs to check them.
+
+    ``joint_angles``: ``"servo_goal"`` — goals for the servos' position loops, which then
+    achieve the gait file's ``expected_joint_angles_rad`` (N × J, the planned motion that
+    `base_pose`, the contact forces and the joint torques belong to) through
+    τ = kp·(goal − q) − damping·q̇ (per joint in ``servo_loop``); ``"achieved"`` — the planned
+    angles themselves (ideal servos).
+    """
+    if not planner.options.servo_goals:
+        return {"joint_angles": "achieved"}
+    from planner.nlp.servo_loop import factory_servo_loops
+
+    loops = factory_servo_loops(planner.robot)
+    return {
+        "joint_angles": "servo_goal",
+        "servo_loop": {
+            "law": "goal = q + (tau + damping*qd)/kp (servo: tau = kp*(goal - q) - damping*qd)",
+            "kp_nm_per_rad": [s.kp_nm_per_rad for s in loops],
+            "damping_nm_s_per_rad": [s.damping_nm_s_per_rad for s in loops],
+        },
+    }
+
+
+def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]:
+    o = planner.options
+    weights = o.weights.as_dict()
+    return {
+        "method": "spacetime (Wampler & Popovic 2009 eqs 1-16), CasADi + IPOPT",
+        "n_knots": planner.n_knots,
+        "mu": o.mu,
+        "torque_margin": o.torque_margin,
+        "speed_margin": o.speed_margin,
+        "swing_clearance_m": planner.swing_clearance_m,
+        "body_clearance_m": planner.body_clearance_m,
+        "treadmill": "stance feet move at -v along x; base_pose x excludes the progress v*t",
+        "base_orientation": "R = Rz(yaw) Ry(pitch) Rx(roll)",
+        "weights": weights,
+        "objective": result.cost,
+        "objective_terms": dict(result.cost_terms),
+        "weighted_terms": {k: weights[k] * v for k, v in result.cost_terms.items()},
+        "solver": {
+            "status": result.status,
+            "iterations": result.iterations,
+            "solve_time_s": result.solve_time_s,
+            "build_time_s": planner.build_time_s,
+            "max_violation": result.max_violation,
+            "optimal": result.optimal,
+            "message": result.message,
+        },
+        "active_limits": [[name, float(v)] for name, v in result.binding],
+        "servo_load": servo_load(planner, result),
+        "joint_limit_clearance": joint_limit_clearance(planner, result),
+        "joint_limit_margin_rad": o.joint_limit_margin_rad,
+        "joint_limit_margin_fraction": o.joint_limit_margin_fraction,
+        "nondimensional": o.nondimensional,
+        **joint_angle_semantics(planner, result),
+        "versions": package_versions(),
+    }

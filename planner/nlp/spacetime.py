@@ -1,0 +1,447 @@
+"""The spacetime gait planner: a parametric NLP built once per (robot, N), solved by IPOPT.
+
+Usage (also what basin-CMA calls in its inner loop)::
+
+    planner = GaitPlanner(robot, n_knots=30)                 # builds the NLP once (~seconds)
+    result = planner.solve(schedule, speed_m_s=0.25)         # warm-starts from the last solve
+    gait = planner.to_gait(result, "trot")                   # raises InfeasibleGaitError
+
+The schedule (contact activity per knot, swing clearance profile), speed and period are NLP
+parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal and
+dual solution with IPOPT's ``warm_start_init_point``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from types import FrameType
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from planner.errors import InfeasibleGaitError, PlannerConfigError
+from planner.nlp import diagnostics
+from planner.nlp.command import check_command
+from planner.nlp.config import PlannerOptions
+from planner.nlp.constraints import build_groups, group_labels, knot_quantities, row_scales
+from planner.nlp.costs import cost_terms, weighted_objective
+from planner.nlp.model import RobotModel
+from planner.nlp.variables import (
+    Layout,
+    initial_guess,
+    make_symbols,
+    parameter_vector,
+    variable_bounds,
+    variable_scale,
+)
+from robots import ContactSchedule, Gait, Robot, Velocity
+
+_USER_STOP = ("User_Requested_Stop",)
+
+
+@contextmanager
+def _sigint_watch() -> Iterator[Callable[[], bool]]:
+    """Record a Ctrl-C that arrives while IPOPT runs (CasADi catches the KeyboardInterrupt and
+    ends the solve with a failure status); yields "was there one?". Main thread only."""
+    hits: list[int] = []
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield lambda: False  # Ctrl-C ignored (SIG_IGN) or not ours to watch
+        return
+    handler = previous
+
+    def on_sigint(signum: int, frame: FrameType | None) -> None:
+        hits.append(signum)
+        handler(signum, frame)  # the default handler raises KeyboardInterrupt: IPOPT stops
+
+    signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield lambda: bool(hits)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+#: Warm-start policy for "same robot, new schedule/speed/period" (basin-CMA's inner loop):
+#: reuse the last primal point only and restart the multipliers from zero. Measured on quad12
+#: trot N=30 with 10 perturbed schedules (benchmarks/planner_bench.py): primal-only needs a
+#: median 32 IPOPT iterations vs 61 with the previous multipliers (a contact switch makes the old
+#: duals wrong and IPOPT spends iterations unwinding them); starting from the template's solution
+#: instead of the last one, or μ_init 1e-5 with monotone μ, were worse (78 and 130 iterations).
+WARM_START_DUALS = False
+
+
+@dataclass(frozen=True)
+class WarmStart:
+    """A primal/dual point to start IPOPT from."""
+
+    x: np.ndarray
+    lam_x: np.ndarray
+    lam_g: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class PlanResult:
+    """One local solve: gait-ready arrays over the N knots plus cost and solver facts."""
+
+    schedule: ContactSchedule
+    speed_m_s: float
+    base_pose: np.ndarray  # N × 6 (x, y, z, roll, pitch, yaw), treadmill frame
+    joint_angles_rad: np.ndarray  # N × J
+    joint_speeds_rad_s: np.ndarray  # N × J (central differences)
+    contact_forces_n: np.ndarray  # N × F × 3, world frame
+    joint_torques_nm: np.ndarray  # N × J, inverse dynamics
+    cost: float
+    cost_terms: dict[str, float]
+    feasible: bool
+    status: str
+    iterations: int
+    solve_time_s: float
+    max_violation: float
+    binding: tuple[tuple[str, float], ...]
+    message: str
+    warm_start: WarmStart
+    stats: dict[str, Any] = field(default_factory=dict)
+    #: IPOPT proved the point locally optimal (`Solve_Succeeded`); a feasible result with
+    #: optimal=False is the point IPOPT stopped at (`diagnostics.ACCEPT_IF_FEASIBLE`)
+    optimal: bool = True
+    #: the rest of the velocity command (`planner.nlp.command`); base_pose is then relative to the
+    #: command frame (the treadmill frame when both are 0)
+    vy_m_s: float = 0.0
+    yaw_rate_rad_s: float = 0.0
+
+
+class GaitPlanner:
+    """Spacetime gait optimisation for one robot at a fixed number of knots."""
+
+    def __init__(
+        self, robot: Robot, n_knots: int = 30, options: PlannerOptions | None = None
+    ) -> None:
+        if not 8 <= n_knots <= 200:
+            raise PlannerConfigError(f"n_knots must be in [8, 200], got {n_knots}")
+        t0 = time.perf_counter()
+        self.robot = robot
+        self.n_knots = n_knots
+        self.options = options or PlannerOptions()
+        self.model = RobotModel(robot)
+        self.layout = Layout(
+            n_knots, self.model.n_joints, self.model.n_feet, len(self.model.flat_feet)
+        )
+        # nondimensional NLP: the solver sees x / x_scale and g / g_scale (see variable_scale)
+        nondim = self.options.nondimensional
+        self._x_scale = (
+            variable_scale(self.layout, self.model) if nondim else np.ones(self.layout.size)
+        )
+        sym = make_symbols(self.layout, self._x_scale if nondim else None)
+        kq = knot_quantities(self.model, sym, n_knots)
+        groups = build_groups(self.model, sym, kq, n_knots, self.options)
+        terms = cost_terms(self.model, sym, kq, n_knots)
+        objective = weighted_objective(terms, self.options.weights)
+        g = ca.vertcat(*[grp.expr for grp in groups])
+        self._lbg = np.concatenate([grp.lb for grp in groups])
+        self._ubg = np.concatenate([grp.ub for grp in groups])
+        self._g_scale = row_scales(groups) if nondim else np.ones(self._lbg.shape)
+        g_solver = g / ca.DM(self._g_scale) if nondim else g
+        slices, start = [], 0
+        for grp in groups:
+            size = int(grp.expr.shape[0])
+            slices.append((grp.name, slice(start, start + size)))
+            start += size
+        self._slices = slices
+        self._labels = group_labels(self.model, n_knots)
+        self._x_labels = self.layout.labels(self.robot.joint_names)
+        self._lbx, self._ubx = variable_bounds(self.layout, self.model, self.options)
+        self._term_names = list(terms)
+        self._evaluate = ca.Function(
+            "evaluate", [sym.x, sym.p], [g, kq.tau_nm, kq.qd, *terms.values()]
+        )
+        self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
+        self._solver = self._make_solver()
+        self._last: WarmStart | None = None
+        self.build_time_s = time.perf_counter() - t0
+
+    @property
+    def swing_clearance_m(self) -> float:
+        """The swing clearance this planner uses (option or scaling law, `planner.nlp.config`)."""
+        return self.options.swing_clearance_for(self.robot.leg_length_m)
+
+    @property
+    def body_clearance_m(self) -> float:
+        return self.options.body_clearance_for(self.robot.leg_length_m)
+
+    def _make_solver(self) -> Any:
+        """One IPOPT instance for cold and warm solves (building the derivatives is the slow part).
+
+        It always takes the initial multipliers we pass (``warm_start_init_point``): the last
+        solution's for warm starts, zeros (pushed off the bounds) for cold starts.
+        """
+        o = self.options
+        ipopt: dict[str, Any] = {
+            "tol": o.tol,
+            "acceptable_tol": 1e-4,
+            "constr_viol_tol": 1e-5,
+            "max_iter": o.max_iter,
+            "print_level": o.print_level,
+            "linear_solver": o.linear_solver,
+            "mu_strategy": "adaptive",
+            "sb": "yes",
+            "print_timing_statistics": "yes" if o.print_level >= 5 else "no",
+        }
+        if o.linear_solver == "mumps":
+            # METIS fill-reducing ordering: the KKT factorisation dominates an iteration, and
+            # MUMPS' automatic choice is 2.4x slower here (quad12 N=30 cold: 4.8 s -> 2.0 s, same
+            # 22 iterations); scaling and memory options made no further difference.
+            ipopt["mumps_pivot_order"] = 5
+        ipopt.update(
+            {
+                "warm_start_init_point": "yes",
+                "warm_start_bound_push": 1e-6,
+                "warm_start_slack_bound_push": 1e-6,
+                "warm_start_mult_bound_push": 1e-6,
+                "mu_init": 1e-2,
+            }
+        )
+        opts: dict[str, Any] = {
+            "ipopt": ipopt,
+            "print_time": False,
+            "expand": True,
+            "error_on_fail": False,
+        }
+        return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)
+
+    # -- solving -----------------------------------------------------------------------------
+
+    def _check(
+        self,
+        schedule: ContactSchedule,
+        speed_m_s: float,
+        vy_m_s: float = 0.0,
+        yaw_rate_rad_s: float = 0.0,
+    ) -> None:
+        if tuple(schedule.feet) != self.robot.foot_names:
+            raise PlannerConfigError(
+                f"schedule feet {list(schedule.feet)} do not match the robot's legs "
+                f"{list(self.robot.foot_names)}"
+            )
+        if not (np.isfinite(speed_m_s) and -10.0 <= speed_m_s <= 10.0):
+            raise PlannerConfigError(f"speed must be in [-10, 10] m/s, got {speed_m_s!r}")
+        check_command(vy_m_s, yaw_rate_rad_s, schedule.period_s, self.n_knots)
+        contact = schedule.contact_matrix(self.n_knots)
+        if speed_m_s != 0 or vy_m_s != 0 or yaw_rate_rad_s != 0:
+            for foot, duty in zip(schedule.feet, schedule.duty_factor, strict=True):
+                if duty >= 1.0 - 1e-9 or contact[:, schedule.feet.index(foot)].all():
+                    raise PlannerConfigError(
+                        f"foot {foot} never lifts off (duty factor {duty:g} at {self.n_knots} "
+                        "knots): a foot that never swings cannot keep up with a moving command; "
+                        "use speed 0 (stand) or a shorter duty factor"
+                    )
+        if not contact.any(axis=0).all():
+            raise PlannerConfigError(
+                f"with {self.n_knots} knots some foot never touches down; "
+                "use more knots or longer duty factors"
+            )
+
+    def solve(
+        self,
+        schedule: ContactSchedule,
+        speed_m_s: float,
+        warm_start: WarmStart | bool | None = None,
+        *,
+        vy_m_s: float = 0.0,
+        yaw_rate_rad_s: float = 0.0,
+    ) -> PlanResult:
+        """Plan one gait cycle at the command (vx = `speed_m_s`, `vy_m_s`, `yaw_rate_rad_s`;
+        `planner.nlp.command`). `warm_start`: None → the last solution if any, False → cold."""
+        self._check(schedule, speed_m_s, vy_m_s, yaw_rate_rad_s)
+        p = parameter_vector(
+            schedule, self.n_knots, speed_m_s, self.swing_clearance_m, vy_m_s, yaw_rate_rad_s
+        )
+        start = self._last if warm_start is None or warm_start is True else warm_start or None
+        t0 = time.perf_counter()
+        if start is None:
+            x0 = initial_guess(self.layout, self.model, schedule)
+            start = WarmStart(x0, np.zeros_like(x0), np.zeros_like(self._lbg))
+        elif not WARM_START_DUALS:
+            start = WarmStart(start.x, np.zeros_like(start.lam_x), np.zeros_like(start.lam_g))
+        xs, gs = self._x_scale, self._g_scale
+        with _sigint_watch() as interrupted:
+            # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
+            sol = self._solver(
+                x0=start.x / xs,
+                lam_x0=start.lam_x * xs,
+                lam_g0=start.lam_g * gs,
+                p=p,
+                lbx=self._lbx / xs,
+                ubx=self._ubx / xs,
+                lbg=self._lbg / gs,
+                ubg=self._ubg / gs,
+            )
+        sol = {
+            "x": np.asarray(sol["x"]).ravel() * xs,
+            "lam_x": np.asarray(sol["lam_x"]).ravel() / xs,
+            "lam_g": np.asarray(sol["lam_g"]).ravel() / gs,
+            "f": float(sol["f"]),
+        }
+        stats = self._solver.stats()
+        if interrupted() or stats.get("return_status") in _USER_STOP:
+            # CasADi swallows Ctrl-C (NonIpopt_Exception_Thrown), IPOPT's own handler returns
+            # User_Requested_Stop: either way the user stopped it, the gait is not infeasible
+            raise KeyboardInterrupt(f"IPOPT stopped ({stats.get('return_status')})")
+        elapsed = time.perf_counter() - t0
+        result = self._result(schedule, speed_m_s, p, sol, stats, elapsed)
+        result = dataclasses.replace(result, vy_m_s=float(vy_m_s),
+                                     yaw_rate_rad_s=float(yaw_rate_rad_s))
+        if result.feasible:
+            self._last = result.warm_start
+        return result
+
+    def _solver_parameters(self, schedule: ContactSchedule, speed_m_s: float) -> np.ndarray:
+        return parameter_vector(schedule, self.n_knots, speed_m_s, self.swing_clearance_m)
+
+    def _result(
+        self,
+        schedule: ContactSchedule,
+        speed_m_s: float,
+        p: np.ndarray,
+        sol: dict[str, Any],
+        stats: dict[str, Any],
+        elapsed: float,
+    ) -> PlanResult:
+        x = np.asarray(sol["x"]).ravel()
+        lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
+        g, tau, qd, *terms = (np.asarray(v) for v in self._evaluate(x / self._x_scale, p))
+        g = g.ravel()
+        reports = diagnostics.group_reports(
+            self._slices, g, self._lbg, self._ubg, lam_g, self._labels
+        )
+        nb, nq = self.layout.n_base, self.layout.n_q
+        names = [f"{n}@{k}" for k in range(self.n_knots) for n in self.robot.joint_names]
+        reports.append(
+            diagnostics.bound_report(
+                "joint limits",
+                x[nb : nb + nq],
+                self._lbx[nb : nb + nq],
+                self._ubx[nb : nb + nq],
+                lam_x[nb : nb + nq],
+                names,
+            )
+        )
+        tilt = np.r_[[np.arange(6 * k + 3, 6 * k + 6) for k in range(self.n_knots)]].ravel()
+        reports.append(
+            diagnostics.bound_report(
+                "tilt",
+                x[tilt],
+                self._lbx[tilt],
+                self._ubx[tilt],
+                lam_x[tilt],
+                [f"roll/pitch/yaw@{k}" for k in range(self.n_knots) for _ in range(3)],
+            )
+        )
+        # every other variable bound (base height, f_z ≥ 0, …): IPOPT keeps them to within its
+        # bound relaxation, but the verdict below must not take that on trust
+        reports.append(
+            diagnostics.bound_report(
+                "variable bounds", x, self._lbx, self._ubx, np.zeros_like(x), self._x_labels
+            )
+        )
+        max_violation = max(r.max_violation for r in reports)
+        status = str(stats.get("return_status", "unknown"))
+        feasible, optimal = diagnostics.judge(status, max_violation)
+        binding = diagnostics.binding_limits(reports, feasible)
+        if not feasible:
+            message = diagnostics.explain(reports, binding, status)
+        elif optimal:
+            message = "ok"
+        else:
+            message = (
+                f"ok: IPOPT stopped with {status} at a point that meets every constraint within "
+                f"{diagnostics.FEASIBILITY_TOL:g} (worst {max_violation:.1e}); feasible, not "
+                "proven locally optimal"
+            )
+        base, q, f = self.layout.unpack(x)
+        weight_n = self.model.total_mass_kg * float(np.linalg.norm(self.model.gravity_m_s2))
+        term_values = {
+            n: float(np.asarray(v).item()) for n, v in zip(self._term_names, terms, strict=True)
+        }
+        return PlanResult(
+            schedule=schedule,
+            speed_m_s=float(speed_m_s),
+            base_pose=base.copy(),
+            joint_angles_rad=q.copy(),
+            joint_speeds_rad_s=qd.T.copy(),
+            contact_forces_n=f * weight_n,
+            joint_torques_nm=tau.T.copy(),
+            cost=float(sol["f"]),
+            cost_terms=term_values,
+            feasible=feasible,
+            status=status,
+            iterations=int(stats.get("iter_count", -1)),
+            solve_time_s=elapsed,
+            max_violation=max_violation,
+            binding=binding,
+            message=message,
+            warm_start=WarmStart(x, lam_x, lam_g),
+            optimal=optimal,
+            stats={
+                "return_status": status,
+                "optimal": optimal,
+                "iter_count": int(stats.get("iter_count", -1)),
+                "t_wall_total_s": elapsed,
+                "iterations": _iteration_log(stats),
+            },
+        )
+
+    # -- output ------------------------------------------------------------------------------
+
+    def to_gait(
+        self, result: PlanResult, label: str, extra_metadata: dict[str, Any] | None = None
+    ) -> Gait:
+        """The gait file object for a feasible result; raises InfeasibleGaitError otherwise.
+
+        The cycle is re-indexed to start at its most static-like knot (`planner.nlp.cycle_start`).
+        With `PlannerOptions.servo_goals` (default) the joint samples are the servo goals that
+        achieve the planned motion; the planned angles are the file's
+        ``expected_joint_angles_rad`` and ``planner["joint_angles"]`` says which.
+        """
+        if not result.feasible:
+            raise InfeasibleGaitError(result.message, result.binding)
+        from planner.nlp.cycle_start import start_from_rest_like_knot
+        from planner.nlp.metadata import planner_metadata
+
+        # phase 0 is where the player ramps in from rest: start at the most evenly loaded knot
+        result = start_from_rest_like_knot(result)
+
+        meta = planner_metadata(self, result)
+        meta.update(extra_metadata or {})
+        knots = result.joint_angles_rad
+        if self.options.servo_goals:  # the file streams servo goals (see planner.nlp.servo_loop)
+            from planner.nlp.servo_loop import factory_servo_loops, servo_goals_rad
+
+            knots = servo_goals_rad(
+                knots,
+                result.joint_speeds_rad_s,
+                result.joint_torques_nm,
+                factory_servo_loops(self.robot),
+            )
+        return Gait.create(
+            robot=self.robot,
+            knots_rad=knots,
+            schedule=result.schedule,
+            velocity=Velocity(result.speed_m_s, result.vy_m_s, result.yaw_rate_rad_s),
+            gait_label=label,
+            base_pose=result.base_pose,
+            contact_forces_n=result.contact_forces_n,
+            joint_torques_nm=result.joint_torques_nm,
+            planner=meta,
+            expected_knots_rad=result.joint_angles_rad if self.options.servo_goals else None,
+        )
+
+
+def _iteration_log(stats: dict[str, Any]) -> dict[str, list[float]]:
+    it = stats.get("iterations") or {}
+    return {k: [float(v) for v in it.get(k, [])] for k in ("obj", "inf_pr", "inf_du")}

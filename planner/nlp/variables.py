@@ -1,0 +1,303 @@
+"""Decision variables and parameters of the spacetime NLP (TOWR-style "variables" module).
+
+Per knot k = 0…N−1 (phase k/N of one period, treadmill frame):
+
+- base pose ``b_k = (x, y, z, roll, pitch, yaw)`` [m, rad] — x with the forward progress v·t
+  removed, so every variable is N-periodic;
+- joint angles ``q_k`` [rad] in `Robot.joints` order;
+- contact forces ``f_k`` (3 per foot, world frame) in units of body weight m·g (W&P §3.2 mass
+  normalisation — keeps the NLP well scaled for any robot mass);
+- lifted rates ``v_k = (ḃ_k, q̇_k)`` and ``a_k = (b̈_k, q̈_k)``, tied to the poses by the cyclic
+  finite-difference equalities (a linear constraint group). Lifting makes every nonlinear term
+  depend on one knot only, so the Hessian of the Lagrangian is block-diagonal: cheaper to
+  evaluate and to factorise than the banded Hessian of the direct substitution;
+- lifted joint torques ``τ_k`` [N·m], tied to the inverse dynamics by an equality group, so the
+  servo-envelope rows are linear (2 non-zeros each instead of a dense RNEA row);
+- lifted servo-goal spline slopes ``s_k`` [rad/s]: the knot slopes of the periodic cubic spline
+  the player streams through the servo goals (`planner.nlp.servo_loop`), tied to the goals by the
+  spline's cyclic tridiagonal equations; its speed anywhere in an interval is then a sparse row
+  (two goals, two slopes) instead of a dense one. Fixed at 0 when `servo_goals` is off.
+
+Parameters (change between solves without rebuilding): contact activity C (F×N, 0/1), swing
+minimum foot height H (F×N) [m], speed v [m/s], period T [s], then the rest of the velocity
+command (lateral speed vy, yaw rate W and the planar motion over one knot interval,
+`planner.nlp.command.motion_parameters`). Poses are relative to the command frame
+(`planner.nlp.command`), the treadmill frame when vy = W = 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from planner.nlp.command import (
+    N_MOTION_PARAMETERS,
+    MotionSymbols,
+    VelocityCommand,
+    motion_parameters,
+)
+from planner.nlp.config import PlannerOptions
+from planner.nlp.model import RobotModel
+from robots import ContactSchedule
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Sizes and packing order of the decision vector.
+
+    Order: [vec(B), vec(Q), vec(F), vec(V), vec(A), vec(τ), vec(S), vec(M)], each knot-major;
+    M: the flat feet's contact moments (3 per flat foot, units of m·g·L; `planner.nlp.flat_foot`),
+    absent without flat feet.
+    """
+
+    n_knots: int
+    n_joints: int
+    n_feet: int
+    n_flat_feet: int = 0
+
+    @property
+    def n_m(self) -> int:
+        return 3 * self.n_flat_feet * self.n_knots
+
+    @property
+    def n_base(self) -> int:
+        return 6 * self.n_knots
+
+    @property
+    def n_q(self) -> int:
+        return self.n_joints * self.n_knots
+
+    @property
+    def n_f(self) -> int:
+        return 3 * self.n_feet * self.n_knots
+
+    @property
+    def n_rates(self) -> int:
+        return (6 + self.n_joints) * self.n_knots
+
+    @property
+    def size(self) -> int:
+        return self.n_base + self.n_q + self.n_f + 2 * self.n_rates + 2 * self.n_q + self.n_m
+
+    def unpack_moments(self, x: np.ndarray) -> np.ndarray:
+        """N × F_flat × 3 flat-foot moments (units of m·g·L) from the flat vector."""
+        x = np.asarray(x, dtype=float).ravel()
+        return x[self.size - self.n_m :].reshape(self.n_knots, self.n_flat_feet, 3)
+
+    def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(base N×6, joints N×J, forces N×F×3 in units of m·g) from the flat vector."""
+        n = self.n_knots
+        x = np.asarray(x, dtype=float).ravel()
+        base = x[: self.n_base].reshape(n, 6)
+        q = x[self.n_base : self.n_base + self.n_q].reshape(n, self.n_joints)
+        f = x[self.n_base + self.n_q : self.n_base + self.n_q + self.n_f].reshape(n, self.n_feet, 3)
+        return base, q, f
+
+    def labels(self, joints: tuple[str, ...]) -> list[str]:
+        """A name for every entry of the decision vector (for reports)."""
+        n = self.n_knots
+        dofs = ["x", "y", "z", "roll", "pitch", "yaw", *joints]
+        out = [f"base {d}@knot {k}" for k in range(n) for d in dofs[:6]]
+        out += [f"{j}@knot {k}" for k in range(n) for j in joints]
+        out += [f"foot {f} f{a}@knot {k}" for k in range(n) for f in range(self.n_feet)
+                for a in "xyz"]
+        out += [f"d/dt {d}@knot {k}" for k in range(n) for d in dofs]
+        out += [f"d2/dt2 {d}@knot {k}" for k in range(n) for d in dofs]
+        out += [f"torque {j}@knot {k}" for k in range(n) for j in joints]
+        out += [f"goal slope {j}@knot {k}" for k in range(n) for j in joints]
+        return out
+
+    def pack(
+        self,
+        base: np.ndarray,
+        q: np.ndarray,
+        f: np.ndarray,
+        lifted: np.ndarray | None = None,
+        moments: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Flat vector; `lifted` = velocities, accelerations ((6+J)·N each), torques and goal
+        slopes (J·N each), zeros by default (consistent with a constant pose at rest);
+        `moments` = the flat feet's moments (zeros by default)."""
+        if lifted is None:
+            lifted = np.zeros(2 * self.n_rates + 2 * self.n_q)
+        if moments is None:
+            moments = np.zeros(self.n_m)
+        return np.concatenate(
+            [np.ravel(base), np.ravel(q), np.ravel(f), np.ravel(lifted), np.ravel(moments)]
+        )
+
+
+@dataclass(frozen=True)
+class Symbols:
+    """The CasADi symbols: matrices with one column per knot."""
+
+    x: Any  # flat decision vector of the solver (scaled by `variable_scale` if given)
+    base: Any  # 6 × N
+    q: Any  # J × N
+    forces: Any  # 3F × N (units of m·g)
+    vel: Any  # (6+J) × N: base pose rates then joint speeds
+    acc: Any  # (6+J) × N
+    tau: Any  # J × N joint torques [N·m]
+    goal_slope: Any  # J × N servo-goal spline slopes at the knots [rad/s]
+    p: Any  # flat parameter vector
+    contact: Any  # F × N
+    min_height_m: Any  # F × N
+    speed_m_s: Any
+    period_s: Any
+    moments: Any = None  # 3·F_flat × N flat-foot moments (units of m·g·L), None without
+    motion: MotionSymbols | None = None  # the velocity command's block (`planner.nlp.command`)
+
+
+def time_unit_s(leg_length_m: float, gravity_m_s2: float = 9.81) -> float:
+    """√(L/g): the pendulum time of the leg, the time unit of dynamic similarity."""
+    return float(np.sqrt(leg_length_m / gravity_m_s2))
+
+
+def variable_scale(layout: Layout, model: RobotModel) -> np.ndarray:
+    """Typical magnitude of every decision variable, in the units of `Layout`.
+
+    The solver works on x̃ = x / scale (W&P §3.2 normalise forces by body weight; we also
+    normalise the rest): lengths by the leg length L, times by √(L/g), torques by m·g·L, angles
+    and forces (already in m·g) by 1. Used with `PlannerOptions.nondimensional` (see there for
+    the iteration counts measured with and without it).
+    """
+    n, nj = layout.n_knots, layout.n_joints
+    length = model.robot.leg_length_m
+    t0 = time_unit_s(length, float(np.linalg.norm(model.gravity_m_s2)) or 9.81)
+    torque = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2)) * length
+    pose = np.r_[[length] * 3, [1.0] * 3]
+    rate = np.r_[[length / t0] * 3, [1.0 / t0] * 3, [1.0 / t0] * nj]
+    acc = rate / t0
+    return np.concatenate([
+        np.tile(pose, n),
+        np.ones(layout.n_q + layout.n_f),
+        np.tile(rate, n),
+        np.tile(acc, n),
+        np.full(layout.n_q, torque),
+        np.full(layout.n_q, 1.0 / t0),
+        np.ones(layout.n_m),  # flat feet's contact moments (appended last), in m·g·L already
+    ])
+
+
+def make_symbols(layout: Layout, scale: np.ndarray | None = None) -> Symbols:
+    """Symbols of the NLP. With `scale`, `Symbols.x` is the solver's scaled vector x̃ and every
+    other symbol is the physical quantity x = scale·x̃."""
+    n, nj, nf = layout.n_knots, layout.n_joints, layout.n_feet
+    xs = ca.MX.sym("x", layout.size)
+    x = xs if scale is None else xs * ca.DM(np.asarray(scale, dtype=float))
+    # knot-major packing: column k holds knot k (reshape is column-major)
+    base = ca.reshape(x[: layout.n_base], 6, n)
+    q = ca.reshape(x[layout.n_base : layout.n_base + layout.n_q], nj, n)
+    start = layout.n_base + layout.n_q
+    forces = ca.reshape(x[start : start + layout.n_f], 3 * nf, n)
+    start += layout.n_f
+    vel = ca.reshape(x[start : start + layout.n_rates], 6 + nj, n)
+    acc = ca.reshape(x[start + layout.n_rates : start + 2 * layout.n_rates], 6 + nj, n)
+    start += 2 * layout.n_rates
+    tau = ca.reshape(x[start : start + layout.n_q], nj, n)
+    goal_slope = ca.reshape(x[start + layout.n_q : start + 2 * layout.n_q], nj, n)
+    start += 2 * layout.n_q
+    moments = ca.reshape(x[start:], 3 * layout.n_flat_feet, n) if layout.n_flat_feet else None
+    p = ca.MX.sym("p", 2 * nf * n + 2 + N_MOTION_PARAMETERS)
+    contact = ca.reshape(p[: nf * n], nf, n)
+    min_height = ca.reshape(p[nf * n : 2 * nf * n], nf, n)
+    return Symbols(
+        xs,
+        base,
+        q,
+        forces,
+        vel,
+        acc,
+        tau,
+        goal_slope,
+        p,
+        contact,
+        min_height,
+        p[2 * nf * n],
+        p[2 * nf * n + 1],
+        moments,
+        MotionSymbols.from_parameters(p[2 * nf * n], p[2 * nf * n + 2 :]),
+    )
+
+
+def parameter_vector(
+    schedule: ContactSchedule,
+    n_knots: int,
+    speed_m_s: float,
+    swing_clearance_m: float,
+    vy_m_s: float = 0.0,
+    yaw_rate_rad_s: float = 0.0,
+) -> np.ndarray:
+    """Numeric p for a schedule: C (F×N), H (F×N) column-major, then v (= vx) and T, then the
+    command block (`planner.nlp.command.motion_parameters`)."""
+    command = VelocityCommand(speed_m_s, vy_m_s, yaw_rate_rad_s)
+    contact = schedule.contact_matrix(n_knots).astype(float)  # N × F
+    return np.concatenate(
+        [
+            contact.ravel(),
+            swing_height_profile(schedule, n_knots, swing_clearance_m).ravel(),
+            [speed_m_s, schedule.period_s],
+            motion_parameters(command, schedule.period_s, n_knots),
+        ]
+    )
+
+
+def swing_height_profile(schedule: ContactSchedule, n_knots: int, clearance_m: float) -> np.ndarray:
+    """N × F minimum foot height above touching [m]: h·sin(π·swing progress), 0 in stance."""
+    phase = np.arange(n_knots)[:, None] / n_knots
+    td = np.asarray(schedule.touchdown_phase)[None, :]
+    duty = np.asarray(schedule.duty_factor)[None, :]
+    since_td = (phase - td) % 1.0
+    stance = schedule.contact_matrix(n_knots)
+    swing_len = np.maximum(1.0 - duty, 1e-9)
+    progress = np.clip((since_td - duty) / swing_len, 0.0, 1.0)
+    return np.where(stance, 0.0, clearance_m * np.sin(np.pi * progress))
+
+
+def variable_bounds(
+    layout: Layout, model: RobotModel, options: PlannerOptions
+) -> tuple[np.ndarray, np.ndarray]:
+    """Box bounds: joint limits (minus a margin), held joints fixed at stance, tilt, unilateral
+    normal force f_z ≥ 0."""
+    n = layout.n_knots
+    tilt, inf = options.max_tilt_rad, np.inf
+    z_min = options.min_base_height_fraction * model.robot.stance_base_height_m
+    base_lo = np.tile([-inf, -inf, z_min, -tilt, -tilt, -tilt], (n, 1))
+    base_hi = np.tile([inf, inf, 2.0 * model.robot.leg_length_m + 0.5, tilt, tilt, tilt], (n, 1))
+    lo, hi = model.joint_limits_rad()
+    margin = options.joint_limit_margins_rad(lo, hi)
+    q_lo, q_hi = np.tile(lo + margin, (n, 1)), np.tile(hi - margin, (n, 1))
+    # held joints (role = "hold": a head, arm, tail …) stay at their stance angle at every knot;
+    # their torque is still the inverse dynamics' and still bounded by their servo's envelope
+    held = np.array([j.held for j in model.robot.joints], dtype=bool)
+    stance = np.asarray(model.robot.nominal_stance_rad, dtype=float)
+    q_lo[:, held] = q_hi[:, held] = stance[held]
+    f_lo = np.full((n, layout.n_feet, 3), -inf)
+    f_lo[:, :, 2] = 0.0
+    f_hi = np.full((n, layout.n_feet, 3), inf)
+    free = np.full(2 * layout.n_rates + 2 * layout.n_q, inf)
+    if not options.servo_goals:
+        free[2 * layout.n_rates + layout.n_q :] = 0.0  # no goals: slopes fixed (IPOPT drops them)
+    m_free = np.full(layout.n_m, inf)  # the contact wrench cone bounds them (planner.nlp.flat_foot)
+    return (
+        layout.pack(base_lo, q_lo, f_lo, -free, -m_free),
+        layout.pack(base_hi, q_hi, f_hi, free, m_free),
+    )
+
+
+def initial_guess(layout: Layout, model: RobotModel, schedule: ContactSchedule) -> np.ndarray:
+    """Cold start: nominal stance at the nominal height, weight shared by the stance feet."""
+    n = layout.n_knots
+    base = np.zeros((n, 6))
+    base[:, 2] = model.robot.stance_base_height_m
+    q = np.tile(np.asarray(model.robot.nominal_stance_rad), (n, 1))
+    lo, hi = model.joint_limits_rad()
+    held = np.array([j.held for j in model.robot.joints], dtype=bool)
+    q = np.where(held, q, np.clip(q, lo + 0.05, hi - 0.05))
+    contact = schedule.contact_matrix(n).astype(float)
+    f = np.zeros((n, layout.n_feet, 3))
+    f[:, :, 2] = contact / np.maximum(contact.sum(axis=1, keepdims=True), 1.0)
+    return layout.pack(base, q, f)

@@ -1,0 +1,508 @@
+"""Search contact timings with basin-CMA and let the gait emerge from the speed (W&P 2009 §4-5).
+
+The outer search runs over the timing variables only — period, per-foot touchdown phase and duty
+factor — which W&P §4.1.2 mark "CMA only": the spacetime NLP (`GaitPlanner`) cannot change
+them, so its projection leaves them where they are (``x_projected = x``) and optimises every
+other variable (poses, forces) for that timing. Basin-CMA then searches f∘g over the timings.
+
+Encoding (`TimingSpace`): the touchdown phase of the first foot is pinned to 0 (a cycle has no
+preferred start, so a global phase shift is not a degree of freedom). With ``symmetric=True``
+(the default) each foot with a mirror image under y → −y (detected from the stance foot
+positions, `planner.templates.mirror_permutation`; no left/right roles or leg names) runs half
+a period after it with the same duty factor — the half-period symmetry of walk, trot and pace,
+which halves the search; feet on the midline are searched freely, and a robot with no mirror
+pairs (any leg count and layout) gets the asymmetric space. Bound, gallop and pronk need
+``symmetric=False``. Phases are searched on an unwrapped interval and wrapped modulo 1.
+
+The search starts from the hand templates: every template that fits the encoding is solved
+first, and the best becomes the initial CMA mean — so the search result is never worse than the
+best template and, where timing matters, better.
+
+Fitness = spacetime cost + the support term (`planner.search.support.TippingCost`): the open-loop
+tipping of the timing's line-support phases, which the NLP (exact dynamics, knife-edge balance
+allowed) does not see. Without it the W&P objective picked a trot at every quad12 speed from
+0.05 to 0.4 m/s, including slow trots whose long two-foot phases lose speed in MuJoCo.
+
+Acceptance (optional, `acceptance=`): a picklable factory of a check `Gait → verdict` (with
+`.passed`, `.badness`), built once per worker. Every feasible projected sample is written as a
+gait and checked; one that does not walk is ranked as infeasible (W&P rank infeasible samples
+last). The command line passes `sim.acceptance.SimAcceptance` (MuJoCo, the servo model, ramp-in
+from rest), so the search optimises over gaits that walk open loop, not only over plans that
+satisfy the NLP: optimised timings exploit the model (feet that barely touch, knife-edge
+balance) in ways the templates do not. `planner` never imports `sim`; the CLI wires them.
+
+Resolution: the search projects each sample with a coarse NLP (`search_knots`, default 12, and
+IPOPT capped at `search_max_iter`; a sample stopped by the cap counts as feasible only if the
+point it stopped at meets every constraint — `planner.nlp.diagnostics.judge` — and its cost is then
+an upper bound of its local optimum), then re-solves up to `FINAL_CANDIDATES` of the best
+timings at the full `n_knots` for the gait file, judged by `final_acceptance`; the first that
+is feasible and accepted wins.
+The 12-knot NLP builds in 2.8 s instead of 8.5 s and solves in about half the time of the
+30-knot one; it ranked quad12's four symmetric templates in the same order as the 30-knot NLP at
+0.15 and at 0.3 m/s, though its costs are lower (the final cost is reported next to the search
+cost so the difference stays visible).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from planner.errors import PlannerConfigError
+from planner.nlp.config import PlannerOptions
+from planner.nlp.spacetime import GaitPlanner, PlanResult
+from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
+from planner.search.executors import Executor, make_executor
+from planner.search.support import TippingCost
+from planner.templates import (
+    label_gait,
+    make_schedule,
+    mirror_permutation,
+    stance_foot_positions_m,
+    templates_for,
+)
+from robots import ContactSchedule, Gait, Robot
+from robots import load as load_robot
+
+#: Period bounds in units of √(L/g) (dynamic similarity, Murphy et al. 2008 / Alexander).
+PERIOD_BOUNDS_SQRT_L_G = (2.0, 9.0)
+DUTY_BOUNDS = (0.35, 0.9)
+#: Weight of the support term (cost units per unit of open-loop error amplification). A
+#: template trot at quad12's default period (two 0.19 s line phases, amplification 2.1) pays
+#: 0.11, about half the spacetime cost of a trot at 0.25 m/s.
+DEFAULT_TIPPING_WEIGHT = 0.05
+#: Coarse NLP of the search (see the module docstring) and the final solves it hands on.
+DEFAULT_SEARCH_KNOTS = 12
+DEFAULT_SEARCH_MAX_ITER = 60
+FINAL_CANDIDATES = 4
+#: Initial CMA spread as a fraction of each box width: W&P §5 cover the box (⅓). A narrower start
+#: around the best template (⅙) was tried on quad12 with MuJoCo acceptance: with 4 generations it
+#: beat ⅓ at 0.15 and 0.25 m/s (search cost 0.249 vs 0.284, 0.423 vs 0.562) and tied at 0.35; with
+#: 6 generations over 0.05-0.4 m/s it lost at 4 speeds (e.g. 0.15 m/s: 0.249 vs 0.151), won at 2
+#: and its 0.35 m/s gait failed the final 12-cycle validation. ⅓ stays.
+DEFAULT_SIGMA_FRACTION = 1.0 / 3.0
+#: Violation reported for a sample whose plan is feasible but fails acceptance, per unit of the
+#: check's badness: ranks it after the feasible samples and ahead of NLP-infeasible ones.
+REJECTED_VIOLATION = 1e-9
+
+
+class AcceptanceVerdict(Protocol):
+    @property
+    def passed(self) -> bool: ...
+
+    @property
+    def badness(self) -> float: ...
+
+
+GaitAcceptance = Callable[[Gait], AcceptanceVerdict]
+
+
+@dataclass(frozen=True)
+class TimingSpace:
+    """Maps a vector of timing variables ↔ a `ContactSchedule` for one robot."""
+
+    feet: tuple[str, ...]
+    mirror: tuple[int, ...]  # symmetric: right foot index for each searched (left) foot
+    searched: tuple[int, ...]  # feet whose phase/duty are variables
+    symmetric: bool
+    period_bounds_s: tuple[float, float]
+
+    @staticmethod
+    def for_robot(robot: Robot, symmetric: bool = True) -> TimingSpace:
+        """The timing space of `robot`. `symmetric` pairs each foot with its mirror image
+        under y → −y (`planner.templates.mirror_permutation`: detected from the stance foot
+        positions, never from leg names) and runs the +y foot half a period before it; feet on
+        the midline are searched freely. A robot without mirror-image feet (e.g. a 5-leg star
+        turned so no leg points forward) gets the asymmetric space whatever `symmetric` says."""
+        unit = math.sqrt(robot.leg_length_m / 9.81)
+        bounds = (PERIOD_BOUNDS_SQRT_L_G[0] * unit, PERIOD_BOUNDS_SQRT_L_G[1] * unit)
+        n = len(robot.legs)
+        perm = mirror_permutation(robot) if symmetric else None
+        pos = stance_foot_positions_m(robot)
+        left = [f for f in range(n) if perm is not None and perm[f] != f and pos[f, 1] > 0]
+        if not left or perm is None:
+            return TimingSpace(robot.foot_names, (), tuple(range(n)), False, bounds)
+        middle = [f for f in range(n) if perm[f] == f]
+        searched = tuple(left + middle)
+        mirror = tuple(perm[f] for f in left)
+        return TimingSpace(robot.foot_names, mirror, searched, True, bounds)
+
+    @property
+    def dim(self) -> int:
+        return 1 + (len(self.searched) - 1) + len(self.searched)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        k = len(self.searched)
+        lo = np.r_[self.period_bounds_s[0], np.full(k - 1, -0.5), np.full(k, DUTY_BOUNDS[0])]
+        hi = np.r_[self.period_bounds_s[1], np.full(k - 1, 1.5), np.full(k, DUTY_BOUNDS[1])]
+        return lo, hi
+
+    def sigma0(self, fraction: float = 1.0 / 3.0) -> np.ndarray:
+        """Initial standard deviations: `fraction` of each box width (W&P §5 cover the box: ⅓)."""
+        lo, hi = self.bounds()
+        return (hi - lo) * fraction
+
+    def decode(self, x: np.ndarray) -> ContactSchedule:
+        x = np.asarray(x, dtype=float)
+        k = len(self.searched)
+        period = float(np.clip(x[0], *self.period_bounds_s))
+        rel = np.r_[0.0, x[1:k]]
+        duty = np.clip(x[k:2 * k], *DUTY_BOUNDS)
+        phases = [0.0] * len(self.feet)
+        duties = [0.0] * len(self.feet)
+        for i, foot in enumerate(self.searched):
+            phases[foot], duties[foot] = float(rel[i] % 1.0), float(duty[i])
+        for i, foot in enumerate(self.mirror):
+            phases[foot], duties[foot] = float((rel[i] + 0.5) % 1.0), float(duty[i])
+        return ContactSchedule(period, self.feet, tuple(phases), tuple(duties))
+
+    def encode(self, schedule: ContactSchedule) -> np.ndarray | None:
+        """The vector for `schedule`, or None if it breaks this space's symmetry."""
+        ph = np.asarray(schedule.touchdown_phase)
+        du = np.asarray(schedule.duty_factor)
+        ref = ph[self.searched[0]]
+        rel = (ph - ref) % 1.0
+        if self.symmetric:
+            for left, right in zip(self.searched[: len(self.mirror)], self.mirror, strict=True):
+                if abs(((rel[right] - rel[left] - 0.5 + 0.5) % 1.0) - 0.5) > 1e-9 \
+                        or abs(du[right] - du[left]) > 1e-9:
+                    return None
+        s = list(self.searched)
+        return np.r_[schedule.period_s, rel[s[1:]], du[s]].astype(float)
+
+
+def searchable_templates(robot: Robot) -> list[str]:
+    """The templates that seed the search: those whose duty factors lie in `DUTY_BOUNDS`
+    (`stand` never lifts a foot and cannot move at a speed > 0)."""
+    return [name for name in templates_for(robot)
+            if max(make_schedule(robot, name).duty_factor) <= DUTY_BOUNDS[1]]
+
+
+def cost_of_transport(result: PlanResult, robot: Robot) -> float:
+    """Mechanical cost of transport Σ|τ·q̇| / (m g v), averaged over the cycle (∞ at v = 0)."""
+    power = np.abs(result.joint_torques_nm * result.joint_speeds_rad_s)
+    power_w = float(np.mean(np.sum(power, axis=1)))
+    if result.speed_m_s <= 0:
+        return math.inf
+    return power_w / (robot.mass_kg * 9.81 * result.speed_m_s)
+
+
+@dataclass(frozen=True)
+class TimingResult(LocalResult):
+    """A local solve of the search; `plan_feasible`: the NLP solved, whatever acceptance said."""
+
+    plan_feasible: bool = False
+
+
+@dataclass
+class TimingSolver:
+    """The local solve g(x) of basin-CMA: one spacetime solve for the decoded timing.
+
+    The returned cost is the NLP's cost plus the support term of the timing (if any).
+    """
+
+    planner: GaitPlanner
+    space: TimingSpace
+    speed_m_s: float
+    tipping: TippingCost | None = None
+    acceptance: GaitAcceptance | None = None
+
+    def __call__(self, x: np.ndarray) -> LocalResult:
+        x = np.clip(np.asarray(x, dtype=float), *self.space.bounds())
+        schedule = self.space.decode(x)
+        try:
+            # cold start: on a new contact timing a warm start costs more iterations than it
+            # saves (planner_bench: warm/cold 1.49), and cold solves make every sample's cost
+            # independent of which samples a worker solved before (executor-invariant search)
+            result = self.planner.solve(schedule, self.speed_m_s, warm_start=False)
+        except PlannerConfigError:  # e.g. a foot never lands on any knot
+            return TimingResult(x, math.inf, False, 0, math.inf)
+        evals = int(result.iterations) + 1
+        cost = result.cost + (self.tipping(schedule) if self.tipping is not None else 0.0)
+        if result.feasible and self.acceptance is not None:
+            verdict = self.acceptance(self.planner.to_gait(result, "search sample"))
+            if not verdict.passed:
+                return TimingResult(x, cost, False, evals,
+                                    REJECTED_VIOLATION * (1.0 + verdict.badness), True)
+        return TimingResult(x, cost, result.feasible, evals, result.max_violation, result.feasible)
+
+
+@dataclass(frozen=True)
+class TimingSolverFactory:
+    """Picklable factory: each executor worker builds its GaitPlanner once (W&P §5)."""
+
+    robot_dir: str
+    n_knots: int
+    speed_m_s: float
+    symmetric: bool
+    options: PlannerOptions = field(default_factory=PlannerOptions)
+    tipping_weight: float = 0.0
+    acceptance: Callable[[], GaitAcceptance] | None = None
+
+    def __call__(self) -> TimingSolver:
+        robot = load_robot(self.robot_dir)
+        planner = GaitPlanner(robot, self.n_knots, self.options)
+        tipping = TippingCost.for_robot(robot, self.tipping_weight) if self.tipping_weight else None
+        check = self.acceptance() if self.acceptance is not None else None
+        return TimingSolver(planner, TimingSpace.for_robot(robot, self.symmetric), self.speed_m_s,
+                            tipping, check)
+
+
+class RecordingExecutor:
+    """Delegates to an executor and keeps every (sample, local result) pair it evaluated."""
+
+    def __init__(self, inner: Executor) -> None:
+        self.inner = inner
+        self.records: list[tuple[np.ndarray, LocalResult]] = []
+
+    def map(self, fn: Callable[[np.ndarray], LocalResult], xs: Iterable[np.ndarray]
+            ) -> list[LocalResult]:
+        items = [np.asarray(x, dtype=float) for x in xs]
+        out = self.inner.map(fn, items)
+        self.records.extend(zip(items, out, strict=True))
+        return out
+
+    def best_feasible(self, k: int) -> list[tuple[np.ndarray, LocalResult]]:
+        """Up to k distinct samples to re-solve at full resolution, best first: the feasible
+        ones by cost, then those whose plan solved but whose gait failed acceptance (at the
+        coarse resolution of the search; they may pass at the final one), by cost."""
+
+        def rank(record: tuple[np.ndarray, LocalResult]) -> tuple[int, float]:
+            return (0 if record[1].feasible else 1, record[1].cost)
+
+        usable = sorted((r for r in self.records if math.isfinite(r[1].cost) and (
+            r[1].feasible or getattr(r[1], "plan_feasible", False))), key=rank)
+        picked: list[tuple[np.ndarray, LocalResult]] = []
+        for x, res in usable:
+            if all(not np.allclose(x, y) for y, _ in picked):
+                picked.append((x, res))
+            if len(picked) == k:
+                break
+        return picked
+
+
+@dataclass(frozen=True)
+class SearchLogRow:
+    generation: int
+    best_cost: float
+    generation_best_cost: float
+    n_feasible: int
+    n_local_solves: int
+    elapsed_s: float
+    period_s: float
+    touchdown_phase: tuple[float, ...]
+    duty_factor: tuple[float, ...]
+    gait_label: str
+
+
+@dataclass(frozen=True, eq=False)
+class GaitSearchResult:
+    """The searched gait: `best` is the final solve at `n_knots` (the gait file's resolution).
+
+    Costs named `search_*` and `template_costs` come from the coarse search NLP and include the
+    support term, so they compare with each other; `best.cost` is the final NLP's objective
+    without it and `support_cost` the support term of the winning timing.
+    """
+
+    robot: Robot
+    speed_m_s: float
+    best: PlanResult
+    label: str
+    template_costs: dict[str, float]  # template → search cost (inf if infeasible)
+    best_template: str
+    search_cost: float  # search cost of the timing that won (template or CMA sample)
+    search_feasible: bool  # it was feasible and accepted at the search resolution too
+    support_cost: float  # support term of that timing
+    tipping_amplification: float
+    log: tuple[SearchLogRow, ...]
+    cma: BasinCmaResult
+    elapsed_s: float
+    cost_of_transport: float
+    search_knots: int
+    accepted: bool | None  # the final gait passed the acceptance check (None: no check)
+    planner: GaitPlanner  # the final planner (builds the gait file from `best`)
+    symmetric: bool = True  # the search used the mirror half-period symmetry (TimingSpace)
+
+    @property
+    def froude(self) -> float:
+        return self.speed_m_s**2 / (9.81 * self.robot.leg_length_m)
+
+    @property
+    def best_template_cost(self) -> float:
+        return self.template_costs[self.best_template]
+
+    @property
+    def total_cost(self) -> float:
+        """Final NLP cost + support term: the quantity the search minimised, at full resolution."""
+        return self.best.cost + self.support_cost
+
+
+def search_gait(
+    robot: Robot,
+    speed_m_s: float,
+    *,
+    n_knots: int = 30,
+    options: PlannerOptions | None = None,
+    symmetric: bool = True,
+    max_generations: int = 6,
+    popsize: int | None = None,
+    restarts: int = 0,
+    max_local_solves: int | None = None,
+    seed: int = 0,
+    executor: str = "serial",
+    workers: int | None = None,
+    address: str | None = None,
+    planner: GaitPlanner | None = None,
+    search_knots: int = DEFAULT_SEARCH_KNOTS,
+    search_max_iter: int = DEFAULT_SEARCH_MAX_ITER,
+    tipping_weight: float = DEFAULT_TIPPING_WEIGHT,
+    acceptance: Callable[[], GaitAcceptance] | None = None,
+    final_acceptance: Callable[[], GaitAcceptance] | None = None,
+    sigma_fraction: float = DEFAULT_SIGMA_FRACTION,
+    progress: Callable[[SearchLogRow], None] | None = None,
+) -> GaitSearchResult:
+    """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
+
+    `planner` is the final planner (n_knots, options); pass one to reuse its NLP across speeds.
+    The executor's workers each build the coarse search NLP once (`search_knots`).
+    `acceptance` judges every feasible sample, `final_acceptance` (default: `acceptance`) the
+    full-resolution candidates — the final judge may be stricter than the coarse one.
+    """
+    t0 = time.perf_counter()
+    options = options or PlannerOptions()
+    if planner is not None and planner.n_knots != n_knots:
+        raise PlannerConfigError(f"planner has {planner.n_knots} knots, search asked for {n_knots}")
+    if search_max_iter < 1:
+        raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
+    if not 0 < sigma_fraction <= 1:
+        raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
+    space = TimingSpace.for_robot(robot, symmetric)
+    if space.symmetric and all(space.encode(make_schedule(robot, name)) is None
+                               for name in searchable_templates(robot)):
+        # mirror pairs exist but no template runs them half a period apart (e.g. the azimuth
+        # wave/ripple of a 5-leg star): search every foot's timing instead
+        space = TimingSpace.for_robot(robot, False)
+    symmetric = space.symmetric
+    tipping = TippingCost.for_robot(robot, tipping_weight)
+    search_options = replace(options, max_iter=min(options.max_iter, search_max_iter))
+    factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
+                                  search_options, tipping_weight, acceptance)
+    log: list[SearchLogRow] = []
+
+    def on_generation(rep: GenerationReport) -> None:
+        sched = space.decode(rep.mean)
+        row = SearchLogRow(rep.generation, rep.best_cost, rep.generation_best_cost, rep.n_feasible,
+                           rep.n_local_solves, time.perf_counter() - t0, sched.period_s,
+                           sched.touchdown_phase, sched.duty_factor, label_gait(sched, robot))
+        log.append(row)
+        if progress is not None:
+            progress(row)
+
+    lo, hi = space.bounds()
+    with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
+        pool = RecordingExecutor(ex)
+        # 1. seed with the hand templates that fit the encoding (one parallel batch)
+        if progress is not None:
+            progress(SearchLogRow(-1, math.inf, math.inf, 0, 0, time.perf_counter() - t0, 0.0,
+                                  (), (), "seeding with the templates"))
+        named = [(name, space.encode(make_schedule(robot, name)))
+                 for name in searchable_templates(robot)]
+        named_x = [(name, x) for name, x in named if x is not None]
+        if not named_x:
+            raise PlannerConfigError(f"no template of {robot.name} fits the search encoding")
+        seeded = pool.map(ex.local_solve, [x for _, x in named_x])
+        seed_results = {name: r for (name, _), r in zip(named_x, seeded, strict=True)}
+        template_costs = {name: (r.cost if r.feasible else math.inf)
+                          for name, r in seed_results.items()}
+        best_template = min(template_costs, key=lambda n: template_costs[n])
+        x0 = dict(named_x)[best_template]
+        # 2. basin-CMA over the timings (projection = coarse spacetime solve)
+        cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),
+                        popsize=popsize,
+                        max_generations=max_generations, restarts=restarts,
+                        max_local_solves=max_local_solves, seed=seed, executor=pool,
+                        callback=on_generation)
+    # 3. the cheapest timings, re-solved at full resolution; the first feasible (and accepted)
+    #    one wins, else the first feasible one (reported as not accepted)
+    final = planner or GaitPlanner(robot, n_knots, options)
+    final_check = final_acceptance or acceptance
+    check = final_check() if final_check is not None else None
+    candidates = pool.best_feasible(FINAL_CANDIDATES) or [(x0, seed_results[best_template])]
+    chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
+    for x, searched in candidates:
+        solved = final.solve(space.decode(x), speed_m_s, warm_start=False)
+        if not solved.feasible:
+            chosen = chosen or (solved, searched, None)
+            continue
+        ok = None if check is None else bool(check(final.to_gait(solved, "search")).passed)
+        if ok is not False:
+            chosen = (solved, searched, ok)
+            break
+        if chosen is None or not chosen[0].feasible:
+            chosen = (solved, searched, False)
+    assert chosen is not None
+    best, won, accepted = chosen
+    schedule = best.schedule
+    return GaitSearchResult(
+        robot=robot, speed_m_s=speed_m_s, best=best, label=label_gait(schedule, robot),
+        template_costs=template_costs, best_template=best_template, search_cost=won.cost,
+        search_feasible=won.feasible,
+        support_cost=tipping(schedule), tipping_amplification=tipping.amplification(schedule),
+        log=tuple(log), cma=cma, elapsed_s=time.perf_counter() - t0,
+        cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
+        accepted=accepted, planner=final, symmetric=symmetric,
+    )
+
+
+def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
+    """CSV: one row per generation (best cost, mean schedule, its gait label)."""
+    from robots.gait import atomic_write_text
+
+    feet = result.robot.foot_names
+    head = ["generation", "best_cost", "generation_best_cost", "n_feasible", "n_local_solves",
+            "elapsed_s", "period_s", *[f"phase_{f}" for f in feet], *[f"duty_{f}" for f in feet],
+            "gait_label"]
+    lines = [",".join(head)]
+    for r in result.log:
+        cells = [r.generation, f"{r.best_cost:.6g}", f"{r.generation_best_cost:.6g}", r.n_feasible,
+                 r.n_local_solves, f"{r.elapsed_s:.2f}", f"{r.period_s:.4f}",
+                 *[f"{p:.4f}" for p in r.touchdown_phase], *[f"{d:.4f}" for d in r.duty_factor],
+                 r.gait_label]
+        lines.append(",".join(str(c) for c in cells))
+    for name, cost in result.template_costs.items():
+        lines.append(f"# template {name}: search cost {cost:.6g}")
+    lines.append(f"# search: {result.search_knots} knots; winner search cost "
+                 f"{result.search_cost:.6g} (support term {result.support_cost:.6g}, open-loop "
+                 f"tipping amplification {result.tipping_amplification:.4g})")
+    lines.append(f"# final solve: {result.planner.n_knots} knots, {result.label}, cost "
+                 f"{result.best.cost:.6g} + support {result.support_cost:.6g} = "
+                 f"{result.total_cost:.6g}, feasible {result.best.feasible}, accepted "
+                 f"{'-' if result.accepted is None else result.accepted}")
+    atomic_write_text(path, "\n".join(lines) + "\n")
+
+
+__all__ = [
+    "DEFAULT_SEARCH_KNOTS",
+    "DEFAULT_SEARCH_MAX_ITER",
+    "DEFAULT_SIGMA_FRACTION",
+    "DEFAULT_TIPPING_WEIGHT",
+    "AcceptanceVerdict",
+    "GaitAcceptance",
+    "GaitSearchResult",
+    "RecordingExecutor",
+    "SearchLogRow",
+    "TimingResult",
+    "TimingSolver",
+    "TimingSolverFactory",
+    "TimingSpace",
+    "cost_of_transport",
+    "search_gait",
+    "searchable_templates",
+    "write_search_log",
+]

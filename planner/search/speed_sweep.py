@@ -1,0 +1,202 @@
+"""Gait from speed: run the basin-CMA gait search over a range of speeds (W&P 2009 §6, Fig. 3).
+
+For each speed the search picks the contact timing; the table records what came out — gait
+label, duty factor, period, cost of transport — against speed and Froude number
+Fr = v²/(g·L) (L: the robot's hip-to-foot leg length at stance), the dynamic-similarity measure
+under which animals of different size switch gaits at similar values (Alexander; Murphy et al.
+2008 use it to retarget gaits between bodies).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from planner.nlp.config import PlannerOptions
+from planner.nlp.spacetime import GaitPlanner
+from planner.search.gait_search import (
+    DEFAULT_SEARCH_KNOTS,
+    DEFAULT_TIPPING_WEIGHT,
+    GaitAcceptance,
+    GaitSearchResult,
+    SearchLogRow,
+    search_gait,
+)
+from planner.templates import gait_family
+from robots import Robot
+from robots.files import atomic_path, atomic_write_text
+
+
+@dataclass(frozen=True)
+class SweepRow:
+    speed_m_s: float
+    froude: float
+    gait_label: str
+    best_template: str
+    period_s: float
+    mean_duty_factor: float
+    cost: float
+    best_template_cost: float
+    cost_of_transport: float
+    feasible: bool
+    local_solves: int
+    elapsed_s: float
+    family: str = ""
+    search_cost: float = math.nan  # coarse-NLP cost incl. the support term (vs the template's)
+    search_feasible: bool = True  # False: the winner failed at the search resolution (fallback)
+    tipping_amplification: float = math.nan
+    sim_passed: bool | None = None  # MuJoCo verdict of the written gait (None: not simulated)
+    sim_speed_m_s: float = math.nan
+
+
+#: (passed, achieved speed) of a search result's gait in simulation; supplied by the caller so
+#: that the planner package does not import the simulator.
+Validator = Callable[[GaitSearchResult], tuple[bool, float]]
+
+
+def row_from(result: GaitSearchResult, validator: Validator | None = None) -> SweepRow:
+    best = result.best
+    passed, achieved = validator(result) if validator is not None and best.feasible \
+        else (None, math.nan)
+    return SweepRow(
+        speed_m_s=result.speed_m_s, froude=result.froude, gait_label=result.label,
+        best_template=result.best_template, period_s=best.schedule.period_s,
+        mean_duty_factor=float(np.mean(best.schedule.duty_factor)), cost=best.cost,
+        best_template_cost=result.best_template_cost,
+        cost_of_transport=result.cost_of_transport, feasible=best.feasible,
+        local_solves=result.cma.n_local_solves, elapsed_s=result.elapsed_s,
+        family=gait_family(result.label), search_cost=result.search_cost,
+        search_feasible=result.search_feasible,
+        tipping_amplification=result.tipping_amplification, sim_passed=passed,
+        sim_speed_m_s=achieved,
+    )
+
+
+def sweep_speeds(
+    robot: Robot,
+    speeds_m_s: Sequence[float],
+    *,
+    n_knots: int = 30,
+    options: PlannerOptions | None = None,
+    symmetric: bool = True,
+    max_generations: int = 6,
+    popsize: int | None = None,
+    seed: int = 0,
+    executor: str = "serial",
+    workers: int | None = None,
+    search_knots: int = DEFAULT_SEARCH_KNOTS,
+    tipping_weight: float = DEFAULT_TIPPING_WEIGHT,
+    acceptance: Callable[[], GaitAcceptance] | None = None,
+    final_acceptance: Callable[[], GaitAcceptance] | None = None,
+    validator: Validator | None = None,
+    on_row: Callable[[SweepRow], None] | None = None,
+    progress: Callable[[SearchLogRow], None] | None = None,
+) -> tuple[SweepRow, ...]:
+    """Search the best gait at each speed; one final planner (one NLP build) serves every speed."""
+    options = options or PlannerOptions()
+    planner = GaitPlanner(robot, n_knots, options)
+    rows = []
+    for speed in speeds_m_s:
+        result = search_gait(robot, float(speed), n_knots=n_knots, options=options,
+                             symmetric=symmetric, max_generations=max_generations,
+                             popsize=popsize, seed=seed, executor=executor, workers=workers,
+                             search_knots=search_knots, tipping_weight=tipping_weight,
+                             acceptance=acceptance, final_acceptance=final_acceptance,
+                             planner=planner, progress=progress)
+        row = row_from(result, validator)
+        rows.append(row)
+        if on_row is not None:
+            on_row(row)
+    return tuple(rows)
+
+
+_FIELDS = list(SweepRow.__dataclass_fields__)
+
+
+def to_csv(rows: Sequence[SweepRow]) -> str:
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(_FIELDS)
+    for r in rows:
+        writer.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in
+                         (getattr(r, f) for f in _FIELDS)])
+    return buf.getvalue()
+
+
+def to_markdown(rows: Sequence[SweepRow]) -> str:
+    head = ("| speed [m/s] | Froude | gait | duty | period [s] | search cost | best template "
+            "(cost) | final cost | tipping | CoT | sim | solves |")
+    lines = [head, "|" + "---|" * 12]
+    for r in rows:
+        sim = "-" if r.sim_passed is None else \
+            f"{'pass' if r.sim_passed else 'FAIL'} {r.sim_speed_m_s:.3f} m/s"
+        lines.append(
+            f"| {r.speed_m_s:.3f} | {r.froude:.3f} | {r.gait_label} | {r.mean_duty_factor:.2f} | "
+            f"{r.period_s:.3f} | {r.search_cost:.4g}{'' if r.search_feasible else ' †'} | "
+            f"{r.best_template} "
+            f"({r.best_template_cost:.4g}) | {r.cost:.4g} | {r.tipping_amplification:.3g} | "
+            f"{r.cost_of_transport:.3f} | {sim} | {r.local_solves} |"
+        )
+    if not all(r.search_feasible for r in rows):
+        lines.append("\n† no sample was feasible and accepted at the search resolution; the row "
+                     "shows the cheapest plan that solved, re-solved (and judged) at full "
+                     "resolution.")
+    return "\n".join(lines) + "\n"
+
+
+def plot(rows: Sequence[SweepRow], path: str | Path, title: str) -> None:
+    """Duty factor, cost of transport and gait label vs speed and Froude number (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    speeds = np.array([r.speed_m_s for r in rows])
+    froude = np.array([r.froude for r in rows])
+    fig, axes = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    labels = sorted({r.gait_label for r in rows})
+    colours = {lab: plt.get_cmap("tab10")(i) for i, lab in enumerate(labels)}
+    for ax, key, ylabel in ((axes[0], "mean_duty_factor", "duty factor"),
+                            (axes[1], "cost_of_transport", "cost of transport")):
+        values = np.array([getattr(r, key) for r in rows])
+        ax.plot(speeds, values, "-", color="0.6", zorder=1)
+        for r, v in zip(rows, values, strict=True):
+            # a cross: the gait fell or missed a criterion in MuJoCo
+            ax.scatter([r.speed_m_s], [v], color=colours[r.gait_label], s=60, zorder=2,
+                       label=r.gait_label, marker="X" if r.sim_passed is False else "o")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+    axes[0].axhline(0.5, color="0.3", lw=0.8, ls="--")
+    handles, names = axes[0].get_legend_handles_labels()
+    unique = dict(zip(names, handles, strict=True))
+    axes[0].legend(unique.values(), unique.keys(), title="gait")
+    axes[1].set_xlabel("speed [m/s]")
+    k = float(np.max(froude / np.maximum(speeds, 1e-9) ** 2))  # Fr = k·v², k = 1/(g·L)
+    top = axes[0].secondary_xaxis(
+        "top", functions=(lambda v: k * np.square(v), lambda f: np.sqrt(np.abs(f) / k)))
+    top.set_xlabel("Froude number v²/(g·L)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    try:
+        with atomic_path(path) as tmp:  # temp + rename; a failed write is an OutputWriteError
+            fig.savefig(tmp, dpi=110)
+    finally:
+        plt.close(fig)
+
+
+def write_sweep(rows: Sequence[SweepRow], out_dir: str | Path, robot: Robot) -> dict[str, Path]:
+    """sweep.csv, sweep.md and sweep.png in `out_dir` (each written atomically)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"csv": out / "sweep.csv", "md": out / "sweep.md", "png": out / "sweep.png"}
+    atomic_write_text(paths["csv"], to_csv(rows))
+    atomic_write_text(paths["md"], f"# {robot.name}: best gait vs speed\n\n" + to_markdown(rows))
+    plot(rows, paths["png"], f"{robot.name}: gait from speed (basin-CMA; × = fails in MuJoCo)")
+    return paths
+

@@ -1,0 +1,60 @@
+"""The written cycle starts at its most static-like knot; rotating a periodic plan is exact."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import robots
+from planner.nlp.cycle_start import rotate, rotate_schedule, start_from_rest_like_knot, start_knot
+from planner.nlp.spacetime import GaitPlanner
+from planner.templates import make_schedule, templates_for
+
+
+@pytest.fixture(scope="module")
+def walk_result(quad_planner: GaitPlanner):  # type: ignore[no-untyped-def]
+    result = quad_planner.solve(make_schedule(quad_planner.robot, "walk"), 0.15, warm_start=False)
+    assert result.feasible
+    return result
+
+
+@pytest.mark.parametrize("name", ["quad12", "hex18"])
+def test_rotation_keeps_every_template_contact_pattern(name: str) -> None:
+    robot = robots.load(name)
+    n = 30
+    for gait in templates_for(robot):
+        sched = make_schedule(robot, gait)
+        before = sched.contact_matrix(n)
+        for k in range(n):
+            after = rotate_schedule(sched, k, n)
+            np.testing.assert_array_equal(after.contact_matrix(n), np.roll(before, -k, axis=0))
+
+
+def test_rotate_rolls_arrays_and_shifts_phases(walk_result) -> None:  # type: ignore[no-untyped-def]
+    n = walk_result.joint_angles_rad.shape[0]
+    k = 7
+    rot = rotate(walk_result, k)
+    np.testing.assert_array_equal(rot.joint_angles_rad,
+                                  np.roll(walk_result.joint_angles_rad, -k, 0))
+    np.testing.assert_array_equal(rot.contact_forces_n,
+                                  np.roll(walk_result.contact_forces_n, -k, 0))
+    np.testing.assert_array_equal(rot.schedule.contact_matrix(n),
+                                  np.roll(walk_result.schedule.contact_matrix(n), -k, 0))
+    assert rotate(walk_result, n) is walk_result and rot.cost == walk_result.cost
+
+
+def test_start_knot_has_most_feet_down_and_the_evenest_load(walk_result) -> None:  # type: ignore[no-untyped-def]
+    sched, forces = walk_result.schedule, walk_result.contact_forces_n
+    k = start_knot(sched, forces)
+    contact = sched.contact_matrix(forces.shape[0])
+    assert contact[k].sum() == contact.sum(axis=1).max()
+    fz = forces[:, :, 2]
+
+    def imbalance(i: int) -> float:
+        loads = fz[i, contact[i]]
+        return float(np.max(np.abs(loads - loads.mean())) / loads.sum())
+
+    full = [i for i in range(len(contact)) if contact[i].sum() == contact[k].sum()]
+    assert imbalance(k) == pytest.approx(min(imbalance(i) for i in full))
+    started = start_from_rest_like_knot(walk_result)
+    assert started.schedule.contact_matrix(forces.shape[0])[0].sum() == contact[k].sum()

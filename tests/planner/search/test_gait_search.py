@@ -1,0 +1,187 @@
+"""Gait search (basin-CMA over contact timings) and the gait-from-speed sweep."""
+
+from __future__ import annotations
+
+import math
+import pickle
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import robots
+from planner.nlp.spacetime import GaitPlanner
+from planner.search.basin_cma import LocalResult
+from planner.search.executors import SerialExecutor
+from planner.search.gait_search import (
+    DEFAULT_TIPPING_WEIGHT,
+    RecordingExecutor,
+    TimingResult,
+    TimingSolver,
+    TimingSolverFactory,
+    TimingSpace,
+    cost_of_transport,
+    search_gait,
+    searchable_templates,
+    write_search_log,
+)
+from planner.search.speed_sweep import row_from, to_csv, to_markdown, write_sweep
+from planner.search.support import TippingCost
+from planner.templates import make_schedule, templates_for
+from robots import Gait
+
+
+@pytest.mark.parametrize("name", ["quad12", "hex18"])
+def test_timing_space_round_trips_the_symmetric_templates(name: str) -> None:
+    robot = robots.load(name)
+    space = TimingSpace.for_robot(robot, symmetric=True)
+    assert space.dim == 1 + (len(robot.legs) // 2 - 1) + len(robot.legs) // 2
+    encoded = 0
+    for gait in templates_for(robot):
+        sched = make_schedule(robot, gait)
+        x = space.encode(sched)
+        if x is None:  # bound, gallop, pronk break left/right half-period symmetry
+            assert gait in ("bound", "gallop_rotary", "gallop_transverse", "pronk", "ripple",
+                            "wave", "stand")
+            continue
+        encoded += 1
+        back = space.decode(x)
+        shift = back.touchdown_phase[0] - sched.touchdown_phase[0]
+        np.testing.assert_allclose((np.subtract(back.touchdown_phase, sched.touchdown_phase)
+                                    - shift + 0.5) % 1.0 - 0.5, 0.0, atol=1e-12)
+        np.testing.assert_allclose(back.duty_factor, sched.duty_factor)
+        assert back.period_s == pytest.approx(sched.period_s)
+    assert encoded >= (3 if name == "quad12" else 1)
+
+
+def test_asymmetric_space_encodes_every_template() -> None:
+    robot = robots.load("quad12")
+    space = TimingSpace.for_robot(robot, symmetric=False)
+    assert space.dim == 1 + 3 + 4
+    lo, hi = space.bounds()
+    for gait in searchable_templates(robot):
+        x = space.encode(make_schedule(robot, gait))
+        assert x is not None
+        assert np.all(x >= lo - 1e-12) and np.all(x <= hi + 1e-12)
+        assert space.decode(x).touchdown_phase[0] == 0.0
+
+
+def test_decode_wraps_phases_and_clips_durations() -> None:
+    space = TimingSpace.for_robot(robots.load("quad12"), symmetric=True)
+    sched = space.decode(np.array([0.5, 1.3, 2.0, -1.0]))
+    assert all(0.0 <= p < 1.0 for p in sched.touchdown_phase)
+    assert max(sched.duty_factor) <= 0.9 and min(sched.duty_factor) >= 0.35
+
+
+@pytest.fixture(scope="module")
+def small_quad_planner() -> GaitPlanner:
+    return GaitPlanner(robots.load("quad12"), n_knots=20)
+
+
+def test_timing_solver_is_a_cma_only_projection(small_quad_planner: GaitPlanner) -> None:
+    """W&P §4.1.2: timing variables are CMA-only — the local solve does not move them."""
+    robot = small_quad_planner.robot
+    space = TimingSpace.for_robot(robot)
+    solver = TimingSolver(small_quad_planner, space, 0.2)
+    x = space.encode(make_schedule(robot, "trot"))
+    assert x is not None
+    r = solver(x)
+    np.testing.assert_array_equal(r.x_projected, x)
+    assert r.feasible and math.isfinite(r.cost) and r.n_fevals > 0
+
+
+def test_timing_solver_adds_the_support_term_of_the_timing(
+    small_quad_planner: GaitPlanner,
+) -> None:
+    robot = small_quad_planner.robot
+    space = TimingSpace.for_robot(robot)
+    tipping = TippingCost.for_robot(robot, 0.05)
+    x = space.encode(make_schedule(robot, "trot"))
+    assert x is not None
+    plain = TimingSolver(small_quad_planner, space, 0.2)(x)
+    with_support = TimingSolver(small_quad_planner, space, 0.2, tipping)(x)
+    assert tipping(space.decode(x)) > 0
+    assert with_support.cost == pytest.approx(plain.cost + tipping(space.decode(x)), rel=1e-6)
+
+
+@dataclass(frozen=True)
+class _Verdict:
+    passed: bool
+    badness: float
+
+
+def test_rejected_samples_rank_after_feasible_and_before_infeasible_ones(
+    small_quad_planner: GaitPlanner,
+) -> None:
+    """A feasible plan whose gait fails acceptance becomes infeasible with a tiny violation."""
+    robot = small_quad_planner.robot
+    space = TimingSpace.for_robot(robot)
+    x = space.encode(make_schedule(robot, "trot"))
+    assert x is not None
+    seen: list[Gait] = []
+
+    def reject(gait: Gait) -> _Verdict:
+        seen.append(gait)
+        return _Verdict(False, 2.0)
+
+    r = TimingSolver(small_quad_planner, space, 0.2, None, reject)(x)
+    assert len(seen) == 1 and seen[0].n_knots == small_quad_planner.n_knots
+    assert not r.feasible and math.isfinite(r.cost)
+    assert 0 < r.violation < 1e-6  # ranks ahead of plans that violate the NLP (≥ 1e-4)
+    ok = TimingSolver(small_quad_planner, space, 0.2, None, lambda g: _Verdict(True, 0.0))(x)
+    assert ok.feasible and ok.cost == pytest.approx(r.cost)
+
+
+def test_recording_executor_ranks_distinct_feasible_samples() -> None:
+    def fake(x: np.ndarray) -> LocalResult:
+        return LocalResult(x, float(x[0]), bool(x[0] < 3))
+
+    rec = RecordingExecutor(SerialExecutor())
+    xs = [np.array([v]) for v in (2.0, 1.0, 4.0, 1.0, 0.5)]
+    assert [r.cost for r in rec.map(fake, xs)] == [2.0, 1.0, 4.0, 1.0, 0.5]
+    best = rec.best_feasible(3)
+    assert [float(x[0]) for x, _ in best] == [0.5, 1.0, 2.0]  # 4.0 infeasible, 1.0 once
+    # plans that solved but failed acceptance come after every feasible sample, by cost
+    rec.map(lambda x: TimingResult(x, 0.1, False, 0, 1e-9, True), [np.array([9.0])])
+    rec.map(lambda x: TimingResult(x, 0.2, False, 0, 1.0, False), [np.array([8.0])])
+    assert [float(x[0]) for x, _ in rec.best_feasible(5)] == [0.5, 1.0, 2.0, 9.0]
+
+
+def test_factory_is_picklable_for_process_and_ray_workers() -> None:
+    f = TimingSolverFactory(str(robots.load("quad12").root_dir), 20, 0.2, True)
+    assert pickle.loads(pickle.dumps(f)) == f
+
+
+def test_search_beats_or_matches_the_best_template_and_logs(
+    small_quad_planner: GaitPlanner, tmp_path: Path
+) -> None:
+    robot = small_quad_planner.robot
+    rows = []
+    result = search_gait(robot, 0.2, n_knots=20, max_generations=2, popsize=4, seed=1,
+                         planner=small_quad_planner, progress=rows.append)
+    assert result.best.feasible
+    best_template_cost = result.template_costs[result.best_template]
+    assert math.isfinite(best_template_cost) and best_template_cost == result.best_template_cost
+    assert result.search_cost <= best_template_cost * (1 + 1e-6)
+    assert result.label in templates_for(result.robot)
+    # the final solve is at the gait file's resolution; the support term is the winner's
+    assert result.best.warm_start.x.size == small_quad_planner.layout.size
+    assert result.support_cost == pytest.approx(
+        TippingCost.for_robot(robot, DEFAULT_TIPPING_WEIGHT)(result.best.schedule))
+    assert result.total_cost == pytest.approx(result.best.cost + result.support_cost)
+    assert [r.generation for r in result.log] == [0, 1]
+    assert len(rows) == 3  # the seeding notice + one per generation
+    assert result.cost_of_transport == pytest.approx(cost_of_transport(result.best, robot))
+    assert result.froude == pytest.approx(0.04 / (9.81 * robot.leg_length_m))
+    log = tmp_path / "search.csv"
+    write_search_log(result, log)
+    text = log.read_text().splitlines()
+    assert text[0].startswith("generation,best_cost") and len(text) >= 3
+    assert any(line.startswith("# final solve: 20 knots") for line in text)
+    # the sweep table/plot writers work on search results
+    row = row_from(result)
+    assert row.gait_label == result.label and row.feasible
+    assert "speed_m_s" in to_csv([row]) and result.label in to_markdown([row])
+    paths = write_sweep([row, row], tmp_path / "sweep", robot)
+    assert all(p.stat().st_size > 0 for p in paths.values())
