@@ -15,7 +15,7 @@ from hardware.play.errors import PreflightError, SpeedScaleError
 from hardware.play.player import Player, PlayerConfig, RestPose
 from hardware.play.watchdog import StopReason
 from robots.ramp import gait_mean_pose
-from tests.hardware.test_player_support import (
+from tests.hardware.play.player_rig import (
     FAST_BUS,
     assert_wire_safe,
     make_rig,

@@ -19,7 +19,7 @@ import pytest
 from hardware.bus.virtual import FaultPlan, VirtualServoBus
 from hardware.play.player import PlayerConfig
 from hardware.play.watchdog import StopReason
-from tests.hardware.test_player_support import Rig, assert_wire_safe, make_rig, torque_all_off
+from tests.hardware.play.player_rig import Rig, assert_wire_safe, make_rig, torque_all_off
 
 RAMP_S = 0.5
 T_FAULT_S = 1.0  # into the run: after the ramp-in, mid-gait

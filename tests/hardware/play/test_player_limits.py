@@ -26,7 +26,7 @@ from hardware.play.telemetry import TelemetryWriter, read_telemetry
 from hardware.play.virtual_rig import bringup_gait
 from hardware.play.watchdog import StopReason
 from robots.gait import save
-from tests.hardware.test_player_support import assert_wire_safe, make_rig, torque_all_off
+from tests.hardware.play.player_rig import assert_wire_safe, make_rig, torque_all_off
 
 runner = CliRunner()
 RATES_HZ = (30.0, 100.0, 1000.0)

@@ -24,7 +24,7 @@ from hardware.play.watchdog import StopReason, Watchdog, WatchdogLimits
 from robots.gait import Gait
 from robots.servo import servo_model
 from robots.thermal import thermal_model
-from tests.hardware.test_player_support import make_rig
+from tests.hardware.play.player_rig import make_rig
 
 STS = servo_model("STS3215_7V4")
 
