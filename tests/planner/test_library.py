@@ -138,4 +138,5 @@ def test_failed_entries_are_reported_and_left_out(quad: robots.Robot) -> None:
         lib.entries[0].gait.period_s)  # the template's phase origin
     with pytest.raises(LibraryBuildError, match=r"only 0 of 2 grid entries passed MuJoCo "
                        r"\(need 2\); no library written. Failed: \(0.2, 0.0, 0.0\)"):
-        build_library(quad, grid, n_knots=12, validator=FakeValidator(()), executor="serial")
+        build_library(quad, grid, n_knots=12, validator=FakeValidator(()), executor="serial",
+                      warm_start=False)  # the cold path: one batch, same order
