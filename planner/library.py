@@ -391,11 +391,11 @@ def build_library(
     passed = [o for o in order if o.passed and o.gait is not None and o.achieved is not None]
     need = min(min_entries, grid.size)
     if len(passed) < need:
-        failed = "; ".join(f"{velocity_tuple(o.command)}: {o.reason}" for o in order
-                           if not o.passed)
+        failed = "; ".join(f"{velocity_tuple(o.command)}: {o.reason.split('; ')[0]}"
+                           for o in order if not o.passed)
         raise LibraryBuildError(
             f"{robot.name}: only {len(passed)} of {grid.size} grid entries passed MuJoCo "
-            f"(need {need}); no library written. Failed: {failed}"[:2000]
+            f"(need {need}); no library written. Failed (first reason each): {failed}"
         )
     entries = tuple(LibraryEntry(o.command, o.gait, o.achieved)  # type: ignore[arg-type]
                     for o in sorted(passed, key=lambda o: velocity_tuple(o.command)))
