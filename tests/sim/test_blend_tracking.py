@@ -72,7 +72,6 @@ def blended_run(robot: Robot, lib: GaitLibrary, command: Velocity, seconds: floa
     return st[0][:, 0], pos[:, :2], np.unwrap(yaw_of(sim.sensor(sd[0], "gs_base_quat"))), full_at
 
 
-@pytest.mark.slow
 def test_blended_command_tracks_like_the_grid_points(hex18: Robot) -> None:
     lib, grid_errors = _library(hex18)
     command = Velocity(0.5 * (GRID_VX[0] + GRID_VX[1]))
