@@ -5,7 +5,9 @@
 Per robot: a `GaitBlender` over a library, stepped with a command inside a grid cell (all 2³
 corners active when the grid has three axes) while walking, with the per-tick speed and
 joint-limit clip; the baseline is one `Gait.joint_targets(t)` call on one of the library's gaits
-(what the player does per tick for a single gait), timed in the same run. Times are CPU time per
+(what the player does per tick for a single gait), timed in the same run; and the blender while
+its command changes every tick (the joint speed budget of a command change costs two more
+spline blends). Times are CPU time per
 call (`time.process_time`), so that the shared machine's load does not count.
 
 Without `--library` the synthetic library of the tests (`tests/robots/library_fixture.py`:
@@ -58,7 +60,7 @@ def _per_call_us(fn: object, n: int, repeats: int = 5) -> float:
     return statistics.median(runs)
 
 
-def bench(robot: robots.Robot, lib: GaitLibrary, ticks: int) -> tuple[float, float, int]:
+def bench(robot: robots.Robot, lib: GaitLibrary, ticks: int) -> tuple[float, float, float, int]:
     limits = BlendLimits.for_robot(robot, accel_m_s2=0.5, yaw_accel_rad_s2=2.0)
     blender = GaitBlender(lib, limits)
     cmd = _inside(lib)
@@ -76,7 +78,16 @@ def bench(robot: robots.Robot, lib: GaitLibrary, ticks: int) -> tuple[float, flo
 
     blend_us = _per_call_us(lambda: blender.step(cmd, dt), ticks)
     plain_us = _per_call_us(plain, ticks)
-    return blend_us, plain_us, active
+    # the command changing every tick (towards a far corner and back): the speed budget runs
+    lo, hi = lib.command_bounds()
+    flip = [0]
+
+    def changing() -> None:
+        flip[0] += 1
+        blender.step(hi if (flip[0] // 50) % 2 else lo, dt)
+
+    changing_us = _per_call_us(changing, ticks)
+    return blend_us, changing_us, plain_us, active
 
 
 def main() -> None:
@@ -94,12 +105,13 @@ def main() -> None:
             robot = robots.load(name)
             cases.append((robot, _synthetic(robot), "synthetic 3×3×3, N=30"))
     print("| robot | servos | library | entries | active corners | blend step [µs] | "
-          "Gait.joint_targets [µs] | ratio |")
-    print("|---|---|---|---|---|---|---|---|")
+          "… command changing [µs] | Gait.joint_targets [µs] | ratio (steady) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for robot, lib, what in cases:
-        blend_us, plain_us, active = bench(robot, lib, args.ticks)
+        blend_us, changing_us, plain_us, active = bench(robot, lib, args.ticks)
         print(f"| {robot.name} | {robot.dof} | {what} | {len(lib.entries)} | {active} | "
-              f"{blend_us:.1f} | {plain_us:.1f} | {blend_us / plain_us:.2f} |")
+              f"{blend_us:.1f} | {changing_us:.1f} | {plain_us:.1f} | "
+              f"{blend_us / plain_us:.2f} |")
 
 
 if __name__ == "__main__":

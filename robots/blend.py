@@ -18,8 +18,12 @@ its two neighbours along each axis that has both, else as the nearest entry (`_G
 
 Command. The requested command is clipped into the grid's box (`command_clipped` says when),
 then the current command moves towards it at most `accel_m_s2`·dt per tick in vx and vy and
-`yaw_accel_rad_s2`·dt in yaw rate. A zero request sends the command to the rest point (the
-box point nearest to zero), then blends out to the stand.
+`yaw_accel_rad_s2`·dt in yaw rate — and less when that change would move the targets faster
+than the joint speed left over by the gait's own motion allows
+(`BlendLimits.command_speed_share`: entries that differ a lot per grid step turn a fast command
+change into fast joint motion, which the per-tick clip would otherwise cut, distorting the
+gait). A zero request sends the command to the rest
+point (the box point nearest to zero), then blends out to the stand.
 
 Stand ↔ walk, with `robots.ramp`'s entry blend (`gait_entry`'s pieces, reused, not copied):
 from the stand (or any start pose) a minimum-jerk ramp (`ramp_to`) moves to the mean pose m of
@@ -61,6 +65,8 @@ from robots.spline import PeriodicSpline
 if TYPE_CHECKING:
     from robots.robot import Robot
 
+DEFAULT_COMMAND_SPEED_SHARE = 0.95  # command changes may use the joint speed up to this share
+MIN_COMMAND_STEP = 0.05  # of the acceleration-limited step, however little speed is left
 ZERO_COMMAND_EPS = 1e-9  # |component| below this counts as a zero (stop) request
 DEFAULT_RAMP_SPEED_FRACTION = 0.5  # ramps at half the joint speed limit, as sim and player do
 
@@ -79,12 +85,18 @@ class BlendLimits:
     ramp_speed_fraction: float = DEFAULT_RAMP_SPEED_FRACTION  # of joint_speed, ramps and blends
     min_ramp_s: float = DEFAULT_RAMP_S
     min_blend_cycles: int = DEFAULT_MIN_BLEND_CYCLES
+    #: command changes may use the joint speed up to this share (with the gait's own motion);
+    #: None: only the acceleration limits bound them (the per-tick clip still bounds the result)
+    command_speed_share: float | None = DEFAULT_COMMAND_SPEED_SHARE
 
     def __post_init__(self) -> None:
         for name in ("accel_m_s2", "yaw_accel_rad_s2", "min_ramp_s"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise BlendError(f"BlendLimits.{name} must be a positive number, got {v!r}")
+        share = self.command_speed_share
+        if share is not None and not (isinstance(share, (int, float)) and 0 < share <= 1):
+            raise BlendError("BlendLimits.command_speed_share must be in (0, 1] or None")
         if not 0 < self.ramp_speed_fraction <= 1:
             raise BlendError("BlendLimits.ramp_speed_fraction must be in (0, 1]")
         speed = np.asarray(self.joint_speed_rad_s, dtype=float).reshape(-1)
@@ -235,6 +247,7 @@ class GaitBlender:
         self._cached_cmd: tuple[float, float, float] | None = None
         self._cached: tuple[np.ndarray, np.ndarray, float] = (ridx, rw, 0.0)
         self._clipped = False
+        self._speed_clipped = False
         self._phase = 0.0
         self._u = 0.0  # gait blend progress (α = min_jerk(u))
         self._state = "standing"
@@ -264,6 +277,11 @@ class GaitBlender:
     def command_clipped(self) -> bool:
         """Whether the last requested command was outside the grid's box (and was clipped)."""
         return self._clipped
+
+    @property
+    def speed_clipped(self) -> bool:
+        """Whether the last step's joint speed clip changed the targets (they lag the blend)."""
+        return self._speed_clipped
 
     @property
     def phase(self) -> float:
@@ -320,8 +338,9 @@ class GaitBlender:
         else:
             q = self._advance_gait(target, walk, dt_s)
         step = self.limits.joint_speed_rad_s * dt_s
-        q = np.clip(q, self._q - step, self._q + step)
-        self._q = self._clip_limits(q)
+        clipped = np.clip(q, self._q - step, self._q + step)
+        self._speed_clipped = not np.array_equal(clipped, q)
+        self._q = self._clip_limits(clipped)
         return self._q.copy()
 
     # -- internals -----------------------------------------------------------------------------
@@ -357,9 +376,12 @@ class GaitBlender:
                       dt_s: float) -> np.ndarray:
         lim = self.limits
         dv, dw = lim.accel_m_s2 * dt_s, lim.yaw_accel_rad_s2 * dt_s
-        cx, cy, cw = self._cmd
-        self._cmd = (_toward(cx, target[0], dv), _toward(cy, target[1], dv),
-                     _toward(cw, target[2], dw))
+        c0 = self._cmd
+        c1 = (_toward(c0[0], target[0], dv), _toward(c0[1], target[1], dv),
+              _toward(c0[2], target[2], dw))
+        if c1 != c0 and lim.command_speed_share is not None:
+            c1 = self._speed_budgeted(c0, c1, lim.command_speed_share, dt_s)
+        self._cmd = c1
         idx, w, period = self._weights(self._cmd)
         dphase = dt_s / period
         self._phase = (self._phase + dphase) % 1.0
@@ -379,6 +401,30 @@ class GaitBlender:
             self._ramp_t = 0.0
             self._phase = 0.0
         return q
+
+    def _speed_budgeted(self, c0: tuple[float, float, float], c1: tuple[float, float, float],
+                        share_of_limit: float, dt_s: float) -> tuple[float, float, float]:
+        """The command step c0 → c1 shortened so that the targets' change it causes fits in
+        the joint speed left over by the gait's own motion (`share_of_limit` of the limit in
+        all): a fast command change across entries that differ a lot would otherwise
+        be cut by the per-tick clip, distorting the gait. At least `MIN_COMMAND_STEP` of the
+        step is always taken, so the command keeps moving (the clip still bounds the result)."""
+        idx0, w0 = self._grid.weights(c0)
+        idx1, w1 = self._grid.weights(c1)
+        phase = (self._phase + dt_s / float(w0 @ self._periods[idx0])) % 1.0
+        alpha = float(min_jerk(self._u))
+        m = self._rest_mean
+        q0 = m + alpha * (self._targets(idx0, w0, phase) - m)
+        q1 = m + alpha * (self._targets(idx1, w1, phase) - m)
+        budget = share_of_limit * self.limits.joint_speed_rad_s * dt_s - np.abs(q0 - self._q)
+        change = np.abs(q1 - q0)
+        over = change > np.maximum(budget, 0.0)
+        if not np.any(over):
+            return c1
+        share = float(np.min(np.maximum(budget[over], 0.0) / change[over]))
+        s = min(1.0, max(MIN_COMMAND_STEP, share))
+        return (c0[0] + s * (c1[0] - c0[0]), c0[1] + s * (c1[1] - c0[1]),
+                c0[2] + s * (c1[2] - c0[2]))
 
     def _weights(self, c: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray, float]:
         """Grid weights and period law at `c`, cached for the last command (steady driving

@@ -190,3 +190,24 @@ def test_library_and_blend_stay_light() -> None:
             "print(sorted(m for m in ('mujoco', 'casadi', 'sim', 'planner') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout + out.stderr
+
+
+@pytest.mark.parametrize(("share", "clipped"), [(None, True), (0.95, False)])
+def test_fast_command_changes_stay_in_the_joint_speed_budget(
+    quad: robots.Robot, share: float | None, clipped: bool
+) -> None:
+    """At 5 m/s² and 20 rad/s² the command alone would move the targets faster than the servos
+    allow (the clip cuts them); with the speed budget the command slows down instead."""
+    limits = replace(BlendLimits.for_robot(quad, 5.0, 20.0, speed_fraction=0.3),
+                     command_speed_share=share)
+    b = GaitBlender(make_library(quad), limits)
+    script = ([Velocity(0.01)] * 600 + [Velocity(0.2, 0.0, 0.5)] * 100
+              + [Velocity(0.0, 0.0, -0.5)] * 100)
+    cut = 0
+    for c in script:
+        b.step(c, DT)
+        cut += b.speed_clipped
+    assert (cut > 0) == clipped, cut
+    assert b.command == Velocity(0.0, 0.0, -0.5)  # it still gets there
+    with pytest.raises(BlendError, match="command_speed_share"):
+        replace(limits, command_speed_share=1.5)
