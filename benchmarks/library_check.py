@@ -1,6 +1,6 @@
 """Measurements on built gait libraries (the figures of docs/results/gait_library.md).
 
-    python benchmarks/library_check.py track LIB.json VX,VY,W [VX,VY,W ...]
+    python benchmarks/library_check.py track LIB.json -- VX,VY,W [VX,VY,W ...]
     python benchmarks/library_check.py transitions LIB.json [--accel 0.5] [--yaw-accel 2.0]
     python benchmarks/library_check.py warm ROBOT [--knots 30]
 
