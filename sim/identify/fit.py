@@ -151,8 +151,9 @@ def _levenberg_marquardt(problem: _GroupProblem, theta: np.ndarray) -> tuple[np.
     mu = np.full(n, -1.0)
     nu = np.full(n, 2.0)
     done = np.zeros(n, bool)
-    it = 0
-    for it in range(1, MAX_ITERATIONS + 1):
+    iterations = 0
+    while iterations < MAX_ITERATIONS:
+        iterations += 1
         batch = np.repeat(theta[None], 4, axis=0)
         for i in range(3):
             batch[i + 1, :, i] += FD_STEP[i]
@@ -178,7 +179,7 @@ def _levenberg_marquardt(problem: _GroupProblem, theta: np.ndarray) -> tuple[np.
         done |= (better & small) | (np.max(np.abs(g), axis=1) < 1e-12) | (nu > 1e6)
         if np.all(done):
             break
-    return theta, it
+    return theta, iterations
 
 
 def identify(telemetry_path: str | Path, robot: Robot) -> IdentifyResult:
