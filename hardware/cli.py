@@ -16,7 +16,7 @@ import time
 from hardware.play.watchdog import STOP_SIGNALS, latch_stop_signals
 
 _AS_COMMAND = __name__ == "__main__" or os.path.basename(sys.argv[0]) == "gaitsmith-play"
-_LATCHED = _AS_COMMAND and sys.argv[1:2] == ["run"]
+_LATCHED = _AS_COMMAND and sys.argv[1:2] in (["run"], ["identify"])
 if _LATCHED:
     latch_stop_signals()  # before typer / rich / the player load (tenths of a second)
 from enum import Enum  # noqa: E402 (after the latch)
@@ -206,6 +206,10 @@ def virtual_bus(
 from hardware.play.commands import register as _register_player  # noqa: E402
 
 _register_player(app)
+
+from hardware.play.identify import register as _register_identify  # noqa: E402
+
+_register_identify(app)
 
 
 def main() -> None:

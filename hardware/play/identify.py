@@ -31,12 +31,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
+import typer
+from rich.console import Console
 
-from hardware.bus.servo_bus import ServoBus
+from hardware.bus.servo_bus import BusConfig, ServoBus
+from hardware.errors import HardwareError
 from hardware.play.calibration import Calibration
-from hardware.play.clock import Clock
+from hardware.play.clock import Clock, MonotonicClock, VirtualClock
+from hardware.play.commands import VirtualMode
 from hardware.play.errors import PlayerError
 from hardware.play.player import ADAPTER_ERRORS, Player, PlayerConfig, _os_text
 from hardware.play.preflight import check_bus
@@ -60,6 +66,7 @@ MULTISINE_HZ = (0.7, 1.3, 2.3)
 CHIRP_SPEED_FRACTION = 0.5  # of the gate's allowed speed
 TRAIN_PHASE = "excite"
 CHECK_PHASE = "check"
+console = Console()
 
 
 def joint_groups(
@@ -273,3 +280,146 @@ class IdentifyPlayer(Player):
                 )
                 break
             k = self._tick(k, phase, target, watch=True)
+
+
+# -- the command ------------------------------------------------------------------------------
+def identify_command(
+    robot: str = typer.Option(..., "--robot", help="Robot name or folder, e.g. quad12."),
+    output: Path = typer.Option(..., "--output", "-o", help="Telemetry CSV to record."),
+    port: str | None = typer.Option(None, "--port", "-p", help="Serial device, e.g. /dev/ttyUSB0."),
+    virtual: VirtualMode | None = typer.Option(
+        None,
+        "--virtual",
+        help="No hardware: alone = in-process virtual bus; 'sim' = the MuJoCo twin, lifted.",
+    ),
+    joints: str | None = typer.Option(
+        None, "--joints", help="Comma-separated joint names to excite (default: all)."
+    ),
+    amplitude_deg: float = typer.Option(
+        DEFAULT_AMPLITUDE_DEG, "--amplitude-deg", help="Step amplitude about stance \\[deg]."
+    ),
+    duration_s: float = typer.Option(
+        DEFAULT_SEGMENT_S, "--duration-s", help="Excitation per joint group \\[s] (2..120)."
+    ),
+    yes: bool = typer.Option(False, "--yes", "-y", help="The robot is lifted: do not ask."),
+    calibration: Path | None = typer.Option(None, "--calibration", help="Calibration JSON."),
+    rate_hz: float = typer.Option(100.0, "--rate", help="Stream rate \\[Hz], 1..1000."),
+    ramp_s: float = typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time \\[s]."),
+    timeout_ms: float = typer.Option(3.0, "--timeout-ms", help="Reply allowance per packet."),
+    baud: int | None = typer.Option(None, "--baud", help="Baud rate; default: the robot's."),
+    realtime: bool = typer.Option(True, "--realtime/--no-realtime", help="Virtual: real time."),
+    twin_servo_params: Path | None = typer.Option(
+        None,
+        "--twin-servo-params",
+        help="--virtual sim only: the twin's servos differ from the "
+        "catalogue as this servo_params.toml says (a run with known parameters to fit against).",
+    ),
+) -> None:
+    """Excite the joints of a LIFTED robot (steps, chirp, multisine about stance) and record
+    goal / present / load per tick for `gaitsmith identify`. Same safety as `run`: limits,
+    speed limit, watchdog; Ctrl-C / SIGTERM / SIGHUP / SIGQUIT ramp to stance, then torque off."""
+    from hardware.play.commands import (
+        _fail,
+        _load_inputs,
+        _open_bus,
+        _report,
+        _virtual_plant,
+        check_option,
+    )
+
+    for name, value in (
+        ("--rate", rate_hz), ("--ramp-s", ramp_s), ("--timeout-ms", timeout_ms), ("--baud", baud),
+    ):  # fmt: skip
+        problem = None if value is None else check_option(name, value)
+        if problem is not None:
+            raise _fail(problem)
+    if twin_servo_params is not None and virtual is not VirtualMode.sim:
+        raise _fail("--twin-servo-params sets the MuJoCo twin's servos: use it with --virtual sim")
+    rob, _, cal = _load_inputs(robot, None, calibration)
+    settings = None
+    if twin_servo_params is not None:
+        from robots import servo_params
+        from robots.errors import RobotsError
+
+        try:
+            settings = servo_params.load(twin_servo_params)
+            settings.for_robot(rob)
+        except RobotsError as exc:
+            raise _fail(str(exc)) from None
+    names = None if joints is None else tuple(n.strip() for n in joints.split(",") if n.strip())
+    try:
+        config = PlayerConfig(rate_hz=rate_hz, ramp_s=ramp_s)
+        bus_config = BusConfig(
+            timeout_s=timeout_ms / 1000.0, retries=1, baudrate=baud or rob.bus_baud
+        )
+        excitation = excitation_for(
+            rob,
+            np.array([config.speed_margin * j.servo.no_load_speed_rad_s for j in rob.joints]),
+            amplitude_rad=math.radians(amplitude_deg),
+            segment_s=duration_s,
+            joints=names,
+        )
+    except (ValueError, PlayerError) as exc:
+        raise _fail(str(exc)) from None
+    console.print(
+        f"[bold]The robot must be LIFTED off the ground[/] (hung or on a stand, legs free): "
+        f"{len(excitation.groups)} joint group(s) will each move up to "
+        f"±{math.degrees(float(np.max(excitation.amplitude_rad))):.0f}° about stance for "
+        f"{duration_s:g} s, {excitation.duration_s + 2 * ramp_s:.0f} s in all; keep clear.",
+        highlight=False,
+    )
+    if not yes:
+        try:
+            if not typer.confirm("Is the robot lifted and clear?", default=False):
+                raise _fail("not confirmed: nothing was sent to the servos")
+        except typer.Abort:
+            raise _fail("not confirmed (no answer): pass --yes once the robot is lifted") from None
+    clock: Clock = MonotonicClock() if realtime or virtual is None else VirtualClock()
+    bus: ServoBus | None = None
+    twin: Any = None
+    writer = None
+    try:
+        if virtual is VirtualMode.sim:
+            twin = _virtual_plant("sim")(
+                rob, clock=clock.now_s, lifted=True, servo_settings=settings
+            )
+            bus = twin.vbus.connect(bus_config)
+        else:
+            bus, twin = _open_bus(rob, port, virtual, bus_config, clock)
+        writer = TelemetryWriter(output, rob.joint_names, [j.bus_id for j in rob.joints])
+        player = IdentifyPlayer(
+            rob, bus=bus, calibration=cal, config=config, clock=clock, telemetry=writer,
+            amplitude_rad=math.radians(amplitude_deg), segment_s=duration_s, joints=names,
+        )  # fmt: skip
+        result = player.run()
+    except HardwareError as exc:
+        raise _fail(str(exc)) from None
+    except OSError as exc:
+        raise _fail(f"{exc.filename or ''}: {exc.strerror or exc}") from None
+    finally:
+        if writer is not None:
+            writer.close()
+        if bus is not None:
+            try:
+                bus.close()
+            except (HardwareError, OSError):
+                pass  # an adapter that vanished cannot be closed either
+    try:
+        _report(result, twin, rate_hz, output)
+        if result.exit_code == 0:
+            console.print(
+                f"fit it: gaitsmith identify {output} --robot {robot} -o servo_params.toml",
+                highlight=False,
+                soft_wrap=True,
+            )
+    except OSError:
+        pass  # the terminal is gone (SIGHUP): the exit code still says how the run ended
+    if result.exit_code:
+        raise typer.Exit(result.exit_code)
+
+
+def register(app: typer.Typer) -> None:
+    """Add `identify` to the `gaitsmith-play` app."""
+    from hardware.play.commands import _RunCommand
+
+    app.command("identify", cls=_RunCommand)(identify_command)
