@@ -28,12 +28,14 @@ legs swing freely in the air, as on a robot hung from a stand. Only the joints r
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
 from robots.robot import Robot
+from robots.servo_params import ServoSetting
 from sim.errors import SimConfigError, SimSetupError
 from sim.servo import ServoParams, servo_params
 
@@ -92,6 +94,11 @@ class SimModel:
         return np.array([s.back_emf_nm_s_per_rad for s in self.servos])
 
     @property
+    def servo_latency_s(self) -> np.ndarray:
+        """Each servo's own goal delay (identified, `robots.servo_params`; 0 = catalogue)."""
+        return np.array([s.latency_s for s in self.servos])
+
+    @property
     def stall_torque_nm(self) -> np.ndarray:
         """Datasheet stall torque per joint (not scaled by strength)."""
         return np.array([s.stall_torque_nm for s in self.servos])
@@ -130,21 +137,44 @@ def _foot_geom_ids(model: mujoco.MjModel, robot: Robot) -> tuple[tuple[int, ...]
     return tuple(out)
 
 
+def servos_for(
+    robot: Robot, conditions: SimConditions, settings: Sequence[ServoSetting] | None = None
+) -> tuple[ServoParams, ...]:
+    """One `ServoParams` per joint: the catalogue servo at its factory gains, scaled by the
+    identified `settings` (gain, strength, latency; `robots.servo_params`) when given, its
+    strength also by `conditions.strength`."""
+    if settings is None:
+        settings = [ServoSetting()] * robot.dof
+    if len(settings) != robot.dof:
+        raise SimConfigError(f"{len(settings)} servo settings for the {robot.dof} joints")
+    return tuple(
+        servo_params(
+            j.servo,
+            strength=conditions.strength * st.strength,
+            gain_scale=st.gain_scale,
+            latency_s=st.latency_s,
+        )
+        for j, st in zip(robot.joints, settings, strict=True)
+    )
+
+
 def build_sim_model(
     robot: Robot,
     conditions: SimConditions = SimConditions(),
     *,
     servos: tuple[ServoParams, ...] | None = None,
     timestep_s: float | None = None,
+    servo_settings: Sequence[ServoSetting] | None = None,
 ) -> SimModel:
-    """Compile the robot's MJCF with one servo per joint and the logging sensors."""
+    """Compile the robot's MJCF with one servo per joint and the logging sensors (`servos`, or
+    the catalogue servos scaled by the identified `servo_settings`, see `servos_for`)."""
     try:  # the prepared model (robots.mjcf): its own actuators removed, floor, absolute paths
         spec = robot.mj_spec()
         base = spec.compile()
     except Exception as exc:  # mujoco raises ValueError with its parser's message
         raise SimSetupError(f"{robot.mjcf_path}: MuJoCo cannot load it: {exc}") from None
     if servos is None:
-        servos = tuple(servo_params(j.servo, strength=conditions.strength) for j in robot.joints)
+        servos = servos_for(robot, conditions, servo_settings)
     elif len(servos) != robot.dof:
         raise SimConfigError(f"{len(servos)} servo parameter sets for {robot.dof} joints")
     root_body = int(base.jnt_bodyid[0])

@@ -48,7 +48,6 @@ from robots.servo_params import ServoParamsFile, ServoSetting
 from sim.errors import SimConfigError
 from sim.metrics import yaw_of
 from sim.model import STATE_SPEC, SimConditions, build_sim_model
-from sim.servo import ServoParams, servo_params
 
 MAX_CATCH_UP_S = 1.0  # a (real-time) clock jump larger than this is not simulated step by step
 
@@ -82,7 +81,7 @@ class MujocoTwin:
             cond = SimConditions(cond.friction, cond.payload_kg, cond.strength, lifted=True)
         settings = _settings_for(robot, servo_settings)
         self.servo_settings = settings
-        self.sim = build_sim_model(robot, cond, servos=_servos(robot, cond, settings))
+        self.sim = build_sim_model(robot, cond, servo_settings=settings)
         self.model = self.sim.model
         self.data = mujoco.MjData(self.model)
         mujoco.mj_setState(self.model, self.data, self.sim.initial_state(), STATE_SPEC)
@@ -99,7 +98,7 @@ class MujocoTwin:
             s.write(torque.addr, b"\x01")  # powered, holding the stance
         self._t_start = clock()
         self._record_every_s = record_every_s
-        self._latency_s = np.array([st.latency_s for st in settings])
+        self._latency_s = self.sim.servo_latency_s
         # goal history: (sim time written, goals [rad]); the stance holds since forever
         self._goal_log: list[tuple[float, np.ndarray]] = [
             (-math.inf, np.asarray(robot.nominal_stance_rad, float))
@@ -238,11 +237,3 @@ def _settings_for(
         )
     return out
 
-
-def _servos(
-    robot: Robot, cond: SimConditions, settings: Sequence[ServoSetting]
-) -> tuple[ServoParams, ...]:
-    return tuple(
-        servo_params(j.servo, strength=cond.strength * st.strength, gain_scale=st.gain_scale)
-        for j, st in zip(robot.joints, settings, strict=True)
-    )
