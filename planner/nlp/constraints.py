@@ -305,9 +305,9 @@ def _servo_goal_groups(
     """
     if not options.servo_goals:
         return []
-    from planner.nlp.servo_loop import factory_servo_loops, loop_arrays
+    from planner.nlp.servo_loop import loop_arrays, servo_loops
 
-    kp, damping = loop_arrays(factory_servo_loops(model.robot))
+    kp, damping = loop_arrays(servo_loops(model.robot, options.servo_settings))
     nj = model.n_joints
     goal = (
         sym.q
