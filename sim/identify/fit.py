@@ -39,6 +39,10 @@ LATENCY_GRID_MS = (0.0, 5.0, 10.0, 20.0, 40.0, 80.0)
 FD_STEP = np.array([1e-3, 0.05, 1e-3])  # θ units: ln, ms, ln
 MAX_ITERATIONS = 40
 MIN_TRAIN_SAMPLES = 50
+POOR_FIT_DEG = 0.5  # held-back RMS above this: the fit is flagged
+POOR_SD_FRACTION = 0.05  # a parameter's standard error above 5 % of it: flagged
+LATENCY_SD_FLOOR_MS = 10.0  # latency: 5 % of at least this (a 0 ms latency is not "poor")
+CONTACT_EVERY = 5  # ticks between the contact checks of the measured poses
 
 
 @dataclass(frozen=True)
@@ -53,6 +57,34 @@ class JointFit:
     held_out_rms_rad: float
     samples: int  # training samples
     iterations: int
+    sd: tuple[float, float, float] = (math.nan, math.nan, math.nan)  # see `standard_errors`
+    contacts: tuple[str, ...] = ()  # "bodyA/bodyB" touching while this joint was excited
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """Why this joint's fit should not be trusted (empty: no reason found)."""
+        out = []
+        if self.contacts:
+            out.append(
+                f"{self.name}: links touched during its excitation ({', '.join(self.contacts)}); "
+                "the one-joint model has no contacts — record it again with a smaller "
+                "--amplitude-deg"
+            )
+        if math.degrees(self.held_out_rms_rad) > POOR_FIT_DEG:
+            out.append(
+                f"{self.name}: held-back RMS {math.degrees(self.held_out_rms_rad):.2f}° — the "
+                "model does not explain this joint (contact, backlash, friction, a loose link?)"
+            )
+        st = self.setting
+        scales = (st.gain_scale, max(st.latency_ms, LATENCY_SD_FLOOR_MS), st.strength)
+        for name, sd, scale in zip(("gain", "latency", "strength"), self.sd, scales, strict=True):
+            if not sd <= POOR_SD_FRACTION * scale:  # NaN / inf: undetermined
+                shown = f"±{100 * sd / scale:.0f} %" if math.isfinite(sd) else "undetermined"
+                out.append(
+                    f"{self.name}: {name} poorly determined by this record ({shown}); "
+                    "excite it harder (larger --amplitude-deg) or longer (--duration-s)"
+                )
+        return tuple(out)
 
     def info(self, servo_name: str) -> dict[str, float | int | str]:
         """The informative keys of the servo-parameters file."""
@@ -182,6 +214,64 @@ def _levenberg_marquardt(problem: _GroupProblem, theta: np.ndarray) -> tuple[np.
     return theta, iterations
 
 
+def standard_errors(problem: _GroupProblem, theta: np.ndarray) -> np.ndarray:
+    """(n, 3) standard errors of θ (ln gain, latency [ms], ln strength) per joint from the
+    Gauss–Newton covariance σ²·(JᵀJ)⁻¹, σ² = Σr²/(S − 3) (Madsen et al. 2004, §3.6). They
+    reflect the measurement noise and how well the record determines each parameter (a
+    parameter the motion hardly depends on gets a large one), not model error."""
+    batch = np.repeat(theta[None], 4, axis=0)
+    for i in range(3):
+        batch[i + 1, :, i] += FD_STEP[i]
+    r = problem.residuals(batch)
+    jac = np.stack([(r[i + 1] - r[0]) / FD_STEP[i] for i in range(3)], axis=-1)
+    count = problem.mask.sum(axis=1)
+    sigma2 = np.sum(r[0] ** 2, axis=1) / np.maximum(count - 3, 1)
+    out = np.full(theta.shape, math.inf)
+    for n in range(theta.shape[0]):
+        a = jac[n].T @ jac[n]
+        if np.linalg.cond(a) < 1e14:
+            out[n] = np.sqrt(np.maximum(np.diag(np.linalg.inv(a)) * sigma2[n], 0.0))
+    return out
+
+
+def _contacts(robot: Robot, cols: list[int], poses_rad: np.ndarray) -> list[tuple[str, ...]]:
+    """Per moving joint, the body pairs in contact at any of the measured poses (lifted model)
+    where one body is beyond that joint."""
+    import mujoco
+
+    from sim.model import SimConditions, build_sim_model
+
+    sim = build_sim_model(robot, SimConditions(lifted=True))
+    model, data = sim.model, mujoco.MjData(sim.model)
+    beyond = []
+    for j in cols:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, robot.joints[j].name)
+        top = int(model.jnt_bodyid[jid])
+        below = set()
+        for b in range(model.nbody):
+            x = b
+            while x > 0 and x != top:
+                x = int(model.body_parentid[x])
+            if x == top:
+                below.add(b)
+        beyond.append(below)
+    found: list[set[str]] = [set() for _ in cols]
+    for pose in poses_rad:
+        if not np.all(np.isfinite(pose)):
+            continue
+        data.qpos[sim.qpos_adr] = pose
+        mujoco.mj_forward(model, data)
+        for c in data.contact[: data.ncon]:
+            b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
+            names = [
+                mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or str(b) for b in (b1, b2)
+            ]
+            for n, below in enumerate(beyond):
+                if (b1 in below) != (b2 in below):  # one side moves with the joint
+                    found[n].add("/".join(sorted(names)))
+    return [tuple(sorted(f)) for f in found]
+
+
 def identify(telemetry_path: str | Path, robot: Robot) -> IdentifyResult:
     """Fit every excited joint of the record (see the module docstring)."""
     source = str(telemetry_path)
@@ -223,6 +313,8 @@ def identify(telemetry_path: str | Path, robot: Robot) -> IdentifyResult:
         costs = np.sum(problem.residuals(grid) ** 2, axis=-1)  # (grid, n)
         theta = grid[np.argmin(costs, axis=0), np.arange(len(cols))]
         theta, iterations = _levenberg_marquardt(problem, theta)
+        sds = standard_errors(problem, theta)
+        touching = _contacts(robot, cols, tel.present_rad[window][::CONTACT_EVERY])
         full = _GroupProblem(
             plants, cols, goals, t0, t_all[window], q0, tel.present_rad[window][:, cols].T
         )
@@ -246,6 +338,12 @@ def identify(telemetry_path: str | Path, robot: Robot) -> IdentifyResult:
                     held_out_rms_rad=float(check_rms[n]),
                     samples=int(np.sum(np.isfinite(meas[n, ~is_check]))),
                     iterations=iterations,
+                    sd=(
+                        gain * float(sds[n, 0]),  # d gain = gain · d ln gain
+                        float(sds[n, 1]),
+                        strength * float(sds[n, 2]),
+                    ),
+                    contacts=touching[n],
                 )
             )
         traces.append(
