@@ -12,10 +12,11 @@ import math
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 import robots
-from gaitsmith.console import console
+from gaitsmith.console import console, err_console
 from gaitsmith.options import check_output_file
 from robots import servo_params
 
@@ -46,7 +47,7 @@ def identify_command(
     servo_params.save(output, params, info, header)
     table = Table(title=f"servo identification: {rob.name} ({record.name})")
     for col in ("joint", "gain ×", "kp N·m/rad", "latency ms", "strength ×", "limit N·m",
-                "train RMS °", "held-back RMS °"):  # fmt: skip
+                "train RMS °", "held-back RMS °", "s.e. gain/latency/strength"):  # fmt: skip
         table.add_column(col, justify="left" if col == "joint" else "right")
     for f in result.fits:
         s = f.setting
@@ -54,8 +55,12 @@ def identify_command(
             f.name, f"{s.gain_scale:.3f}", f"{f.kp_nm_per_rad:.2f}", f"{s.latency_ms:.1f}",
             f"{s.strength:.3f}", f"{f.drive_limit_nm:.3f}",
             f"{math.degrees(f.train_rms_rad):.3f}", f"{math.degrees(f.held_out_rms_rad):.3f}",
+            f"{f.sd[0]:.3f} / {f.sd[1]:.2f} ms / {f.sd[2]:.3f}",
         )  # fmt: skip
     console.print(table)
+    for f in result.fits:
+        for warning in f.warnings:
+            err_console.print(f"[bold yellow]WARNING: {escape(warning)}[/]", highlight=False)
     console.print(f"servo parameters: {output}", highlight=False, soft_wrap=True)
     if plot is not None:
         from sim.identify.plot import plot_fit

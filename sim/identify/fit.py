@@ -234,7 +234,9 @@ def standard_errors(problem: _GroupProblem, theta: np.ndarray) -> np.ndarray:
     return out
 
 
-def _contacts(robot: Robot, cols: list[int], poses_rad: np.ndarray) -> list[tuple[str, ...]]:
+def contacts_beyond_joints(
+    robot: Robot, cols: list[int], poses_rad: np.ndarray
+) -> list[tuple[str, ...]]:
     """Per moving joint, the body pairs in contact at any of the measured poses (lifted model)
     where one body is beyond that joint."""
     import mujoco
@@ -314,7 +316,7 @@ def identify(telemetry_path: str | Path, robot: Robot) -> IdentifyResult:
         theta = grid[np.argmin(costs, axis=0), np.arange(len(cols))]
         theta, iterations = _levenberg_marquardt(problem, theta)
         sds = standard_errors(problem, theta)
-        touching = _contacts(robot, cols, tel.present_rad[window][::CONTACT_EVERY])
+        touching = contacts_beyond_joints(robot, cols, tel.present_rad[window][::CONTACT_EVERY])
         full = _GroupProblem(
             plants, cols, goals, t0, t_all[window], q0, tel.present_rad[window][:, cols].T
         )

@@ -49,9 +49,7 @@ def test_groups_take_the_kth_joint_of_every_leg(spot: Robot) -> None:
     assert len(groups) == 3 and all(len(g) == 4 for g in groups)
     assert all(n.endswith("hip_roll") for n in names[0])
     assert all(n.endswith("knee") for n in names[2])
-    assert [spot.joint_names[j] for g in joint_groups(spot, ("fl_knee",)) for j in g] == [
-        "fl_knee"
-    ]
+    assert [spot.joint_names[j] for g in joint_groups(spot, ("fl_knee",)) for j in g] == ["fl_knee"]
     with pytest.raises(PlayerError, match="no joint 'elbow'"):
         joint_groups(spot, ("elbow",))
 
