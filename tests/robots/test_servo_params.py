@@ -62,7 +62,7 @@ def test_wrong_robot_or_joint_and_missing_file_are_refused(tmp_path: Path) -> No
     quad = robots.load("quad12")
     with pytest.raises(RobotConfigError, match="identified on robot 'quad12', not 'hex18'"):
         load(_file(tmp_path, GOOD)).for_robot(robots.load("hex18"))
-    with pytest.raises(RobotConfigError, match="joints.fl_elbow: robot quad12 has no joint"):
+    with pytest.raises(RobotConfigError, match=r"joints\.fl_elbow: robot quad12 has no joint"):
         load(_file(tmp_path, GOOD.replace("fl_knee", "fl_elbow"))).for_robot(quad)
     with pytest.raises(RobotConfigError, match="not found"):
         load(tmp_path / "nope.toml")
