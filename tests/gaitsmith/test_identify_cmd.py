@@ -75,5 +75,5 @@ def test_a_bad_servo_params_file_is_one_line_naming_file_joint_field(
         assert f"{bad}: joints.fl_knee.strength: must be a number in (0, 5]" in err[0]
     assert main(["identify", str(tmp_path / "none.csv"), "--robot", "quad12",
                  "-o", str(tmp_path / "p.toml")]) == 2  # fmt: skip
-    err = capsys.readouterr().err
-    assert "none.csv: cannot read it" in err and not (tmp_path / "p.toml").exists()
+    text = capsys.readouterr().err
+    assert "none.csv: cannot read it" in text and not (tmp_path / "p.toml").exists()
