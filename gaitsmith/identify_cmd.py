@@ -19,6 +19,7 @@ import robots
 from gaitsmith.console import console, err_console
 from gaitsmith.options import check_output_file
 from robots import servo_params
+from sim.errors import SimConfigError
 
 
 def identify_command(
@@ -35,16 +36,19 @@ def identify_command(
         check_output_file("--plot", plot)
     rob = robots.load(robot)
     result = identify(record, rob)
+    trusted = [f for f in result.fits if f.trusted]
     params = servo_params.ServoParamsFile(
-        robot=rob.name, joints={f.name: f.setting for f in result.fits}
+        robot=rob.name, joints={f.name: f.setting for f in trusted}
     )
     servos = {j.name: j.servo.name for j in rob.joints}
-    info = {f.name: f.info(servos[f.name]) for f in result.fits}
+    info = {f.name: f.info(servos[f.name]) for f in trusted}
+    left_out = [f.name for f in result.fits if not f.trusted]
     header = (
         f"servo parameters of {rob.name}, fitted by `gaitsmith identify {record.name}`\n"
         "gain_scale × factory position gain; latency_ms of the goal; strength × stall torque"
-    )
-    servo_params.save(output, params, info, header)
+        + (f"\nleft out (fit not trusted, factory servo kept): {', '.join(left_out)}"
+           if left_out else "")
+    )  # fmt: skip
     table = Table(title=f"servo identification: {rob.name} ({record.name})")
     for col in ("joint", "gain ×", "kp N·m/rad", "latency ms", "strength ×", "limit N·m",
                 "train RMS °", "held-back RMS °", "s.e. gain/latency/strength"):  # fmt: skip
@@ -61,6 +65,17 @@ def identify_command(
     for f in result.fits:
         for warning in f.warnings:
             err_console.print(f"[bold yellow]WARNING: {escape(warning)}[/]", highlight=False)
+    if not trusted:
+        raise SimConfigError(
+            f"{record}: no joint's fit can be trusted (see the warnings); nothing written"
+        )
+    servo_params.save(output, params, info, header)
+    if left_out:
+        err_console.print(
+            f"[bold yellow]left out of {escape(str(output))} (factory servo kept): "
+            f"{escape(', '.join(left_out))}[/]",
+            highlight=False,
+        )
     console.print(f"servo parameters: {output}", highlight=False, soft_wrap=True)
     if plot is not None:
         from sim.identify.plot import plot_fit

@@ -61,6 +61,12 @@ class JointFit:
     contacts: tuple[str, ...] = ()  # "bodyA/bodyB" touching while this joint was excited
 
     @property
+    def trusted(self) -> bool:
+        """No contact during its excitation and a held-back RMS within `POOR_FIT_DEG`: the
+        fitted servo may be used (`gaitsmith identify` writes only these)."""
+        return not self.contacts and math.degrees(self.held_out_rms_rad) <= POOR_FIT_DEG
+
+    @property
     def warnings(self) -> tuple[str, ...]:
         """Why this joint's fit should not be trusted (empty: no reason found)."""
         out = []
@@ -75,6 +81,8 @@ class JointFit:
                 f"{self.name}: held-back RMS {math.degrees(self.held_out_rms_rad):.2f}° — the "
                 "model does not explain this joint (contact, backlash, friction, a loose link?)"
             )
+        if not self.trusted:
+            return tuple(out)  # its parameters mean nothing: no need to say how uncertain
         st = self.setting
         scales = (st.gain_scale, max(st.latency_ms, LATENCY_SD_FLOOR_MS), st.strength)
         for name, sd, scale in zip(("gain", "latency", "strength"), self.sd, scales, strict=True):

@@ -26,7 +26,7 @@ def plot_fit(result: IdentifyResult, robot: Robot, out_path: str | Path, title: 
     panels = [(tr, n) for tr in result.traces for n in range(len(tr.joints))][:MAX_PANELS]
     cols = min(3, len(panels))
     rows = math.ceil(len(panels) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 2.6 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 2.4 * rows), squeeze=False)
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
     for ax, (tr, n) in zip(axes.flat, panels, strict=False):
@@ -52,7 +52,7 @@ def plot_fit(result: IdentifyResult, robot: Robot, out_path: str | Path, title: 
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90)
+    fig.savefig(buf, format="png", dpi=72)
     plt.close(fig)
     atomic_write_bytes(out_path, buf.getvalue())
     return Path(out_path)

@@ -137,3 +137,20 @@ def test_round_trip_known_servos_come_back_within_10_percent(spot: Robot, tmp_pa
         assert f.setting.strength == pytest.approx(true.strength, rel=0.10), f.name
         assert math.degrees(f.held_out_rms_rad) < 0.1, f.name
         assert not f.contacts
+
+
+def test_untrusted_fits_say_why_and_poorly_determined_ones_are_flagged() -> None:
+    from sim.identify.fit import JointFit
+
+    good = JointFit("knee", ServoSetting(1.1, 8.0, 0.9), 10.0, 1.7, 4e-4, 4e-4, 400, 12,
+                    sd=(0.002, 0.05, 0.004))  # fmt: skip
+    assert good.trusted and good.warnings == ()
+    touching = JointFit("roll", ServoSetting(), 10.0, 1.9, 0.05, 0.05, 400, 12,
+                        contacts=("body/hip",))  # fmt: skip
+    assert not touching.trusted
+    assert any("body/hip" in w and "--amplitude-deg" in w for w in touching.warnings)
+    vague = JointFit("knee", ServoSetting(1.0, 8.0, 1.0), 10.0, 1.9, 4e-4, 4e-4, 400, 12,
+                     sd=(0.001, 0.05, 0.2))  # fmt: skip
+    assert vague.trusted
+    assert [w for w in vague.warnings if "strength poorly determined (±20 %)" in w.replace(
+        " by this record", "")]  # fmt: skip
