@@ -333,6 +333,8 @@ def identify_command(
         problem = None if value is None else check_option(name, value)
         if problem is not None:
             raise _fail(problem)
+    if port is None and virtual is None:
+        raise _fail("give --port DEVICE (the lifted robot's bus) or --virtual [bus|sim]")
     if twin_servo_params is not None and virtual is not VirtualMode.sim:
         raise _fail("--twin-servo-params sets the MuJoCo twin's servos: use it with --virtual sim")
     rob, _, cal = _load_inputs(robot, None, calibration)

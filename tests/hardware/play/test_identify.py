@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import math
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +32,7 @@ from hardware.play.telemetry import TelemetryWriter, read_telemetry
 from hardware.play.virtual_rig import virtual_robot_bus
 from hardware.play.watchdog import StopReason
 from robots.robot import Robot
+from tests.hardware.player_process import EXIT_FOR_SIGNAL, REASON_FOR_SIGNAL, PlayerProcess, env
 from tests.zoo.fixtures import ZOO
 
 runner = CliRunner()
@@ -163,3 +168,41 @@ def test_cli_refuses_twin_settings_without_the_twin(tmp_path: Path) -> None:
               "--yes", "--joints", "fl_elbow"],
     )  # fmt: skip
     assert res.exit_code == 2 and "no joint 'fl_elbow'" in res.output
+    res = runner.invoke(app, ["identify", "--robot", "quad12", "-o", str(tmp_path / "x.csv")])
+    assert res.exit_code == 2 and "give --port DEVICE" in res.output
+    assert not (tmp_path / "x.csv").exists()
+
+
+class _IdentifyProcess(PlayerProcess):
+    """`gaitsmith-play identify --port <pty>` in a subprocess against a virtual quad12."""
+
+    def start(self) -> _IdentifyProcess:
+        path = self.server.start()
+        cmd = [
+            sys.executable, "-m", "hardware.cli", "identify", "--robot", "quad12", "--yes",
+            "--port", path, "-o", str(self.tel_path), "--ramp-s", "0.5", "--timeout-ms", "50",
+            *self.args,
+        ]  # fmt: skip
+        self.proc = subprocess.Popen(
+            cmd,
+            env={**env(), "GAITSMITH_CALIBRATION_DIR": str(self.tmp_path / "cal")},
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+        )
+        return self
+
+
+@pytest.mark.parametrize("signum", (signal.SIGINT, signal.SIGTERM), ids=("SIGINT", "SIGTERM"))
+def test_a_signal_mid_excitation_stops_safely_on_a_real_port(tmp_path: Path, signum: int) -> None:
+    p = _IdentifyProcess(tmp_path).start()
+    assert p.wait_phase(f"{TRAIN_PHASE}0"), p.finish().stderr
+    time.sleep(0.3)
+    assert p.signal(signum)
+    o = p.finish()
+    assert "Traceback" not in o.stderr, o.stderr[-2000:]
+    assert o.torqued == [], o.stderr[-2000:]
+    assert o.code == EXIT_FOR_SIGNAL[signum], (o.code, o.stderr[-2000:])
+    assert o.telemetry is not None and o.telemetry.stop_reason == REASON_FOR_SIGNAL[signum]
+    assert o.telemetry.phase[-1] == "ramp_out"
