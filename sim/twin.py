@@ -236,4 +236,3 @@ def _settings_for(
             f"{len(out)} servo settings for the {robot.dof} joints of {robot.name}"
         )
     return out
-

@@ -1,6 +1,6 @@
 """True vs fitted servos as the Markdown table of servo_identification.md.
 
-    python docs/results/servo_identification_table.py TRUE.toml FITTED.toml
+python docs/results/servo_identification_table.py TRUE.toml FITTED.toml
 """
 
 from __future__ import annotations
