@@ -1,6 +1,7 @@
 """True vs fitted servos as the Markdown table of servo_identification.md.
 
-python docs/results/servo_identification_table.py TRUE.toml FITTED.toml
+Usage: python docs/results/servo_identification_table.py ROBOT TRUE.toml FITTED.toml
+kp [N·m/rad] = gain_scale · factory duty per rad · strength · stall torque (`robots.servo_params`).
 """
 
 from __future__ import annotations
@@ -9,14 +10,18 @@ import sys
 
 import tomllib
 
+import robots
+from robots.servo import factory_gains
+
 KEYS = ("gain_scale", "latency_ms", "strength")
 HEADER = (
-    "| joint | gain × true | fitted | latency true [ms] | fitted | strength × true | fitted "
+    "| joint | kp true [N·m/rad] | fitted | latency true [ms] | fitted | strength × true | fitted "
     "| worst error | held-back RMS [°] |"
 )
 
 
-def main(true_path: str, fit_path: str) -> None:
+def main(robot_name: str, true_path: str, fit_path: str) -> None:
+    robot = robots.load(robot_name)
     with open(true_path, "rb") as fh:
         true = tomllib.load(fh)["joints"]
     with open(fit_path, "rb") as fh:
@@ -24,20 +29,26 @@ def main(true_path: str, fit_path: str) -> None:
     print(HEADER)
     print("|---|---|---|---|---|---|---|---|---|")
     worst_all = 0.0
-    for name, t in true.items():
-        f = fit.get(name)
-        g, lat, s = t["gain_scale"], t["latency_ms"], t["strength"]
+    for joint in robot.joints:
+        t, f = true[joint.name], fit.get(joint.name)
+        unit = factory_gains(joint.servo)[0] * joint.servo.stall_torque_nm
+
+        def kp(s: dict[str, float], unit: float = unit) -> float:
+            return s["gain_scale"] * s["strength"] * unit
+
+        lat, s = t["latency_ms"], t["strength"]
         if f is None:
-            print(f"| {name} | {g:.3f} | — | {lat:.2f} | — | {s:.3f} | — | left out | — |")
+            cells = f"{kp(t):.2f} | — | {lat:.2f} | — | {s:.3f} | —"
+            print(f"| {joint.name} | {cells} | left out | — |")
             continue
-        err = max(abs(f[k] / t[k] - 1) for k in KEYS)
+        err = max([abs(f[k] / t[k] - 1) for k in KEYS] + [abs(kp(f) / kp(t) - 1)])
         worst_all = max(worst_all, err)
         print(
-            f"| {name} | {g:.3f} | {f['gain_scale']:.3f} | {lat:.2f} | {f['latency_ms']:.2f} "
+            f"| {joint.name} | {kp(t):.2f} | {kp(f):.2f} | {lat:.2f} | {f['latency_ms']:.2f} "
             f"| {s:.3f} | {f['strength']:.3f} | {100 * err:.1f} % | {f['held_out_rms_deg']:.3f} |"
         )
     print(f"\nworst relative error over the fitted joints: {100 * worst_all:.1f} %")
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:3])
+    main(*sys.argv[1:4])
