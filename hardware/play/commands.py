@@ -1,4 +1,5 @@
-"""`gaitsmith-play run | calibrate | plot | report | budget`: the player's commands.
+"""`gaitsmith-play run | drive | calibrate | plot | report | budget`: the player's commands
+(`drive`: `hardware.play.drive_command`).
 
 Exit codes: 0 completed, 2 refused (pre-flight, bad file or option), 3 no response,
 4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 8 status lost (servo health
@@ -564,8 +565,12 @@ def report(
 
 
 def register(app: typer.Typer) -> None:
-    """Add `run`, `calibrate`, `plot`, `report` and `budget` to the `gaitsmith-play` app."""
+    """Add `run`, `drive`, `calibrate`, `plot`, `report` and `budget` to the `gaitsmith-play`
+    app."""
+    from hardware.play.drive_command import drive
+
     app.command("run", cls=_RunCommand)(run)
+    app.command("drive", cls=_RunCommand)(drive)
     app.command("calibrate")(calibrate)
     app.command("plot")(plot)
     app.command("report")(report)

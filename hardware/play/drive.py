@@ -222,7 +222,7 @@ class Driver(Player):
                 self.robot, peaks, supply_v
             ).worst.fraction_at_supply
             if frac > worst[0]:
-                worst = (frac, f"{line} [{_label(gait)}, the most demanding gait]")
+                worst = (frac, f"{line} (most demanding: {_label(gait)})")
         return worst[1], warnings
 
     def _planned_run_s(self) -> float | None:
