@@ -20,8 +20,7 @@ from typing import Any
 import typer
 from rich.markup import escape
 
-from hardware.bus.servo_bus import BusConfig, ServoBus
-from hardware.errors import HardwareError
+from hardware.bus.servo_bus import BusConfig
 from hardware.play.clock import Clock, MonotonicClock, VirtualClock
 from hardware.play.commands import (
     SUSTAINED_RATE_HZ,
@@ -29,11 +28,12 @@ from hardware.play.commands import (
     _fail,
     _fault_schedule,
     _load_inputs,
-    _open_bus,
     _summary,
     check_option,
     console,
     err_console,
+    finish_session,
+    play_session,
 )
 from hardware.play.player import OnStop, PlayerConfig, RestPose
 
@@ -105,7 +105,7 @@ def drive(
 
     Ctrl-C, SIGTERM, SIGHUP and SIGQUIT stop safely as in `run` (ramp to rest, torque off);
     exit codes as `run`: 0 completed, 2 refused, 3-9 watchdog / bus, 129-143 signals."""
-    from hardware.play.command_sources import CommandSourceError, check_input_spec, open_source
+    from hardware.play.command_sources import check_input_spec, open_source
 
     for name, value in (
         ("--rate", rate_hz), ("--ramp-s", ramp_s), ("--timeout-ms", timeout_ms), ("--baud", baud),
@@ -145,21 +145,11 @@ def drive(
     except ValueError as exc:
         raise _fail(str(exc)) from None
     clock: Clock = MonotonicClock() if realtime or virtual is None else VirtualClock()
-    bus: ServoBus | None = None
-    twin: Any = None
-    writer = None
-    source = None
-    try:
-        bus, twin = _open_bus(rob, port, virtual, bus_config, clock, faults)
-        if faults is not None:
-            faults.attach_port(bus)
-        if telemetry is not None:
-            from hardware.play.drive import TELEMETRY_COLUMNS
-            from hardware.play.telemetry import TelemetryWriter
+    from hardware.play.drive import TELEMETRY_COLUMNS, drive_from_library
 
-            writer = TelemetryWriter(
-                telemetry, rob.joint_names, [j.bus_id for j in rob.joints], TELEMETRY_COLUMNS
-            )
+    with play_session(
+        rob, port, virtual, bus_config, clock, faults, telemetry, TELEMETRY_COLUMNS
+    ) as session:
         echo = None
         if input_spec == "keyboard":
             from hardware.play.command_sources import KEYBOARD_HELP
@@ -172,38 +162,16 @@ def drive(
         if stdin_fd is None and input_spec in ("keyboard", "stdin"):
             raise _fail(f"--input {input_spec}: this process has no stdin to read")
         source = open_source(input_spec, lib.command_bounds(), stdin_fd or 0, echo)
-        from hardware.play.drive import drive_from_library
-
-        driver = drive_from_library(
-            rob, lib, source, bus=bus, calibration=cal, config=config, drive=drive_config,
-            clock=clock, telemetry=writer,
-            on_tick=faults.on_tick if faults is not None and faults.timed else None,
-        )  # fmt: skip
-        if faults is not None:
-            console.print(f"[bold]virtual bus faults[/]: {faults.describe()}", highlight=False)
-        result = driver.drive_run()
-    except CommandSourceError as exc:
-        raise _fail(str(exc)) from None
-    except HardwareError as exc:
-        raise _fail(str(exc)) from None
-    except OSError as exc:
-        raise _fail(f"{exc.filename or ''}: {exc.strerror or exc}") from None
-    finally:
-        if source is not None:
-            source.close()
-        if writer is not None:
-            writer.close()
-        if bus is not None:
-            try:
-                bus.close()
-            except (HardwareError, OSError):
-                pass  # an adapter that vanished cannot be closed either
-    try:
-        _report(result, twin, rate_hz, telemetry)
-    except OSError:
-        pass  # the terminal is gone (SIGHUP): the exit code still says how the run ended
-    if result.exit_code:
-        raise typer.Exit(result.exit_code)
+        try:
+            driver = drive_from_library(
+                rob, lib, source, bus=session.bus, calibration=cal, config=config,
+                drive=drive_config, clock=clock, telemetry=session.writer,
+                on_tick=faults.on_tick if faults is not None and faults.timed else None,
+            )  # fmt: skip
+            result = driver.drive_run()
+        finally:
+            source.close()  # the terminal restored, the socket removed, on every path
+    finish_session(lambda: _report(result, session.twin, rate_hz, telemetry), result.exit_code)
 
 
 def _stdin_fd() -> int | None:
