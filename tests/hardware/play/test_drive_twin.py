@@ -126,3 +126,27 @@ def test_a_scripted_square_on_the_twin() -> None:
     assert abs(np.sum(square.turns_deg) - 360.0) < 90.0
     assert np.linalg.norm(square.corners[-1] - square.start) < 0.5 * SIDE_M
     assert driver.gate.commands > 0 and not math.isnan(square.sides_m.sum())
+
+
+@pytest.mark.slow
+def test_drive_virtual_sim_on_the_command_line_turns_the_twin(tmp_path: Path) -> None:
+    """`gaitsmith-play drive --virtual sim`: the twin comes by entry point, not by import."""
+    import re
+    import subprocess
+    import sys
+
+    from tests.hardware.play.drive_rig import repeated, script_lines
+    from tests.hardware.player_process import env
+
+    cmds = [*repeated(0.0, 3.0, 0.2, yaw_rate=0.5), {"t": 3.0, "end": True}]
+    out = subprocess.run(
+        [sys.executable, "-m", "hardware.cli", "drive", str(LIBRARY), "--robot", "hex18",
+         "--virtual", "sim", "--no-realtime", "--input", "stdin", "--ramp-s", "0.5"],
+        input=script_lines(cmds).decode(), capture_output=True, text=True, env=env(),
+        timeout=300,
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr[-2000:]
+    text = " ".join(out.stdout.split())
+    turned = re.search(r"turned ([+-][0-9.]+)°", text)
+    assert turned is not None, text
+    assert 45.0 < float(turned.group(1)) < 120.0, text  # 0.5 rad/s for 3 s = 86° (+ ramps)
