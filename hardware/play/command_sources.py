@@ -50,6 +50,8 @@ MAX_YAW_RATE_RAD_S = 10.0
 MAX_LINE_BYTES = 4096
 MAX_SCRIPT_T_S = 86400.0
 READ_CHUNK = 65536
+READS_PER_POLL = 4  # a large file on stdin is read over several ticks, not in one
+MAX_PENDING = 100_000  # scripted lines waiting for their time, at most
 MAX_CLIENTS = 8
 KEYS = ("vx", "vy", "yaw_rate", "t", "end")
 STOP = Velocity()
@@ -188,6 +190,9 @@ class LineDecoder:
                 self.stats.reject(f"t {t_s:g} earlier than the line before ({self._last_t:g})")
                 return
             self._last_t = t_s
+        if len(self._scheduled) >= MAX_PENDING:
+            self.stats.reject(f"more than {MAX_PENDING} scripted lines waiting")
+            return
         self.stats.commands += 1
         self._scheduled.append(Received(command, now_s if t_s is None else t_s, end))
 
@@ -223,7 +228,9 @@ class StreamSource:
         self._end_seen = False
 
     def poll(self, now_s: float) -> list[Received]:
-        while self._fd is not None and _readable([self._fd]):
+        reads = 0
+        while reads < READS_PER_POLL and self._fd is not None and _readable([self._fd]):
+            reads += 1
             try:
                 data = os.read(self._fd, READ_CHUNK)
             except (BlockingIOError, InterruptedError):

@@ -115,6 +115,12 @@ def drive(
         problem = None if value is None else _check(name, value)
         if problem is not None:
             raise _fail(problem)
+    if rate_hz > SUSTAINED_RATE_HZ:
+        err_console.print(
+            f"[bold yellow]WARNING: --rate {rate_hz:g} is above the {SUSTAINED_RATE_HZ:g} Hz "
+            "this player sustains with margin; expect overruns[/]",
+            highlight=False,
+        )
     stdin_fd = _stdin_fd()
     if input_spec is None:
         input_spec = "keyboard" if stdin_fd is not None and os.isatty(stdin_fd) else "stdin"

@@ -188,3 +188,53 @@ def test_signals_mid_drive_end_in_the_run_safe_stop(
     if storm == 1:  # the ramp to rest ran; in a storm the second signal cuts it short
         assert t.phase[-1] == "ramp_out"
     assert f"stopped: {reason}" in text
+
+
+def _keyboard_drive(library: Path, tmp_path: Path) -> tuple[subprocess.Popen[bytes], int, int]:
+    """`drive` with a pseudo-terminal as stdin (so --input defaults to the keyboard)."""
+    import os
+
+    master, slave = os.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hardware.cli", "drive", str(library), "--robot", "quad12",
+         "--virtual", "--ramp-s", "0.5", "--deadman-s", "2", "--telemetry",
+         str(tmp_path / "tel.csv")],
+        stdin=slave, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env(),
+        start_new_session=True,
+    )  # fmt: skip
+    return proc, master, slave
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("how", ["x-key", "sigint"])
+def test_keyboard_drive_restores_the_terminal_on_every_exit(
+    library_file: Path, tmp_path: Path, how: str
+) -> None:
+    import os
+    import termios
+
+    proc, master, slave = _keyboard_drive(library_file, tmp_path)
+    before = termios.tcgetattr(slave)
+    tel = tmp_path / "tel.csv"
+    end = time.monotonic() + 30
+    while time.monotonic() < end and last_phase(tel) not in ("drive", "stand"):
+        time.sleep(0.05)
+    assert termios.tcgetattr(slave) != before  # cbreak while driving
+    for _ in range(10):  # hold "w": walk
+        os.write(master, b"w")
+        time.sleep(0.1)
+    if how == "x-key":
+        os.write(master, b"x")
+    else:
+        proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    text = (out + err).decode(errors="replace")
+    after = termios.tcgetattr(slave)
+    os.close(master)
+    os.close(slave)
+    assert "Traceback" not in text, text[-2000:]
+    assert after == before, "terminal left in cbreak mode"
+    assert proc.returncode == (0 if how == "x-key" else 130), text[-2000:]
+    t = read_telemetry(tel)
+    assert max(t.extra["requested_vx_m_s"]) > 0 and "drive" in t.phase
+    assert "keys: arrows or W/S" in text and "command vx" in text

@@ -273,3 +273,21 @@ def test_input_specs_accepted(text: str) -> None:
 @pytest.mark.parametrize("text", ["joystick", "socket:", "stdin:x", "keyboard:1", ""])
 def test_input_specs_refused(text: str) -> None:
     assert "accepted: keyboard, gamepad" in (check_input_spec(text) or "")
+
+
+def test_a_large_file_on_stdin_is_read_over_several_polls(tmp_path: Path) -> None:
+    from hardware.play.command_sources import READ_CHUNK, READS_PER_POLL
+
+    path = tmp_path / "many.jsonl"
+    line = b'{"vx": 0.1}\n'
+    n = 3 * READ_CHUNK * READS_PER_POLL // len(line)
+    path.write_bytes(line * n)
+    fd = os.open(path, os.O_RDONLY)
+    src = StreamSource(fd)
+    first = len(src.poll(0.0))
+    assert 0 < first < n  # one tick reads at most READS_PER_POLL chunks
+    total = first
+    for _ in range(10):
+        total += len(src.poll(0.0))
+    assert total == n and src.ended
+    os.close(fd)
