@@ -238,3 +238,39 @@ def test_keyboard_drive_restores_the_terminal_on_every_exit(
     t = read_telemetry(tel)
     assert max(t.extra["requested_vx_m_s"]) > 0 and "drive" in t.phase
     assert "keys: arrows or W/S" in text and "command vx" in text
+
+
+@pytest.mark.slow
+def test_a_companion_program_drives_through_a_unix_socket(
+    library_file: Path, tmp_path: Path
+) -> None:
+    import socket as socketlib
+
+    sock_path = tmp_path / "drive.sock"
+    tel = tmp_path / "tel.csv"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "hardware.cli", "drive", str(library_file), "--robot", "quad12",
+         "--virtual", "--ramp-s", "0.5", "--input", f"socket:{sock_path}", "--telemetry",
+         str(tel)],
+        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env(),
+    )  # fmt: skip
+    end = time.monotonic() + 30
+    while time.monotonic() < end and not sock_path.exists() and proc.poll() is None:
+        time.sleep(0.05)
+    client = socketlib.socket(socketlib.AF_UNIX, socketlib.SOCK_STREAM)
+    client.connect(str(sock_path))
+    while time.monotonic() < end and last_phase(tel) not in ("drive", "stand"):
+        time.sleep(0.05)
+    for _ in range(15):
+        client.sendall(b'{"vx": 0.1, "yaw_rate": -0.3}\n')
+        time.sleep(0.1)
+    client.sendall(b'{"vx": oops}\n{"end": true}\n')
+    out, err = proc.communicate(timeout=60)
+    client.close()
+    text = " ".join((out + err).decode(errors="replace").split())
+    assert proc.returncode == 0, text[-2000:]
+    assert f"socket:{sock_path} ended; standing" in text
+    assert "16 command(s), 1 malformed" in text
+    assert not sock_path.exists()  # removed on exit
+    t = read_telemetry(tel)
+    assert min(t.extra["applied_yaw_rate_rad_s"]) == pytest.approx(-0.3)
