@@ -114,7 +114,8 @@ def _fmt(v: robots.Velocity) -> str:
 
 def _progress(i: int, n: int, o: EntryOutcome) -> None:
     head = f"  [{i:2d}/{n}] {_fmt(o.command)}"
-    times = f"plan {o.plan_s:5.1f} s{' (warm)' if o.warm_started else ''}, sim {o.validate_s:4.1f} s"
+    warm = " (warm)" if o.warm_started else ""
+    times = f"plan {o.plan_s:5.1f} s{warm}, sim {o.validate_s:4.1f} s"
     if o.passed and o.achieved is not None:
         console.print(f"{head}  [green]PASS[/]  achieved {_fmt(o.achieved)}  ({times})")
     else:
