@@ -3,9 +3,10 @@
     PYTHONPATH=. python benchmarks/drive_bench.py [--seconds 8] [--rate 100] [--library LIB]
 
 1. Blending cost per tick [µs], for quad12 (12 servos) and hex18 (18): `GaitBlender.step` at a
-   command that wanders through the library's grid (new cell, new weights every few ticks),
+   command that wanders through the library's grid (new cell, new weights every 20 ticks),
    beside what `run` computes per tick (`Gait.joint_targets`, one periodic spline), both timed
-   in this process, one after the other (median and p99 over `--steps` ticks, after warm-up).
+   in this process, one after the other (median and p99 over `--steps` ticks, after warm-up),
+   in wall time and in this thread's CPU time (which a loaded machine's preemption leaves out).
 2. Loop rate and wake-up jitter at `--rate`, real time, on the in-process virtual bus (vendor
    SDK + byte-level emulator; one sync-write + one sync-read per tick, a status read every 10):
    `drive` (scripted JSON-line commands on a pipe, walking for `--seconds`) beside `run` (a
@@ -23,6 +24,7 @@ import json
 import os
 import tempfile
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -49,8 +51,21 @@ def _library(robot_name: str, path: str | None) -> tuple[robots.Robot, GaitLibra
     return robot, make_library(robot)
 
 
+def _timed(fn: Callable[[int], object], steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """Wall and CPU time [µs] of `fn(k)` for k < steps (CPU time: this thread's, so another
+    process taking the core during a call does not count)."""
+    wall, cpu = np.empty(steps), np.empty(steps)
+    for k in range(steps):
+        c0, w0 = time.thread_time_ns(), time.perf_counter_ns()
+        fn(k)
+        wall[k] = time.perf_counter_ns() - w0
+        cpu[k] = time.thread_time_ns() - c0
+    return wall / 1e3, cpu / 1e3
+
+
 def blend_cost_us(robot: robots.Robot, lib: GaitLibrary, steps: int) -> dict[str, float]:
-    """Median / p99 [µs] of one `GaitBlender.step` and of one `Gait.joint_targets`."""
+    """Median / p99 [µs] of one `GaitBlender.step` and of one `Gait.joint_targets`, wall
+    and CPU time."""
     limits = BlendLimits.for_robot(robot, accel_m_s2=2.0, yaw_accel_rad_s2=5.0, speed_fraction=0.9)
     blender = GaitBlender(lib, limits)
     lo, hi = lib.command_bounds()
@@ -63,24 +78,14 @@ def blend_cost_us(robot: robots.Robot, lib: GaitLibrary, steps: int) -> dict[str
     ]  # fmt: skip
     for _ in range(300):  # warm-up: enter walking
         blender.step(commands[0], dt)
-    blend = np.empty(steps)
-    for k in range(steps):
-        c = commands[k // 20]  # a new command every 20 ticks
-        t0 = time.perf_counter()
-        blender.step(c, dt)
-        blend[k] = time.perf_counter() - t0
     gait = lib.entries[0].gait
-    spline = np.empty(steps)
     gait.joint_targets(0.0)
-    for k in range(steps):
-        t0 = time.perf_counter()
-        gait.joint_targets(k * dt)
-        spline[k] = time.perf_counter() - t0
-    b, s = blend * 1e6, spline * 1e6
-    return {
-        "blend_p50": float(np.median(b)), "blend_p99": float(np.percentile(b, 99)),
-        "run_p50": float(np.median(s)), "run_p99": float(np.percentile(s, 99)),
-    }  # fmt: skip
+    bw, bc = _timed(lambda k: blender.step(commands[k // 20], dt), steps)  # new command / 20
+    sw, sc = _timed(lambda k: gait.joint_targets(k * dt), steps)
+    out = {}
+    for name, a in (("blend", bw), ("blend_cpu", bc), ("run", sw), ("run_cpu", sc)):
+        out[f"{name}_p50"], out[f"{name}_p99"] = float(np.median(a)), float(np.percentile(a, 99))
+    return out
 
 
 def _script(seconds: float, lib: GaitLibrary) -> StreamSource:
@@ -129,11 +134,14 @@ def main() -> None:
         robot, lib = _library(name or "", args.library)
         libs.append((robot, lib))
         c = blend_cost_us(robot, lib, args.steps)
-        print(
-            f"  {robot.name:7s} {robot.dof:2d} servos, {len(lib.entries)} entries: blend "
-            f"{c['blend_p50']:6.1f} / {c['blend_p99']:6.1f}   run {c['run_p50']:6.1f} / "
-            f"{c['run_p99']:6.1f}   ratio (median) {c['blend_p50'] / c['run_p50']:.1f}×"
-        )
+        for kind in ("", "_cpu"):
+            print(
+                f"  {robot.name:7s} {robot.dof:2d} servos, {len(lib.entries)} entries, "
+                f"{'CPU ' if kind else 'wall'}: blend {c[f'blend{kind}_p50']:6.1f} / "
+                f"{c[f'blend{kind}_p99']:7.1f}   run {c[f'run{kind}_p50']:6.1f} / "
+                f"{c[f'run{kind}_p99']:7.1f}   ratio (median) "
+                f"{c[f'blend{kind}_p50'] / c[f'run{kind}_p50']:.1f}×"
+            )
     print(f"loop at {args.rate:g} Hz, real time, in-process virtual bus:")
     for robot, lib in libs:
         for label, r in loop_stats(robot, lib, args.seconds, args.rate).items():
