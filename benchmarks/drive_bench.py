@@ -103,19 +103,25 @@ def _script(seconds: float, lib: GaitLibrary) -> StreamSource:
 
 
 def loop_stats(robot: robots.Robot, lib: GaitLibrary, seconds: float, rate: float
-               ) -> dict[str, PlayResult]:  # fmt: skip
-    out: dict[str, PlayResult] = {}
+               ) -> dict[str, tuple[PlayResult, float]]:  # fmt: skip
+    """Per loop: its result and its CPU time per tick [ms] (the process's, bus emulation
+    included: what the loop costs whatever else the machine runs)."""
+    out: dict[str, tuple[PlayResult, float]] = {}
     cfg = PlayerConfig(rate_hz=rate, cycles=None, ramp_s=0.5, force=True)
     clock = MonotonicClock()
     bus = virtual_robot_bus(robot, clock=clock.now_s).connect(BusConfig(timeout_s=0.003))
     driver = drive_from_library(robot, lib, _script(seconds, lib), bus=bus, config=cfg,
                                 clock=clock)  # fmt: skip
-    out["drive"] = driver.drive_run().play
+    c0 = time.process_time()
+    play = driver.drive_run().play
+    out["drive"] = play, (time.process_time() - c0) / max(1, play.ticks) * 1e3
     gait = bringup_gait(robot, period_s=0.8)
     clock = MonotonicClock()
     bus = virtual_robot_bus(robot, clock=clock.now_s).connect(BusConfig(timeout_s=0.003))
     run_cfg = PlayerConfig(rate_hz=rate, cycles=seconds / gait.period_s, ramp_s=0.5, force=True)
-    out["run"] = Player(robot, gait, bus=bus, config=run_cfg, clock=clock).run()
+    c0 = time.process_time()
+    play = Player(robot, gait, bus=bus, config=run_cfg, clock=clock).run()
+    out["run"] = play, (time.process_time() - c0) / max(1, play.ticks) * 1e3
     return out
 
 
@@ -144,9 +150,10 @@ def main() -> None:
             )
     print(f"loop at {args.rate:g} Hz, real time, in-process virtual bus:")
     for robot, lib in libs:
-        for label, r in loop_stats(robot, lib, args.seconds, args.rate).items():
+        for label, (r, cpu_ms) in loop_stats(robot, lib, args.seconds, args.rate).items():
             print(
-                f"  {robot.name:7s} {label:5s} ticks {r.ticks:5d}  achieved "
+                f"  {robot.name:7s} {label:5s} CPU/tick {cpu_ms:.2f} ms  ticks {r.ticks:5d}  "
+                "achieved "
                 f"{r.achieved_rate_hz:7.2f} Hz (ratio {r.achieved_rate_hz / args.rate:.4f})  "
                 f"jitter p50 {r.jitter_p50_s * 1e3:.3f} ms  p99 {r.jitter_p99_s * 1e3:.3f} ms  "
                 f"max {r.jitter_max_s * 1e3:.3f} ms  work p99 {r.work_p99_s * 1e3:.2f} ms  "
