@@ -10,17 +10,18 @@ model, health, present pose), the signal handlers from before pre-flight until a
 torque-off, the ramp-in, the one `SafetyGate` every goal passes through (limits, per-tick step
 budget), the watchdog, the ramp to rest and torque off, the exit codes.
 
-Timeline: pre-flight → torque on → ramp-in to the stand (the library's all-feet-down gait, the
-player's `gait_entry`) → drive: each tick polls the command source (`hardware.play.
-command_sources`, never blocking), keeps the newest command in a `CommandHold` (no command for
-`deadman_s` → (0, 0, 0)), and asks the blender (`robots.blend.GaitBlender`) for the next joint
-targets at that command: it limits the command's acceleration, clips it into the library's grid,
-enters walking from the stand and decelerates back to it, at a continuous phase and within the
-joint speeds it is given (`blend_speed_fraction` of the gate's). Ticks are "stand" while the
-blender stands, "drive" otherwise. The drive ends — COMPLETED, then the usual ramp to rest and
-torque off — once the input has ended (EOF, `{"end": true}`, the keyboard's X, a lost gamepad) or
-`max_drive_s` has passed, and the blender has come to rest in the stand; any stop reason of
-`run` (signal, watchdog, bus) ends it at once, through the same safe stop as `run`.
+Timeline: pre-flight → torque on → ramp-in to the stand pose (the mean pose of the library's
+all-feet-down gait; the ramp of the player's `gait_entry`) → drive: each tick polls the command
+source (`hardware.play.command_sources`, never blocking), keeps the newest command in a
+`CommandHold` (no command for `deadman_s`, or the input ended → (0, 0, 0)), and asks the
+blender (`robots.blend.GaitBlender`) for the next joint targets at that command: it limits the
+command's acceleration, clips it into the library's grid, enters walking from the stand and
+decelerates back to it, at a continuous phase and within the joint speeds it is given
+(`blend_speed_fraction` of the gate's). Ticks are "stand" while the blender stands, "drive"
+otherwise. The drive ends — COMPLETED, then the usual ramp to rest and torque off — once the
+input has ended (EOF, `{"end": true}`, the keyboard's X, a lost gamepad) or `max_drive_s` has
+passed, and the blender has come to rest in the stand; any stop reason of `run` (signal,
+watchdog, bus) ends it at once, through the same safe stop as `run`.
 
 Telemetry (one row per tick, as `run`) adds the commands beside the targets: requested (what the
 hold gave the blender: the source's command, or 0 after the deadman), applied (the blender's
@@ -32,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -230,7 +231,8 @@ class Driver(Player):
 
     # -- the drive phase ------------------------------------------------------------------------
     def _play(self) -> None:
-        plan = self._entry_plan(self.stand, 1.0)
+        # the ramp-in to the stand pose only: the blender treats the stand as a pose (its mean)
+        plan = replace(self._entry_plan(self.stand, 1.0), n_blend=0)
         nothing = self._extra(STOP, STOP, math.nan)
         k = 0
         while self.watchdog.stop is None:
@@ -248,7 +250,8 @@ class Driver(Player):
             self.hold.update(self.source.poll(t_s))
             if self._finished(t_s, blender):
                 break
-            requested = self.hold.requested(t_s)
+            # the input ended (EOF, an end line): no command holds on for the deadman
+            requested = STOP if self.source.ended else self.hold.requested(t_s)
             dt_s = max(1, k - k_prev) * self.period_s  # deadlines skipped after an overrun count
             target = blender.step(requested, dt_s)
             standing = blender.standing

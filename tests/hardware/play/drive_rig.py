@@ -29,13 +29,16 @@ def script_lines(commands: Sequence[dict[str, Any]]) -> bytes:
     return b"".join(json.dumps(c).encode() + b"\n" for c in commands)
 
 
-def script_source(data: bytes) -> StreamSource:
-    """JSON lines on a pipe, as if on stdin (closed after writing: EOF ends the input)."""
+def script_source(data: bytes, keep_open: bool = False) -> tuple[StreamSource, int | None]:
+    """JSON lines on a pipe, as if on stdin: closed after writing (EOF ends the input), or
+    `keep_open` (a companion that goes quiet; returns the writer's fd to close afterwards)."""
     r, w = os.pipe()
     os.set_blocking(w, True)
     os.write(w, data)
+    if keep_open:
+        return StreamSource(r, "script"), w
     os.close(w)
-    return StreamSource(r, "script")
+    return StreamSource(r, "script"), None
 
 
 def repeated(
@@ -59,13 +62,17 @@ def run_drive(
     config: PlayerConfig = DRIVE_CONFIG,
     drive: DriveConfig | None = None,
     on_tick: Callable[[int, float], None] | None = None,
+    keep_open: bool = False,
 ) -> tuple[DriveResult, Driver]:
     writer = TelemetryWriter(rig.telemetry_path, rig.robot.joint_names, rig.ids, TELEMETRY_EXTRA)
+    source, still_open = script_source(data, keep_open)
     driver = drive_from_library(
-        rig.robot, library, script_source(data), bus=rig.bus, config=config,
+        rig.robot, library, source, bus=rig.bus, config=config,
         drive=drive or DriveConfig(), clock=rig.clock, telemetry=writer, on_tick=on_tick,
     )  # fmt: skip
     try:
         return driver.drive_run(), driver
     finally:
         writer.close()
+        if still_open is not None:
+            os.close(still_open)

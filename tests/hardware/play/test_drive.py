@@ -42,7 +42,7 @@ def test_a_scripted_drive_walks_turns_stands_and_ends_with_the_safe_stop(
     assert play.stop.message == "script ended; standing"
     assert result.commands == len(cmds) and result.malformed == 0 and result.deadman_trips == 0
     phases = list(play.ticks_by_phase)
-    assert phases == ["ramp_in", "blend_in", "drive", "stand", "ramp_out"], phases
+    assert phases == ["ramp_in", "drive", "stand", "ramp_out"], phases
     assert play.step_clips == 0 and play.limit_clips == 0  # the blender kept inside the gate
     assert_wire_safe(rig, driver.gate.max_step_ticks)
     assert torque_all_off(rig)
@@ -69,9 +69,9 @@ def test_a_scripted_drive_walks_turns_stands_and_ends_with_the_safe_stop(
 
 def test_no_command_for_the_deadman_time_brings_the_robot_to_the_stand(tmp_path: Path) -> None:
     rig, lib = drive_rig(tmp_path)
-    cmds = repeated(0.0, 2.0, 0.1, vx=0.2)  # then silence; the input never ends
+    cmds = repeated(0.0, 2.0, 0.1, vx=0.2)  # then silence; the input stays open
     drive = DriveConfig(deadman_s=0.3, max_drive_s=8.0)
-    result, _ = run_drive(rig, lib, script_lines(cmds)[:-1], drive=drive)  # no EOF newline
+    result, _ = run_drive(rig, lib, script_lines(cmds), drive=drive, keep_open=True)
     assert result.deadman_trips == 1
     assert result.play.stop.reason is StopReason.COMPLETED, result.play.stop
     tel = rig.telemetry()
@@ -85,6 +85,22 @@ def test_no_command_for_the_deadman_time_brings_the_robot_to_the_stand(tmp_path:
     assert any(stand) and tel.phase[-1] == "ramp_out"
     first_stand_s = t[stand.index(True)]
     assert last_cmd_s + 0.3 < first_stand_s < 8.0  # decelerated, blended out, standing
+
+
+def test_the_end_of_the_input_stops_at_once_without_waiting_for_the_deadman(
+    tmp_path: Path,
+) -> None:
+    rig, lib = drive_rig(tmp_path)
+    cmds = repeated(0.0, 2.0, 0.1, vx=0.2)  # then EOF: no end line, the pipe closes
+    result, _ = run_drive(rig, lib, script_lines(cmds), drive=DriveConfig(deadman_s=5.0))
+    assert result.play.stop.reason is StopReason.COMPLETED
+    assert result.play.stop.message == "script ended; standing"
+    assert result.deadman_trips == 0
+    tel = rig.telemetry()
+    rows = np.array([p in ("drive", "stand") for p in tel.phase])
+    t = tel.t_sched_s[rows] - tel.t_sched_s[rows][0]
+    req = tel.extra["requested_vx_m_s"][rows]
+    assert np.all(req[t < 1.9] == 0.2) and np.all(req[t > 1.9 + 1e-6] == 0.0)
 
 
 def test_commands_outside_the_grid_are_clipped_into_it_and_telemetry_says_both(
