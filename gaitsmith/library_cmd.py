@@ -30,6 +30,7 @@ from gaitsmith.options import (
     check_yaw_rate,
 )
 from gaitsmith.search_options import MAX_WORKERS
+from planner.errors import TemplateError
 from planner.library import (
     EntryOutcome,
     GridSpec,
@@ -144,6 +145,9 @@ def library(
     ray: bool = typer.Option(False, "--ray", help="run the entries on Ray instead of a "
                              "process pool (needs gaitsmith[ray])"),
     address: str | None = typer.Option(None, "--address", help="Ray cluster address (--ray)"),
+    warm: bool = typer.Option(
+        True, "--warm/--cold", help="warm-start each entry from a solved neighbour (waves from "
+        "the command nearest zero), or solve all from the template's guess in one batch"),
 ) -> None:
     """Plan a gait library: one schedule family over a grid of (vx, vy, yaw rate) commands,
     each entry validated in MuJoCo, with the stand; blended live by `gaitsmith-play drive`."""
@@ -161,7 +165,10 @@ def library(
     for v in axes[2] or ():
         check_yaw_rate("--yaw-rate", v, bot)
     fam = family or default_gait(bot)
-    check_gait_fits(bot, fam)
+    try:
+        check_gait_fits(bot, fam)
+    except TemplateError as exc:  # worded for `plan --gait`; here the option is --family
+        raise OptionError(str(exc).replace("--gait ", "--family ", 1)) from None
     base = default_grid(bot, fam)
     try:
         grid = GridSpec(axes[0] or base.vx_m_s, axes[1] or base.vy_m_s,
@@ -175,14 +182,15 @@ def library(
         f"gait library for [bold]{bot.name}[/]: {fam}, {grid.size} commands "
         f"(vx {list(grid.vx_m_s)} m/s, vy {list(grid.vy_m_s)} m/s, yaw rate "
         f"{list(grid.yaw_rate_rad_s)} rad/s), N={knots}, {cycles} cycles in MuJoCo each, "
-        f"executor {executor}" + (f" × {n_workers}" if n_workers else ""))
+        f"executor {executor}" + (f" × {n_workers}" if n_workers else "")
+        + ("" if warm else ", cold starts"))
     validator = SimValidator(str(bot.root_dir), cycles)
     with console.status("validating the stand in MuJoCo…"):
         stand_check = validator()
     build = build_library(
         bot, grid, family=fam, n_knots=knots, options=PlannerOptions(), validator=validator,
         stand_validator=stand_check, executor=executor, workers=n_workers, address=address,
-        on_entry=_progress)
+        on_entry=_progress, warm_start=warm)
     lib = build.library
     _summary(build.outcomes)
     libfile.save(lib, output)

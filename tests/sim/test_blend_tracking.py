@@ -51,7 +51,7 @@ def _library(robot: Robot) -> tuple[GaitLibrary, list[float]]:
                        tuple(e for e, _ in built), {}), [err for _, err in built]
 
 
-def _blended_run(robot: Robot, lib: GaitLibrary, command: Velocity, seconds: float
+def blended_run(robot: Robot, lib: GaitLibrary, command: Velocity, seconds: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """(time, base xy, base yaw) per physics step and the time the full gait began."""
     blender = GaitBlender(lib, BlendLimits.for_robot(robot, 0.5, 2.0))
@@ -77,7 +77,7 @@ def test_blended_command_tracks_like_the_grid_points(hex18: Robot) -> None:
     lib, grid_errors = _library(hex18)
     command = Velocity(0.5 * (GRID_VX[0] + GRID_VX[1]))
     warmup = PassCriteria().warmup_cycles * PERIOD_S
-    t, xy, yaw, full_at = _blended_run(hex18, lib, command, seconds=11.0)
+    t, xy, yaw, full_at = blended_run(hex18, lib, command, seconds=11.0)
     steady = t >= full_at + warmup
     assert steady.sum() > 0.5 * len(t) / 2
     i0 = int(np.argmax(steady))
@@ -108,7 +108,7 @@ def test_planned_library_blends_between_its_grid_points(hex18: Robot, tmp_path: 
     lib = load_library(path, hex18)
     c = PassCriteria()
     for command in (Velocity(0.05), Velocity(0.05, 0.0, 0.2)):
-        t, xy, yaw, full_at = _blended_run(hex18, lib, command, seconds=12.0)
+        t, xy, yaw, full_at = blended_run(hex18, lib, command, seconds=12.0)
         i0 = int(np.argmax(t >= full_at + c.warmup_cycles * lib.entries[0].gait.period_s))
         span = t[-1] - t[i0]
         if command.yaw_rate_rad_s == 0.0:
