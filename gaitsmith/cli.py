@@ -32,6 +32,7 @@ _COMMAND_MODULES = (
     "gaitsmith.sweep_cmd",
     "gaitsmith.retarget_cmd",
     "gaitsmith.identify_cmd",
+    "gaitsmith.library_cmd",
 )
 for _name in _COMMAND_MODULES:
     try:
