@@ -232,6 +232,8 @@ class GaitBlender:
         ridx, rw = self._grid.weights(self._rest)  # type: ignore[arg-type]
         self._rest_mean = rw @ self._means[ridx]
         self._cmd: tuple[float, float, float] = self._rest  # type: ignore[assignment]
+        self._cached_cmd: tuple[float, float, float] | None = None
+        self._cached: tuple[np.ndarray, np.ndarray, float] = (ridx, rw, 0.0)
         self._clipped = False
         self._phase = 0.0
         self._u = 0.0  # gait blend progress (α = min_jerk(u))
@@ -291,8 +293,7 @@ class GaitBlender:
     def period_s(self, command: Velocity | None = None) -> float:
         """The period law T(c) at `command` (default: the command in use), clipped to the box."""
         c = self._cmd if command is None else self._clip(velocity_tuple(command))
-        idx, w = self._grid.weights(c)
-        return float(w @ self._periods[idx])
+        return self._weights(c)[2]
 
     # -- the tick ------------------------------------------------------------------------------
 
@@ -359,22 +360,34 @@ class GaitBlender:
         cx, cy, cw = self._cmd
         self._cmd = (_toward(cx, target[0], dv), _toward(cy, target[1], dv),
                      _toward(cw, target[2], dw))
-        idx, w = self._grid.weights(self._cmd)
-        dphase = dt_s / float(w @ self._periods[idx])
+        idx, w, period = self._weights(self._cmd)
+        dphase = dt_s / period
         self._phase = (self._phase + dphase) % 1.0
         if walk:
             self._u = min(1.0, self._u + dphase / self._cycles)
         elif self._cmd == self._rest:
             self._u = max(0.0, self._u - dphase / self._cycles)
         g = self._targets(idx, w, self._phase)
-        m = self._rest_mean
-        q = m + float(min_jerk(self._u)) * (g - m)
+        if self._u >= 1.0:
+            q = g
+        else:
+            m = self._rest_mean
+            q = m + float(min_jerk(self._u)) * (g - m)
         if not walk and self._u <= 0.0:
             self._state = "stand_ramp"
             self._ramp = ramp_to(q, self._stand, self._ramp_speed, lim.min_ramp_s)
             self._ramp_t = 0.0
             self._phase = 0.0
         return q
+
+    def _weights(self, c: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray, float]:
+        """Grid weights and period law at `c`, cached for the last command (steady driving
+        repeats it tick after tick)."""
+        if c != self._cached_cmd:
+            idx, w = self._grid.weights(c)
+            self._cached = (idx, w, float(w @ self._periods[idx]))
+            self._cached_cmd = c
+        return self._cached
 
     def _targets(self, idx: np.ndarray, w: np.ndarray, phase: float) -> np.ndarray:
         """Σ wₑ Sₑ(phase): the periodic cubic spline (`robots.spline`) of the blended knots."""

@@ -81,9 +81,10 @@ def make_library(
     vy: tuple[float, ...] = VY,
     yaw: tuple[float, ...] = YAW,
     skip: tuple[Velocity, ...] = (),
+    n_knots: int = N_KNOTS,
 ) -> GaitLibrary:
     entries = tuple(
-        make_entry(robot, Velocity(x, y, w))
+        make_entry(robot, Velocity(x, y, w), n_knots)
         for x in vx for y in vy for w in yaw if Velocity(x, y, w) not in skip
     )
     return GaitLibrary(
