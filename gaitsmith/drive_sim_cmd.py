@@ -122,6 +122,7 @@ def drive_sim_command(
         rate_hz=rate_hz, latency_s=latency_ms / 1000.0, laps=laps,
         pursuit=PursuitSettings(lookahead_leg_lengths=lookahead, speed_m_s=speed))
     lo, hi = lib.command_bounds()
+    limits = blend_limits(bot, settings)
     console.print(
         f"{bot.name}: {len(lib.entries)} gaits ({lib.family}), command box vx "
         f"[{lo.vx_m_s:g}, {hi.vx_m_s:g}] m/s, vy [{lo.vy_m_s:g}, {hi.vy_m_s:g}] m/s, yaw rate "
@@ -147,8 +148,8 @@ def drive_sim_command(
         "lookahead_leg_lengths": lookahead, "lookahead_m": lookahead * bot.leg_length_m,
         "cruise_m_s": speed if speed is not None else hi.vx_m_s, "rate_hz": rate_hz,
         "latency_s": latency_ms / 1000.0, "timestep_s": float(sim.model.opt.timestep),
-        "command_accel_m_s2": blend_limits(bot, settings).accel_m_s2,
-        "yaw_accel_rad_s2": settings.yaw_accel_rad_s2,
+        "command_accel_m_s2": limits.accel_m_s2,
+        "yaw_accel_rad_s2": limits.yaw_accel_rad_s2,
     }
     png: bytes | None = None
     if plot is not None or report is not None:

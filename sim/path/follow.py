@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -42,10 +42,14 @@ from sim.servo import DEFAULT_RATE_HZ
 #: (simulated time [s], progress along the path [m], total path length to drive [m])
 FollowProgress = Callable[[float, float, float], None]
 
-#: command accelerations scale with the robot: ACCEL_LEG_LENGTHS_PER_S2 · L [m/s²] and
-#: YAW_ACCEL_RAD_S2 — a tenth of a leg length per (0.3 s)²: a 18 cm leg reaches 0.2 m/s in ≈ 1 s
-ACCEL_LEG_LENGTHS_PER_S2 = 1.0
-YAW_ACCEL_RAD_S2 = 1.0
+#: command accelerations scale with the robot: ACCEL_LEG_LENGTHS_PER_S2 · L [m/s²], and the
+#: same number in rad/s² for the yaw rate (feet about a leg length from the turning centre then
+#: see the same tangential acceleration). Measured on hex18 (tripod library, 6 entries whose own
+#: validation peaks at 52-59 % of stall): 1.0 L/s² put a tibia at 72-79 % of stall while the gait
+#: grew in and sped up at once; 0.37 L/s² kept the walking peak at 55 %.
+ACCEL_LEG_LENGTHS_PER_S2 = 0.4
+#: the controller brakes for the end of the path at this share of the blender's acceleration
+BRAKE_FRACTION = 0.8
 FALL_SHOW_S = 1.0  # simulated time kept after a fall is first seen
 
 
@@ -57,7 +61,7 @@ class FollowSettings:
     end_hold_s: float = 1.0  # standing at the end before the run stops
     laps: int = 1
     accel_m_s2: float | None = None  # None: ACCEL_LEG_LENGTHS_PER_S2 · leg length
-    yaw_accel_rad_s2: float = YAW_ACCEL_RAD_S2
+    yaw_accel_rad_s2: float | None = None  # None: ACCEL_LEG_LENGTHS_PER_S2 rad/s²
     timeout_factor: float = 3.0  # × (path length / cruise speed) + 30 s before giving up
     pursuit: PursuitSettings = field(default_factory=PursuitSettings)
     falls: FallThresholds = field(default_factory=FallThresholds)
@@ -71,9 +75,10 @@ class FollowSettings:
             v = getattr(self, name)
             if not (math.isfinite(v) and 0.0 <= v <= 60.0):
                 raise SimConfigError(f"{name} must be in [0, 60] s, got {v!r}")
-        if self.accel_m_s2 is not None and not (math.isfinite(self.accel_m_s2)
-                                                and self.accel_m_s2 > 0):
-            raise SimConfigError(f"command acceleration must be positive, got {self.accel_m_s2!r}")
+        for name in ("accel_m_s2", "yaw_accel_rad_s2"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise SimConfigError(f"{name} must be positive, got {v!r}")
         if not (math.isfinite(self.timeout_factor) and self.timeout_factor >= 1.0):
             raise SimConfigError("timeout_factor must be ≥ 1")
 
@@ -101,6 +106,7 @@ class FollowLog:
     standing: np.ndarray  # (K,) bool: the blender at rest in the stand
     foot_pos_m: np.ndarray  # (K, F, 3)
     foot_down: np.ndarray  # (K, F) bool
+    tick_torque_nm: np.ndarray  # (K, J) max |τ| over the tick's physics steps
     peak_torque_nm: np.ndarray  # (J,) max |τ| over every physics step
     stall_torque_nm: np.ndarray  # (J,)
     drive_start_s: float
@@ -151,7 +157,10 @@ def blend_limits(robot: Robot, settings: FollowSettings) -> BlendLimits:
     accel = settings.accel_m_s2
     if accel is None:
         accel = ACCEL_LEG_LENGTHS_PER_S2 * robot.leg_length_m
-    return BlendLimits.for_robot(robot, accel, settings.yaw_accel_rad_s2)
+    yaw_accel = settings.yaw_accel_rad_s2
+    if yaw_accel is None:
+        yaw_accel = ACCEL_LEG_LENGTHS_PER_S2
+    return BlendLimits.for_robot(robot, accel, yaw_accel)
 
 
 def follow(
@@ -171,7 +180,9 @@ def follow(
     stance = np.asarray(robot.nominal_stance_rad, dtype=float)
     blender = GaitBlender(library, limits, start_rad=stance)
     bounds = library.command_bounds()
-    ctrl = PurePursuit(path, bounds, robot.leg_length_m, settings.pursuit, settings.laps)
+    pursuit = replace(settings.pursuit, decel_m_s2=min(settings.pursuit.decel_m_s2,
+                                                       BRAKE_FRACTION * limits.accel_m_s2))
+    ctrl = PurePursuit(path, bounds, robot.leg_length_m, pursuit, settings.laps)
     start_xy = path.point_at(0.0)
     data = _start_state(sim, float(start_xy[0]), float(start_xy[1]),
                         float(path.heading_at(0.0)))
@@ -203,7 +214,7 @@ def follow(
     t_limit = (settings.settle_s + settings.timeout_factor * ctrl.total_m / cruise + 30.0)
     logs: dict[str, list[np.ndarray | float | bool]] = {k: [] for k in (
         "t", "pos", "yaw", "tilt", "qpos", "req", "cmd", "tgt", "q", "s", "e", "h", "drv",
-        "stand", "fpos", "fdown")}
+        "stand", "fpos", "fdown", "tau")}
     peak = np.zeros(robot.dof)
     t = 0.0
     arrived: float | None = None
@@ -225,10 +236,12 @@ def follow(
         clipped += int(blender.command_clipped)
         delay.append(targets)
         data.ctrl[:] = delay.popleft()
+        tick_peak = np.zeros(robot.dof)
         for _ in range(substeps):
             mujoco.mj_step(model, data)
             tau = np.abs(data.sensordata[drive_idx] - back_emf * data.sensordata[qd_idx])
-            np.maximum(peak, tau, out=peak)
+            np.maximum(tick_peak, tau, out=tick_peak)
+        np.maximum(peak, tick_peak, out=peak)
         t += tick_s
         sd = data.sensordata
         if not np.all(np.isfinite(data.qpos)):
@@ -245,6 +258,7 @@ def follow(
             ("q", sd[q_idx].copy()), ("s", st.progress_m), ("e", st.cross_track_m),
             ("h", st.heading_error_rad), ("drv", driving), ("stand", blender.standing),
             ("fpos", np.stack([sd[i] for i in foot_idx])), ("fdown", down),
+            ("tau", tick_peak),
         ):
             logs[key].append(value)
         if fall is None:
@@ -291,6 +305,7 @@ def follow(
         standing=np.asarray(logs["stand"], dtype=bool),
         foot_pos_m=np.asarray(logs["fpos"], dtype=float),
         foot_down=np.asarray(logs["fdown"], dtype=bool),
+        tick_torque_nm=np.asarray(logs["tau"], dtype=float),
         peak_torque_nm=peak,
         stall_torque_nm=sim.stall_torque_nm,
         drive_start_s=settings.settle_s,
