@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from sim.path.follow import FollowLog
+from sim.render import _moving_average
 from sim.validate import PassCriteria
 
 
@@ -81,14 +82,6 @@ class DriveResult:
         return tuple(f"{name}: {detail}" for name, ok, detail in self.checks if not ok)
 
 
-def _moving_average(x: np.ndarray, window: int) -> np.ndarray:
-    if window <= 1 or len(x) <= window:
-        return x
-    kernel = np.ones(window) / window
-    return np.stack([np.convolve(x[:, i], kernel, mode="valid") for i in range(x.shape[1])],
-                    axis=1)
-
-
 def compute(log: FollowLog, joint_names: tuple[str, ...], period_s: float) -> DriveMetrics:
     """Metrics of `log` (module docstring); `period_s` smooths the driven distance."""
     drv = log.driving if np.any(log.driving) else np.ones(log.n_ticks, dtype=bool)
@@ -103,7 +96,9 @@ def compute(log: FollowLog, joint_names: tuple[str, ...], period_s: float) -> Dr
             end = float(t[after[0]])
     dt = float(t[1] - t[0]) if len(t) > 1 else 1.0
     moving = (t >= start) & (t <= end)
-    xy = _moving_average(log.base_pos_m[moving, :2], max(1, round(period_s / dt)))
+    window = max(1, round(period_s / dt))
+    xy = np.stack([_moving_average(log.base_pos_m[:, i], window) for i in (0, 1)], axis=1)
+    xy = xy[moving]
     distance = float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=1))) if len(xy) > 1 else 0.0
     frac = log.peak_torque_nm / log.stall_torque_nm
     worst = int(np.argmax(frac))
