@@ -5,10 +5,12 @@
 Per robot: a `GaitBlender` over a library, stepped with a command inside a grid cell (all 2³
 corners active when the grid has three axes) while walking, with the per-tick speed and
 joint-limit clip; the baseline is one `Gait.joint_targets(t)` call on one of the library's gaits
-(what the player does per tick for a single gait), timed in the same run. Without `--library`
-the synthetic library of the tests (`tests/robots/library_fixture.py`: N = 30 knots, a
-3 × 3 × 3 grid) is used for quad12 (12 servos) and hex18 (18 servos): the cost depends on the
-joint and knot counts and the number of active corners, not on the gaits' values.
+(what the player does per tick for a single gait), timed in the same run. Times are CPU time per
+call (`time.process_time`), so that the shared machine's load does not count.
+
+Without `--library` the synthetic library of the tests (`tests/robots/library_fixture.py`:
+N = 30 knots, a 3 × 3 × 3 grid) is used for quad12 (12 servos) and hex18 (18 servos): the cost
+depends on the joint and knot counts and the number of active corners, not on the gaits' values.
 """
 
 from __future__ import annotations
@@ -45,13 +47,14 @@ def _inside(lib: GaitLibrary) -> Velocity:
 
 
 def _per_call_us(fn: object, n: int, repeats: int = 5) -> float:
-    """Median over `repeats` of the mean time per call of `fn()` over `n` calls [µs]."""
+    """Median over `repeats` of the mean CPU time per call of `fn()` over `n` calls [µs]
+    (process CPU time, not wall time: the figure holds on a loaded machine too)."""
     runs = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         for _ in range(n):
             fn()  # type: ignore[operator]
-        runs.append((time.perf_counter() - t0) / n * 1e6)
+        runs.append((time.process_time() - t0) / n * 1e6)
     return statistics.median(runs)
 
 

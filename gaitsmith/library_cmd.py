@@ -144,6 +144,9 @@ def library(
     ray: bool = typer.Option(False, "--ray", help="run the entries on Ray instead of a "
                              "process pool (needs gaitsmith[ray])"),
     address: str | None = typer.Option(None, "--address", help="Ray cluster address (--ray)"),
+    warm: bool = typer.Option(
+        True, "--warm/--cold", help="warm-start each entry from a solved neighbour (waves from "
+        "the command nearest zero), or solve all from the template's guess in one batch"),
 ) -> None:
     """Plan a gait library: one schedule family over a grid of (vx, vy, yaw rate) commands,
     each entry validated in MuJoCo, with the stand; blended live by `gaitsmith-play drive`."""
@@ -175,14 +178,15 @@ def library(
         f"gait library for [bold]{bot.name}[/]: {fam}, {grid.size} commands "
         f"(vx {list(grid.vx_m_s)} m/s, vy {list(grid.vy_m_s)} m/s, yaw rate "
         f"{list(grid.yaw_rate_rad_s)} rad/s), N={knots}, {cycles} cycles in MuJoCo each, "
-        f"executor {executor}" + (f" × {n_workers}" if n_workers else ""))
+        f"executor {executor}" + (f" × {n_workers}" if n_workers else "")
+        + ("" if warm else ", cold starts"))
     validator = SimValidator(str(bot.root_dir), cycles)
     with console.status("validating the stand in MuJoCo…"):
         stand_check = validator()
     build = build_library(
         bot, grid, family=fam, n_knots=knots, options=PlannerOptions(), validator=validator,
         stand_validator=stand_check, executor=executor, workers=n_workers, address=address,
-        on_entry=_progress)
+        on_entry=_progress, warm_start=warm)
     lib = build.library
     _summary(build.outcomes)
     libfile.save(lib, output)

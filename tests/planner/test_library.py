@@ -137,5 +137,7 @@ def test_failed_entries_are_reported_and_left_out(quad: robots.Robot) -> None:
     assert lib.entries[0].gait.schedule == make_schedule(quad, "trot").with_period(
         lib.entries[0].gait.period_s)  # the template's phase origin
     with pytest.raises(LibraryBuildError, match=r"only 0 of 2 grid entries passed MuJoCo "
-                       r"\(need 2\); no library written. Failed: \(0.2, 0.0, 0.0\)"):
-        build_library(quad, grid, n_knots=12, validator=FakeValidator(()), executor="serial")
+                       r"\(need 2\); no library written. Failed \(first reason each\): "
+                       r"\(0.2, 0.0, 0.0\): MuJoCo: speed: made up"):
+        build_library(quad, grid, n_knots=12, validator=FakeValidator(()), executor="serial",
+                      warm_start=False)  # the cold path: one batch, same order

@@ -179,3 +179,14 @@ def test_bad_inputs(quad: robots.Robot, limits: BlendLimits) -> None:
         b.step(Velocity(0.1), 0.0)
     with pytest.raises(BlendError, match="start_rad"):
         GaitBlender(lib, limits, start_rad=np.zeros(5))
+
+
+def test_library_and_blend_stay_light() -> None:
+    """hardware (the drive mode) imports these: numpy only, no mujoco, casadi or sim."""
+    import subprocess
+    import sys
+
+    code = ("import sys, robots.blend, robots.library; "
+            "print(sorted(m for m in ('mujoco', 'casadi', 'sim', 'planner') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr

@@ -11,6 +11,7 @@ single gait); the achieved velocity is measured in the world frame over the stea
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import mujoco
 import mujoco.rollout
@@ -20,6 +21,8 @@ import pytest
 from robots import Gait, Robot, Velocity
 from robots.blend import BlendLimits, GaitBlender
 from robots.library import GaitLibrary, LibraryEntry
+from robots.library import load as load_library
+from robots.library import save as save_library
 from sim.metrics import yaw_of
 from sim.model import build_sim_model
 from sim.servo import held_targets
@@ -48,7 +51,7 @@ def _library(robot: Robot) -> tuple[GaitLibrary, list[float]]:
                        tuple(e for e, _ in built), {}), [err for _, err in built]
 
 
-def _blended_run(robot: Robot, lib: GaitLibrary, command: Velocity, seconds: float
+def blended_run(robot: Robot, lib: GaitLibrary, command: Velocity, seconds: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """(time, base xy, base yaw) per physics step and the time the full gait began."""
     blender = GaitBlender(lib, BlendLimits.for_robot(robot, 0.5, 2.0))
@@ -74,7 +77,7 @@ def test_blended_command_tracks_like_the_grid_points(hex18: Robot) -> None:
     lib, grid_errors = _library(hex18)
     command = Velocity(0.5 * (GRID_VX[0] + GRID_VX[1]))
     warmup = PassCriteria().warmup_cycles * PERIOD_S
-    t, xy, yaw, full_at = _blended_run(hex18, lib, command, seconds=11.0)
+    t, xy, yaw, full_at = blended_run(hex18, lib, command, seconds=11.0)
     steady = t >= full_at + warmup
     assert steady.sum() > 0.5 * len(t) / 2
     i0 = int(np.argmax(steady))
@@ -87,3 +90,32 @@ def test_blended_command_tracks_like_the_grid_points(hex18: Robot) -> None:
     assert abs(vx - command.vx_m_s) <= tol, (vx, command.vx_m_s, tol, grid_errors)
     assert abs(vy) <= PassCriteria().vy_abs_tol_m_s + PassCriteria().vy_rel_tol * vx
     assert abs(yaw[-1] - yaw[0]) <= PassCriteria().max_heading_error_rad
+
+
+@pytest.mark.slow
+def test_planned_library_blends_between_its_grid_points(hex18: Robot, tmp_path: Path) -> None:
+    """End to end on a planned 2 × 1 × 2 grid (vx × yaw rate, N = 16): build (every entry
+    validated in MuJoCo), save, load, blend at the cell centre; the blend meets the criteria the
+    entries met (vx for the straight command, yaw rate for the turning one)."""
+    from gaitsmith.library_cmd import SimValidator
+    from planner.library import GridSpec, build_library
+
+    grid = GridSpec((0.0, 0.1), (0.0,), (0.0, 0.4))
+    build = build_library(hex18, grid, n_knots=16, validator=SimValidator(str(hex18.root_dir), 12),
+                          executor="serial", min_entries=grid.size)
+    path = tmp_path / "hex18_lib.json"
+    save_library(build.library, path)
+    lib = load_library(path, hex18)
+    c = PassCriteria()
+    for command in (Velocity(0.05), Velocity(0.05, 0.0, 0.2)):
+        t, xy, yaw, full_at = blended_run(hex18, lib, command, seconds=12.0)
+        i0 = int(np.argmax(t >= full_at + c.warmup_cycles * lib.entries[0].gait.period_s))
+        span = t[-1] - t[i0]
+        if command.yaw_rate_rad_s == 0.0:
+            vx = float((xy[-1, 0] - xy[i0, 0]) / span)  # starts facing +x
+            tol = max(c.speed_rel_tol * command.vx_m_s, c.speed_abs_tol_m_s)
+            assert abs(vx - command.vx_m_s) <= tol, (vx, tol)
+        else:
+            w = float((yaw[-1] - yaw[i0]) / span)
+            tol = max(c.yaw_rate_rel_tol * command.yaw_rate_rad_s, c.yaw_rate_abs_tol_rad_s)
+            assert abs(w - command.yaw_rate_rad_s) <= tol, (w, tol)
