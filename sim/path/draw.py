@@ -35,7 +35,7 @@ from sim.render import (
 
 PATH_SEGMENTS = 300  # boxes drawn for the path
 MAX_FOOTPRINTS_DRAWN = 1500  # the newest ones, when a long run has more
-PATH_RGBA = np.array([0.95, 0.85, 0.1, 0.9])
+PATH_RGBA = np.array([1.0, 1.0, 1.0, 0.9])  # white: reads on any floor, unlike a body colour
 FOOT_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
                 "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
 CAMERA_SMOOTHING_S = 1.0
@@ -183,7 +183,7 @@ def iter_frames(sim: SimModel, log: FollowLog, *, fps: float = 30.0, width: int 
         pts = np.vstack([pts, log.path.points_m[:1]])
     else:
         pts = np.vstack([pts, log.path.points_m[-1:]])
-    width_m = max(0.004, 0.03 * leg)
+    width_m = max(0.004, 0.05 * leg)
     prints = log.footprints()
     print_t = np.array([p[0] for p in prints])
     foot_r = max(robot.foot_radius_m, 0.1 * leg)
