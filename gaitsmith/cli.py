@@ -31,6 +31,7 @@ _COMMAND_MODULES = (
     "gaitsmith.simulate_cmd",
     "gaitsmith.sweep_cmd",
     "gaitsmith.retarget_cmd",
+    "gaitsmith.identify_cmd",
     "gaitsmith.library_cmd",
     "gaitsmith.drive_sim_cmd",
 )

@@ -30,6 +30,7 @@ from gaitsmith.options import (
     check_yaw_rate,
 )
 from gaitsmith.search_options import MAX_WORKERS
+from planner.errors import TemplateError
 from planner.library import (
     EntryOutcome,
     GridSpec,
@@ -164,7 +165,10 @@ def library(
     for v in axes[2] or ():
         check_yaw_rate("--yaw-rate", v, bot)
     fam = family or default_gait(bot)
-    check_gait_fits(bot, fam)
+    try:
+        check_gait_fits(bot, fam)
+    except TemplateError as exc:  # worded for `plan --gait`; here the option is --family
+        raise OptionError(str(exc).replace("--gait ", "--family ", 1)) from None
     base = default_grid(bot, fam)
     try:
         grid = GridSpec(axes[0] or base.vx_m_s, axes[1] or base.vy_m_s,

@@ -9,7 +9,7 @@ pose, the rest over the steady cycles; the verdict applies `PassCriteria`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 
 import mujoco
@@ -17,6 +17,7 @@ import numpy as np
 
 from robots.gait import Gait
 from robots.robot import Robot
+from robots.servo_params import ServoSetting
 from sim.errors import SimConfigError
 from sim.metrics import FallThresholds, JointMetrics, Metrics, compute, detect_fall, tilt_of
 from sim.model import SimConditions, SimModel, build_sim_model
@@ -215,12 +216,16 @@ def simulate(
     progress: Progress | None = None,
     criteria: PassCriteria = PassCriteria(),
     stop_on_fall: bool = True,
+    servo_settings: Sequence[ServoSetting] | None = None,
 ) -> tuple[SimModel, Trajectory]:
-    """Build the model and run the gait (no verdict); see `validate`."""
+    """Build the model and run the gait (no verdict); see `validate`. `servo_settings`: the
+    identified servos (`robots.servo_params`, one per joint; None: catalogue servos)."""
     gait.check_robot(robot)
     settings = RunSettings(cycles=cycles, rate_hz=rate_hz, latency_s=latency_s)
     sim = build_sim_model(
-        robot, SimConditions(friction=friction, payload_kg=payload_kg, strength=strength)
+        robot,
+        SimConditions(friction=friction, payload_kg=payload_kg, strength=strength),
+        servo_settings=servo_settings,
     )
     stop = _fall_stop(criteria.falls) if stop_on_fall else None
     return sim, run(gait, sim, settings, progress=progress, stop=stop)
@@ -259,6 +264,7 @@ def validate(
     progress: Progress | None = None,
     criteria: PassCriteria = PassCriteria(),
     keep_trajectory: bool = True,
+    servo_settings: Sequence[ServoSetting] | None = None,
 ) -> ValidationResult:
     """Simulate `cycles` cycles of `gait` on `robot` and return metrics + verdict."""
     if cycles <= criteria.warmup_cycles:
@@ -276,6 +282,7 @@ def validate(
         strength=strength,
         progress=progress,
         criteria=criteria,
+        servo_settings=servo_settings,
     )
     return evaluate(
         traj,

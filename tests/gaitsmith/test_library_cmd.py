@@ -35,8 +35,8 @@ MISTAKES = [
     (["--cycles", "1"], "--cycles must be an integer in"),
     (["--workers", "0"], "--workers must be an integer in [1, 1024], got 0"),
     (["--address", "ray://x:1"], "--address is for Ray: add --ray"),
-    (["--family", "gallopp"], "--gait gallopp: unknown gait"),
-    (["--family", "tripod"], "--gait tripod: gait for 6 legs"),
+    (["--family", "gallopp"], "--family gallopp: unknown gait"),
+    (["--family", "tripod"], "--family tripod: gait for 6 legs"),
     (["--yaw-rate", "3.5", "--family", "walk"], "--vx/--vy/--yaw-rate: grid command vy 0, yaw rate "
      "3.5: yaw rate 3.5 rad/s turns more than a quarter turn per period"),
 ]
