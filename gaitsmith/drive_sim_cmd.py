@@ -93,6 +93,10 @@ def drive_sim_command(
     plot: Path | None = typer.Option(None, "--plot", help="write the planned vs driven path PNG"),
     report: Path | None = typer.Option(None, "--report", help="write an HTML report"),
     json_out: Path | None = typer.Option(None, "--json", help="write the metrics as JSON"),
+    servo_params_path: Path | None = typer.Option(
+        None, "--servo-params",
+        help="identified servos (servo_params.toml of `gaitsmith identify`): gain, strength "
+        "and delay per joint (default: the catalogue servos)"),
 ) -> None:
     """Follow a path in MuJoCo with a gait library; exit 0 if the run passes, 1 if it fails."""
     check_integer("--laps", laps, 1, MAX_LAPS)
@@ -114,6 +118,12 @@ def drive_sim_command(
     lib = library_io.load(library_path)
     bot = library_io.robot_for(lib, library_path, robot)
     path = parse_path(path_spec, bot.leg_length_m, "--path")
+    servo_settings = None
+    if servo_params_path is not None:
+        from robots import servo_params
+
+        servo_settings = servo_params.load(servo_params_path).for_robot(bot)
+        console.print(f"servos: as identified in {servo_params_path}", highlight=False)
     if laps > 1 and not path.closed:
         raise OptionError(f"--laps {laps}: {path_spec!r} is an open path (its last waypoint "
                           "does not repeat the first); use --laps 1")
@@ -134,7 +144,7 @@ def drive_sim_command(
                   TimeElapsedColumn(), console=console, transient=True) as bar:
         task = bar.add_task("drive", total=path.length_m * laps, done=0.0, t=0.0)
         sim, log = follow(
-            lib, bot, path, settings,
+            lib, bot, path, settings, servo_settings=servo_settings,
             progress=lambda t, s, total: bar.update(task, completed=s, done=s, t=t))
     period = float(np.mean([e.gait.period_s for e in lib.entries]))
     criteria = DriveCriteria(
@@ -147,7 +157,9 @@ def drive_sim_command(
         "library": str(library_path), "path": path_spec, "laps": laps,
         "lookahead_leg_lengths": lookahead, "lookahead_m": lookahead * bot.leg_length_m,
         "cruise_m_s": speed if speed is not None else hi.vx_m_s, "rate_hz": rate_hz,
-        "latency_s": latency_ms / 1000.0, "timestep_s": float(sim.model.opt.timestep),
+        "latency_s": latency_ms / 1000.0,
+        "servo_params": None if servo_params_path is None else str(servo_params_path),
+        "timestep_s": float(sim.model.opt.timestep),
         "command_accel_m_s2": limits.accel_m_s2,
         "yaw_accel_rad_s2": limits.yaw_accel_rad_s2,
     }

@@ -10,8 +10,9 @@ player's stream rate, 100 Hz by default):
 2. `robots.blend.GaitBlender.step(command, dt)` turns it into joint targets (acceleration
    limits, stand ↔ walk transitions, per-tick joint-speed clip): exactly what the player's drive
    mode streams to the servos;
-3. the targets reach the servos after `latency_s` (a delay line of whole ticks) and are held
-   over the tick's physics steps (zero-order hold).
+3. the targets reach the servos after `latency_s` plus each servo's own identified delay
+   (`SimModel.servo_latency_s`; a delay line of whole ticks) and are held over the tick's
+   physics steps (zero-order hold).
 
 The run ends `end_hold_s` after the blender is back in the stand at the end, a short while after
 a fall (so it shows), or at the timeout. Peak servo torque is tracked over every physics step;
@@ -22,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import mujoco
@@ -32,6 +33,7 @@ from robots.blend import BlendLimits, GaitBlender
 from robots.gait import Velocity
 from robots.library import GaitLibrary
 from robots.robot import Robot
+from robots.servo_params import ServoSetting
 from sim.errors import SimConfigError, SimDivergedError
 from sim.metrics import CONTACT_FORCE_FRACTION, GRAVITY_M_S2, FallThresholds, tilt_of, yaw_of
 from sim.model import SimConditions, SimModel, build_sim_model
@@ -170,11 +172,13 @@ def follow(
     settings: FollowSettings = FollowSettings(),
     *,
     conditions: SimConditions = SimConditions(),
+    servo_settings: Sequence[ServoSetting] | None = None,
     progress: FollowProgress | None = None,
 ) -> tuple[SimModel, FollowLog]:
-    """Drive `path` (`settings.laps` times if closed) with `library` on `robot` in MuJoCo."""
+    """Drive `path` (`settings.laps` times if closed) with `library` on `robot` in MuJoCo;
+    `servo_settings`: the identified servos (`robots.servo_params`; None: the catalogue's)."""
     library.check_robot(robot)
-    sim = build_sim_model(robot, conditions)
+    sim = build_sim_model(robot, conditions, servo_settings=servo_settings)
     model = sim.model
     limits = blend_limits(robot, settings)
     stance = np.asarray(robot.nominal_stance_rad, dtype=float)
@@ -189,7 +193,10 @@ def follow(
     dt = float(model.opt.timestep)
     substeps = max(1, round(1.0 / (settings.rate_hz * dt)))
     tick_s = substeps * dt
-    delay = deque([stance.copy()] * round(settings.latency_s / tick_s))
+    delay_ticks = np.round((settings.latency_s + sim.servo_latency_s) / tick_s).astype(int)
+    history: deque[np.ndarray] = deque([stance.copy()] * (int(delay_ticks.max()) + 1),
+                                       maxlen=int(delay_ticks.max()) + 1)
+    joint_cols = np.arange(robot.dof)
     data.ctrl[:] = stance
 
     def cols(prefix: str, names: tuple[str, ...]) -> np.ndarray:
@@ -234,8 +241,8 @@ def follow(
         command = st.command if driving else Velocity()
         targets = blender.step(command, tick_s)
         clipped += int(blender.command_clipped)
-        delay.append(targets)
-        data.ctrl[:] = delay.popleft()
+        history.append(targets)
+        data.ctrl[:] = np.stack(history)[-1 - delay_ticks, joint_cols]
         tick_peak = np.zeros(robot.dof)
         for _ in range(substeps):
             mujoco.mj_step(model, data)
