@@ -8,8 +8,13 @@ the goal, tangent to its heading: curvature κ = 2·y_b / d² (y_b: the goal's l
 the body frame, d its distance; Coulter eq. 1), yaw rate ω = v·κ. The look-ahead is a multiple
 of the robot's leg length (`lookahead_leg_lengths`): the base sways by a fraction of a leg
 length within each cycle, and the look-ahead must be long against that sway yet short against
-the path's bends. On a circle of radius R the arc through the robot and a goal on the circle is
-the circle itself, so an ideal unicycle holds it with no steady error (module test).
+the path's bends. It is also at least `lookahead_s` seconds of travel at the cruise speed: the
+command reaches the gait only through the blender's acceleration limits and a gait cycle, and a
+goal closer than that lag makes the loop oscillate (hex18's default library, cruising at
+0.19 m/s with a 0.21 m look-ahead — 1.1 s — swung between ±0.386 rad/s with a 7 s period and
+6 cm mean cross-track error; at 2 s it holds the path to 0.9 cm). On a circle of radius R the
+arc through the robot and a goal on the circle is the circle itself, so an ideal unicycle holds
+it with no steady error (module test).
 
 The forward speed v is the smallest of the cruise speed (the box's top vx unless set), the
 curve limit — `yaw_fraction`·ω_max/|κ_path|, with κ_path the largest path curvature over the
@@ -39,6 +44,7 @@ GRAVITY_M_S2 = 9.81
 @dataclass(frozen=True)
 class PursuitSettings:
     lookahead_leg_lengths: float = 2.0
+    lookahead_s: float = 2.0  # … and at least this much travel at the cruise speed
     speed_m_s: float | None = None  # cruise speed; None: the top vx of the command box
     yaw_fraction: float = 0.8  # share of the box's yaw rate the speed plan may use in curves
     preview_lookaheads: float = 2.0  # how far ahead curvature slows the robot [look-aheads]
@@ -48,7 +54,7 @@ class PursuitSettings:
     lateral_gain_per_s: float = 0.5  # vy = −k·e when the box spans vy
 
     def __post_init__(self) -> None:
-        for name in ("lookahead_leg_lengths", "yaw_fraction", "preview_lookaheads",
+        for name in ("lookahead_leg_lengths", "lookahead_s", "yaw_fraction", "preview_lookaheads",
                      "lateral_accel_g", "decel_m_s2", "goal_tolerance_leg_lengths"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
@@ -111,11 +117,12 @@ class PurePursuit:
         self.lo, self.hi = lo, hi
         self.settings = settings
         self.laps = laps
-        self.lookahead_m = settings.lookahead_leg_lengths * leg_length_m
         self.tolerance_m = settings.goal_tolerance_leg_lengths * leg_length_m
         self.total_m = path.length_m * laps
         cruise = hi.vx_m_s if settings.speed_m_s is None else min(settings.speed_m_s, hi.vx_m_s)
         self.cruise_m_s = cruise
+        self.lookahead_m = max(settings.lookahead_leg_lengths * leg_length_m,
+                               settings.lookahead_s * cruise)
         self.progress_m = 0.0
         self.finished = False
 
