@@ -82,7 +82,7 @@ def drive_sim_command(
         None, "--speed", help="cruise speed [m/s] (default: the library's top vx)"),
     lookahead: float = typer.Option(
         PursuitSettings().lookahead_leg_lengths, "--lookahead",
-        help="pure-pursuit look-ahead [leg lengths]"),
+        help="pure-pursuit look-ahead [leg lengths] (at least 2 s of travel at the cruise speed)"),
     max_cross_track_cm: float | None = typer.Option(
         None, "--max-cross-track-cm",
         help="verdict limit on the mean cross-track error [cm] (default: 0.3 leg lengths)"),
@@ -133,6 +133,7 @@ def drive_sim_command(
         pursuit=PursuitSettings(lookahead_leg_lengths=lookahead, speed_m_s=speed))
     lo, hi = lib.command_bounds()
     limits = blend_limits(bot, settings)
+    cruise = hi.vx_m_s if speed is None else min(speed, hi.vx_m_s)
     console.print(
         f"{bot.name}: {len(lib.entries)} gaits ({lib.family}), command box vx "
         f"[{lo.vx_m_s:g}, {hi.vx_m_s:g}] m/s, vy [{lo.vy_m_s:g}, {hi.vy_m_s:g}] m/s, yaw rate "
@@ -155,8 +156,9 @@ def drive_sim_command(
         console.print(f"  {'[green]ok  [/]' if ok else '[red]FAIL[/]'} {name}: {detail}")
     conditions: dict[str, object] = {
         "library": str(library_path), "path": path_spec, "laps": laps,
-        "lookahead_leg_lengths": lookahead, "lookahead_m": lookahead * bot.leg_length_m,
-        "cruise_m_s": speed if speed is not None else hi.vx_m_s, "rate_hz": rate_hz,
+        "lookahead_leg_lengths": lookahead,
+        "lookahead_m": settings.pursuit.lookahead_m(bot.leg_length_m, cruise),
+        "cruise_m_s": cruise, "rate_hz": rate_hz,
         "latency_s": latency_ms / 1000.0,
         "servo_params": None if servo_params_path is None else str(servo_params_path),
         "timestep_s": float(sim.model.opt.timestep),

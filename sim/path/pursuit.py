@@ -67,6 +67,10 @@ class PursuitSettings:
                                                and self.speed_m_s > 0):
             raise SimConfigError(f"cruise speed must be positive, got {self.speed_m_s!r}")
 
+    def lookahead_m(self, leg_length_m: float, cruise_m_s: float) -> float:
+        """The look-ahead distance for this robot and cruise speed (module docstring)."""
+        return max(self.lookahead_leg_lengths * leg_length_m, self.lookahead_s * cruise_m_s)
+
 
 @dataclass(frozen=True)
 class PursuitState:
@@ -121,8 +125,7 @@ class PurePursuit:
         self.total_m = path.length_m * laps
         cruise = hi.vx_m_s if settings.speed_m_s is None else min(settings.speed_m_s, hi.vx_m_s)
         self.cruise_m_s = cruise
-        self.lookahead_m = max(settings.lookahead_leg_lengths * leg_length_m,
-                               settings.lookahead_s * cruise)
+        self.lookahead_m = settings.lookahead_m(leg_length_m, cruise)
         self.progress_m = 0.0
         self.finished = False
 
