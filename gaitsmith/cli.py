@@ -33,6 +33,7 @@ _COMMAND_MODULES = (
     "gaitsmith.retarget_cmd",
     "gaitsmith.identify_cmd",
     "gaitsmith.library_cmd",
+    "gaitsmith.drive_sim_cmd",
 )
 for _name in _COMMAND_MODULES:
     try:

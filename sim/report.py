@@ -1,5 +1,6 @@
 """One self-contained HTML report of a validation: verdict, checks, metrics, per-joint table and
-the plots as base64-embedded PNGs (no external files). Written atomically."""
+the plots as base64-embedded PNGs (no external files). Written atomically. `write_drive_report`
+does the same for a drive-sim run (`sim.path`)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,8 @@ from robots.voltage import VoltageMargin
 from sim import plots
 from sim.errors import ReportError
 from sim.model import SimModel
+from sim.path.follow import FollowLog
+from sim.path.metrics import DriveResult
 from sim.robustness import RobustnessResult
 from sim.thermal_report import ThermalPrediction, temperature_plot
 from sim.validate import ValidationResult
@@ -198,4 +201,63 @@ def write_report(path: str | Path, result: ValidationResult, gait: Gait, sim: Si
     text = render_html(result, gait, sim, robustness=robustness, thermal=thermal,
                        voltage=voltage)
     atomic_write_text(p, text)  # a failed write is an OutputWriteError naming the file
+    return p
+
+
+# ---------------------------------------------------------------------------------------------
+# drive-sim (`gaitsmith drive-sim`): a path followed through a gait library
+
+
+def render_drive_html(result: DriveResult, log: FollowLog, robot: str, *, library: str,
+                      plot_png: bytes, conditions: dict[str, object]) -> str:
+    """The drive-sim report: verdict, checks, metrics, conditions, per-joint peak torque and the
+    planned vs driven path plot (embedded)."""
+    m = result.metrics
+    name = f"{robot} · drive-sim · {log.path.spec}" + (f" × {log.laps}" if log.laps > 1 else "")
+    cls = "pass" if result.passed else "fail"
+    deg = 180.0 / math.pi
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'>",
+        f"<title>{html.escape(name)}</title><style>{_CSS}</style></head><body>",
+        f"<h1>{html.escape(name)}</h1>",
+        f"<p>Verdict: <b class='{cls}'>{'PASS' if result.passed else 'FAIL'}</b> — library "
+        f"{html.escape(library)}, path {log.total_length_m:.2f} m.</p>",
+        "<h2>Checks</h2><table><tr><th>check</th><th>result</th><th>detail</th></tr>",
+    ]
+    for check, ok, detail in result.checks:
+        parts.append(f"<tr><td>{html.escape(check)}</td><td class='{'pass' if ok else 'fail'}'>"
+                     f"{'ok' if ok else 'FAIL'}</td><td>{html.escape(detail)}</td></tr>")
+    rows = (
+        ("cross-track error mean / max", f"{m.cross_track_mean_m * 100:.2f} / "
+         f"{m.cross_track_max_m * 100:.2f} cm"),
+        ("heading error mean / max", f"{m.heading_error_mean_rad * deg:.1f} / "
+         f"{m.heading_error_max_rad * deg:.1f}°"),
+        ("time (first command → standing at the end)", f"{m.time_s:.1f} s"),
+        ("distance driven / planned", f"{m.distance_m:.2f} / {m.planned_distance_m:.2f} m"),
+        ("mean speed", f"{m.mean_speed_m_s:.3f} m/s"),
+        ("servo peak torque", f"{m.peak_torque_fraction:.0%} of stall ({m.peak_torque_joint})"),
+        ("fall", "no" if not m.fell else f"at {m.fall_time_s:.2f} s ({m.fall_reason})"),
+        ("footprints", str(m.footprints)),
+        ("requests clipped into the command box", f"{m.clipped_fraction:.1%} of ticks"),
+    )
+    parts.append("</table><h2>Metrics</h2><table><tr><th>metric</th><th>value</th></tr>")
+    parts += [f"<tr><td>{k}</td><td>{html.escape(v)}</td></tr>" for k, v in rows]
+    parts.append("</table><h2>Conditions</h2><table>")
+    parts += [f"<tr><td>{html.escape(k)}</td><td>{_fmt(v)}</td></tr>"
+              for k, v in conditions.items()]
+    parts.append("</table><h2>Peak torque per joint</h2><table><tr><th>joint</th>"
+                 "<th>peak |τ| / stall</th></tr>")
+    parts += [f"<tr><td>{html.escape(j)}</td><td>{f:.0%}</td></tr>"
+              for j, f in result.joint_peak_fraction]
+    caption = "Planned vs driven path, footprints; cross-track error and commands"
+    parts.append(f"</table><h2>{caption}</h2>{_img(plot_png, caption)}</body></html>")
+    return "\n".join(parts)
+
+
+def write_drive_report(path: str | Path, result: DriveResult, log: FollowLog, robot: str, *,
+                       library: str, plot_png: bytes, conditions: dict[str, object]) -> Path:
+    """Write the drive-sim report atomically."""
+    p = Path(path)
+    atomic_write_text(p, render_drive_html(result, log, robot, library=library,
+                                           plot_png=plot_png, conditions=conditions))
     return p
