@@ -148,6 +148,19 @@ class PlannerOptions:
       the cap, + posture and limit margins 280, + clearances ∝ L 212, all templates feasible.
       Forces are already in body weights and the servo rows in fractions of the servo's
       limits, and IPOPT's gradient-based row scaling covers the rest.
+    - `static_margin_leg_lengths`: None (default) or d/L > 0: at every knot whose stance feet
+      span a polygon, the ground projection of the centre of mass stays at least d = this × L
+      inside it (`planner.search.support.polygon_edges`; the static stability margin of a
+      crawl). Open-loop position servos cannot catch a body balanced dynamically outside its
+      support (`planner.search.support`), so commanded walks ask for it
+      (`gaitsmith.gait_choice.commanded_gait`). Knots on a line or in flight are not
+      constrained.
+    - `foot_box_leg_lengths`: None (default) or b/L > 0: every foot stays within ±b (x and y,
+      base frame) of its nominal stance position at every knot — TOWR's range-of-motion box
+      (Winkler et al. 2018 §III-C). Without it nothing but the weak posture term anchors the
+      footprint to the body, and commanded side-steps and turns came out with the footprint
+      sheared or turned by up to 30° about the body: a gait the entry ramp (`robots.ramp`)
+      reaches only by twisting the standing robot (`gaitsmith.gait_choice.commanded_gait`).
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     """
 
@@ -165,6 +178,8 @@ class PlannerOptions:
     vertical_contact_transitions: bool = True
     weights: CostWeights = field(default_factory=CostWeights)
     nondimensional: bool = False
+    static_margin_leg_lengths: float | None = None
+    foot_box_leg_lengths: float | None = None
     tol: float = 1e-6
     max_iter: int = 150
     print_level: int = 0
@@ -183,6 +198,10 @@ class PlannerOptions:
             "joint_limit_margin_rad": 0 <= self.joint_limit_margin_rad < 0.5,
             "joint_limit_margin_fraction": 0 <= self.joint_limit_margin_fraction <= 0.25,
             "max_force_body_weights": self.max_force_body_weights > 0,
+            "static_margin_leg_lengths": self.static_margin_leg_lengths is None
+            or 0 < self.static_margin_leg_lengths < 1,
+            "foot_box_leg_lengths": self.foot_box_leg_lengths is None
+            or 0 < self.foot_box_leg_lengths < 2,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
         }
