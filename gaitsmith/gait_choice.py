@@ -1,14 +1,56 @@
 """Which gait template `gaitsmith plan` uses for a robot, and whether `--gait` fits it.
 
 Kept apart from the command so the planner's gait schedules (templates for any leg count) can
-replace these two functions without touching the command line.
+replace these functions without touching the command line.
+
+Commanded gaits (`--vy`, `--yaw-rate`; issue #15) get their own choice, `commanded_gait`: a
+trot, the quadruped default, balances on its support diagonal, and in MuJoCo that failed every
+turn and side-step on quad12 (2026-12-01, N = 20, `--simulate`). On the side-step
+(`--vx 0 --vy 0.08`) the body rolled 2-5° towards the right side for the whole cycle (planned
+±0.3°), the right feet lifted 0-6 mm instead of 25 mm, one hind foot stayed down 95 % of the
+cycle instead of 60 % and the robot achieved vy 0.034 m/s. A duty-0.75 walk did the same
+(vy 0.027 m/s): while a right foot swung, the planned centre of mass was 28-43 mm *outside*
+the support triangle, balanced only dynamically, with the centre of pressure 0.3-2.5 mm from
+the triangle's edge. Open-loop position servos cannot catch a body tipping about a support edge
+(`planner.search.support`: the error grows like cosh(t/τ)), so the commanded choice asks the
+planner for a static walk instead of a quadruped-specific constant:
+
+- the template: the robot's default unless that one stands on a support line at some phase
+  (`planner.search.support.support_phases`); then the first offered template that stands on a
+  polygon at every phase with duty `STATIC_DUTY` (a quadruped's walk);
+- duty `STATIC_DUTY` = 0.85: four one-leg swings take 0.6 of the cycle, and the 0.1-cycle
+  all-feet phases between them let the centre of mass cross from one support triangle into
+  the next (at duty 0.75 it would have to jump across the diagonal at one instant);
+- `PlannerOptions.static_margin_leg_lengths` = `STATIC_MARGIN_LEG_LENGTHS`: the centre of mass
+  stays 0.08 L inside the stance polygon at every knot (14 mm on quad12);
+- `PlannerOptions.foot_box_leg_lengths` = `FOOT_BOX_LEG_LENGTHS`: each foot within ±0.15 L of
+  its nominal stance position in the base frame. Without it the plans sheared or turned the
+  footprint about the body (up to 30°, feet 110 mm from nominal) — the entry ramp to such a
+  gait's mean pose twisted the standing robot by 36° before its first step.
+
+Robots whose default is already polygon-supported (hex18's tripod) keep their default gait and
+options: their commanded gaits passed before.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+
 import robots
 from planner.errors import TemplateError
-from planner.templates import GENERIC_TEMPLATES, TEMPLATES, default_gait_for, templates_for
+from planner.nlp.config import PlannerOptions
+from planner.templates import (
+    GENERIC_TEMPLATES,
+    TEMPLATES,
+    default_gait_for,
+    make_schedule,
+    stance_foot_positions_m,
+    templates_for,
+)
+
+STATIC_DUTY = 0.85
+STATIC_MARGIN_LEG_LENGTHS = 0.08
+FOOT_BOX_LEG_LENGTHS = 0.15
 
 
 def default_gait(bot: robots.Robot) -> str:
@@ -27,6 +69,53 @@ def check_gait_fits(bot: robots.Robot, gait: str) -> None:
         raise TemplateError(
             f"--gait {gait}: {what}; {bot.name} has {len(bot.legs)} legs, gaits that fit: "
             + ", ".join(fitting))
+
+
+@dataclass(frozen=True)
+class GaitChoice:
+    """The template, its duty factor (None: the template's) and planner options to plan with."""
+
+    gait: str
+    duty_factor: float | None
+    options: PlannerOptions
+    reason: str
+
+
+def always_on_polygon(bot: robots.Robot, gait: str, duty_factor: float | None = None) -> bool:
+    """Does `gait` stand on a support polygon (≥ 3 non-collinear feet) at every phase?"""
+    from planner.search.support import support_phases
+
+    if len(bot.legs) < 3:  # two feet span a line at best (point feet; soles aside)
+        return False
+    schedule = make_schedule(bot, gait, duty_factor=duty_factor)
+    feet = stance_foot_positions_m(bot)[:, :2]
+    return all(p.kind == "polygon" for p in support_phases(schedule, feet))
+
+
+def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_rad_s: float,
+                   options: PlannerOptions) -> GaitChoice:
+    """The gait `plan` uses for a command (see the module docstring for the measurements).
+
+    Straight commands and an explicit `--gait` keep `options` and the template's duty; a turn
+    or side-step without `--gait` on a robot whose default stands on a line at some phase
+    plans a static walk.
+    """
+    chosen = gait or default_gait(bot)
+    if gait is not None or (vy_m_s == 0.0 and yaw_rate_rad_s == 0.0):
+        return GaitChoice(chosen, None, options, "as asked" if gait else "default")
+    if always_on_polygon(bot, chosen):
+        return GaitChoice(chosen, None, options, "default (always on a support polygon)")
+    static = next((name for name in templates_for(bot)
+                   if always_on_polygon(bot, name, STATIC_DUTY)), None)
+    if static is None:  # bipeds, and robots whose feet never span a polygon
+        return GaitChoice(chosen, None, options, "default (no template stands on a polygon)")
+    return GaitChoice(
+        static, STATIC_DUTY,
+        replace(options, static_margin_leg_lengths=STATIC_MARGIN_LEG_LENGTHS,
+                foot_box_leg_lengths=FOOT_BOX_LEG_LENGTHS),
+        f"static {static} (duty {STATIC_DUTY:g}): {chosen} stands on a support line, which "
+        "open-loop servos cannot balance while turning or side-stepping",
+    )
 
 
 def _leg_counts() -> list[int]:
