@@ -155,12 +155,15 @@ class PlannerOptions:
       support (`planner.search.support`), so commanded walks ask for it
       (`gaitsmith.gait_choice.commanded_gait`). Knots on a line or in flight are not
       constrained.
-    - `foot_box_leg_lengths`: None (default) or b/L > 0: every foot stays within ±b (x and y,
-      base frame) of its nominal stance position at every knot — TOWR's range-of-motion box
-      (Winkler et al. 2018 §III-C). Without it nothing but the weak posture term anchors the
-      footprint to the body, and commanded side-steps and turns came out with the footprint
-      sheared or turned by up to 30° about the body: a gait the entry ramp (`robots.ramp`)
-      reaches only by twisting the standing robot (`gaitsmith.gait_choice.commanded_gait`).
+    - `mean_footprint_leg_lengths`: None (default) or t/L > 0: the cycle mean of every foot's
+      x, y in the base frame (forward kinematics of the joints alone) stays within ±t of its
+      nominal stance position. Without it nothing but the weak posture term anchors the
+      footprint to the body, and commanded side-steps and turns came out with their mean
+      footprint sheared or turned by up to 30° about the body (feet 110 mm from nominal): the
+      entry ramp (`robots.ramp`) goes to the gait's mean pose, so it twisted the standing robot
+      by that much before the first step (`gaitsmith.gait_choice.commanded_gait`). The mean, not
+      every knot (TOWR's range-of-motion box, Winkler et al. 2018), so strides of any length
+      stay possible.
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     """
 
@@ -179,7 +182,7 @@ class PlannerOptions:
     weights: CostWeights = field(default_factory=CostWeights)
     nondimensional: bool = False
     static_margin_leg_lengths: float | None = None
-    foot_box_leg_lengths: float | None = None
+    mean_footprint_leg_lengths: float | None = None
     tol: float = 1e-6
     max_iter: int = 150
     print_level: int = 0
@@ -200,8 +203,8 @@ class PlannerOptions:
             "max_force_body_weights": self.max_force_body_weights > 0,
             "static_margin_leg_lengths": self.static_margin_leg_lengths is None
             or 0 < self.static_margin_leg_lengths < 1,
-            "foot_box_leg_lengths": self.foot_box_leg_lengths is None
-            or 0 < self.foot_box_leg_lengths < 2,
+            "mean_footprint_leg_lengths": self.mean_footprint_leg_lengths is None
+            or 0 < self.mean_footprint_leg_lengths < 2,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
         }
