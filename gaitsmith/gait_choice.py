@@ -23,10 +23,11 @@ planner for a static walk instead of a quadruped-specific constant:
   the next (at duty 0.75 it would have to jump across the diagonal at one instant);
 - `PlannerOptions.static_margin_leg_lengths` = `STATIC_MARGIN_LEG_LENGTHS`: the centre of mass
   stays 0.08 L inside the stance polygon at every knot (14 mm on quad12);
-- `PlannerOptions.foot_box_leg_lengths` = `FOOT_BOX_LEG_LENGTHS`: each foot within ±0.15 L of
-  its nominal stance position in the base frame. Without it the plans sheared or turned the
-  footprint about the body (up to 30°, feet 110 mm from nominal) — the entry ramp to such a
-  gait's mean pose twisted the standing robot by 36° before its first step.
+- `PlannerOptions.mean_footprint_leg_lengths` = `MEAN_FOOTPRINT_LEG_LENGTHS`: the cycle mean of
+  each foot within ±0.05 L of its nominal stance position in the base frame. Without it the
+  plans sheared or turned the footprint about the body (up to 30°, feet 110 mm from nominal)
+  — the entry ramp to such a gait's mean pose twisted the standing robot by 36° before its
+  first step.
 
 Robots whose default is already polygon-supported (hex18's tripod) keep their default gait and
 options: their commanded gaits passed before.
@@ -50,7 +51,7 @@ from planner.templates import (
 
 STATIC_DUTY = 0.85
 STATIC_MARGIN_LEG_LENGTHS = 0.08
-FOOT_BOX_LEG_LENGTHS = 0.15
+MEAN_FOOTPRINT_LEG_LENGTHS = 0.05
 
 
 def default_gait(bot: robots.Robot) -> str:
@@ -112,7 +113,7 @@ def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_
     return GaitChoice(
         static, STATIC_DUTY,
         replace(options, static_margin_leg_lengths=STATIC_MARGIN_LEG_LENGTHS,
-                foot_box_leg_lengths=FOOT_BOX_LEG_LENGTHS),
+                mean_footprint_leg_lengths=MEAN_FOOTPRINT_LEG_LENGTHS),
         f"static {static} (duty {STATIC_DUTY:g}): {chosen} stands on a support line, which "
         "open-loop servos cannot balance while turning or side-stepping",
     )

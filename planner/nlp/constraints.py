@@ -276,28 +276,30 @@ def build_groups(
         ),
         *flat_foot_groups(model, sym, n, options, stick, Group),
         *_static_margin_groups(model, sym, kq, n, options),
-        *_foot_box_groups(model, sym, n, options),
+        *_mean_footprint_groups(model, sym, n, options),
     ]
     return spare_flat_foot_ankles(model, groups, n)
 
 
-def _foot_box_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions
-                     ) -> list[Group]:
-    """Range of motion (`PlannerOptions.foot_box_leg_lengths`): each foot's x, y in the base
-    frame — the forward kinematics of the joints alone, base at the origin and level — within
-    ±b of its nominal stance position (`planner.templates.stance_foot_positions_m`)."""
-    if options.foot_box_leg_lengths is None:
+def _mean_footprint_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions
+                           ) -> list[Group]:
+    """Mean footprint (`PlannerOptions.mean_footprint_leg_lengths`): the cycle mean of each
+    foot's x, y in the base frame — the forward kinematics of the joints alone, base at the
+    origin and level — within ±t of its nominal stance position
+    (`planner.templates.stance_foot_positions_m`)."""
+    if options.mean_footprint_leg_lengths is None:
         return []
     from planner.templates import stance_foot_positions_m
 
     nominal = stance_foot_positions_m(model.robot)
-    box_m = options.foot_box_leg_lengths * model.robot.leg_length_m
+    tol_m = options.mean_footprint_leg_lengths * model.robot.leg_length_m
     feet, _, _ = model.fk.map(n)(ca.DM.zeros(3, n), ca.DM.zeros(3, n), sym.q)
     nf = model.n_feet
-    rows = ca.vertcat(feet[0, :].T, feet[1, :].T)  # 3 × (N·F), knot-major: x rows, then y
-    centre = np.r_[np.tile(nominal[:, 0], n), np.tile(nominal[:, 1], n)]
-    return [Group("foot range of motion", rows, centre - box_m, centre + box_m,
-                  model.robot.leg_length_m)] if nf else []
+    # 3 × (N·F), knot-major: the mean over knots of foot f is the mean of columns f, f+F, …
+    mean = sum((feet[:2, k * nf:(k + 1) * nf] for k in range(n)), ca.MX.zeros(2, nf)) / n
+    centre = np.r_[nominal[:, 0], nominal[:, 1]]
+    return [Group("mean footprint", ca.vertcat(mean[0, :].T, mean[1, :].T), centre - tol_m,
+                  centre + tol_m, model.robot.leg_length_m)]
 
 
 def _static_margin_groups(
@@ -445,8 +447,7 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)
         ],
         "static margin": _static_margin_labels(model, n_knots),
-        "foot range of motion": [f"foot {f} {a}@knot {k}" for a in "xy" for k in range(n_knots)
-                                 for f in feet],
+        "mean footprint": [f"foot {f} mean {a}" for a in "xy" for f in feet],
         **flat_foot_labels(model, n_knots),
     }
 

@@ -7,7 +7,7 @@ import pytest
 
 import robots
 from gaitsmith.gait_choice import (
-    FOOT_BOX_LEG_LENGTHS,
+    MEAN_FOOTPRINT_LEG_LENGTHS,
     STATIC_DUTY,
     STATIC_MARGIN_LEG_LENGTHS,
     always_on_polygon,
@@ -30,7 +30,7 @@ def test_quadrupeds_turn_and_side_step_with_a_static_walk(
     assert always_on_polygon(bot, choice.gait, choice.duty_factor)
     assert not always_on_polygon(bot, "trot")
     assert choice.options.static_margin_leg_lengths == STATIC_MARGIN_LEG_LENGTHS
-    assert choice.options.foot_box_leg_lengths == FOOT_BOX_LEG_LENGTHS
+    assert choice.options.mean_footprint_leg_lengths == MEAN_FOOTPRINT_LEG_LENGTHS
     assert choice.options.mu == 0.4  # the caller's options otherwise
 
 
