@@ -22,7 +22,8 @@ planner for a static walk instead of a quadruped-specific constant:
   all-feet phases between them let the centre of mass cross from one support triangle into
   the next (at duty 0.75 it would have to jump across the diagonal at one instant);
 - `PlannerOptions.static_margin_leg_lengths` = `STATIC_MARGIN_LEG_LENGTHS`: the centre of mass
-  stays 0.08 L inside the stance polygon at every knot (14 mm on quad12);
+  stays 0.05 L inside the stance polygon at every knot (9 mm on quad12; 0.08 L left quad12 82 %
+  of stall torque on the turn in place);
 - `PlannerOptions.mean_footprint_leg_lengths` = `MEAN_FOOTPRINT_LEG_LENGTHS`: the cycle mean of
   each foot within ±0.05 L of its nominal stance position in the base frame. Without it the
   plans sheared or turned the footprint about the body (up to 30°, feet 110 mm from nominal)
@@ -50,7 +51,7 @@ from planner.templates import (
 )
 
 STATIC_DUTY = 0.85
-STATIC_MARGIN_LEG_LENGTHS = 0.08
+STATIC_MARGIN_LEG_LENGTHS = 0.05
 MEAN_FOOTPRINT_LEG_LENGTHS = 0.05
 
 
