@@ -21,6 +21,11 @@ planner for a static walk instead of a quadruped-specific constant:
 - duty `STATIC_DUTY` = 0.85: four one-leg swings take 0.6 of the cycle, and the 0.1-cycle
   all-feet phases between them let the centre of mass cross from one support triangle into
   the next (at duty 0.75 it would have to jump across the diagonal at one instant);
+- the period that keeps the template's swing time, T·(1 − β_template)/(1 − `STATIC_DUTY`)
+  (a quadruped walk: 5·√(L/g)·0.25/0.15 ≈ 8.3·√(L/g), 1.12 s on quad12). At the template's
+  period a duty-0.85 swing lasts 0.1 s on quad12: lifting the foot 25 mm in half of that is
+  about 1 g, and at N = 30 the side-step and the arc (`--vx 0.1 --yaw-rate 0.5`) were
+  infeasible (torque envelope at its limit in 22-28 rows after 150 iterations);
 - `PlannerOptions.static_margin_leg_lengths` = `STATIC_MARGIN_LEG_LENGTHS`: the centre of mass
   stays 0.05 L inside the stance polygon at every knot (9 mm on quad12; 0.08 L left quad12 82 %
   of stall torque on the turn in place);
@@ -81,6 +86,7 @@ class GaitChoice:
     duty_factor: float | None
     options: PlannerOptions
     reason: str
+    period_s: float | None = None  # None: the template's
 
 
 def always_on_polygon(bot: robots.Robot, gait: str, duty_factor: float | None = None) -> bool:
@@ -111,12 +117,15 @@ def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_
                    if always_on_polygon(bot, name, STATIC_DUTY)), None)
     if static is None:  # bipeds, and robots whose feet never span a polygon
         return GaitChoice(chosen, None, options, "default (no template stands on a polygon)")
+    template = make_schedule(bot, static)
+    swing_s = template.period_s * (1.0 - float(template.duty_factor[0]))
     return GaitChoice(
         static, STATIC_DUTY,
         replace(options, static_margin_leg_lengths=STATIC_MARGIN_LEG_LENGTHS,
                 mean_footprint_leg_lengths=MEAN_FOOTPRINT_LEG_LENGTHS),
-        f"static {static} (duty {STATIC_DUTY:g}): {chosen} stands on a support line, which "
-        "open-loop servos cannot balance while turning or side-stepping",
+        f"static {static} (duty {STATIC_DUTY:g}, the template's swing time): {chosen} stands "
+        "on a support line, which open-loop servos cannot balance while turning or side-stepping",
+        swing_s / (1.0 - STATIC_DUTY),
     )
 
 
