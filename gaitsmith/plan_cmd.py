@@ -134,6 +134,7 @@ def plan(
         check_gait_fits(bot, gait)
     if choice.duty_factor is not None and duty is None:
         duty = f"{choice.duty_factor:g}"
+        period = period if period is not None else choice.period_s
         console.print(f"commanded gait: {choice.reason}")
     schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
                                       schedule_file=schedule_file, period_s=period)
