@@ -15,9 +15,13 @@ the triangle's edge. Open-loop position servos cannot catch a body tipping about
 (`planner.search.support`: the error grows like cosh(t/τ)), so the commanded choice asks the
 planner for a static walk instead of a quadruped-specific constant:
 
-- the template: the robot's default unless that one stands on a support line at some phase
-  (`planner.search.support.support_phases`); then the first offered template that stands on a
-  polygon at every phase with duty `STATIC_DUTY` (a quadruped's walk);
+- the template: the robot's default unless that one stands on a support line for longer than
+  `LINE_RUN_TAU_FRACTION`·τ at a time (`planner.search.support.line_support_durations_s`, τ the
+  inverted-pendulum time √(h/g)): a tipping error grows by cosh(T/τ), 13 % over τ/2. The quad12,
+  spotmicro and bittle8 trots stand on a diagonal for 1.35 τ (×2.1); star5's ripple for
+  0.14 τ at a time, and it turns in place in MuJoCo (0.604 of 0.6 rad/s, PASS) — the static wave
+  the choice would give it is infeasible (torque envelope). Then the first offered template
+  that stands on a polygon at every phase with duty `STATIC_DUTY` (a quadruped's walk);
 - duty `STATIC_DUTY` = 0.85: four one-leg swings take 0.6 of the cycle, and the 0.1-cycle
   all-feet phases between them let the centre of mass cross from one support triangle into
   the next (at duty 0.75 it would have to jump across the diagonal at one instant);
@@ -35,8 +39,8 @@ planner for a static walk instead of a quadruped-specific constant:
   — the entry ramp to such a gait's mean pose twisted the standing robot by 36° before its
   first step.
 
-Robots whose default is already polygon-supported (hex18's tripod) keep their default gait and
-options: their commanded gaits passed before.
+Robots whose default does not stand on a line for long (hex18's tripod, star5's ripple) keep
+their default gait and options: their commanded gaits passed before.
 """
 
 from __future__ import annotations
@@ -56,6 +60,7 @@ from planner.templates import (
 )
 
 STATIC_DUTY = 0.85
+LINE_RUN_TAU_FRACTION = 0.5
 STATIC_MARGIN_LEG_LENGTHS = 0.05
 MEAN_FOOTPRINT_LEG_LENGTHS = 0.05
 
@@ -100,19 +105,30 @@ def always_on_polygon(bot: robots.Robot, gait: str, duty_factor: float | None = 
     return all(p.kind == "polygon" for p in support_phases(schedule, feet))
 
 
+def tips_on_a_line(bot: robots.Robot, gait: str) -> bool:
+    """Does `gait` stand on a support line for longer than `LINE_RUN_TAU_FRACTION`·τ at a time?"""
+    from planner.search.support import line_support_durations_s, tipping_time_constant_s
+
+    if len(bot.legs) < 3:
+        return True
+    tau = tipping_time_constant_s(float(bot.stance_base_height_m))
+    runs = line_support_durations_s(make_schedule(bot, gait), stance_foot_positions_m(bot))
+    return any(run > LINE_RUN_TAU_FRACTION * tau for run in runs)
+
+
 def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_rad_s: float,
                    options: PlannerOptions) -> GaitChoice:
     """The gait `plan` uses for a command (see the module docstring for the measurements).
 
     Straight commands and an explicit `--gait` keep `options` and the template's duty; a turn
-    or side-step without `--gait` on a robot whose default stands on a line at some phase
-    plans a static walk.
+    or side-step without `--gait` on a robot whose default stands on a support line for long
+    (`tips_on_a_line`) plans a static walk.
     """
     chosen = gait or default_gait(bot)
     if gait is not None or (vy_m_s == 0.0 and yaw_rate_rad_s == 0.0):
         return GaitChoice(chosen, None, options, "as asked" if gait else "default")
-    if always_on_polygon(bot, chosen):
-        return GaitChoice(chosen, None, options, "default (always on a support polygon)")
+    if not tips_on_a_line(bot, chosen):
+        return GaitChoice(chosen, None, options, "default (no long support-line phase)")
     static = next((name for name in templates_for(bot)
                    if always_on_polygon(bot, name, STATIC_DUTY)), None)
     if static is None:  # bipeds, and robots whose feet never span a polygon

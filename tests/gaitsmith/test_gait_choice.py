@@ -12,6 +12,7 @@ from gaitsmith.gait_choice import (
     STATIC_MARGIN_LEG_LENGTHS,
     always_on_polygon,
     commanded_gait,
+    tips_on_a_line,
 )
 from planner.nlp.config import PlannerOptions
 from tests.zoo.fixtures import ZOO
@@ -28,7 +29,7 @@ def test_quadrupeds_turn_and_side_step_with_a_static_walk(
     choice = commanded_gait(bot, None, vy, yaw_rate, OPTIONS)
     assert choice.gait.endswith("walk") and choice.duty_factor == STATIC_DUTY
     assert always_on_polygon(bot, choice.gait, choice.duty_factor)
-    assert not always_on_polygon(bot, "trot")
+    assert not always_on_polygon(bot, "trot") and tips_on_a_line(bot, "trot")
     assert choice.options.static_margin_leg_lengths == STATIC_MARGIN_LEG_LENGTHS
     assert choice.options.mean_footprint_leg_lengths == MEAN_FOOTPRINT_LEG_LENGTHS
     assert choice.options.mu == 0.4  # the caller's options otherwise
@@ -42,6 +43,12 @@ def test_straight_explicit_and_polygon_gaits_are_kept() -> None:
     assert (asked.gait, asked.duty_factor, asked.options) == ("trot", None, OPTIONS)
     tripod = commanded_gait(hexa, None, 0.0, 0.6, OPTIONS)  # three feet down at every phase
     assert (tripod.gait, tripod.duty_factor, tripod.options) == ("tripod", None, OPTIONS)
+    # star5's ripple stands on two feet for 0.14 τ at a time: short enough, and it turns in
+    # MuJoCo; the static wave would not even plan
+    star = robots.load(ZOO / "star5")
+    assert not always_on_polygon(star, "ripple") and not tips_on_a_line(star, "ripple")
+    ripple = commanded_gait(star, None, 0.0, 0.6, OPTIONS)
+    assert (ripple.gait, ripple.duty_factor, ripple.options) == ("ripple", None, OPTIONS)
 
 
 def test_bipeds_never_count_as_on_a_polygon() -> None:
