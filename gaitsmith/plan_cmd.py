@@ -23,7 +23,7 @@ from rich.table import Table
 import robots
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
-from gaitsmith.gait_choice import check_gait_fits, default_gait
+from gaitsmith.gait_choice import check_gait_fits, commanded_gait, default_gait
 from gaitsmith.options import (
     MAX_PERIOD_S,
     check_cycles,
@@ -141,13 +141,20 @@ def plan(
     if search:
         _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v)
         return
-    gait = gait or default_gait(bot)
-    if phases is None and schedule_file is None:
+    custom = phases is not None or schedule_file is not None
+    # --phases/--schedule replace the template: as explicit a choice as --gait
+    choice = commanded_gait(bot, gait or (default_gait(bot) if custom else None), vy, yaw_rate,
+                            PlannerOptions(mu=mu, print_level=5 if verbose else 0,
+                                           servo_settings=servo_settings))
+    gait, options = choice.gait, choice.options
+    if not custom:
         check_gait_fits(bot, gait)
+    if choice.duty_factor is not None and duty is None:
+        duty = f"{choice.duty_factor:g}"
+        period = period if period is not None else choice.period_s
+        console.print(f"commanded gait: {choice.reason}")
     schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
                                       schedule_file=schedule_file, period_s=period)
-    options = PlannerOptions(mu=mu, print_level=5 if verbose else 0,
-                             servo_settings=servo_settings)
     command = f"{speed:.3f} m/s" + (
         f", vy {vy:+.3f} m/s, yaw rate {yaw_rate:+.3f} rad/s" if vy or yaw_rate else "")
     console.print(

@@ -149,6 +149,22 @@ class PlannerOptions:
       the cap, + posture and limit margins 280, + clearances ∝ L 212, all templates feasible.
       Forces are already in body weights and the servo rows in fractions of the servo's
       limits, and IPOPT's gradient-based row scaling covers the rest.
+    - `static_margin_leg_lengths`: None (default) or d/L > 0: at every knot whose stance feet
+      span a polygon, the ground projection of the centre of mass stays at least d = this × L
+      inside it (`planner.search.support.polygon_edges`; the static stability margin of a
+      crawl). Open-loop position servos cannot catch a body balanced dynamically outside its
+      support (`planner.search.support`), so commanded walks ask for it
+      (`gaitsmith.gait_choice.commanded_gait`). Knots on a line or in flight are not
+      constrained.
+    - `mean_footprint_leg_lengths`: None (default) or t/L > 0: the cycle mean of every foot's
+      x, y in the base frame (forward kinematics of the joints alone) stays within ±t of its
+      nominal stance position. Without it nothing but the weak posture term anchors the
+      footprint to the body, and commanded side-steps and turns came out with their mean
+      footprint sheared or turned by up to 30° about the body (feet 110 mm from nominal): the
+      entry ramp (`robots.ramp`) goes to the gait's mean pose, so it twisted the standing robot
+      by that much before the first step (`gaitsmith.gait_choice.commanded_gait`). The mean, not
+      every knot (TOWR's range-of-motion box, Winkler et al. 2018), so strides of any length
+      stay possible.
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     """
 
@@ -167,6 +183,8 @@ class PlannerOptions:
     vertical_contact_transitions: bool = True
     weights: CostWeights = field(default_factory=CostWeights)
     nondimensional: bool = False
+    static_margin_leg_lengths: float | None = None
+    mean_footprint_leg_lengths: float | None = None
     tol: float = 1e-6
     max_iter: int = 150
     print_level: int = 0
@@ -185,6 +203,10 @@ class PlannerOptions:
             "joint_limit_margin_rad": 0 <= self.joint_limit_margin_rad < 0.5,
             "joint_limit_margin_fraction": 0 <= self.joint_limit_margin_fraction <= 0.25,
             "max_force_body_weights": self.max_force_body_weights > 0,
+            "static_margin_leg_lengths": self.static_margin_leg_lengths is None
+            or 0 < self.static_margin_leg_lengths < 1,
+            "mean_footprint_leg_lengths": self.mean_footprint_leg_lengths is None
+            or 0 < self.mean_footprint_leg_lengths < 2,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
         }

@@ -279,8 +279,70 @@ def build_groups(
             zeros(2),
         ),
         *flat_foot_groups(model, sym, n, options, stick, Group),
+        *_static_margin_groups(model, sym, kq, n, options),
+        *_mean_footprint_groups(model, sym, n, options),
     ]
     return spare_flat_foot_ankles(model, groups, n)
+
+
+def _mean_footprint_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions
+                           ) -> list[Group]:
+    """Mean footprint (`PlannerOptions.mean_footprint_leg_lengths`): the cycle mean of each
+    foot's x, y in the base frame — the forward kinematics of the joints alone, base at the
+    origin and level — within ±t of its nominal stance position
+    (`planner.templates.stance_foot_positions_m`)."""
+    if options.mean_footprint_leg_lengths is None:
+        return []
+    from planner.templates import stance_foot_positions_m
+
+    nominal = stance_foot_positions_m(model.robot)
+    tol_m = options.mean_footprint_leg_lengths * model.robot.leg_length_m
+    feet, _, _ = model.fk.map(n)(ca.DM.zeros(3, n), ca.DM.zeros(3, n), sym.q)
+    nf = model.n_feet
+    # 3 × (N·F), knot-major: the mean over knots of foot f is the mean of columns f, f+F, …
+    mean = sum((feet[:2, k * nf:(k + 1) * nf] for k in range(n)), ca.MX.zeros(2, nf)) / n
+    centre = np.r_[nominal[:, 0], nominal[:, 1]]
+    return [Group("mean footprint", ca.vertcat(mean[0, :].T, mean[1, :].T), centre - tol_m,
+                  centre + tol_m, model.robot.leg_length_m)]
+
+
+def _static_margin_groups(
+    model: RobotModel, sym: Symbols, kq: KnotQuantities, n: int, options: PlannerOptions
+) -> list[Group]:
+    """Static stability margin (`PlannerOptions.static_margin_leg_lengths`): at every knot the
+    ground projection c of the centre of mass lies at least d inside each edge i → j of the
+    stance polygon, cross(p_j − p_i, c − p_i) ≥ d·|p_j − p_i| with the knot's own foot
+    positions p. Which pairs are edges follows from the contact parameters C
+    (`planner.search.support.PolygonEdge`): the row of edge e at knot k is multiplied by
+    C_i·C_j·Π_between(1 − C_l)·(1 − Π_beyond(1 − C_l)), 1 exactly when i → j is an edge of a
+    polygon of ≥ 3 feet, so line, single-foot and flight knots have no rows in force and one
+    build still serves every schedule.
+    """
+    if options.static_margin_leg_lengths is None:
+        return []
+    from planner.search.support import polygon_edges
+    from planner.templates import stance_foot_positions_m
+
+    margin_m = options.static_margin_leg_lengths * model.robot.leg_length_m
+    edges = polygon_edges(stance_foot_positions_m(model.robot)[:, :2])
+    _, _, com = model.fk.map(n)(sym.base[:3, :], sym.base[3:, :], sym.q)
+    c = sym.contact
+    fx, fy = kq.feet_m[0::3, :], kq.feet_m[1::3, :]
+    rows = []
+    for e in edges:
+        active = c[e.i, :] * c[e.j, :]
+        for f in e.between:
+            active = active * (1 - c[f, :])
+        lone = ca.MX.ones(1, n)
+        for f in e.beyond:
+            lone = lone * (1 - c[f, :])
+        active = active * (1 - lone)
+        ux, uy = fx[e.j, :] - fx[e.i, :], fy[e.j, :] - fy[e.i, :]
+        cross = ux * (com[1, :] - fy[e.i, :]) - uy * (com[0, :] - fx[e.i, :])
+        rows.append(active * (cross - margin_m * ca.sqrt(ux * ux + uy * uy + 1e-12)))
+    length = model.robot.leg_length_m
+    return [Group("static margin", ca.vec(ca.vertcat(*rows).T), np.zeros(len(edges) * n),
+                  np.full(len(edges) * n, np.inf), length * length)]
 
 
 def row_scales(groups: list[Group]) -> np.ndarray:
@@ -388,5 +450,16 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         "body clearance": [
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)
         ],
+        "static margin": _static_margin_labels(model, n_knots),
+        "mean footprint": [f"foot {f} mean {a}" for a in "xy" for f in feet],
         **flat_foot_labels(model, n_knots),
     }
+
+
+def _static_margin_labels(model: RobotModel, n_knots: int) -> list[str]:
+    from planner.search.support import polygon_edges
+    from planner.templates import stance_foot_positions_m
+
+    feet = model.robot.foot_names
+    edges = polygon_edges(stance_foot_positions_m(model.robot)[:, :2])
+    return [f"edge {feet[e.i]}-{feet[e.j]}@knot {k}" for e in edges for k in range(n_knots)]

@@ -131,6 +131,60 @@ def line_support_durations_s(schedule: ContactSchedule, feet_xy_m: np.ndarray) -
     return runs
 
 
+@dataclass(frozen=True)
+class PolygonEdge:
+    """A possible edge i → j of a stance polygon, feet in counter-clockwise order.
+
+    It is an edge of the stance set S exactly when i, j ∈ S, no foot of `between` (those after
+    i and before j going counter-clockwise) is in S, and some foot of `beyond` (the rest, after
+    j and before i) is: then S has ≥ 3 feet and lies on the left of i → j.
+    """
+
+    i: int
+    j: int
+    between: tuple[int, ...]
+    beyond: tuple[int, ...]
+
+    def active(self, stance: np.ndarray) -> bool:
+        """Is this an edge of the polygon of the stance feet `stance` (F booleans)?"""
+        s = np.asarray(stance, dtype=bool)
+        return bool(s[self.i] and s[self.j] and not s[list(self.between)].any()
+                    and s[list(self.beyond)].any())
+
+
+def polygon_edges(feet_xy_m: np.ndarray) -> tuple[PolygonEdge, ...]:
+    """Every ordered pair of feet as a `PolygonEdge`, the feet ordered counter-clockwise by
+    their angle about the centroid of `feet_xy_m` (F × 2, nominal stance, body frame).
+
+    The order is that of the nominal footprint, so the edges are exact while the feet stay in
+    convex position around the body (legs do not cross); a stance set of collinear feet has
+    edges both ways and no interior (the planner constrains polygon knots only).
+    """
+    xy = np.asarray(feet_xy_m, dtype=float)[:, :2]
+    centre = xy.mean(axis=0)
+    order = [int(f) for f in np.argsort(np.arctan2(xy[:, 1] - centre[1], xy[:, 0] - centre[0]))]
+    n = len(order)
+    edges = []
+    for a in range(n):
+        for step in range(1, n):
+            b = (a + step) % n
+            between = tuple(order[(a + s) % n] for s in range(1, step))
+            beyond = tuple(order[(b + s) % n] for s in range(1, n - step))
+            edges.append(PolygonEdge(order[a], order[b], between, beyond))
+    return tuple(edges)
+
+
+def static_margin_m(com_xy_m: np.ndarray, feet_xy_m: np.ndarray, stance: np.ndarray,
+                    edges: tuple[PolygonEdge, ...]) -> float | None:
+    """Signed distance of the CoM inside the polygon of the stance feet (None: no polygon)."""
+    com, xy = np.asarray(com_xy_m, dtype=float), np.asarray(feet_xy_m, dtype=float)[:, :2]
+    best: float | None = None
+    for e in edges:
+        if e.active(stance):
+            u, v = xy[e.j] - xy[e.i], com - xy[e.i]
+            d = float(u[0] * v[1] - u[1] * v[0]) / float(np.hypot(*u))
+            best = d if best is None else min(best, d)
+    return best
 
 
 @dataclass(frozen=True)
@@ -167,9 +221,12 @@ class TippingCost:
 
 __all__ = [
     "LINE_AREA_FRACTION",
+    "PolygonEdge",
     "SupportPhase",
     "TippingCost",
     "line_support_durations_s",
+    "polygon_edges",
+    "static_margin_m",
     "support_phases",
     "tipping_amplification",
     "tipping_time_constant_s",

@@ -183,3 +183,18 @@ def test_the_slip_limit_scales_with_leg_length(quad: Robot) -> None:
     lax = {n: ok for n, ok, _ in judge(m, PassCriteria(max_mean_slip_m=0.02),
                                        star5.leg_length_m)}["foot slip"]
     assert m.slip_mean_m > 0.007 and not slip and lax
+
+
+def test_a_fast_turn_is_judged_by_its_yaw_rate_not_again_by_its_speed(quad: Robot) -> None:
+    """Walking at the commanded speed on an arc 12 % tighter than commanded: the yaw-rate check
+    holds (15 %) and the speed along the robot's own heading is the commanded one. Against the
+    commanded heading the error would grow with the run (here 0.036·5 s = 0.18 rad, and 2 rad
+    over quad12's 20 cycles of 1.1 s)."""
+    rate = 0.3
+    gait = _walking_gait(quad, Velocity(vx_m_s=SPEED_M_S, yaw_rate_rad_s=rate))
+    traj = _walk(quad, math.radians(10.0), turn_rate_rad_s=1.12 * rate)
+    sim = build_sim_model(quad, SimConditions())
+    m, _ = compute(traj, gait, sim)
+    assert m.achieved_speed_m_s == pytest.approx(SPEED_M_S, rel=1e-3)
+    assert m.achieved_yaw_rate_rad_s == pytest.approx(1.12 * rate, rel=1e-2)
+    assert "speed" not in _failed(quad, traj, gait)

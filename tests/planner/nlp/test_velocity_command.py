@@ -197,3 +197,49 @@ def test_bad_commands_are_config_errors(quad_planner_n12: GaitPlanner) -> None:
     for vy, w in ((math.nan, 0.0), (11.0, 0.0), (0.0, math.inf), (0.0, 4.0 / schedule.period_s)):
         with pytest.raises(PlannerConfigError):
             quad_planner_n12.solve(schedule, 0.1, vy_m_s=vy, yaw_rate_rad_s=w)
+
+
+@pytest.mark.slow
+def test_static_margin_and_mean_footprint_rows_by_hand() -> None:
+    """The commanded walk's rows (`PlannerOptions.static_margin_leg_lengths`,
+    `mean_footprint_leg_lengths`) against numpy: the CoM's distance inside each active edge of
+    the stance polygon minus the margin, times the edge length; the mean base-frame foot x, y."""
+    import mujoco
+
+    from planner.nlp.config import PlannerOptions
+    from planner.search.support import polygon_edges
+    from planner.templates import stance_foot_positions_m
+
+    bot = robots.load("quad12")
+    options = PlannerOptions(static_margin_leg_lengths=0.08, mean_footprint_leg_lengths=0.05)
+    planner = GaitPlanner(bot, n_knots=12, options=options)
+    schedule = make_schedule(bot, "walk", duty_factor=0.85)
+    n = planner.n_knots
+    p = parameter_vector(schedule, n, 0.0, planner.swing_clearance_m, 0.05, 0.3)
+    x = initial_guess(planner.layout, planner.model, schedule)
+    x = x + 0.02 * np.random.default_rng(3).normal(size=x.size)
+    base, q, _ = planner.layout.unpack(x)
+    mj = planner.model.mj_model
+    data = mujoco.MjData(mj)
+    root = int(mj.jnt_bodyid[0])
+    edges = polygon_edges(stance_foot_positions_m(bot)[:, :2])
+    contact = schedule.contact_matrix(n)
+    margin_m = 0.08 * bot.leg_length_m
+    expected = np.zeros((len(edges), n))
+    for k in range(n):
+        data.qpos[:] = planner.model.mujoco_qpos(base[k], q[k])
+        mujoco.mj_kinematics(mj, data)
+        mujoco.mj_comPos(mj, data)
+        com = data.subtree_com[root][:2]
+        feet = np.asarray(planner.model.fk(base[k, :3], base[k, 3:], q[k])[0])[:2].T
+        for e_index, e in enumerate(edges):
+            if e.active(contact[k]):
+                u, v = feet[e.j] - feet[e.i], com - feet[e.i]
+                expected[e_index, k] = u[0] * v[1] - u[1] * v[0] - margin_m * np.hypot(*u)
+    assert np.count_nonzero(expected) >= 3 * n  # three or four edges at every knot
+    assert _rows(planner, x, p, "static margin") == pytest.approx(expected.ravel(), abs=1e-9)
+    body = np.array([np.asarray(planner.model.fk(np.zeros(3), np.zeros(3), qk)[0])[:2].T
+                     for qk in q])  # N × F × 2, base frame
+    mean = body.mean(axis=0)
+    assert _rows(planner, x, p, "mean footprint") == pytest.approx(
+        np.r_[mean[:, 0], mean[:, 1]], abs=1e-12)

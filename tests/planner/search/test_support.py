@@ -86,3 +86,27 @@ def test_tipping_cost_scales_and_validates(quad: robots.Robot) -> None:
         TippingCost.for_robot(quad, -1.0)
     with pytest.raises(ValueError, match="CoM height"):
         tipping_time_constant_s(0.0)
+
+
+def test_polygon_edges_of_a_rectangle_by_hand() -> None:
+    """Feet fl, fr, hl, hr at (±0.1, ±0.1): each stance set's edges run counter-clockwise."""
+    from planner.search.support import polygon_edges, static_margin_m
+
+    xy = np.array([[0.1, 0.1], [0.1, -0.1], [-0.1, 0.1], [-0.1, -0.1]])
+    edges = polygon_edges(xy)
+    assert len(edges) == 12  # every ordered pair
+
+    def active(stance: list[int]) -> set[tuple[int, int]]:
+        return {(e.i, e.j) for e in edges if e.active(np.array(stance, dtype=bool))}
+
+    assert active([1, 1, 1, 1]) == {(3, 1), (1, 0), (0, 2), (2, 3)}
+    assert active([1, 1, 1, 0]) == {(1, 0), (0, 2), (2, 1)}  # hr swings: fr → hl closes it
+    assert active([1, 0, 0, 1]) == set()  # a diagonal is no polygon
+    assert active([0, 0, 0, 0]) == set()
+    centre = np.zeros(2)
+    assert static_margin_m(centre, xy, np.ones(4), edges) == pytest.approx(0.1)
+    # on the diagonal of a triangle: margin 0; 5 cm towards the swinging foot: outside
+    assert static_margin_m(centre, xy, np.array([1, 1, 1, 0]), edges) == pytest.approx(0.0)
+    assert static_margin_m(np.array([-0.05, -0.05]), xy, np.array([1, 1, 1, 0]),
+                           edges) == pytest.approx(-0.05 * math.sqrt(2))
+    assert static_margin_m(centre, xy, np.array([1, 0, 0, 1]), edges) is None
