@@ -2,6 +2,10 @@
 
 The run starts at rest in the nominal stance on flat ground, holds, ramps in the way the player
 does (`robots.ramp`), then plays `cycles` gait cycles streamed at `rate_hz` with `latency_s`.
+Like the player it can hold the gait's stand (its mean pose) for `stand_s` after the ramp-in and,
+with `end_at_stand`, end the way a completed run ends on the servos: the gait blended out to
+the stand and the stand held `stand_s` (the steady-cycle metrics stop at the last cycle; heading,
+path and falls cover the ending too).
 Metrics (see `sim.metrics`): heading and path over the whole run in the world frame from the rest
 pose, the rest over the steady cycles; the verdict applies `PassCriteria`.
 """
@@ -10,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -246,10 +250,13 @@ def simulate(
     progress: Progress | None = None,
     criteria: PassCriteria = PassCriteria(),
     stop_on_fall: bool = True,
+    stand_s: float = 0.0,
+    end_at_stand: bool = False,
 ) -> tuple[SimModel, Trajectory]:
     """Build the model and run the gait (no verdict); see `validate`."""
     gait.check_robot(robot)
-    settings = RunSettings(cycles=cycles, rate_hz=rate_hz, latency_s=latency_s)
+    settings = RunSettings(cycles=cycles, rate_hz=rate_hz, latency_s=latency_s,
+                           stand_s=stand_s, end_at_stand=end_at_stand)
     sim = build_sim_model(
         robot, SimConditions(friction=friction, payload_kg=payload_kg, strength=strength)
     )
@@ -290,8 +297,11 @@ def validate(
     progress: Progress | None = None,
     criteria: PassCriteria = PassCriteria(),
     keep_trajectory: bool = True,
+    stand_s: float = 0.0,
+    end_at_stand: bool = False,
 ) -> ValidationResult:
-    """Simulate `cycles` cycles of `gait` on `robot` and return metrics + verdict."""
+    """Simulate `cycles` cycles of `gait` on `robot` and return metrics + verdict (`stand_s`,
+    `end_at_stand`: start and end at the gait's stand, see the module docstring)."""
     if cycles <= criteria.warmup_cycles:
         raise SimConfigError(
             f"cycles must exceed the {criteria.warmup_cycles} warm-up cycles, got {cycles}"
@@ -307,8 +317,10 @@ def validate(
         strength=strength,
         progress=progress,
         criteria=criteria,
+        stand_s=stand_s,
+        end_at_stand=end_at_stand,
     )
-    return evaluate(
+    result = evaluate(
         traj,
         gait,
         sim,
@@ -317,6 +329,11 @@ def validate(
         latency_s=latency_s,
         keep_trajectory=keep_trajectory,
     )
+    if stand_s or end_at_stand:
+        extra: dict[str, float | int | None] = {"stand_s": stand_s,
+                                                 "end_at_stand": int(end_at_stand)}
+        result = replace(result, conditions={**result.conditions, **extra})
+    return result
 
 
 def evaluate(
