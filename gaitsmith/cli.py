@@ -31,6 +31,8 @@ _COMMAND_MODULES = (
     "gaitsmith.simulate_cmd",
     "gaitsmith.sweep_cmd",
     "gaitsmith.retarget_cmd",
+    "gaitsmith.identify_cmd",
+    "gaitsmith.library_cmd",
 )
 for _name in _COMMAND_MODULES:
     try:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import typer
@@ -49,6 +50,7 @@ from planner.nlp.config import DEFAULT_FROUDE, PlannerOptions, default_speed_m_s
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
+from robots.servo_params import ServoSetting
 from robots.voltage import nominal_supply_v, robot_at_voltage, voltage_margin
 
 DEFAULT_CYCLES = 20  # simulated cycles of a stepping gait (--simulate)
@@ -117,6 +119,11 @@ def plan(
         help="servo supply voltage [V]: plan within the torque–speed envelope at this voltage "
         "(∝ V/V_nominal; default: the servos' nominal voltage)",
     ),
+    servo_params_path: Path | None = typer.Option(
+        None, "--servo-params",
+        help="identified servos (servo_params.toml of `gaitsmith identify`): the servo goals "
+        "use each joint's fitted gain, strength and latency; --simulate simulates them",
+    ),
 ) -> None:
     """Plan one efficient cyclic gait (W&P 2009 spacetime optimisation) and write the gait file."""
     settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
@@ -131,7 +138,16 @@ def plan(
     check_yaw_rate("--yaw-rate", yaw_rate, bot)
     check_supply_v("--supply-v", supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
-    supply_meta = None if supply_v is None else {"supply_v": supply_v}
+    supply_meta: dict[str, Any] | None = None if supply_v is None else {"supply_v": supply_v}
+    servo_settings = None
+    if servo_params_path is not None:
+        if search:
+            raise OptionError("--servo-params: not with --search yet; plan the chosen gait "
+                              "without --search to use the identified servos")
+        from robots import servo_params
+
+        servo_settings = servo_params.load(servo_params_path).for_robot(bot)
+        supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
     if search:
         _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v)
         return
@@ -141,7 +157,8 @@ def plan(
         check_gait_fits(bot, gait)
     schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
                                       schedule_file=schedule_file, period_s=period)
-    options = PlannerOptions(mu=mu, print_level=5 if verbose else 0)
+    options = PlannerOptions(mu=mu, print_level=5 if verbose else 0,
+                             servo_settings=servo_settings)
     command = f"{speed:.3f} m/s" + (
         f", vy {vy:+.3f} m/s, yaw rate {yaw_rate:+.3f} rad/s" if vy or yaw_rate else "")
     console.print(
@@ -166,7 +183,7 @@ def plan(
             result.binding,
         )
     gait_obj = planner.to_gait(result, gait, extra_metadata=supply_meta)
-    _write(gait_obj, bot, output, simulate, cycles)
+    _write(gait_obj, bot, output, simulate, cycles, servo_settings)
 
 
 def _standing(vx: float, vy: float, yaw_rate: float, duty: str | None, phases: str | None,
@@ -229,7 +246,7 @@ def simulated_cycles(gait_obj: robots.Gait, cycles: int | None) -> tuple[int, st
 
 
 def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,
-           cycles: int | None) -> None:
+           cycles: int | None, servo_settings: tuple[ServoSetting, ...] | None = None) -> None:
     if simulate:
         from sim.metrics import steady_mask  # lazy: MuJoCo only on request
         from sim.thermal_report import predict_from_trajectory
@@ -237,7 +254,7 @@ def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: boo
 
         n_cycles, what = simulated_cycles(gait_obj, cycles)
         with console.status(f"validating in MuJoCo ({what})…"):
-            result = validate(gait_obj, bot, n_cycles)
+            result = validate(gait_obj, bot, n_cycles, servo_settings=servo_settings)
         assert result.trajectory is not None  # validate keeps it by default
         thermal = predict_from_trajectory(result.trajectory, bot,
                                           warmup_cycles=result.criteria.warmup_cycles)

@@ -162,6 +162,11 @@ def simulate_command(
     end_at_stand: bool = typer.Option(
         False, "--end-at-stand", help="after the cycles, blend the gait out to its stand the "
         "way a completed gaitsmith-play run ends"),
+    servo_params_path: Path | None = typer.Option(
+        None, "--servo-params",
+        help="identified servos (servo_params.toml of `gaitsmith identify`): each joint's gain, "
+        "strength and goal latency instead of the catalogue's",
+    ),
 ) -> None:
     """Simulate a gait in MuJoCo with servo actuators; exit 0 if it passes, 1 if it fails."""
     check_cycles("--cycles", cycles)
@@ -192,6 +197,12 @@ def simulate_command(
         console.print(f"supply {supply_v:g} V (the voltage the gait was planned at)")
     check_supply_v(source, supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
+    servo_settings = None
+    if servo_params_path is not None:
+        from robots import servo_params
+
+        servo_settings = servo_params.load(servo_params_path).for_robot(bot)
+        console.print(f"servos: as identified in {servo_params_path}", highlight=False)
     criteria = PassCriteria()
     with Progress(
         TextColumn("[bold]simulating"),
@@ -215,6 +226,7 @@ def simulate_command(
             criteria=criteria,
             stand_s=stand_s,
             end_at_stand=end_at_stand,
+            servo_settings=servo_settings,
         )
     result = evaluate(traj, gait, sim, criteria, rate_hz=rate_hz, latency_s=latency_ms / 1000.0)
     console.print(_metrics_table(result))
@@ -285,6 +297,8 @@ def simulate_command(
         block = result.to_dict()
         block["thermal"] = thermal.to_dict()
         block["supply"] = margin.to_dict()  # the simulated peak torques, for pre-flight
+        if servo_params_path is not None:
+            block["servo_params"] = str(servo_params_path)
         gait_io.save(gait.with_validation(block), gait_path)
         console.print(f"validation written to {gait_path}")
     verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"

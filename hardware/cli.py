@@ -1,9 +1,10 @@
 """`gaitsmith-play`: servo-side commands (scan a bus, serve a virtual bus; the player adds more).
 
-Run as `gaitsmith-play run` (or `python -m hardware.cli run`), this module first latches the
-stop signals (SIGINT, SIGTERM, SIGHUP, SIGQUIT; `hardware.play.watchdog.latch_stop_signals`) before
-it loads the rest, so a signal that arrives while the command starts up becomes the player's
-stop request instead of killing it half-way; see `hardware.play.commands` for what each signal does.
+Run as `gaitsmith-play run` or `drive` (or `python -m hardware.cli run`), this module first
+latches the stop signals (SIGINT, SIGTERM, SIGHUP, SIGQUIT;
+`hardware.play.watchdog.latch_stop_signals`) before it loads the rest, so a signal that arrives
+while the command starts up becomes the player's stop request instead of killing it half-way;
+see `hardware.play.commands` for what each signal does.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import time
 from hardware.play.watchdog import STOP_SIGNALS, latch_stop_signals
 
 _AS_COMMAND = __name__ == "__main__" or os.path.basename(sys.argv[0]) == "gaitsmith-play"
-_LATCHED = _AS_COMMAND and sys.argv[1:2] == ["run"]
+_LATCHED = _AS_COMMAND and sys.argv[1:2] in (["run"], ["drive"], ["identify"])
 if _LATCHED:
     latch_stop_signals()  # before typer / rich / the player load (tenths of a second)
 from enum import Enum  # noqa: E402 (after the latch)
@@ -206,6 +207,10 @@ def virtual_bus(
 from hardware.play.commands import register as _register_player  # noqa: E402
 
 _register_player(app)
+
+from hardware.play.identify import register as _register_identify  # noqa: E402
+
+_register_identify(app)
 
 
 def main() -> None:

@@ -44,7 +44,7 @@ from scipy.optimize import linear_sum_assignment
 
 from planner.errors import PlannerError
 from planner.nlp.config import PlannerOptions
-from planner.nlp.servo_loop import factory_servo_loops, servo_goals_rad
+from planner.nlp.servo_loop import servo_goals_rad, servo_loops
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.templates import stance_foot_positions_m
 from robots import ContactSchedule, Gait, Robot
@@ -286,7 +286,7 @@ def warm_start(motion: Motion, planner: GaitPlanner) -> WarmStart:
     slopes = np.zeros_like(motion.joint_angles_rad)
     if planner.options.servo_goals:  # knot slopes of the spline through the servo goals
         goals = servo_goals_rad(motion.joint_angles_rad, vel[:, 6:], motion.joint_torques_nm,
-                                factory_servo_loops(planner.robot))
+                                servo_loops(planner.robot, planner.options.servo_settings))
         slopes = PeriodicSpline(goals).derivative(np.arange(n) / n) / motion.schedule.period_s
     lifted = np.concatenate(
         [vel.ravel(), acc.ravel(), motion.joint_torques_nm.ravel(), slopes.ravel()]

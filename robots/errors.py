@@ -32,3 +32,8 @@ class OutputWriteError(RobotsError, OSError):
 
     Also an `OSError`, so code that caught the plain `OSError` of a failed write still does.
     """
+
+
+class LibraryFileError(GaitFileError):
+    """A gait-library file is malformed, inconsistent, or does not match the robot it is used
+    with (a `GaitFileError`, so code that refuses bad gait files refuses bad libraries too)."""

@@ -18,17 +18,24 @@ stance feet crept 3-9 mm back per stance at 30 % of the friction limit and the r
 slow. The build runs MuJoCo's noslip post-solver (`NOSLIP_ITERATIONS`, or the MJCF's own count if
 higher), which removes that drift in the friction dimensions without stiffening the normal
 contact (spotmicro: net creep ≤ 3 mm, speed within 4 %).
+
+Lifted mode (`SimConditions(lifted=True)`, the servo identification bench, issue #18 item 6):
+the root body's freejoint is removed, so the base is welded to the world, raised by
+`LIFT_M` above its stance height, and the world's geoms (the floor) collide with nothing: the
+legs swing freely in the air, as on a robot hung from a stand. Only the joints remain in qpos.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
 from robots.robot import Robot
+from robots.servo_params import ServoSetting
 from sim.errors import SimConfigError, SimSetupError
 from sim.servo import ServoParams, servo_params
 
@@ -37,6 +44,8 @@ CONTACT_FORCE = int(mujoco.mjtConDataField.mjCONDATA_FORCE)
 REDUCE_NETFORCE = 3
 #: iterations of MuJoCo's noslip solver (`mjOption.noslip_iterations`), see the module docstring
 NOSLIP_ITERATIONS = 10
+#: lifted mode: the base sits this far above its stance height (the feet clear the floor)
+LIFT_M = 0.3
 
 
 @dataclass(frozen=True)
@@ -46,6 +55,7 @@ class SimConditions:
     friction: float | None = None  # sliding µ for every geom; None keeps the MJCF's
     payload_kg: float = 0.0  # extra mass on the root body (inertia scaled with it)
     strength: float = 1.0  # servo strength scale (1 = datasheet)
+    lifted: bool = False  # base welded in the air, floor contacts off (see the module docstring)
 
     def __post_init__(self) -> None:
         if self.friction is not None and not (math.isfinite(self.friction) and self.friction > 0):
@@ -84,6 +94,11 @@ class SimModel:
         return np.array([s.back_emf_nm_s_per_rad for s in self.servos])
 
     @property
+    def servo_latency_s(self) -> np.ndarray:
+        """Each servo's own goal delay (identified, `robots.servo_params`; 0 = catalogue)."""
+        return np.array([s.latency_s for s in self.servos])
+
+    @property
     def stall_torque_nm(self) -> np.ndarray:
         """Datasheet stall torque per joint (not scaled by strength)."""
         return np.array([s.stall_torque_nm for s in self.servos])
@@ -96,8 +111,9 @@ class SimModel:
         """Full physics state at rest in the nominal stance, feet just touching the floor."""
         data = mujoco.MjData(self.model)
         data.qpos[:] = self.model.qpos0
-        data.qpos[0:3] = (0.0, 0.0, self.robot.stance_base_height_m + 5e-4)
-        data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
+        if not self.conditions.lifted:  # lifted: the base is welded where the build put it
+            data.qpos[0:3] = (0.0, 0.0, self.robot.stance_base_height_m + 5e-4)
+            data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
         data.qpos[self.qpos_adr] = self.robot.nominal_stance_rad
         state = np.empty(mujoco.mj_stateSize(self.model, STATE_SPEC))
         mujoco.mj_getState(self.model, data, state, STATE_SPEC)
@@ -121,21 +137,44 @@ def _foot_geom_ids(model: mujoco.MjModel, robot: Robot) -> tuple[tuple[int, ...]
     return tuple(out)
 
 
+def servos_for(
+    robot: Robot, conditions: SimConditions, settings: Sequence[ServoSetting] | None = None
+) -> tuple[ServoParams, ...]:
+    """One `ServoParams` per joint: the catalogue servo at its factory gains, scaled by the
+    identified `settings` (gain, strength, latency; `robots.servo_params`) when given, its
+    strength also by `conditions.strength`."""
+    if settings is None:
+        settings = [ServoSetting()] * robot.dof
+    if len(settings) != robot.dof:
+        raise SimConfigError(f"{len(settings)} servo settings for the {robot.dof} joints")
+    return tuple(
+        servo_params(
+            j.servo,
+            strength=conditions.strength * st.strength,
+            gain_scale=st.gain_scale,
+            latency_s=st.latency_s,
+        )
+        for j, st in zip(robot.joints, settings, strict=True)
+    )
+
+
 def build_sim_model(
     robot: Robot,
     conditions: SimConditions = SimConditions(),
     *,
     servos: tuple[ServoParams, ...] | None = None,
     timestep_s: float | None = None,
+    servo_settings: Sequence[ServoSetting] | None = None,
 ) -> SimModel:
-    """Compile the robot's MJCF with one servo per joint and the logging sensors."""
+    """Compile the robot's MJCF with one servo per joint and the logging sensors (`servos`, or
+    the catalogue servos scaled by the identified `servo_settings`, see `servos_for`)."""
     try:  # the prepared model (robots.mjcf): its own actuators removed, floor, absolute paths
         spec = robot.mj_spec()
         base = spec.compile()
     except Exception as exc:  # mujoco raises ValueError with its parser's message
         raise SimSetupError(f"{robot.mjcf_path}: MuJoCo cannot load it: {exc}") from None
     if servos is None:
-        servos = tuple(servo_params(j.servo, strength=conditions.strength) for j in robot.joints)
+        servos = servos_for(robot, conditions, servo_settings)
     elif len(servos) != robot.dof:
         raise SimConfigError(f"{len(servos)} servo parameter sets for {robot.dof} joints")
     root_body = int(base.jnt_bodyid[0])
@@ -145,6 +184,8 @@ def build_sim_model(
         scale = (body.mass + conditions.payload_kg) / body.mass
         body.mass = body.mass + conditions.payload_kg
         body.inertia = np.asarray(body.inertia) * scale
+    if conditions.lifted:
+        _weld_base_in_air(spec, root_name, robot.stance_base_height_m + LIFT_M)
     for joint, sp in zip(robot.joints, servos, strict=True):
         act = spec.add_actuator()
         act.name = f"gs_servo_{joint.name}"
@@ -170,6 +211,10 @@ def build_sim_model(
         model.opt.timestep = timestep_s
     if conditions.friction is not None:
         model.geom_friction[:, 0] = conditions.friction
+    if conditions.lifted:  # nothing touches the world's geoms (the floor)
+        world_geoms = model.geom_bodyid == 0
+        model.geom_contype[world_geoms] = 0
+        model.geom_conaffinity[world_geoms] = 0
     foot_geoms = _foot_geom_ids(model, robot)
     sensors = {}
     for name in names:
@@ -188,6 +233,17 @@ def build_sim_model(
         mass_kg=float(np.sum(model.body_mass)),
         sensors=sensors,
     )
+
+
+def _weld_base_in_air(spec: mujoco.MjSpec, root_name: str, height_m: float) -> None:
+    """Remove the root body's freejoint (the base becomes part of the world) and put it, level,
+    at `height_m`."""
+    body = spec.body(root_name)
+    for joint in list(body.joints):
+        if joint.type == mujoco.mjtJoint.mjJNT_FREE:
+            spec.delete(joint)
+    body.pos = (0.0, 0.0, height_m)
+    body.quat = (1.0, 0.0, 0.0, 0.0)
 
 
 def _add_sensors(

@@ -191,6 +191,12 @@ def reference(
     return out
 
 
+def stream_latency_s(settings: RunSettings, sim: SimModel) -> float | np.ndarray:
+    """The goals' delay: the stream's, plus each servo's own (identified) where it has one."""
+    own = sim.servo_latency_s
+    return settings.latency_s + own if np.any(own > 0) else settings.latency_s
+
+
 def run(
     gait: Gait,
     sim: SimModel,
@@ -223,7 +229,7 @@ def run(
         ctrl = held_targets(
             stream,
             rate_hz=settings.rate_hz,
-            latency_s=settings.latency_s,
+            latency_s=stream_latency_s(settings, sim),
             dt_s=dt,
             n_steps=end - start,
             initial_rad=stance,
@@ -287,7 +293,7 @@ def _trajectory(
     goal = held_targets(
         stream,
         rate_hz=settings.rate_hz,
-        latency_s=settings.latency_s,
+        latency_s=stream_latency_s(settings, sim),
         dt_s=dt,
         n_steps=n,
         initial_rad=stance,

@@ -64,6 +64,7 @@ class ServoParams:
     duty_per_rad: float
     duty_s_per_rad: float = 0.0
     strength: float = 1.0
+    latency_s: float = 0.0  # this servo's own goal delay, on top of the stream's (identified)
 
     def __post_init__(self) -> None:
         for key in ("stall_torque_nm", "no_load_speed_rad_s", "duty_per_rad", "strength"):
@@ -72,6 +73,8 @@ class ServoParams:
                 raise SimConfigError(f"servo {self.name}: {key} must be positive, got {v!r}")
         if not (math.isfinite(self.duty_s_per_rad) and self.duty_s_per_rad >= 0):
             raise SimConfigError(f"servo {self.name}: duty_s_per_rad must be ≥ 0")
+        if not (math.isfinite(self.latency_s) and 0.0 <= self.latency_s <= 1.0):
+            raise SimConfigError(f"servo {self.name}: latency_s must lie in [0, 1] s")
 
     @property
     def drive_limit_nm(self) -> float:
@@ -128,9 +131,10 @@ def default_gains(servo: ServoModel) -> tuple[float, float]:
 
 
 def servo_params(
-    servo: ServoModel, *, strength: float = 1.0, gain_scale: float = 1.0
+    servo: ServoModel, *, strength: float = 1.0, gain_scale: float = 1.0, latency_s: float = 0.0
 ) -> ServoParams:
-    """ServoParams for a catalogue servo at its factory gains (`gain_scale` multiplies both)."""
+    """ServoParams for a catalogue servo at its factory gains (`gain_scale` multiplies both;
+    `robots.servo_params` holds identified gain scales, strengths and latencies)."""
     duty_p, duty_d = default_gains(servo)
     return ServoParams(
         name=servo.name,
@@ -139,6 +143,7 @@ def servo_params(
         duty_per_rad=duty_p * gain_scale,
         duty_s_per_rad=duty_d * gain_scale,
         strength=strength,
+        latency_s=latency_s,
     )
 
 
@@ -146,7 +151,7 @@ def held_targets(
     stream_rad: np.ndarray,
     *,
     rate_hz: float,
-    latency_s: float,
+    latency_s: float | np.ndarray,
     dt_s: float,
     n_steps: int,
     initial_rad: np.ndarray,
@@ -156,18 +161,26 @@ def held_targets(
 
     `stream_rad` (K, J): sample k is sent at t = k/rate_hz and arrives at k/rate_hz + latency_s;
     the servo holds the newest arrived sample until the next one arrives. Before the first arrival
-    it holds `initial_rad`; after the stream ends it holds the last sample. Returns
+    it holds `initial_rad`; after the stream ends it holds the last sample. `latency_s` is one
+    delay for every joint or one per joint (J,). Returns
     (n_steps, J) for physics steps `first_step … first_step + n_steps − 1` (step i covers
     [i·dt, (i+1)·dt) and uses the goal present at its start).
     """
     if not (math.isfinite(rate_hz) and rate_hz > 0):
         raise SimConfigError(f"stream rate must be positive, got {rate_hz!r} Hz")
-    if not (math.isfinite(latency_s) and latency_s >= 0):
+    lat = np.asarray(latency_s, dtype=float)
+    if not (np.all(np.isfinite(lat)) and np.all(lat >= 0)):
         raise SimConfigError(f"latency must be ≥ 0 s, got {latency_s!r}")
     stream = np.asarray(stream_rad, dtype=float)
     t = (first_step + np.arange(n_steps)) * dt_s
-    # newest sample with k/rate + latency ≤ t (a small tolerance absorbs float rounding)
-    k = np.floor((t - latency_s) * rate_hz + 1e-6).astype(np.int64)
-    out = stream[np.clip(k, 0, len(stream) - 1)]
-    out[k < 0] = np.asarray(initial_rad, dtype=float)
-    return out
+    if lat.ndim == 0:
+        # newest sample with k/rate + latency ≤ t (a small tolerance absorbs float rounding)
+        k = np.floor((t - float(lat)) * rate_hz + 1e-6).astype(np.int64)
+        out = stream[np.clip(k, 0, len(stream) - 1)]
+        out[k < 0] = np.asarray(initial_rad, dtype=float)
+        return out
+    kj = np.floor((t[:, None] - lat[None, :]) * rate_hz + 1e-6).astype(np.int64)
+    cols = np.arange(stream.shape[1])
+    out = stream[np.clip(kj, 0, len(stream) - 1), cols[None, :]]
+    initial = np.broadcast_to(np.asarray(initial_rad, dtype=float), out.shape)
+    return np.where(kj < 0, initial, out)

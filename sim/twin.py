@@ -18,11 +18,21 @@ a `VirtualClock` the sim advances exactly one tick period per player tick, deter
 as fast as the CPU allows; with a real clock it follows wall time.
 
 The robot starts standing in its nominal stance, servos powered and holding it (as after
-`torque on` at stance), feet just touching the floor.
+`torque on` at stance), feet just touching the floor — or, with `lifted=True`, hung in the air
+(base welded, floor contacts off: `sim.model` lifted mode), the bench of `gaitsmith-play
+identify`.
+
+Per-servo settings (`servo_settings`, a `robots.servo_params` file or one `ServoSetting` per
+joint) make each servo differ from its catalogue model: position gain scale, strength scale and
+the latency of a goal reaching it. A goal the player writes at bus time t acts from t + latency:
+the twin keeps the goals' history and, over each physics step [t₀, t₀ + dt), commands the time
+average of that delayed, held goal (so a latency between two steps is not rounded to one).
+`sim.identify` fits those three numbers back from a recorded run.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -34,6 +44,8 @@ from hardware.bus.virtual.faults import NO_FAULTS, FaultPlan
 from hardware.bus.virtual.servo import VirtualServo
 from hardware.play.virtual_rig import place_servos
 from robots.robot import Robot
+from robots.servo_params import ServoParamsFile, ServoSetting
+from sim.errors import SimConfigError
 from sim.metrics import yaw_of
 from sim.model import STATE_SPEC, SimConditions, build_sim_model
 
@@ -59,9 +71,17 @@ class MujocoTwin:
         conditions: SimConditions | None = None,
         faults: FaultPlan = NO_FAULTS,
         record_every_s: float = 0.01,
+        *,
+        lifted: bool = False,
+        servo_settings: ServoParamsFile | Sequence[ServoSetting] | None = None,
     ) -> None:
         self.robot = robot
-        self.sim = build_sim_model(robot, conditions or SimConditions())
+        cond = conditions or SimConditions()
+        if lifted and not cond.lifted:
+            cond = SimConditions(cond.friction, cond.payload_kg, cond.strength, lifted=True)
+        settings = _settings_for(robot, servo_settings)
+        self.servo_settings = settings
+        self.sim = build_sim_model(robot, cond, servo_settings=settings)
         self.model = self.sim.model
         self.data = mujoco.MjData(self.model)
         mujoco.mj_setState(self.model, self.data, self.sim.initial_state(), STATE_SPEC)
@@ -78,6 +98,12 @@ class MujocoTwin:
             s.write(torque.addr, b"\x01")  # powered, holding the stance
         self._t_start = clock()
         self._record_every_s = record_every_s
+        self._latency_s = self.sim.servo_latency_s
+        # goal history: (sim time written, goals [rad]); the stance holds since forever
+        self._goal_log: list[tuple[float, np.ndarray]] = [
+            (-math.inf, np.asarray(robot.nominal_stance_rad, float))
+        ]
+        self._written_at = 0.0  # sim time of the previous advance (packets since then: after it)
         self.history: list[BaseSample] = []
         self.steps = 0
         self._sync_servos(self.vbus.servos)
@@ -92,18 +118,36 @@ class MujocoTwin:
         if target - self.data.time > MAX_CATCH_UP_S:  # e.g. the process was suspended
             self._t_start += target - self.data.time - MAX_CATCH_UP_S
             target = now_s - self._t_start
+        goal_rad, enabled = self._goals(servos)
+        if not np.array_equal(goal_rad, self._goal_log[-1][1]):
+            self._goal_log.append((self._written_at, goal_rad))
         if self.data.time + 0.5 * dt <= target:
-            goal_rad, enabled = self._goals(servos)
             while self.data.time + 0.5 * dt <= target:
                 q = self.data.qpos[self._qadr]
-                self.data.ctrl[:] = np.where(enabled, goal_rad, q)  # limp: no position error
+                t0 = float(self.data.time)
+                acting = self._delayed_goal(t0, t0 + dt)
+                self.data.ctrl[:] = np.where(enabled, acting, q)  # limp: no position error
                 mujoco.mj_step(self.model, self.data)
                 self.steps += 1
                 if self.data.time - self.history[-1].t_s >= self._record_every_s - 1e-9:
                     self._record()
+        self._written_at = float(self.data.time)
         self._sync_servos(servos)
 
     # -- helpers ----------------------------------------------------------------------------------
+    def _delayed_goal(self, t0: float, t1: float) -> np.ndarray:
+        """Per joint, the time average over [t0, t1) of the goal written at w acting from
+        w + latency (held until the next one acts)."""
+        log, lat = self._goal_log, self._latency_s
+        while len(log) > 1 and log[1][0] + float(np.max(lat)) <= t0:
+            log.pop(0)  # superseded for every joint before this step begins
+        total = np.zeros_like(lat)
+        for i, (w, goal) in enumerate(log):
+            start = np.maximum(w + lat, t0)
+            end = np.minimum(log[i + 1][0] + lat, t1) if i + 1 < len(log) else np.full_like(lat, t1)
+            total += goal * np.clip(end - start, 0.0, None)
+        return total / (t1 - t0)
+
     def _goals(self, servos: Sequence[VirtualServo]) -> tuple[np.ndarray, np.ndarray]:
         goal_ticks = self._zero.copy()
         enabled = np.zeros(len(self._zero), dtype=bool)
@@ -125,8 +169,8 @@ class MujocoTwin:
                 s.drive(float(ticks[n]), float(speed[n]))
 
     def _record(self) -> None:
-        x, y, z = (float(v) for v in self.data.qpos[0:3])
-        yaw = float(yaw_of(np.asarray(self.data.qpos[3:7])))
+        x, y, z = (float(v) for v in self.base_position_m)
+        yaw = float(yaw_of(self._base_quat()))
         self.history.append(BaseSample(float(self.data.time), (x, y, z), yaw))
 
     # -- results ---------------------------------------------------------------------------
@@ -136,7 +180,14 @@ class MujocoTwin:
 
     @property
     def base_position_m(self) -> np.ndarray:
+        if self.sim.conditions.lifted:  # welded: where the build put it
+            return np.array(self.data.xpos[self.sim.root_body], dtype=float)
         return np.array(self.data.qpos[0:3], dtype=float)
+
+    def _base_quat(self) -> np.ndarray:
+        if self.sim.conditions.lifted:
+            return np.array(self.data.xquat[self.sim.root_body], dtype=float)
+        return np.array(self.data.qpos[3:7], dtype=float)
 
     @property
     def joint_angles_rad(self) -> np.ndarray:
@@ -170,3 +221,18 @@ class MujocoTwin:
             f"y {y:+.3f} m, turned {np.degrees(self.heading_change_rad()):+.1f}°; "
             f"height {z:.3f} m"
         )
+
+
+def _settings_for(
+    robot: Robot, given: ServoParamsFile | Sequence[ServoSetting] | None
+) -> tuple[ServoSetting, ...]:
+    if given is None:
+        return tuple(ServoSetting() for _ in robot.joints)
+    if isinstance(given, ServoParamsFile):
+        return given.for_robot(robot)
+    out = tuple(given)
+    if len(out) != robot.dof:
+        raise SimConfigError(
+            f"{len(out)} servo settings for the {robot.dof} joints of {robot.name}"
+        )
+    return out

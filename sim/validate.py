@@ -13,7 +13,7 @@ pose, the rest over the steady cycles; the verdict applies `PassCriteria`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field, replace
 
 import mujoco
@@ -21,6 +21,7 @@ import numpy as np
 
 from robots.gait import Gait
 from robots.robot import Robot
+from robots.servo_params import ServoSetting
 from sim.errors import SimConfigError
 from sim.metrics import FallThresholds, JointMetrics, Metrics, compute, detect_fall, tilt_of
 from sim.model import SimConditions, SimModel, build_sim_model
@@ -252,13 +253,17 @@ def simulate(
     stop_on_fall: bool = True,
     stand_s: float = 0.0,
     end_at_stand: bool = False,
+    servo_settings: Sequence[ServoSetting] | None = None,
 ) -> tuple[SimModel, Trajectory]:
-    """Build the model and run the gait (no verdict); see `validate`."""
+    """Build the model and run the gait (no verdict); see `validate`. `servo_settings`: the
+    identified servos (`robots.servo_params`, one per joint; None: catalogue servos)."""
     gait.check_robot(robot)
     settings = RunSettings(cycles=cycles, rate_hz=rate_hz, latency_s=latency_s,
                            stand_s=stand_s, end_at_stand=end_at_stand)
     sim = build_sim_model(
-        robot, SimConditions(friction=friction, payload_kg=payload_kg, strength=strength)
+        robot,
+        SimConditions(friction=friction, payload_kg=payload_kg, strength=strength),
+        servo_settings=servo_settings,
     )
     stop = _fall_stop(criteria.falls) if stop_on_fall else None
     return sim, run(gait, sim, settings, progress=progress, stop=stop)
@@ -299,6 +304,7 @@ def validate(
     keep_trajectory: bool = True,
     stand_s: float = 0.0,
     end_at_stand: bool = False,
+    servo_settings: Sequence[ServoSetting] | None = None,
 ) -> ValidationResult:
     """Simulate `cycles` cycles of `gait` on `robot` and return metrics + verdict (`stand_s`,
     `end_at_stand`: start and end at the gait's stand, see the module docstring)."""
@@ -319,6 +325,7 @@ def validate(
         criteria=criteria,
         stand_s=stand_s,
         end_at_stand=end_at_stand,
+        servo_settings=servo_settings,
     )
     result = evaluate(
         traj,

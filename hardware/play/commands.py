@@ -1,4 +1,5 @@
-"""`gaitsmith-play run | calibrate | plot | report | budget`: the player's commands.
+"""`gaitsmith-play run | drive | calibrate | plot | report | budget`: the player's commands
+(`drive`: `hardware.play.drive_command`).
 
 Exit codes: 0 completed, 2 refused (pre-flight, bad file or option), 3 no response,
 4 servo fault, 5 over-temperature, 6 low voltage, 7 bus error, 8 status lost (servo health
@@ -33,6 +34,9 @@ rehearse the safe stop without hardware; the syntax is in `hardware.play.fault_s
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -50,6 +54,7 @@ from hardware.play.watchdog import EXIT_PREFLIGHT, StopReason
 
 if TYPE_CHECKING:
     from hardware.play.fault_spec import FaultSchedule
+    from hardware.play.telemetry import TelemetryWriter
 
 console = Console()
 err_console = Console(stderr=True)
@@ -341,51 +346,86 @@ def run(
     except ValueError as exc:
         raise _fail(str(exc)) from None
     clock: Clock = MonotonicClock() if realtime or virtual is None else VirtualClock()
-    bus: ServoBus | None = None
-    twin: Any = None
-    writer = None
-    try:
-        if not dry_run or port is not None or virtual is not None:
-            bus, twin = _open_bus(rob, port, virtual, bus_config, clock, faults)
-            if faults is not None:
-                faults.attach_port(bus)
-        if telemetry is not None:
-            from hardware.play.telemetry import TelemetryWriter
-
-            writer = TelemetryWriter(telemetry, rob.joint_names, [j.bus_id for j in rob.joints])
+    with play_session(
+        rob, port, virtual, bus_config, clock, faults, telemetry,
+        open_bus=not dry_run or port is not None or virtual is not None,
+    ) as session:  # fmt: skip
         player = Player(
             rob,
             gait_obj,
-            bus=bus,
+            bus=session.bus,
             calibration=cal,
             config=config,
             clock=VirtualClock() if dry_run else clock,
-            telemetry=writer,
+            telemetry=session.writer,
             on_tick=faults.on_tick if faults is not None and faults.timed else None,
         )
-        if faults is not None:
-            console.print(f"[bold]virtual bus faults[/]: {faults.describe()}", highlight=False)
         if dry_run:
             console.print("[bold]dry run[/]: nothing is sent to the servos")
         result = player.run()
+    finish_session(lambda: _report(result, session.twin, rate_hz, telemetry), result.exit_code)
+
+
+@dataclass
+class Session:
+    """What `play_session` opened: the bus (None for a dry run), the twin, the telemetry."""
+
+    bus: ServoBus | None
+    twin: Any
+    writer: TelemetryWriter | None
+
+
+@contextmanager
+def play_session(
+    robot: Any,
+    port: str | None,
+    virtual: VirtualMode | None,
+    bus_config: BusConfig,
+    clock: Clock,
+    faults: FaultSchedule | None,
+    telemetry: Path | None,
+    extra_columns: tuple[str, ...] = (),
+    open_bus: bool = True,
+) -> Iterator[Session]:
+    """The bus (faults attached), the telemetry writer, closed on every path; a HardwareError
+    or OSError inside becomes a one-line failure (`run` and `drive` share this)."""
+    session = Session(None, None, None)
+    try:
+        if open_bus:
+            session.bus, session.twin = _open_bus(robot, port, virtual, bus_config, clock, faults)
+            if faults is not None:
+                faults.attach_port(session.bus)
+        if telemetry is not None:
+            from hardware.play.telemetry import TelemetryWriter
+
+            session.writer = TelemetryWriter(
+                telemetry, robot.joint_names, [j.bus_id for j in robot.joints], extra_columns
+            )
+        if faults is not None:
+            console.print(f"[bold]virtual bus faults[/]: {faults.describe()}", highlight=False)
+        yield session
     except HardwareError as exc:
         raise _fail(str(exc)) from None
     except OSError as exc:
         raise _fail(f"{exc.filename or ''}: {exc.strerror or exc}") from None
     finally:
-        if writer is not None:
-            writer.close()
-        if bus is not None:
+        if session.writer is not None:
+            session.writer.close()
+        if session.bus is not None:
             try:
-                bus.close()
+                session.bus.close()
             except (HardwareError, OSError):
                 pass  # an adapter that vanished cannot be closed either
+
+
+def finish_session(report: Callable[[], None], exit_code: int) -> None:
+    """Print the report (a vanished terminal does not change the outcome), exit with the code."""
     try:
-        _report(result, twin, rate_hz, telemetry)
+        report()
     except OSError:
         pass  # the terminal is gone (SIGHUP): the exit code still says how the run ended
-    if result.exit_code:
-        raise typer.Exit(result.exit_code)
+    if exit_code:
+        raise typer.Exit(exit_code)
 
 
 def _warn_beyond_bus_budget(robot: Any, port: str, baud: int, rate_hz: float) -> None:
@@ -575,8 +615,12 @@ def report(
 
 
 def register(app: typer.Typer) -> None:
-    """Add `run`, `calibrate`, `plot`, `report` and `budget` to the `gaitsmith-play` app."""
+    """Add `run`, `drive`, `calibrate`, `plot`, `report` and `budget` to the `gaitsmith-play`
+    app."""
+    from hardware.play.drive_command import drive
+
     app.command("run", cls=_RunCommand)(run)
+    app.command("drive", cls=_RunCommand)(drive)
     app.command("calibrate")(calibrate)
     app.command("plot")(plot)
     app.command("report")(report)

@@ -69,10 +69,10 @@ from hardware.play.preflight import (
 )
 from hardware.play.safety_gate import GateCommand, SafetyGate
 from hardware.play.telemetry import TelemetryWriter, TickRecord
-from hardware.play.thermal_watch import predicted_heating
+from hardware.play.thermal_watch import PredictedHeating, predicted_heating
 from hardware.play.watchdog import StopEvent, StopReason, Watchdog, WatchdogLimits, stop_on_signals
 from robots.gait import Gait
-from robots.ramp import MinJerkRamp, gait_entry, gait_exit, ramp_to
+from robots.ramp import GaitEntry, MinJerkRamp, gait_entry, gait_exit, ramp_to
 from robots.robot import Robot
 
 TickHook = Callable[[int, float], None]
@@ -97,6 +97,20 @@ def _os_text(exc: BaseException) -> str:
     if len(args) == 2 and isinstance(args[0], int) and isinstance(args[1], str):
         return f"[Errno {args[0]}] {args[1]}"  # termios.error(5, 'Input/output error')
     return str(exc) or type(exc).__name__
+
+
+@dataclass(frozen=True)
+class EntryPlan:
+    """A gait entry (`robots.ramp.GaitEntry`) in ticks: ramp-in, the stand, then blend-in."""
+
+    entry: GaitEntry
+    n_ramp: int
+    n_blend: int
+    n_hold: int = 0  # at the stand (the gait's mean pose), between the ramp and the blend
+
+    @property
+    def ticks(self) -> int:
+        return self.n_ramp + self.n_hold + self.n_blend
 
 
 class RestPose(str, Enum):
@@ -196,7 +210,10 @@ class Player:
         clock: Clock | None = None,
         telemetry: TelemetryWriter | None = None,
         on_tick: TickHook | None = None,
+        heating: Mapping[int, PredictedHeating] | None = None,
     ) -> None:
+        """`heating`: the predicted heating the watchdog compares against (default: `gait`'s;
+        `hardware.play.drive` passes the worst over its library)."""
         self.robot, self.gait = robot, gait
         self.config = cfg = config or PlayerConfig()
         if bus is None and not cfg.dry_run:
@@ -212,7 +229,7 @@ class Player:
         )
         sink = None if cfg.dry_run or bus is None else bus.sync_write_positions
         self.gate = SafetyGate(self.calibration, self.allowed_speed_rad_s, cfg.rate_hz, sink)
-        self.heating = predicted_heating(robot, gait)
+        self.heating = predicted_heating(robot, gait) if heating is None else dict(heating)
         self.watchdog = Watchdog(
             cfg.limits,
             {j.bus_id: j.servo for j in robot.joints},
@@ -248,7 +265,8 @@ class Player:
             warnings, present = self._preflight()
             return self._play_accepted(present, warnings)
 
-    def _preflight(self) -> tuple[list[str], np.ndarray | dict[int, int]]:
+    def _check_offline(self) -> list[str]:
+        """The checks that need no bus (`preflight.check_offline`); returns warnings."""
         cfg = self.config
         warnings, _ = check_offline(
             self.robot,
@@ -260,6 +278,20 @@ class Player:
             rate_hz=cfg.rate_hz,
             cycles=cfg.cycles,
         )
+        return warnings
+
+    def _check_supply(self, supply_v: float, source: str) -> tuple[str, list[str]]:
+        """The gait's peak torques at the supply voltage (`preflight.check_supply`)."""
+        return check_supply(self.robot, self.gait, supply_v, source, self.config.force)
+
+    def _planned_run_s(self) -> float | None:
+        """How long the run will play [s] (None: until stopped), for the heating forecast."""
+        cfg = self.config
+        return None if cfg.cycles is None else cfg.cycles * self.gait.period_s / cfg.speed_scale
+
+    def _preflight(self) -> tuple[list[str], np.ndarray | dict[int, int]]:
+        cfg = self.config
+        warnings = self._check_offline()
         statuses: dict[int, ServoStatus] = {}
         if self.bus is not None:
             try:
@@ -278,10 +310,11 @@ class Player:
         else:
             supply = None
         if supply is not None:
-            self.supply_margin, more = check_supply(self.robot, self.gait, *supply, cfg.force)
+            self.supply_margin, more = self._check_supply(*supply)
             warnings += more
-        run_s = None if cfg.cycles is None else cfg.cycles * self.gait.period_s / cfg.speed_scale
-        warnings += check_heating(self.robot, self.heating, statuses, cfg.limits, run_s)
+        warnings += check_heating(
+            self.robot, self.heating, statuses, cfg.limits, self._planned_run_s()
+        )
         return warnings, present
 
     def _play_accepted(
@@ -352,35 +385,51 @@ class Player:
         stop = self.watchdog.stop
         return stop is not None and stop.reason in (StopReason.BUS_ERROR, StopReason.ADAPTER_LOST)
 
+    def _entry_plan(self, gait: Gait, time_scale: float, hold_s: float = 0.0) -> EntryPlan:
+        """How `gait` is entered from the last goal: ramp-in, `hold_s` at the stand, then
+        blend-in (module docstring)."""
+        cfg = self.config
+        entry = gait_entry(
+            gait,
+            self.gate.last_rad,
+            self.allowed_speed_rad_s * cfg.ramp_speed_fraction,
+            cfg.ramp_s,
+            time_scale=time_scale,
+            hold_s=hold_s,
+        )
+        n_ramp = math.ceil(entry.ramp.duration_s * cfg.rate_hz - 1e-9)
+        n_hold = round(hold_s * cfg.rate_hz)
+        n_blend = max(1, round(entry.blend_s * cfg.rate_hz))  # its ticks span exactly blend_s
+        return EntryPlan(entry, n_ramp, n_blend, n_hold)
+
+    def _entry_target(self, plan: EntryPlan, k: int) -> tuple[str, np.ndarray] | None:
+        """(phase, target) of deadline k of the entry; None once k is past it."""
+        entry, ramp = plan.entry, plan.entry.ramp
+        if k < plan.n_ramp:
+            return "ramp_in", ramp.positions((k + 1) * self.period_s)
+        if k < plan.n_ramp + plan.n_hold:
+            return "stand", entry.mean_rad
+        if k < plan.ticks:
+            t_blend = (k - plan.n_ramp - plan.n_hold) * entry.blend_s / plan.n_blend  # → gait t=0
+            return "blend_in", entry.positions(entry.blend_start_s + t_blend)
+        return None
+
     def _play(self) -> None:
         cfg = self.config
-        ramp_speed = self.allowed_speed_rad_s * cfg.ramp_speed_fraction
-        entry = gait_entry(
-            self.gait, self.gate.last_rad, ramp_speed, cfg.ramp_s, time_scale=cfg.speed_scale,
-            hold_s=cfg.stand_s,
-        )
-        ramp = entry.ramp
-        n_ramp = math.ceil(ramp.duration_s * cfg.rate_hz - 1e-9)
-        n_hold = round(cfg.stand_s * cfg.rate_hz)
-        n_blend = max(1, round(entry.blend_s * cfg.rate_hz))  # its ticks span exactly blend_s
-        n_entry = n_ramp + n_hold + n_blend
+        plan = self._entry_plan(self.gait, cfg.speed_scale, cfg.stand_s)
         n_gait: int | None = None
         if cfg.cycles is not None:
             n_gait = round(cfg.cycles * self.gait.period_s / cfg.speed_scale * cfg.rate_hz)
         k = 0
         while self.watchdog.stop is None:
-            if k < n_ramp:
-                phase, target = "ramp_in", ramp.positions((k + 1) * self.period_s)
-            elif k < n_ramp + n_hold:
-                phase, target = "stand", entry.mean_rad
-            elif k < n_entry:
-                t_blend = (k - n_ramp - n_hold) * entry.blend_s / n_blend  # then gait at t = 0
-                phase, target = "blend_in", entry.positions(entry.blend_start_s + t_blend)
-            elif n_gait is not None and k - n_entry > n_gait:
-                self._end_at_stand(k, (n_gait + 1) * self.period_s * cfg.speed_scale, n_hold)
+            step = self._entry_target(plan, k)
+            if step is not None:
+                phase, target = step
+            elif n_gait is not None and k - plan.ticks > n_gait:
+                self._end_at_stand(k, (n_gait + 1) * self.period_s * cfg.speed_scale, plan.n_hold)
                 break
             else:
-                t_gait = (k - n_entry) * self.period_s * cfg.speed_scale
+                t_gait = (k - plan.ticks) * self.period_s * cfg.speed_scale
                 phase, target = "gait", self.gait.joint_targets(t_gait)
             k = self._tick(k, phase, target, watch=True)
 
@@ -437,8 +486,16 @@ class Player:
         late = self._now_rel() / self.period_s
         return max(self.ticks, math.floor(late) + 1 if late > 0 else 0)
 
-    def _tick(self, k: int, phase: str, target: np.ndarray, watch: bool) -> int:
-        """One tick at deadline k: send, read, check, log. Returns the next deadline index."""
+    def _tick(
+        self,
+        k: int,
+        phase: str,
+        target: np.ndarray,
+        watch: bool,
+        extra: Mapping[str, float] | None = None,
+    ) -> int:
+        """One tick at deadline k: send, read, check, log (`extra`: the telemetry's extra
+        columns). Returns the next deadline index."""
         deadline = self._t0 + k * self.period_s
         self.clock.sleep_until(deadline)
         actual = self.clock.now_s()
@@ -476,6 +533,7 @@ class Player:
                     cmd.target_ticks,
                     present,
                     status,
+                    extra,
                 )
             )
         return next_k

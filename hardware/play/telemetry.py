@@ -2,12 +2,13 @@
 
 Columns: ``tick, phase, t_sched_s, t_actual_s, jitter_s, loop_s, overrun, event, message`` then,
 per joint ``<j>``: ``<j>_target_rad, <j>_target_ticks, <j>_present_rad, <j>_load_pct,
-<j>_temperature_c, <j>_voltage_v``. Times are seconds since the run's first deadline;
-``jitter_s = t_actual_s − t_sched_s`` (wake-up lateness). Present values are empty when that
-tick's read failed; load / temperature / voltage are filled on status ticks only. The last row
-has ``phase = "stop"``, ``event`` = the `StopReason` value, ``message`` its one-line reason,
-``t_sched_s`` when the stop was requested and ``t_actual_s`` when the torque-off had been sent
-(their difference is the stop latency).
+<j>_temperature_c, <j>_voltage_v``, then the caller's extra numeric columns, if any (`drive`:
+the commands requested and applied, the gait phase). Times are seconds since the run's first
+deadline; ``jitter_s = t_actual_s − t_sched_s`` (wake-up lateness). Present values are empty
+when that tick's read failed; load / temperature / voltage are filled on status ticks only. The
+last row has ``phase = "stop"``, ``event`` = the `StopReason` value, ``message`` its one-line
+reason, ``t_sched_s`` when the stop was requested and ``t_actual_s`` when the torque-off had been
+sent (their difference is the stop latency).
 
 The file is created at the first row, i.e. only once pre-flight has accepted the run: a refused
 run leaves no file behind (and does not truncate an older one at that path). Losing the log
@@ -23,7 +24,7 @@ import csv
 import math
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
@@ -59,10 +60,11 @@ class TickRecord:
     target_ticks: tuple[int, ...]  # (J,)
     present_rad: np.ndarray | None  # (J,) or None when the read failed
     status: Mapping[int, ServoStatus] | None  # by bus id, on status ticks
+    extra: Mapping[str, float] | None = None  # the writer's extra columns (missing: empty)
 
 
-def columns(joint_names: Sequence[str]) -> list[str]:
-    return [*BASE_COLUMNS, *(f"{j}_{f}" for j in joint_names for f in JOINT_FIELDS)]
+def columns(joint_names: Sequence[str], extra: Sequence[str] = ()) -> list[str]:
+    return [*BASE_COLUMNS, *(f"{j}_{f}" for j in joint_names for f in JOINT_FIELDS), *extra]
 
 
 def _num(x: float) -> str:
@@ -73,11 +75,19 @@ class TelemetryWriter:
     """Streams `TickRecord`s to a CSV file (flushed each row) and closes with a stop row."""
 
     def __init__(
-        self, path: str | Path, joint_names: Sequence[str], bus_ids: Sequence[int]
+        self,
+        path: str | Path,
+        joint_names: Sequence[str],
+        bus_ids: Sequence[int],
+        extra_columns: Sequence[str] = (),
     ) -> None:
         self.path = Path(path)
         self.joint_names = tuple(joint_names)
         self.bus_ids = tuple(bus_ids)
+        self.extra_columns = tuple(extra_columns)
+        clash = set(self.extra_columns) & set(columns(self.joint_names))
+        if clash:
+            raise ValueError(f"extra telemetry columns {sorted(clash)} clash with the fixed ones")
         if self.path.is_dir():
             raise IsADirectoryError(21, "is a directory", str(self.path))
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -97,7 +107,7 @@ class TelemetryWriter:
             try:
                 self._fh = self.path.open("w", newline="", encoding="utf-8")
                 self._csv = csv.writer(self._fh)
-                self._csv.writerow(columns(self.joint_names))
+                self._csv.writerow(columns(self.joint_names, self.extra_columns))
             except OSError as exc:
                 self._cut(exc)
                 return False
@@ -131,6 +141,8 @@ class TelemetryWriter:
                 row += ["", "", ""]
             else:
                 row += [_num(st.load_pct), _num(st.temperature_c), _num(st.voltage_v)]
+        extra = rec.extra or {}
+        row += [_num(extra.get(c, math.nan)) for c in self.extra_columns]
         try:
             self._csv.writerow(row)
             self._fh.flush()
@@ -148,7 +160,7 @@ class TelemetryWriter:
             self._closed = True
             return
         assert self._fh is not None
-        width = len(columns(self.joint_names))
+        width = len(columns(self.joint_names, self.extra_columns))
         row = [str(tick), STOP_PHASE, _num(requested_s), _num(t_s), "", "", "", reason, message]
         try:
             self._csv.writerow(row + [""] * (width - len(row)))
@@ -193,6 +205,7 @@ class Telemetry:
     load_pct: np.ndarray  # (K, J) % of max, signed; NaN off status ticks
     temperature_c: np.ndarray  # (K, J); NaN off status ticks
     voltage_v: np.ndarray  # (K, J); NaN off status ticks
+    extra: Mapping[str, np.ndarray] = field(default_factory=dict)  # (K,) per extra column
 
 
 def _f(text: str) -> float:
@@ -210,10 +223,12 @@ def read_telemetry(path: str | Path) -> Telemetry:
     names = tuple(
         dict.fromkeys(c[: -len("_target_rad")] for c in header if c.endswith("_target_rad"))
     )
-    if len(header) != len(columns(names)):
+    fixed = columns(names)
+    if len(header) < len(fixed) or header[: len(fixed)] != fixed:
         raise ValueError(
-            f"{path}: header has {len(header)} columns, expected {len(columns(names))}"
+            f"{path}: header has {len(header)} columns, expected {len(fixed)} (and extras)"
         )
+    extra_names = header[len(fixed) :]
     ticks = [r for r in rows[1:] if r and r[1] != STOP_PHASE]
     stops = [r for r in rows[1:] if r and r[1] == STOP_PHASE]
     nb, nf = len(BASE_COLUMNS), len(JOINT_FIELDS)
@@ -245,6 +260,10 @@ def read_telemetry(path: str | Path) -> Telemetry:
             load_pct=joint_col(3),
             temperature_c=joint_col(4),
             voltage_v=joint_col(5),
+            extra={
+                c: np.array([_f(r[len(fixed) + n]) for r in ticks])
+                for n, c in enumerate(extra_names)
+            },
         )
     except (IndexError, ValueError) as exc:
         raise ValueError(f"{path}: malformed row: {exc}") from None

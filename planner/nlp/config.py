@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planner.errors import PlannerConfigError
+from robots.servo_params import ServoSetting
 
 #: Scaling laws with the leg length L (see the module docstring).
 SWING_CLEARANCE_LEG_LENGTHS = 0.14
@@ -162,6 +163,7 @@ class PlannerOptions:
     joint_limit_margin_fraction: float = 0.02
     max_force_body_weights: float = 3.0
     servo_goals: bool = True
+    servo_settings: tuple[ServoSetting, ...] | None = None  # identified servos, per joint
     vertical_contact_transitions: bool = True
     weights: CostWeights = field(default_factory=CostWeights)
     nondimensional: bool = False

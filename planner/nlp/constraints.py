@@ -153,7 +153,11 @@ def build_groups(
     fx, fy, fz = sym.forces[0::3, :], sym.forces[1::3, :], sym.forces[2::3, :]
     mu = options.mu / math.sqrt(2.0)  # inscribed pyramid of the cone (eq 9)
     servos = [j.servo for j in model.robot.joints]
-    stall = ca.DM([s.stall_torque_nm for s in servos])
+    # identified servos (`robots.servo_params`): the envelope of the fitted drive limit
+    strength = [1.0] * len(servos) if options.servo_settings is None else [
+        st.strength for st in options.servo_settings
+    ]  # fmt: skip
+    stall = ca.DM([s.stall_torque_nm * k for s, k in zip(servos, strength, strict=True)])
     omega0 = ca.DM([s.no_load_speed_rad_s for s in servos])
     tau_n = kq.tau_nm / ca.repmat(stall * options.torque_margin, 1, n)
     qd_n = kq.qd / ca.repmat(omega0, 1, n)
@@ -305,9 +309,9 @@ def _servo_goal_groups(
     """
     if not options.servo_goals:
         return []
-    from planner.nlp.servo_loop import factory_servo_loops, loop_arrays
+    from planner.nlp.servo_loop import loop_arrays, servo_loops
 
-    kp, damping = loop_arrays(factory_servo_loops(model.robot))
+    kp, damping = loop_arrays(servo_loops(model.robot, options.servo_settings))
     nj = model.n_joints
     goal = (
         sym.q

@@ -47,10 +47,10 @@ def joint_limit_clearance(planner: GaitPlanner, result: PlanResult) -> dict[str,
     q = np.asarray(result.joint_angles_rad)
     series = [q]
     if planner.options.servo_goals:
-        from planner.nlp.servo_loop import factory_servo_loops, servo_goals_rad
+        from planner.nlp.servo_loop import servo_goals_rad, servo_loops
 
         series.append(servo_goals_rad(q, result.joint_speeds_rad_s, result.joint_torques_nm,
-                                      factory_servo_loops(planner.robot)))
+                                      servo_loops(planner.robot, planner.options.servo_settings)))
     allq = np.concatenate(series, axis=0)
     out = {}
     for j, joint in enumerate(planner.robot.joints):
@@ -78,15 +78,20 @@ def joint_angle_semantics(planner: GaitPlanner, result: PlanResult) -> dict[str,
     """
     if not planner.options.servo_goals:
         return {"joint_angles": "achieved"}
-    from planner.nlp.servo_loop import factory_servo_loops
+    from planner.nlp.servo_loop import servo_loops
 
-    loops = factory_servo_loops(planner.robot)
+    loops = servo_loops(planner.robot, planner.options.servo_settings)
     return {
         "joint_angles": "servo_goal",
         "servo_loop": {
             "law": "goal = q + (tau + damping*qd)/kp (servo: tau = kp*(goal - q) - damping*qd)",
             "kp_nm_per_rad": [s.kp_nm_per_rad for s in loops],
             "damping_nm_s_per_rad": [s.damping_nm_s_per_rad for s in loops],
+            **(
+                {"latency_s": [s.latency_s for s in loops], "identified": True}
+                if planner.options.servo_settings is not None
+                else {}
+            ),
         },
     }
 

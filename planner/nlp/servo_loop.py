@@ -25,6 +25,12 @@ the linear, unsaturated loop — exact inside the planner's torque envelope, sin
 player's zero-order hold (half a 100 Hz tick, ≈ 5 ms of lag) and the periodic cubic spline
 between knots; gear backlash and friction are not in `sim` either.
 
+Identified servos (`robots.servo_params`, `gaitsmith plan --servo-params FILE`, through
+`PlannerOptions.servo_settings`): kp, kd and b follow each joint's fitted gain scale and strength
+(`servo_loops`), and since such a servo acts on a goal `latency` after it was sent, the goals
+are streamed that much earlier: goal'(t) = goal(t + latency), evaluated on the same periodic
+cubic spline the player samples (`advance_by_latency`).
+
 Goals are constrained like angles (inside the joint limits — the player clips to them — and
 moving no faster than the player's step limit, margin·ω₀), in `planner.nlp.constraints`.
 """
@@ -37,6 +43,8 @@ import numpy as np
 
 from robots import Robot
 from robots.servo import factory_gains
+from robots.servo_params import ServoSetting
+from robots.spline import PeriodicSpline
 
 
 @dataclass(frozen=True)
@@ -45,23 +53,53 @@ class ServoLoop:
 
     kp_nm_per_rad: float
     damping_nm_s_per_rad: float  # D gain + back-EMF slope (not the MJCF joint damping)
+    latency_s: float = 0.0  # the goal acts this long after it was sent (identified servos)
 
 
 def factory_servo_loops(robot: Robot) -> tuple[ServoLoop, ...]:
     """Each joint's servo at its factory gains (`robots.servo.factory_gains`, the same source
     `sim` builds its actuators from), in `Robot.joints` order."""
+    return servo_loops(robot)
+
+
+def servo_loops(
+    robot: Robot, settings: tuple[ServoSetting, ...] | None = None
+) -> tuple[ServoLoop, ...]:
+    """Each joint's servo loop: factory gains, scaled by the identified `settings` (one per
+    joint, `robots.servo_params`) when given — the same law `sim.model.servos_for` builds."""
     loops = []
-    for joint in robot.joints:
+    for n, joint in enumerate(robot.joints):
         servo = joint.servo
+        st = settings[n] if settings is not None else ServoSetting()
         duty_p, duty_d = factory_gains(servo)
+        drive = st.strength * servo.stall_torque_nm
         loops.append(
             ServoLoop(
-                kp_nm_per_rad=duty_p * servo.stall_torque_nm,
-                damping_nm_s_per_rad=duty_d * servo.stall_torque_nm
-                + servo.stall_torque_nm / servo.no_load_speed_rad_s,
+                kp_nm_per_rad=st.gain_scale * duty_p * drive,
+                damping_nm_s_per_rad=st.gain_scale * duty_d * drive
+                + drive / servo.no_load_speed_rad_s,
+                latency_s=st.latency_s,
             )
         )
     return tuple(loops)
+
+
+def advance_by_latency(
+    goals_rad: np.ndarray, period_s: float, loops: tuple[ServoLoop, ...]
+) -> np.ndarray:
+    """N × J periodic goals sent `latency_s` early per joint: row k becomes the goal at
+    t_k + latency on the periodic cubic spline through the rows (unchanged without latency)."""
+    goals = np.asarray(goals_rad, dtype=float)
+    lat = np.array([s.latency_s for s in loops])
+    if not np.any(lat > 0):
+        return goals
+    n = goals.shape[0]
+    spline = PeriodicSpline(goals)
+    out = goals.copy()
+    for j in np.flatnonzero(lat > 0):
+        phase = (np.arange(n) / n + lat[j] / period_s) % 1.0
+        out[:, j] = np.asarray(spline(phase))[:, j]
+    return out
 
 
 def loop_arrays(loops: tuple[ServoLoop, ...]) -> tuple[np.ndarray, np.ndarray]:

@@ -420,14 +420,13 @@ class GaitPlanner:
         meta.update(extra_metadata or {})
         knots = result.joint_angles_rad
         if self.options.servo_goals:  # the file streams servo goals (see planner.nlp.servo_loop)
-            from planner.nlp.servo_loop import factory_servo_loops, servo_goals_rad
+            from planner.nlp.servo_loop import advance_by_latency, servo_goals_rad, servo_loops
 
+            loops = servo_loops(self.robot, self.options.servo_settings)
             knots = servo_goals_rad(
-                knots,
-                result.joint_speeds_rad_s,
-                result.joint_torques_nm,
-                factory_servo_loops(self.robot),
+                knots, result.joint_speeds_rad_s, result.joint_torques_nm, loops
             )
+            knots = advance_by_latency(knots, result.schedule.period_s, loops)
         return Gait.create(
             robot=self.robot,
             knots_rad=knots,
