@@ -115,3 +115,19 @@ def test_a_run_starts_and_ends_at_the_stand(hex18: Robot, hex_tripod: Gait) -> N
 def test_a_bad_stand_hold_is_refused(stand_s: float) -> None:
     with pytest.raises(SimConfigError, match="stand_s"):
         RunSettings(stand_s=stand_s)
+
+
+def test_the_exit_starts_on_the_gait_and_ends_at_rest_on_the_mean_pose(hex_tripod: Gait) -> None:
+    t0 = 0.37 * hex_tripod.period_s  # anywhere in the cycle
+    ex = gait_exit(hex_tripod, t0, 2.0)
+    assert ex.cycles >= 1 and ex.duration_s == pytest.approx(ex.cycles * hex_tripod.period_s)
+    np.testing.assert_allclose(ex.positions(0.0), hex_tripod.joint_targets(t0), atol=1e-12)
+    np.testing.assert_allclose(ex.positions(ex.duration_s), gait_mean_pose(hex_tripod),
+                               atol=1e-12)
+    np.testing.assert_allclose(ex.positions(ex.duration_s + 5.0), gait_mean_pose(hex_tripod),
+                               atol=1e-12)
+    h = 1e-5  # C¹ at both ends: the gait's own speed at the start, zero at the stand
+    v0 = (ex.positions(h) - ex.positions(0.0)) / h
+    np.testing.assert_allclose(v0, hex_tripod.joint_velocities(t0), atol=1e-2)
+    v1 = (ex.positions(ex.duration_s) - ex.positions(ex.duration_s - h)) / h
+    np.testing.assert_allclose(v1, 0.0, atol=1e-3)
