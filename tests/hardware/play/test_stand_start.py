@@ -10,10 +10,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
+import robots
 from hardware.bus.virtual import FaultPlan
+from hardware.cli import app
 from hardware.play.player import PlayerConfig
+from hardware.play.telemetry import read_telemetry
+from hardware.play.virtual_rig import bringup_gait
 from hardware.play.watchdog import StopReason
+from robots.gait import save
 from robots.ramp import gait_exit, gait_mean_pose
 from tests.hardware.play.player_rig import assert_wire_safe, make_rig, torque_all_off
 
@@ -121,3 +127,22 @@ def test_a_signal_during_the_blend_out_stops_as_that_signal(tmp_path: Path) -> N
 def test_a_bad_stand_hold_is_refused(stand_s: float) -> None:
     with pytest.raises(ValueError, match="stand_s must lie in"):
         PlayerConfig(stand_s=stand_s)
+
+
+def test_the_cli_holds_the_stand_and_ends_there_or_at_rest(tmp_path: Path,
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("GAITSMITH_CALIBRATION_DIR", str(tmp_path / "cal"))
+    gait = tmp_path / "bringup.json"
+    save(bringup_gait(robots.load("quad12")), gait)
+    common = ["run", str(gait), "--robot", "quad12", "--virtual", "--force", "--no-realtime",
+              "--ramp-s", "0.5", "--cycles", "1"]
+    runner = CliRunner()
+    for extra, last in ((["--stand-s", "0.2"], "stand"), (["--end-at-rest"], "ramp_out")):
+        tel = tmp_path / f"{last}.csv"
+        res = runner.invoke(app, [*common, *extra, "--telemetry", str(tel)])
+        assert res.exit_code == 0, res.output
+        phases = read_telemetry(tel).phase
+        assert phases[-1] == last
+        assert ("blend_out" in phases) == (last == "stand")
+    res = runner.invoke(app, [*common, "--stand-s", "-1"])
+    assert res.exit_code == 2 and "--stand-s -1: must be a finite number in [0, 60] s" in res.output
