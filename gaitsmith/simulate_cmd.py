@@ -45,6 +45,7 @@ from sim.validate import PassCriteria, ValidationResult, evaluate, simulate
 MAX_PAYLOAD_KG = 1000.0
 MAX_STRENGTH = 100.0
 MAX_VIDEO_S = 3600.0
+MAX_STAND_S = 60.0  # sim.rollout.RunSettings' own bound
 
 
 def _metrics_table(result: ValidationResult) -> Table:
@@ -155,6 +156,12 @@ def simulate_command(
     ambient_c: float = typer.Option(
         DEFAULT_AMBIENT_C, "--ambient-c", help="ambient temperature of the prediction [°C]"
     ),
+    stand_s: float = typer.Option(
+        0.0, "--stand-s", help="hold the gait's stand (mean pose) this long [s] after the "
+        "ramp-in and, with --end-at-stand, at the end (as gaitsmith-play run --stand-s)"),
+    end_at_stand: bool = typer.Option(
+        False, "--end-at-stand", help="after the cycles, blend the gait out to its stand the "
+        "way a completed gaitsmith-play run ends"),
     servo_params_path: Path | None = typer.Option(
         None, "--servo-params",
         help="identified servos (servo_params.toml of `gaitsmith identify`): each joint's gain, "
@@ -171,6 +178,7 @@ def simulate_command(
     check_number("--video-seconds", video_seconds, 0.0, MAX_VIDEO_S, lo_open=True, unit="s")
     check_number("--bout-min", bout_min, 0.0, MAX_BOUT_S / 60.0, lo_open=True, unit="min")
     check_number("--ambient-c", ambient_c, *AMBIENT_RANGE_C, unit="°C")
+    check_number("--stand-s", stand_s, 0.0, MAX_STAND_S, unit="s")
     if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
         raise OptionError(f"--video {video}: must end in .mp4 or .gif")
     for option, path in (("--video", video), ("--report", report)):
@@ -216,6 +224,8 @@ def simulate_command(
             strength=strength,
             progress=lambda done, total: bar.update(task, completed=done / total),
             criteria=criteria,
+            stand_s=stand_s,
+            end_at_stand=end_at_stand,
             servo_settings=servo_settings,
         )
     result = evaluate(traj, gait, sim, criteria, rate_hz=rate_hz, latency_s=latency_ms / 1000.0)

@@ -28,12 +28,24 @@ The strides and lifts grow from zero over k whole cycles, so the blend ends exac
 gait's phase 0 with its full motion, C² (α′ = α″ = 0 at both ends). k is the fewest cycles
 (≥ `min_blend_cycles`) for which the blend's own contribution to joint speed, α′·|g − m| ≤
 1.875·max|g − m|/(k·T), stays within the ramp's speed cap on top of the gait's planned speed.
+
+The mean pose is also where a run may rest between ramp and gait ("the stand", issue #14):
+`gait_entry(..., hold_s=H)` holds it for H seconds before the blend. `gait_exit` is the same
+blend run backwards, how a run that completes normally ends (instead of a joint-space ramp from
+wherever the gait is to a rest pose, which drags the feet through the ground like the straight
+ramp-in did and turned quad12's twin −7.7° in 0.5 s):
+
+    q(t) = m + (1 − α(t))·(g(τ₀ + σ·t) − m),   α = s(t / (k·T/σ)),
+
+from gait time τ₀ (where the gait was when it was told to stop, σ the time scale) on: the gait
+keeps its phase while its strides and lifts shrink to zero over k whole cycles, and the run
+ends still on all feet at the mean pose m, C² at both ends.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -169,12 +181,15 @@ class GaitEntry:
     gait: Gait
     cycles: int
     time_scale: float = 1.0
+    hold_s: float = 0.0  # at the mean pose (the stand), between the ramp and the blend
 
     def __post_init__(self) -> None:
         if not (isinstance(self.cycles, int) and self.cycles >= 1):
             raise ValueError(f"blend cycles must be a positive integer, got {self.cycles!r}")
         if not self.time_scale > 0:
             raise ValueError("time_scale must be positive")
+        if not (math.isfinite(self.hold_s) and self.hold_s >= 0):
+            raise ValueError("hold_s must be a finite number ≥ 0")
 
     @property
     def mean_rad(self) -> np.ndarray:
@@ -189,25 +204,61 @@ class GaitEntry:
         return self.cycles * self.gait.period_s / self.time_scale
 
     @property
+    def blend_start_s(self) -> float:
+        """When the blend begins: after the ramp and the hold at the stand."""
+        return self.ramp.duration_s + self.hold_s
+
+    @property
     def duration_s(self) -> float:
-        return self.ramp.duration_s + self.blend_s
+        return self.blend_start_s + self.blend_s
 
     def blend_weight(self, t_s: float | np.ndarray) -> np.ndarray:
-        """α at time(s) `t_s` since the entry began: 0 during the ramp, 1 at the end."""
+        """α at time(s) `t_s` since the entry began: 0 during the ramp and hold, 1 at the end."""
         t = np.asarray(t_s, dtype=float)
-        return min_jerk((t - self.ramp.duration_s) / self.blend_s)
+        return min_jerk((t - self.blend_start_s) / self.blend_s)
 
     def positions(self, t_s: float | np.ndarray) -> np.ndarray:
         """Joint targets at time(s) `t_s` since the entry began ((J,) or (K, J)); after
         `duration_s` the gait's phase-0 pose."""
         t = np.asarray(t_s, dtype=float)
         ramp = self.ramp.positions(np.minimum(t, self.ramp.duration_s))
-        tau = np.clip(t - self.ramp.duration_s, 0.0, self.blend_s) * self.time_scale
+        tau = np.clip(t - self.blend_start_s, 0.0, self.blend_s) * self.time_scale
         gait = self.gait.joint_targets(tau)
         alpha = np.asarray(self.blend_weight(t))[..., None]
         mean = self.mean_rad
         in_blend = np.asarray(t > self.ramp.duration_s)[..., None]
         return np.asarray(np.where(in_blend, mean + alpha * (gait - mean), ramp))
+
+
+@dataclass(frozen=True, eq=False)
+class GaitExit:
+    """The gait blended out to its mean pose (the stand) from gait time `start_gait_s`, over
+    `cycles` whole cycles (module docstring); after `duration_s` the mean pose."""
+
+    gait: Gait
+    start_gait_s: float
+    cycles: int
+    time_scale: float = 1.0
+    mean_rad: np.ndarray = field(init=False, repr=False)  # the stand the exit ends at
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.cycles, int) and self.cycles >= 1):
+            raise ValueError(f"blend cycles must be a positive integer, got {self.cycles!r}")
+        if not (self.time_scale > 0 and math.isfinite(self.start_gait_s)):
+            raise ValueError("time_scale must be positive and start_gait_s finite")
+        object.__setattr__(self, "mean_rad", gait_mean_pose(self.gait))
+
+    @property
+    def duration_s(self) -> float:
+        return self.cycles * self.gait.period_s / self.time_scale
+
+    def positions(self, t_s: float | np.ndarray) -> np.ndarray:
+        """Joint targets at time(s) `t_s` since the exit began ((J,) or (K, J))."""
+        t = np.clip(np.asarray(t_s, dtype=float), 0.0, self.duration_s)
+        gait = self.gait.joint_targets(self.start_gait_s + self.time_scale * t)
+        keep = 1.0 - np.asarray(min_jerk(t / self.duration_s))[..., None]
+        mean = self.mean_rad
+        return np.asarray(mean + keep * (gait - mean))
 
 
 def gait_entry(
@@ -218,8 +269,24 @@ def gait_entry(
     *,
     time_scale: float = 1.0,
     min_blend_cycles: int = DEFAULT_MIN_BLEND_CYCLES,
+    hold_s: float = 0.0,
 ) -> GaitEntry:
-    """How the player and the simulator start `gait` from `present_rad` (module docstring)."""
+    """How the player and the simulator start `gait` from `present_rad` (module docstring);
+    `hold_s`: seconds at the stand (the mean pose) between the ramp and the blend."""
     ramp = ramp_to(present_rad, gait_mean_pose(gait), max_speed_rad_s, min_duration_s)
     k = blend_cycles(gait, max_speed_rad_s, time_scale, min_blend_cycles)
-    return GaitEntry(ramp, gait, k, float(time_scale))
+    return GaitEntry(ramp, gait, k, float(time_scale), float(hold_s))
+
+
+def gait_exit(
+    gait: Gait,
+    start_gait_s: float,
+    max_speed_rad_s: float | np.ndarray,
+    *,
+    time_scale: float = 1.0,
+    min_blend_cycles: int = DEFAULT_MIN_BLEND_CYCLES,
+) -> GaitExit:
+    """How a completed run ends: `gait` blended out to its stand from gait time `start_gait_s`
+    over as many cycles as the entry's blend takes at the same speed cap (module docstring)."""
+    k = blend_cycles(gait, max_speed_rad_s, time_scale, min_blend_cycles)
+    return GaitExit(gait, float(start_gait_s), k, float(time_scale))

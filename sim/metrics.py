@@ -160,7 +160,7 @@ def detect_fall(
 
 def steady_mask(traj: Trajectory, warmup_cycles: int) -> np.ndarray:
     start = traj.gait_start_s + warmup_cycles * traj.period_s
-    mask = traj.time_s > start + 1e-9
+    mask = (traj.time_s > start + 1e-9) & (traj.time_s <= traj.gait_end_s + 1e-9)
     if not np.any(mask):  # run ended (fell) before the steady window: use what there is of the gait
         mask = traj.time_s > traj.gait_start_s
     if not np.any(mask):
@@ -238,14 +238,17 @@ def run_path(traj: Trajectory, velocity: Velocity) -> RunPath:
     xy = traj.base_pos_m[:, :2]
     psi0 = float(yaw[0])
     g = min(int(np.searchsorted(traj.time_s, traj.gait_start_s - 1e-9)), len(yaw) - 1)
-    gait_time = max(float(traj.time_s[-1]) - float(traj.time_s[g]), 0.0)
+    # the gait's own velocity: to the end of its cycles (a blend-out to the stand after them
+    # slows down and is judged by the path and heading over the whole run)
+    e = min(int(np.searchsorted(traj.time_s, traj.gait_end_s + 1e-9)), len(yaw)) - 1
+    gait_time = max(float(traj.time_s[e]) - float(traj.time_s[g]), 0.0)
     change = float(yaw[-1] - psi0)
     along_m, lateral_m = path_offset(velocity, xy[0], psi0, xy)
     along, lateral = float(along_m[-1]), float(lateral_m[-1])
     c, s = math.cos(psi0), math.sin(psi0)
     if gait_time > 0:
-        dx, dy = (xy[-1] - xy[g]) / gait_time
-        gait_v = (c * dx + s * dy, -s * dx + c * dy, float(yaw[-1] - yaw[g]) / gait_time)
+        dx, dy = (xy[e] - xy[g]) / gait_time
+        gait_v = (c * dx + s * dy, -s * dx + c * dy, float(yaw[e] - yaw[g]) / gait_time)
     else:
         gait_v = (0.0, 0.0, 0.0)
     return RunPath(

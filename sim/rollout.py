@@ -2,8 +2,10 @@
 
 The player's target stream is open-loop (a function of time only), so the whole control sequence
 is computed up front: stance hold for `settle_s`, the shared `robots.ramp.gait_entry` (min-jerk
-move to the gait's mean pose, then the gait blended in over whole cycles, ending at its phase 0),
-then `gait.joint_targets(t)`; sampled at the stream rate, held and delayed by
+move to the gait's mean pose, `stand_s` held there — the stand —, then the gait blended in over
+whole cycles, ending at its phase 0), then `gait.joint_targets(t)`, and with `end_at_stand` the
+player's normal ending: the gait blended out to the stand (`robots.ramp.gait_exit`) and the stand
+held `stand_s`; sampled at the stream rate, held and delayed by
 `sim.servo.held_targets`. The physics runs natively (`mujoco.rollout`) one gait cycle at a time so
 a fall can stop the run early and progress can be reported.
 """
@@ -12,14 +14,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import mujoco.rollout
 import numpy as np
 
 from robots.gait import Gait
-from robots.ramp import GaitEntry, gait_entry
+from robots.ramp import GaitEntry, GaitExit, gait_entry, gait_exit, min_jerk
 from robots.robot import Robot
 from robots.sole import sole_pose_world
 from sim.errors import SimConfigError, SimDivergedError
@@ -37,6 +39,8 @@ class RunSettings:
     latency_s: float = 0.0
     settle_s: float = 0.25  # servos on, holding the stance, before the ramp starts
     ramp_min_s: float = 1.0
+    stand_s: float = 0.0  # hold at the gait's stand (mean pose) after the ramp, and at the end
+    end_at_stand: bool = False  # after the cycles, blend out to the stand as the player does
 
     def __post_init__(self) -> None:
         if not (isinstance(self.cycles, int) and self.cycles >= 1):
@@ -49,6 +53,8 @@ class RunSettings:
             raise SimConfigError("settle_s must be ≥ 0")
         if not (math.isfinite(self.ramp_min_s) and self.ramp_min_s > 0):
             raise SimConfigError("ramp_min_s must be positive")
+        if not (math.isfinite(self.stand_s) and 0 <= self.stand_s <= 60.0):
+            raise SimConfigError(f"stand_s must be in [0, 60] s, got {self.stand_s!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,6 +83,7 @@ class Trajectory:
     foot_contacts: np.ndarray  # (T, F) number of foot–ground contacts
     robot_contacts: np.ndarray  # (T,) number of robot–ground contacts (all geoms)
     qpos: np.ndarray  # (T, nq) for rendering
+    gait_end_s: float = math.inf  # end of the gait's cycles (then the blend-out, if any)
 
     @property
     def dt_s(self) -> float:
@@ -95,21 +102,47 @@ class Trajectory:
         return (self.time_s - self.gait_start_s) / self.period_s
 
 
+@dataclass(frozen=True, eq=False)
+class RunPlan:
+    """When each part of a run happens [s]: hold, entry, the gait's cycles, the ending."""
+
+    entry: GaitEntry
+    settle_s: float
+    gait_start_s: float
+    gait_end_s: float
+    exit: GaitExit | None  # the blend-out to the stand (None: the run ends with the cycles)
+    end_s: float
+
+
+def run_plan(gait: Gait, sim: SimModel, settings: RunSettings) -> RunPlan:
+    robot = sim.robot
+    stance = np.asarray(robot.nominal_stance_rad, dtype=float)
+    speed = RAMP_SPEED_FRACTION * np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
+    entry = gait_entry(gait, stance, speed, settings.ramp_min_s)
+    if settings.stand_s > 0:
+        entry = replace(entry, hold_s=settings.stand_s)
+    settle = _settle_s(entry, settings)
+    gait_start = settle + entry.duration_s
+    gait_end = gait_start + settings.cycles * gait.period_s
+    exit_ = None
+    end = gait_end
+    if settings.end_at_stand:
+        exit_ = gait_exit(gait, settings.cycles * gait.period_s, speed)
+        end = gait_end + exit_.duration_s + settings.stand_s
+    return RunPlan(entry, settle, gait_start, gait_end, exit_, end)
+
+
 def stream_targets(
     gait: Gait, sim: SimModel, settings: RunSettings
 ) -> tuple[np.ndarray, GaitEntry, float]:
     """The player's target stream at `rate_hz` for the whole run: (K, J), ramp, gait start [s]."""
-    robot = sim.robot
-    stance = np.asarray(robot.nominal_stance_rad, dtype=float)
-    speed = RAMP_SPEED_FRACTION * np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
-    ramp = gait_entry(gait, stance, speed, settings.ramp_min_s)
-    settle = _settle_s(ramp, settings)
-    gait_start = settle + ramp.duration_s
-    end = gait_start + settings.cycles * gait.period_s
+    plan = run_plan(gait, sim, settings)
+    stance = np.asarray(sim.robot.nominal_stance_rad, dtype=float)
     tick = 1.0 / settings.rate_hz
-    t = np.arange(math.ceil(end / tick - 1e-9) + 1) * tick
-    out = reference(gait, stance, ramp, settle, gait_start, t)
-    return out, ramp, gait_start
+    t = np.arange(math.ceil(plan.end_s / tick - 1e-9) + 1) * tick
+    out = reference(gait, stance, plan.entry, plan.settle_s, plan.gait_start_s, t,
+                    ending=plan)
+    return out, plan.entry, plan.gait_start_s
 
 
 def _settle_s(entry: GaitEntry, settings: RunSettings) -> float:
@@ -128,8 +161,10 @@ def reference(
     gait_start_s: float,
     t_s: np.ndarray,
     expected: bool = False,
+    ending: RunPlan | None = None,
 ) -> np.ndarray:
-    """The player's targets at times `t_s`: stance hold, then the ramp, then the gait.
+    """The player's targets at times `t_s`: stance hold, then the ramp, then the gait, then
+    (`ending` with an exit) the blend-out to the stand and the stand.
 
     With `expected`, the gait part is the angles the servos should reach
     (`Gait.expected_joint_angles`) instead of the goals streamed to them.
@@ -144,6 +179,15 @@ def reference(
     if np.any(in_gait):
         curve = gait.expected_joint_angles if expected else gait.joint_targets
         out[in_gait] = curve(t[in_gait] - gait_start_s)
+    if ending is not None and ending.exit is not None:
+        after = t > ending.gait_end_s
+        if np.any(after):
+            ex = ending.exit
+            t_exit = np.clip(t[after] - ending.gait_end_s, 0.0, ex.duration_s)
+            curve = gait.expected_joint_angles if expected else gait.joint_targets
+            keep = 1.0 - min_jerk(t_exit / ex.duration_s)[:, None]
+            mean = ex.mean_rad
+            out[after] = mean + keep * (curve(ex.start_gait_s + t_exit) - mean)
     return out
 
 
@@ -164,15 +208,18 @@ def run(
     """Simulate the run; `stop(sensordata_chunk, sim)` may end it after any cycle (e.g. a fall)."""
     model = sim.model
     dt = float(model.opt.timestep)
-    stream, ramp, gait_start = stream_targets(gait, sim, settings)
+    stream, _, gait_start = stream_targets(gait, sim, settings)
+    plan = run_plan(gait, sim, settings)
     stance = np.asarray(sim.robot.nominal_stance_rad, dtype=float)
-    total = round((gait_start + settings.cycles * gait.period_s) / dt)
+    gait_total = round((gait_start + settings.cycles * gait.period_s) / dt)
+    total = round(plan.end_s / dt)
     ramp_steps = round(gait_start / dt)
     cycle_steps = max(1, round(gait.period_s / dt))
     bounds = [0, ramp_steps] + [
-        min(total, ramp_steps + c * cycle_steps) for c in range(1, settings.cycles + 1)
+        min(gait_total, ramp_steps + c * cycle_steps) for c in range(1, settings.cycles + 1)
     ]
-    bounds[-1] = total
+    bounds[-1] = gait_total
+    bounds.append(total)
     bounds = sorted(set(b for b in bounds if b > 0))
     data = mujoco.MjData(model)
     state = sim.initial_state()
@@ -202,7 +249,7 @@ def run(
             stopped = end < total
             break
     st_all, sd_all = np.concatenate(states), np.concatenate(sensors)
-    return _trajectory(gait, sim, settings, stream, ramp, gait_start, st_all, sd_all, stopped)
+    return _trajectory(gait, sim, settings, stream, plan, st_all, sd_all, stopped)
 
 
 def _sole_centre_velocity(
@@ -231,12 +278,12 @@ def _trajectory(
     sim: SimModel,
     settings: RunSettings,
     stream: np.ndarray,
-    ramp: GaitEntry,
-    gait_start: float,
+    plan: RunPlan,
     st: np.ndarray,
     sd: np.ndarray,
     stopped: bool,
 ) -> Trajectory:
+    ramp, gait_start = plan.entry, plan.gait_start_s
     robot, model = sim.robot, sim.model
     n = len(st)
     dt = float(model.opt.timestep)
@@ -252,8 +299,9 @@ def _trajectory(
         initial_rad=stance,
     )
     settle = _settle_s(ramp, settings)
-    planned = reference(gait, stance, ramp, settle, gait_start, time_s)
-    expected = reference(gait, stance, ramp, settle, gait_start, time_s, expected=True)
+    planned = reference(gait, stance, ramp, settle, gait_start, time_s, ending=plan)
+    expected = reference(gait, stance, ramp, settle, gait_start, time_s, expected=True,
+                         ending=plan)
 
     def cols(prefix: str, names: tuple[str, ...]) -> np.ndarray:
         return np.stack([sim.sensor(sd, f"{prefix}{x}") for x in names], axis=1)
@@ -279,7 +327,8 @@ def _trajectory(
         gait_start_s=gait_start,
         ramp=ramp,
         period_s=gait.period_s,
-        cycles_run=int(max(0.0, math.floor((time_s[-1] + dt - gait_start) / gait.period_s))),
+        cycles_run=min(settings.cycles, int(max(0.0, math.floor(
+            (time_s[-1] + dt - gait_start) / gait.period_s)))),
         stopped_early=stopped,
         goal_rad=goal,
         planned_rad=planned,
@@ -297,4 +346,5 @@ def _trajectory(
         foot_contacts=contact[..., 0],
         robot_contacts=sim.sensor(sd, "gs_robot_contacts")[:, 0],
         qpos=qpos,
+        gait_end_s=plan.gait_end_s if plan.exit is not None else math.inf,
     )

@@ -2,6 +2,10 @@
 
 The run starts at rest in the nominal stance on flat ground, holds, ramps in the way the player
 does (`robots.ramp`), then plays `cycles` gait cycles streamed at `rate_hz` with `latency_s`.
+Like the player it can hold the gait's stand (its mean pose) for `stand_s` after the ramp-in and,
+with `end_at_stand`, end the way a completed run ends on the servos: the gait blended out to
+the stand and the stand held `stand_s` (the steady-cycle metrics stop at the last cycle; heading,
+path and falls cover the ending too).
 Metrics (see `sim.metrics`): heading and path over the whole run in the world frame from the rest
 pose, the rest over the steady cycles; the verdict applies `PassCriteria`.
 """
@@ -10,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -59,6 +63,13 @@ class PassCriteria:
     # L, so a slip that matters does too.
     max_mean_slip_leg_lengths: float = 0.10
     max_mean_slip_m: float | None = None
+    # At zero command (a stand, or stepping in place) there is no speed to compare with: the
+    # speed check becomes a drift check instead — the base's planar speed over the steady
+    # cycles ≤ this many leg lengths per second (0.05 L/s: 9 mm/s for an 18 cm leg, half a leg
+    # length in 10 s), and the whole run (ramp-in included) ends within `max_run_drift_leg_lengths`
+    # of where it started. Heading, fall, tilt, slip and torque are judged as for a walk.
+    max_drift_leg_lengths_per_s: float = 0.05
+    max_run_drift_leg_lengths: float = 0.5
     falls: FallThresholds = field(default_factory=FallThresholds)
     warmup_cycles: int = 2  # cycles after the ramp not judged (start-up transient)
 
@@ -97,20 +108,44 @@ def slip_limit_m(c: PassCriteria, leg_length_m: float) -> float:
     return c.max_mean_slip_leg_lengths * leg_length_m
 
 
+def standing_command(m: Metrics) -> bool:
+    """Zero commanded velocity (vx, vy and yaw rate): a stand or stepping in place."""
+    return m.commanded_speed_m_s == 0.0 and m.commanded_yaw_rate_rad_s == 0.0
+
+
+def _drift_check(m: Metrics, c: PassCriteria, leg_length_m: float) -> tuple[str, bool, str]:
+    """The zero-command replacement of the speed check (see `PassCriteria`)."""
+    speed_limit = c.max_drift_leg_lengths_per_s * leg_length_m
+    run_limit = c.max_run_drift_leg_lengths * leg_length_m
+    run_drift = abs(m.lateral_drift_m)  # at v = 0: the planar displacement over the run
+    ok = m.achieved_speed_m_s <= speed_limit and run_drift <= run_limit
+    return (
+        "drift",
+        ok,
+        f"drifted {m.achieved_speed_m_s * 1000:.1f} mm/s in the steady part (limit "
+        f"{speed_limit * 1000:.1f} mm/s = {c.max_drift_leg_lengths_per_s:g} L/s) and "
+        f"{run_drift * 1000:.0f} mm over the whole {m.duration_s:.1f} s run (limit "
+        f"{run_limit * 1000:.0f} mm = {c.max_run_drift_leg_lengths:g} L)",
+    )
+
+
 def judge(
     m: Metrics, c: PassCriteria, leg_length_m: float
 ) -> tuple[tuple[str, bool, str], ...]:
     checks: list[tuple[str, bool, str]] = []
     slip_limit = slip_limit_m(c, leg_length_m)
-    tol = max(c.speed_rel_tol * m.commanded_speed_m_s, c.speed_abs_tol_m_s)
-    checks.append(
-        (
-            "speed",
-            abs(m.achieved_speed_m_s - m.commanded_speed_m_s) <= tol,
-            f"achieved {m.achieved_speed_m_s:.3f} m/s vs commanded {m.commanded_speed_m_s:.3f} "
-            f"m/s (tolerance ±{tol:.3f})",
+    if standing_command(m):
+        checks.append(_drift_check(m, c, leg_length_m))
+    else:
+        tol = max(c.speed_rel_tol * m.commanded_speed_m_s, c.speed_abs_tol_m_s)
+        checks.append(
+            (
+                "speed",
+                abs(m.achieved_speed_m_s - m.commanded_speed_m_s) <= tol,
+                f"achieved {m.achieved_speed_m_s:.3f} m/s vs commanded "
+                f"{m.commanded_speed_m_s:.3f} m/s (tolerance ±{tol:.3f})",
+            )
         )
-    )
     checks.append(
         (
             "no fall",
@@ -216,12 +251,15 @@ def simulate(
     progress: Progress | None = None,
     criteria: PassCriteria = PassCriteria(),
     stop_on_fall: bool = True,
+    stand_s: float = 0.0,
+    end_at_stand: bool = False,
     servo_settings: Sequence[ServoSetting] | None = None,
 ) -> tuple[SimModel, Trajectory]:
     """Build the model and run the gait (no verdict); see `validate`. `servo_settings`: the
     identified servos (`robots.servo_params`, one per joint; None: catalogue servos)."""
     gait.check_robot(robot)
-    settings = RunSettings(cycles=cycles, rate_hz=rate_hz, latency_s=latency_s)
+    settings = RunSettings(cycles=cycles, rate_hz=rate_hz, latency_s=latency_s,
+                           stand_s=stand_s, end_at_stand=end_at_stand)
     sim = build_sim_model(
         robot,
         SimConditions(friction=friction, payload_kg=payload_kg, strength=strength),
@@ -264,9 +302,12 @@ def validate(
     progress: Progress | None = None,
     criteria: PassCriteria = PassCriteria(),
     keep_trajectory: bool = True,
+    stand_s: float = 0.0,
+    end_at_stand: bool = False,
     servo_settings: Sequence[ServoSetting] | None = None,
 ) -> ValidationResult:
-    """Simulate `cycles` cycles of `gait` on `robot` and return metrics + verdict."""
+    """Simulate `cycles` cycles of `gait` on `robot` and return metrics + verdict (`stand_s`,
+    `end_at_stand`: start and end at the gait's stand, see the module docstring)."""
     if cycles <= criteria.warmup_cycles:
         raise SimConfigError(
             f"cycles must exceed the {criteria.warmup_cycles} warm-up cycles, got {cycles}"
@@ -282,9 +323,11 @@ def validate(
         strength=strength,
         progress=progress,
         criteria=criteria,
+        stand_s=stand_s,
+        end_at_stand=end_at_stand,
         servo_settings=servo_settings,
     )
-    return evaluate(
+    result = evaluate(
         traj,
         gait,
         sim,
@@ -293,6 +336,11 @@ def validate(
         latency_s=latency_s,
         keep_trajectory=keep_trajectory,
     )
+    if stand_s or end_at_stand:
+        extra: dict[str, float | int | None] = {"stand_s": stand_s,
+                                                 "end_at_stand": int(end_at_stand)}
+        result = replace(result, conditions={**result.conditions, **extra})
+    return result
 
 
 def evaluate(
@@ -346,6 +394,7 @@ __all__ = [
     "judge",
     "simulate",
     "slip_limit_m",
+    "standing_command",
     "validate",
     "validate_and_annotate",
 ]

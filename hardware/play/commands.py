@@ -69,6 +69,7 @@ OPTION_RANGES: dict[str, tuple[float, float, str]] = {
     "--cycles": (0.0, MAX_CYCLES, "(0 = until stopped)"),
     "--speed-scale": (0.01, 10.0, ""),
     "--ramp-s": (0.01, MAX_RAMP_S, "s"),
+    "--stand-s": (0.0, MAX_RAMP_S, "s"),
     "--timeout-ms": (0.1, 1000.0, "ms"),
     "--baud": (1200, 10_000_000, "bit/s"),
 }
@@ -265,6 +266,13 @@ def run(
     ramp_s: float = typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time \\[s]."),
     rest: RestPose = typer.Option(RestPose.STANCE, "--rest", help="Pose to ramp to on stop."),
     on_stop: OnStop = typer.Option(OnStop.TORQUE_OFF, "--on-stop", help="After the rest ramp."),
+    stand_s: float = typer.Option(
+        0.0, "--stand-s", help="Hold the gait's stand (mean pose) this long \\[s] after the "
+        "ramp-in and, on completion, at the end."),
+    end_at_stand: bool = typer.Option(
+        True, "--end-at-stand/--end-at-rest",
+        help="On completion blend the gait out to its stand (default), or ramp to --rest. "
+        "Stops for a fault or a signal always ramp to --rest."),
     force: bool = typer.Option(False, "--force", help="Play a gait that did not pass sim."),
     timeout_ms: float = typer.Option(3.0, "--timeout-ms", help="Reply allowance per packet."),
     baud: int | None = typer.Option(None, "--baud", help="Baud rate; default: the robot's."),
@@ -296,7 +304,8 @@ def run(
     """
     for name, value in (
         ("--rate", rate_hz), ("--cycles", cycles), ("--speed-scale", speed_scale),
-        ("--ramp-s", ramp_s), ("--timeout-ms", timeout_ms), ("--baud", baud),
+        ("--ramp-s", ramp_s), ("--stand-s", stand_s), ("--timeout-ms", timeout_ms),
+        ("--baud", baud),
     ):  # fmt: skip
         problem = None if value is None else check_option(name, value)
         if problem is not None:
@@ -323,6 +332,8 @@ def run(
             cycles=cycles or None,
             speed_scale=speed_scale,
             ramp_s=ramp_s,
+            stand_s=stand_s,
+            end_at_stand=end_at_stand,
             rest=rest,
             on_stop=on_stop,
             dry_run=dry_run,

@@ -9,16 +9,23 @@ Timeline (all goal positions pass through one `SafetyGate`):
 2. torque on (the servos hold their present pose), then the gait entry (`robots.ramp.gait_entry`,
    as `sim.validate` does): a min-jerk ramp from the present pose to the gait's mean pose, peak
    speed ≤ `ramp_speed_fraction` of the allowed speed and at least `ramp_s` long ("ramp_in"),
-   then the gait blended in around that pose over whole cycles ("blend_in"), ending at phase 0
+   then, with `stand_s` > 0, that pose held ("stand": the gait's stand, issue #14), then the
+   gait blended in around that pose over whole cycles ("blend_in"), ending at phase 0
    (a straight ramp to the phase-0 pose turned a robot 7–15° before its first step, issue #12);
 3. streaming at `rate_hz` with absolute deadlines t0 + k/rate (no drift). A tick whose work
    ends past the next deadline is an overrun: the latest passed deadline runs at once, late,
    and older passed deadlines are skipped (counted). The gait is sampled at
    gait time = `speed_scale` · (scheduled time since the gait began);
-4. stop (completed cycles, watchdog, a stop signal — SIGINT, SIGTERM, SIGHUP, SIGQUIT —, bus
-   error, adapter lost): ramp from the last goal to the rest pose (stance, or where the robot
-   is) over ≥ `stop_ramp_s`, then torque off or hold. Any later signal skips what is left of
-   the ramp, straight to step 5; a bus error or a lost adapter skips the ramp too;
+4. normal completion (`cycles` played) with `end_at_stand`: the gait blended *out* to its mean
+   pose over whole cycles (`robots.ramp.gait_exit`, "blend_out"), the stand held `stand_s`
+   ("stand"), then torque off or hold — no ramp to rest: a joint-space ramp from mid-stride
+   drags the feet (it turned quad12's twin −7.7° in 0.5 s). The watchdog and the signals stay
+   armed through both, and a stop there takes the safe-stop path below;
+   stop (watchdog, a stop signal — SIGINT, SIGTERM, SIGHUP, SIGQUIT —, bus error, adapter
+   lost, or completion without `end_at_stand`): ramp from the last goal to the rest pose
+   (stance, or where the robot is) over ≥ `stop_ramp_s`, then torque off or hold. Any later
+   signal skips what is left of the ramp, straight to step 5; a bus error or a lost adapter
+   skips the ramp too;
 5. torque off: one broadcast sync-write of Torque Enable = 0 (reaches servos whose replies are
    lost), then an acknowledged write per servo (failures reported), bounded in time; after an
    adapter failure only the broadcast is tried. Then the telemetry stop row.
@@ -65,7 +72,7 @@ from hardware.play.telemetry import TelemetryWriter, TickRecord
 from hardware.play.thermal_watch import PredictedHeating, predicted_heating
 from hardware.play.watchdog import StopEvent, StopReason, Watchdog, WatchdogLimits, stop_on_signals
 from robots.gait import Gait
-from robots.ramp import GaitEntry, MinJerkRamp, gait_entry, ramp_to
+from robots.ramp import GaitEntry, MinJerkRamp, gait_entry, gait_exit, ramp_to
 from robots.robot import Robot
 
 TickHook = Callable[[int, float], None]
@@ -94,15 +101,16 @@ def _os_text(exc: BaseException) -> str:
 
 @dataclass(frozen=True)
 class EntryPlan:
-    """A gait entry (`robots.ramp.GaitEntry`) in ticks: ramp-in, then blend-in."""
+    """A gait entry (`robots.ramp.GaitEntry`) in ticks: ramp-in, the stand, then blend-in."""
 
     entry: GaitEntry
     n_ramp: int
     n_blend: int
+    n_hold: int = 0  # at the stand (the gait's mean pose), between the ramp and the blend
 
     @property
     def ticks(self) -> int:
-        return self.n_ramp + self.n_blend
+        return self.n_ramp + self.n_hold + self.n_blend
 
 
 class RestPose(str, Enum):
@@ -134,6 +142,8 @@ class PlayerConfig:
     pose_tolerance_rad: float = 0.05
     limits: WatchdogLimits = field(default_factory=WatchdogLimits)
     supply_v: float | None = None  # the servos' supply [V]; None: measured at pre-flight
+    stand_s: float = 0.0  # hold at the gait's stand (mean pose) after the ramp-in and at the end
+    end_at_stand: bool = True  # a completed run blends out to the stand instead of ramping to rest
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 1000.0):
@@ -147,6 +157,8 @@ class PlayerConfig:
         for name in ("ramp_s", "stop_ramp_s"):
             if not 0 < getattr(self, name) <= MAX_RAMP_S:
                 raise ValueError(f"{name} must lie in (0, {MAX_RAMP_S:g}] s")
+        if not (math.isfinite(self.stand_s) and 0 <= self.stand_s <= MAX_RAMP_S):
+            raise ValueError(f"stand_s must lie in [0, {MAX_RAMP_S:g}] s")
         for name in ("ramp_speed_fraction", "stop_speed_fraction"):
             if not 0 < getattr(self, name) <= 1.0:
                 raise ValueError(f"{name} must lie in (0, 1]")
@@ -236,6 +248,7 @@ class Player:
         self._last_present: tuple[int, np.ndarray] | None = None
         self._actual_span_s: list[float] = []  # first and last tick start [s]
         self._adapter_lost = False
+        self._at_stand = False  # a completed run ended at the stand (no ramp to rest needed)
         self.supply_margin: str | None = None  # pre-flight's supply-voltage torque margin
 
     # -- public -----------------------------------------------------------------------------------
@@ -372,8 +385,9 @@ class Player:
         stop = self.watchdog.stop
         return stop is not None and stop.reason in (StopReason.BUS_ERROR, StopReason.ADAPTER_LOST)
 
-    def _entry_plan(self, gait: Gait, time_scale: float) -> EntryPlan:
-        """How `gait` is entered from the last goal: ramp-in, then blend-in (module docstring)."""
+    def _entry_plan(self, gait: Gait, time_scale: float, hold_s: float = 0.0) -> EntryPlan:
+        """How `gait` is entered from the last goal: ramp-in, `hold_s` at the stand, then
+        blend-in (module docstring)."""
         cfg = self.config
         entry = gait_entry(
             gait,
@@ -381,24 +395,28 @@ class Player:
             self.allowed_speed_rad_s * cfg.ramp_speed_fraction,
             cfg.ramp_s,
             time_scale=time_scale,
+            hold_s=hold_s,
         )
         n_ramp = math.ceil(entry.ramp.duration_s * cfg.rate_hz - 1e-9)
+        n_hold = round(hold_s * cfg.rate_hz)
         n_blend = max(1, round(entry.blend_s * cfg.rate_hz))  # its ticks span exactly blend_s
-        return EntryPlan(entry, n_ramp, n_blend)
+        return EntryPlan(entry, n_ramp, n_blend, n_hold)
 
     def _entry_target(self, plan: EntryPlan, k: int) -> tuple[str, np.ndarray] | None:
         """(phase, target) of deadline k of the entry; None once k is past it."""
         entry, ramp = plan.entry, plan.entry.ramp
         if k < plan.n_ramp:
             return "ramp_in", ramp.positions((k + 1) * self.period_s)
-        if k < plan.n_ramp + plan.n_blend:
-            t_blend = (k - plan.n_ramp) * entry.blend_s / plan.n_blend  # then the gait at t = 0
-            return "blend_in", entry.positions(ramp.duration_s + t_blend)
+        if k < plan.n_ramp + plan.n_hold:
+            return "stand", entry.mean_rad
+        if k < plan.ticks:
+            t_blend = (k - plan.n_ramp - plan.n_hold) * entry.blend_s / plan.n_blend  # → gait t=0
+            return "blend_in", entry.positions(entry.blend_start_s + t_blend)
         return None
 
     def _play(self) -> None:
         cfg = self.config
-        plan = self._entry_plan(self.gait, cfg.speed_scale)
+        plan = self._entry_plan(self.gait, cfg.speed_scale, cfg.stand_s)
         n_gait: int | None = None
         if cfg.cycles is not None:
             n_gait = round(cfg.cycles * self.gait.period_s / cfg.speed_scale * cfg.rate_hz)
@@ -408,22 +426,42 @@ class Player:
             if step is not None:
                 phase, target = step
             elif n_gait is not None and k - plan.ticks > n_gait:
-                self.watchdog.request(
-                    StopReason.COMPLETED,
-                    f"played {cfg.cycles:g} cycle(s)",
-                    self.ticks,
-                    self._now_rel(),
-                )
+                self._end_at_stand(k, (n_gait + 1) * self.period_s * cfg.speed_scale, plan.n_hold)
                 break
             else:
                 t_gait = (k - plan.ticks) * self.period_s * cfg.speed_scale
                 phase, target = "gait", self.gait.joint_targets(t_gait)
             k = self._tick(k, phase, target, watch=True)
 
+    def _end_at_stand(self, k: int, gait_s: float, n_hold: int) -> None:
+        """The cycles are played: blend the gait out to its stand from gait time `gait_s`
+        (`robots.ramp.gait_exit`), hold it `n_hold` ticks, then stop as completed. Watched like
+        the gait: a fault or a signal on the way stops the run the safe way instead."""
+        cfg = self.config
+        if cfg.end_at_stand:
+            exit_ = gait_exit(self.gait, gait_s, self.allowed_speed_rad_s * cfg.ramp_speed_fraction,
+                              time_scale=cfg.speed_scale)
+            n_exit = max(1, round(exit_.duration_s * cfg.rate_hz))
+            for j in range(n_exit + n_hold):
+                if self.watchdog.stop is not None:
+                    return
+                t_exit = min(j, n_exit) * exit_.duration_s / n_exit  # ends exactly at the stand
+                phase = "blend_out" if j < n_exit else "stand"
+                k = self._tick(k, phase, exit_.positions(t_exit), watch=True)
+            if self.watchdog.stop is not None:
+                return
+            self._at_stand = True
+        self.watchdog.request(
+            StopReason.COMPLETED,
+            f"played {cfg.cycles:g} cycle(s)" + (", ended at the stand" if self._at_stand else ""),
+            self.ticks,
+            self._now_rel(),
+        )
+
     def _ramp_to_rest(self) -> None:
         cfg = self.config
         stop = self.watchdog.stop
-        if stop is None or self._bus_dead or self.watchdog.urgent:
+        if stop is None or self._bus_dead or self.watchdog.urgent or self._at_stand:
             return
         start = self.gate.last_rad
         if cfg.rest is RestPose.STANCE:

@@ -84,7 +84,8 @@ def test_signal_storm_at_every_phase_never_leaves_a_servo_torqued(
         p.start()
         assert p.wait_phase("gait"), p.finish().stderr
     elif phase == "stop-ramp":
-        p = PlayerProcess(tmp_path, "--cycles", "0.5")  # completes: stop ramp with no signal
+        # completes, then ramps to rest (--end-at-rest) with no signal
+        p = PlayerProcess(tmp_path, "--cycles", "0.5", "--end-at-rest")
         p.start()
         assert p.wait_phase("ramp_out"), p.finish().stderr
         reason, code = "completed", 0
