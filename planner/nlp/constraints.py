@@ -31,6 +31,7 @@ from planner.nlp.flat_foot import (
     moments_world,
     spare_flat_foot_ankles,
 )
+from planner.nlp.foot_separation import foot_separation_labels, foot_separation_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.variables import Symbols, time_unit_s
 
@@ -276,6 +277,10 @@ def build_groups(
         ),
         *flat_foot_groups(model, sym, n, options, stick, Group),
     ]
+    separation, separation_lb = foot_separation_rows(model, sym, kq.feet_m)
+    if separation_lb.size:  # neighbouring feet do not cross (`planner.nlp.foot_separation`)
+        groups.append(Group("foot separation", separation, separation_lb,
+                            np.full(separation_lb.size, inf), length))
     return spare_flat_foot_ankles(model, groups, n)
 
 
@@ -385,4 +390,5 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)
         ],
         **flat_foot_labels(model, n_knots),
+        "foot separation": foot_separation_labels(model, n_knots),
     }
