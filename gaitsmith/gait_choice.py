@@ -8,13 +8,24 @@ from __future__ import annotations
 
 import robots
 from planner.errors import TemplateError
+from planner.nlp.config import GRAVITY_M_S2
 from planner.templates import GENERIC_TEMPLATES, TEMPLATES, default_gait_for, templates_for
 
 
-def default_gait(bot: robots.Robot) -> str:
-    """The template `plan` uses without `--gait`: `planner.templates.default_gait_for` — walk
+def default_gait(bot: robots.Robot, standing: bool = False) -> str:
+    """The template `plan` uses without `--gait`: `stand` (all feet down) when `standing` (a
+    zero command with no stepping schedule), else `planner.templates.default_gait_for` — walk
     on two legs, trot on four, tripod on six, else ripple (wave for three legs)."""
-    return default_gait_for(bot)
+    return "stand" if standing else default_gait_for(bot)
+
+
+def default_speed_note(bot: robots.Robot, speed_m_s: float) -> str:
+    """The line `plan` prints when it picks the speed from the body (Froude number
+    Fr = v²/(g·L), `planner.nlp.config.default_speed_m_s`)."""
+    leg_m = bot.leg_length_m
+    froude = speed_m_s**2 / (GRAVITY_M_S2 * leg_m)
+    return (f"speed {speed_m_s:.2f} m/s = Froude {froude:.3f} for L = {leg_m * 100:.0f} cm; "
+            "--speed to override")
 
 
 def check_gait_fits(bot: robots.Robot, gait: str) -> None:

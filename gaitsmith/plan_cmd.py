@@ -22,7 +22,7 @@ from rich.table import Table
 import robots
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
-from gaitsmith.gait_choice import check_gait_fits, default_gait
+from gaitsmith.gait_choice import check_gait_fits, default_gait, default_speed_note
 from gaitsmith.options import (
     MAX_PERIOD_S,
     check_cycles,
@@ -45,11 +45,14 @@ from gaitsmith.search_options import (
     workers_option,
 )
 from planner.errors import InfeasibleGaitError
-from planner.nlp.config import PlannerOptions
+from planner.nlp.config import DEFAULT_FROUDE, PlannerOptions, default_speed_m_s
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
 from robots.voltage import nominal_supply_v, robot_at_voltage, voltage_margin
+
+DEFAULT_CYCLES = 20  # simulated cycles of a stepping gait (--simulate)
+STAND_S = 10.0  # simulated seconds of a stand (issue #14: "standing 10 s in MuJoCo")
 
 
 def plan(
@@ -61,8 +64,10 @@ def plan(
         help=f"gait template: {', '.join(TEMPLATES)} (default: the robot's walking-pace "
         "template, e.g. trot on 4 legs, tripod on 6; with --search: all templates)",
     ),
-    speed: float = typer.Option(
-        0.25, "--vx", "--speed", help="forward speed [m/s] (body frame; negative: backwards)"
+    speed: float | None = typer.Option(
+        None, "--vx", "--speed", help="forward speed [m/s] (body frame; negative: backwards; "
+        "0: stand, or step in place with --gait/--duty/--phases; default: Froude number "
+        f"{DEFAULT_FROUDE} for the robot's leg length, v = √(Fr·g·L))"
     ),
     vy: float = typer.Option(0.0, "--vy", help="lateral speed [m/s] (body frame, left +)"),
     yaw_rate: float = typer.Option(
@@ -104,7 +109,9 @@ def plan(
     simulate: bool = typer.Option(
         False, "--simulate", help="validate in MuJoCo and write the verdict into the gait file"
     ),
-    cycles: int = typer.Option(20, "--cycles", help="cycles to simulate (--simulate)"),
+    cycles: int | None = typer.Option(
+        None, "--cycles", help=f"cycles to simulate (--simulate; default {DEFAULT_CYCLES}, a "
+        f"stand: {STAND_S:g} s of cycles)"),
     supply_v: float | None = typer.Option(
         None, "--supply-v",
         help="servo supply voltage [V]: plan within the torque–speed envelope at this voltage "
@@ -118,6 +125,9 @@ def plan(
     _check_command(speed, vy, yaw_rate, search)
     check_output_file("--output", output)
     bot = robots.load(robot)
+    if speed is None:
+        speed = default_speed_m_s(bot.leg_length_m)
+        console.print(default_speed_note(bot, speed))
     check_yaw_rate("--yaw-rate", yaw_rate, bot)
     check_supply_v("--supply-v", supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
@@ -125,7 +135,8 @@ def plan(
     if search:
         _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v)
         return
-    gait = gait or default_gait(bot)
+    gait = gait or default_gait(bot, standing=_standing(speed, vy, yaw_rate, duty, phases,
+                                                         schedule_file))
     if phases is None and schedule_file is None:
         check_gait_fits(bot, gait)
     schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
@@ -158,10 +169,18 @@ def plan(
     _write(gait_obj, bot, output, simulate, cycles)
 
 
-def _check_command(vx: float, vy: float, yaw_rate: float, search: bool) -> None:
+def _standing(vx: float, vy: float, yaw_rate: float, duty: str | None, phases: str | None,
+              schedule_file: Path | None) -> bool:
+    """A zero command with no stepping schedule asked for: plan the `stand` template."""
+    stepping = duty is not None or phases is not None or schedule_file is not None
+    return vx == 0.0 and vy == 0.0 and yaw_rate == 0.0 and not stepping
+
+
+def _check_command(vx: float | None, vy: float, yaw_rate: float, search: bool) -> None:
     """--vx/--vy finite and bounded (any sign), --yaw-rate finite (its bound needs the robot);
     the search plans forward gaits only (its cost of transport and Froude number)."""
-    check_velocity("--vx/--speed", vx)
+    if vx is not None:
+        check_velocity("--vx/--speed", vx)
     check_velocity("--vy", vy)
     check_number("--yaw-rate", yaw_rate, -1e3, 1e3, unit="rad/s")
     if search and (vy or yaw_rate):
@@ -169,12 +188,12 @@ def _check_command(vx: float, vy: float, yaw_rate: float, search: bool) -> None:
                           "template without --search")
 
 
-def _check_options(speed: float, knots: int, period: float | None, duty: str | None,
+def _check_options(speed: float | None, knots: int, period: float | None, duty: str | None,
                    mu: float, search: bool, st: SearchSettings, simulate: bool,
-                   cycles: int) -> None:
+                   cycles: int | None) -> None:
     """Every option in range before the robot is loaded and the NLP built (one-line errors)."""
-    if search:
-        check_speed("--vx/--speed", speed, allow_zero=False)  # the search needs CoT and Froude > 0
+    if search and speed is not None:  # the search needs CoT and Froude > 0
+        check_speed("--vx/--speed", speed, allow_zero=False)
     check_knots("--knots", knots)
     check_number("--period", period, 0.0, MAX_PERIOD_S, lo_open=True, unit="s")
     if duty is not None and "," not in duty:  # a list is checked per leg once the robot is loaded
@@ -187,19 +206,38 @@ def _check_options(speed: float, knots: int, period: float | None, duty: str | N
     if search:
         check_search_options(st.executor, st.generations, st.popsize, st.workers,
                              st.search_knots, st.tipping_weight)
-    if simulate or (search and st.sim_accept):
+    if cycles is not None and (simulate or (search and st.sim_accept)):
         check_cycles("--cycles", cycles)
 
 
+def is_stand(gait_obj: robots.Gait) -> bool:
+    """Every foot down all cycle (duty factor 1): a stand, judged over a duration."""
+    return all(d >= 1.0 - 1e-9 for d in gait_obj.schedule.duty_factor)
+
+
+def simulated_cycles(gait_obj: robots.Gait, cycles: int | None) -> tuple[int, str]:
+    """Cycles to simulate and how to say it: `--cycles`, else `DEFAULT_CYCLES`, or for a stand
+    (which has no steps to count) the whole cycles that last at least `STAND_S`."""
+    from sim.validate import PassCriteria  # lazy: MuJoCo only on request
+
+    if is_stand(gait_obj):
+        n = cycles or max(math.ceil(STAND_S / gait_obj.period_s - 1e-9),
+                          PassCriteria().warmup_cycles + 1)
+        return n, f"standing {n * gait_obj.period_s:.1f} s"
+    n = cycles or DEFAULT_CYCLES
+    return n, f"{n} cycles"
+
+
 def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,
-           cycles: int) -> None:
+           cycles: int | None) -> None:
     if simulate:
         from sim.metrics import steady_mask  # lazy: MuJoCo only on request
         from sim.thermal_report import predict_from_trajectory
         from sim.validate import validate
 
-        with console.status(f"validating in MuJoCo ({cycles} cycles)…"):
-            result = validate(gait_obj, bot, cycles)
+        n_cycles, what = simulated_cycles(gait_obj, cycles)
+        with console.status(f"validating in MuJoCo ({what})…"):
+            result = validate(gait_obj, bot, n_cycles)
         assert result.trajectory is not None  # validate keeps it by default
         thermal = predict_from_trajectory(result.trajectory, bot,
                                           warmup_cycles=result.criteria.warmup_cycles)
@@ -212,7 +250,7 @@ def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: boo
         ).to_dict()
         gait_obj = gait_obj.with_validation(v)
         verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"
-        console.print(f"simulation verdict: {verdict} " + "; ".join(result.reasons))
+        console.print(f"simulation verdict ({what}): {verdict} " + "; ".join(result.reasons))
         console.print(f"heating: {thermal.summary()}")
     robots.gait.save(gait_obj, output)
     console.print(f"wrote [bold]{output}[/]")
@@ -235,7 +273,7 @@ class SearchSettings:
 
 
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
-                 mu: float, st: SearchSettings, simulate: bool, cycles: int,
+                 mu: float, st: SearchSettings, simulate: bool, cycles: int | None,
                  supply_v: float | None = None) -> None:
     from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
@@ -262,7 +300,7 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
-        **sim_acceptance(bot, st.sim_accept, cycles),
+        **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES),
     )
     for name, cost in result.template_costs.items():
         console.print(f"  template {name:18s} cost {cost:.5g}")

@@ -27,7 +27,7 @@ from gaitsmith.search_options import (
     tipping_weight_option,
     workers_option,
 )
-from planner.nlp.config import PlannerOptions
+from planner.nlp.config import PlannerOptions, default_speeds_m_s
 from planner.search.gait_search import GaitSearchResult, SearchLogRow
 from planner.search.speed_sweep import SweepRow, Validator, sweep_speeds, to_markdown, write_sweep
 from robots.errors import OutputWriteError
@@ -35,7 +35,9 @@ from robots.errors import OutputWriteError
 
 def sweep(
     robot: str = typer.Argument(..., help="built-in robot name or a robot folder"),
-    speeds: str = typer.Option("0.05,0.1,0.2,0.3", "--speeds", help="comma-separated speeds [m/s]"),
+    speeds: str | None = typer.Option(
+        None, "--speeds", help="comma-separated speeds [m/s] (default: Froude numbers "
+        "0.002, 0.01, 0.03, 0.06 for the robot's leg length, ≈ 0.05-0.3 m/s at 18 cm)"),
     output: Path = typer.Option(..., "--output", "-o", help="folder for sweep.csv/.md/.png"),
     knots: int = typer.Option(30, "--knots", help="knots per cycle (N)"),
     generations: int = typer.Option(6, "--generations", help="basin-CMA generations per speed"),
@@ -53,7 +55,7 @@ def sweep(
     cycles: int = typer.Option(12, "--cycles", help="cycles to simulate (--simulate)"),
 ) -> None:
     """Search the best gait at each speed; table + plot of gait, duty factor and CoT vs Froude."""
-    values = parse_speeds(speeds)
+    values = None if speeds is None else parse_speeds(speeds)
     check_knots("--knots", knots)
     check_friction("--mu", mu)
     check_search_options(executor, generations, popsize, workers, search_knots, tipping_weight)
@@ -61,6 +63,8 @@ def sweep(
         check_cycles("--cycles", cycles)
     check_output_dir("--output", output)
     bot = robots.load(robot)
+    if values is None:  # speeds at fixed Froude numbers, v = √(Fr·g·L)
+        values = default_speeds_m_s(bot.leg_length_m)
     clock = SweepClock(len(values))
 
     def on_row(row: SweepRow) -> None:

@@ -58,6 +58,13 @@ class PassCriteria:
     # L, so a slip that matters does too.
     max_mean_slip_leg_lengths: float = 0.10
     max_mean_slip_m: float | None = None
+    # At zero command (a stand, or stepping in place) there is no speed to compare with: the
+    # speed check becomes a drift check instead — the base's planar speed over the steady
+    # cycles ≤ this many leg lengths per second (0.05 L/s: 9 mm/s for an 18 cm leg, half a leg
+    # length in 10 s), and the whole run (ramp-in included) ends within `max_run_drift_leg_lengths`
+    # of where it started. Heading, fall, tilt, slip and torque are judged as for a walk.
+    max_drift_leg_lengths_per_s: float = 0.05
+    max_run_drift_leg_lengths: float = 0.5
     falls: FallThresholds = field(default_factory=FallThresholds)
     warmup_cycles: int = 2  # cycles after the ramp not judged (start-up transient)
 
@@ -96,20 +103,44 @@ def slip_limit_m(c: PassCriteria, leg_length_m: float) -> float:
     return c.max_mean_slip_leg_lengths * leg_length_m
 
 
+def standing_command(m: Metrics) -> bool:
+    """Zero commanded velocity (vx, vy and yaw rate): a stand or stepping in place."""
+    return m.commanded_speed_m_s == 0.0 and m.commanded_yaw_rate_rad_s == 0.0
+
+
+def _drift_check(m: Metrics, c: PassCriteria, leg_length_m: float) -> tuple[str, bool, str]:
+    """The zero-command replacement of the speed check (see `PassCriteria`)."""
+    speed_limit = c.max_drift_leg_lengths_per_s * leg_length_m
+    run_limit = c.max_run_drift_leg_lengths * leg_length_m
+    run_drift = abs(m.lateral_drift_m)  # at v = 0: the planar displacement over the run
+    ok = m.achieved_speed_m_s <= speed_limit and run_drift <= run_limit
+    return (
+        "drift",
+        ok,
+        f"drifted {m.achieved_speed_m_s * 1000:.1f} mm/s in the steady part (limit "
+        f"{speed_limit * 1000:.1f} mm/s = {c.max_drift_leg_lengths_per_s:g} L/s) and "
+        f"{run_drift * 1000:.0f} mm over the whole {m.duration_s:.1f} s run (limit "
+        f"{run_limit * 1000:.0f} mm = {c.max_run_drift_leg_lengths:g} L)",
+    )
+
+
 def judge(
     m: Metrics, c: PassCriteria, leg_length_m: float
 ) -> tuple[tuple[str, bool, str], ...]:
     checks: list[tuple[str, bool, str]] = []
     slip_limit = slip_limit_m(c, leg_length_m)
-    tol = max(c.speed_rel_tol * m.commanded_speed_m_s, c.speed_abs_tol_m_s)
-    checks.append(
-        (
-            "speed",
-            abs(m.achieved_speed_m_s - m.commanded_speed_m_s) <= tol,
-            f"achieved {m.achieved_speed_m_s:.3f} m/s vs commanded {m.commanded_speed_m_s:.3f} "
-            f"m/s (tolerance ±{tol:.3f})",
+    if standing_command(m):
+        checks.append(_drift_check(m, c, leg_length_m))
+    else:
+        tol = max(c.speed_rel_tol * m.commanded_speed_m_s, c.speed_abs_tol_m_s)
+        checks.append(
+            (
+                "speed",
+                abs(m.achieved_speed_m_s - m.commanded_speed_m_s) <= tol,
+                f"achieved {m.achieved_speed_m_s:.3f} m/s vs commanded "
+                f"{m.commanded_speed_m_s:.3f} m/s (tolerance ±{tol:.3f})",
+            )
         )
-    )
     checks.append(
         (
             "no fall",
@@ -339,6 +370,7 @@ __all__ = [
     "judge",
     "simulate",
     "slip_limit_m",
+    "standing_command",
     "validate",
     "validate_and_annotate",
 ]
