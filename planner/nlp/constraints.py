@@ -31,6 +31,7 @@ from planner.nlp.flat_foot import (
     moments_world,
     spare_flat_foot_ankles,
 )
+from planner.nlp.foot_separation import foot_separation_labels, foot_separation_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.variables import Symbols, time_unit_s
 
@@ -282,6 +283,10 @@ def build_groups(
         *_static_margin_groups(model, sym, kq, n, options),
         *_mean_footprint_groups(model, sym, n, options),
     ]
+    separation, separation_lb = foot_separation_rows(model, sym, kq.feet_m)
+    if separation_lb.size:  # neighbouring feet do not cross (`planner.nlp.foot_separation`)
+        groups.append(Group("foot separation", separation, separation_lb,
+                            np.full(separation_lb.size, inf), length))
     return spare_flat_foot_ankles(model, groups, n)
 
 
@@ -453,6 +458,7 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         "static margin": _static_margin_labels(model, n_knots),
         "mean footprint": [f"foot {f} mean {a}" for a in "xy" for f in feet],
         **flat_foot_labels(model, n_knots),
+        "foot separation": foot_separation_labels(model, n_knots),
     }
 
 

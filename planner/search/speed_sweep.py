@@ -29,7 +29,7 @@ from planner.search.gait_search import (
     search_gait,
 )
 from planner.templates import gait_family
-from robots import Robot
+from robots import ContactSchedule, Robot
 from robots.files import atomic_path, atomic_write_text
 
 
@@ -53,6 +53,14 @@ class SweepRow:
     tipping_amplification: float = math.nan
     sim_passed: bool | None = None  # MuJoCo verdict of the written gait (None: not simulated)
     sim_speed_m_s: float = math.nan
+    #: planned share of the cycle with no foot on the ground (> 0: a run, W&P §6)
+    flight_fraction: float = math.nan
+
+
+def flight_fraction(schedule: ContactSchedule, samples: int = 1000) -> float:
+    """Share of the cycle in which no foot is in stance (sampled at `samples` phases)."""
+    in_stance = schedule.contact_matrix(samples)  # samples × feet
+    return float(np.mean(~np.any(in_stance, axis=1)))
 
 
 #: (passed, achieved speed) of a search result's gait in simulation; supplied by the caller so
@@ -74,7 +82,7 @@ def row_from(result: GaitSearchResult, validator: Validator | None = None) -> Sw
         family=gait_family(result.label), search_cost=result.search_cost,
         search_feasible=result.search_feasible,
         tipping_amplification=result.tipping_amplification, sim_passed=passed,
-        sim_speed_m_s=achieved,
+        sim_speed_m_s=achieved, flight_fraction=flight_fraction(best.schedule),
     )
 
 
@@ -130,15 +138,16 @@ def to_csv(rows: Sequence[SweepRow]) -> str:
 
 
 def to_markdown(rows: Sequence[SweepRow]) -> str:
-    head = ("| speed [m/s] | Froude | gait | duty | period [s] | search cost | best template "
-            "(cost) | final cost | tipping | CoT | sim | solves |")
-    lines = [head, "|" + "---|" * 12]
+    head = ("| speed [m/s] | Froude | gait | duty | flight | period [s] | search cost | best "
+            "template (cost) | final cost | tipping | CoT | sim | solves |")
+    lines = [head, "|" + "---|" * 13]
     for r in rows:
         sim = "-" if r.sim_passed is None else \
             f"{'pass' if r.sim_passed else 'FAIL'} {r.sim_speed_m_s:.3f} m/s"
         lines.append(
             f"| {r.speed_m_s:.3f} | {r.froude:.3f} | {r.gait_label} | {r.mean_duty_factor:.2f} | "
-            f"{r.period_s:.3f} | {r.search_cost:.4g}{'' if r.search_feasible else ' †'} | "
+            f"{r.flight_fraction:.2f} | {r.period_s:.3f} | "
+            f"{r.search_cost:.4g}{'' if r.search_feasible else ' †'} | "
             f"{r.best_template} "
             f"({r.best_template_cost:.4g}) | {r.cost:.4g} | {r.tipping_amplification:.3g} | "
             f"{r.cost_of_transport:.3f} | {sim} | {r.local_solves} |"

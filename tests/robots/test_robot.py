@@ -107,7 +107,7 @@ def test_limits_outside_the_servo_range_are_refused(quad_copy: Path) -> None:
 
 
 def test_missing_files_and_unknown_names() -> None:
-    with pytest.raises(RobotConfigError, match="built-in robots: hex18, quad12"):
+    with pytest.raises(RobotConfigError, match="built-in robots: biped, hex18, quad12"):
         robots.load("quad99")
 
 

@@ -3,6 +3,7 @@ in MuJoCo from its planned gaits."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import mujoco
@@ -54,9 +55,15 @@ def test_sole_centre_velocity_is_the_jacobian_velocity_of_the_sole_centre() -> N
 
 @pytest.mark.slow
 def test_biped_stands_and_walks_in_mujoco_from_its_plans() -> None:
-    """Plans with N = 12: the stand passes every simulator check over 10 s; the slow walk
-    (0.05 m/s) stays up, on its soles, without slipping."""
+    """Plans with N = 12: the stand and a walk (0.1 m/s, the biped_walk template's timing) pass
+    every simulator check over at least 10 s.
+
+    The walk was a 1 s, duty-0.75 cycle at 0.05 m/s, checked loosely, until the planner kept the
+    feet apart (`planner.nlp.foot_separation`): that plan crossed the feet under the body (the
+    simulator's legs pass through each other); with the feet apart it falls after 3 cycles, and
+    the template's timing at 0.05 m/s tilts 11.5° and peaks at 81 % of stall."""
     from planner.nlp.spacetime import GaitPlanner
+    from planner.templates import make_schedule
     from sim.validate import validate
 
     robot = robots.load(BIPED)
@@ -64,19 +71,15 @@ def test_biped_stands_and_walks_in_mujoco_from_its_plans() -> None:
     feet = robot.foot_names
     cases = {
         "stand": (ContactSchedule(1.0, feet, (0.0, 0.0), (1.0, 1.0)), 0.0),
-        "walk": (ContactSchedule(1.0, feet, (0.0, 0.5), (0.75, 0.75)), 0.05),
+        "walk": (make_schedule(robot, "biped_walk"), 0.1),
     }
     for label, (schedule, speed) in cases.items():
         result = planner.solve(schedule, speed, warm_start=False)
         assert result.feasible, result.message
-        out = validate(planner.to_gait(result, label), robot, cycles=10)
+        cycles = max(10, math.ceil(10.0 / schedule.period_s))  # ≥ 10 s of gait
+        out = validate(planner.to_gait(result, label), robot, cycles=cycles)
         metrics = out.metrics
         assert not metrics.fell and metrics.duration_s >= 10.0, label
-        assert metrics.tilt_max_rad < np.radians(10.0), label
-        if speed == 0:
-            assert out.passed, (label, out.reasons)  # every check of the simulator
-        else:
-            # stays up and walks on its soles; the achieved speed (measured 0.059-0.060 m/s for
-            # 0.05) sits at the edge of the speed check's ±0.01 m/s, so it is checked looser
+        assert out.passed, (label, out.reasons)  # every check of the simulator
+        if speed:
             assert metrics.stances >= 20 and metrics.slip_mean_m < 0.01, label
-            assert 0.5 * speed < metrics.achieved_speed_m_s < 1.5 * speed, label

@@ -1,0 +1,88 @@
+"""Feet keep apart (`planner.nlp.foot_separation`): the biped's planned soles never overlap."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+import robots
+from planner.nlp.foot_separation import FOOT_GAP_LEG_LENGTHS, foot_pairs
+from planner.nlp.model import RobotModel
+from robots import ContactSchedule
+from robots.sole import sole_pose_world
+
+ZOO = Path(__file__).parents[2] / "zoo"
+
+
+def test_only_feet_that_stand_close_get_a_row() -> None:
+    biped = robots.load("biped")
+    pairs = foot_pairs(RobotModel(biped))
+    assert len(pairs) == 1
+    i, j, u, need = pairs[0]
+    assert (i, j) == (0, 1)
+    np.testing.assert_allclose(u, [0.0, -1.0], atol=1e-9)  # left → right
+    half_width = biped.legs[0].sole_half_extents_m[1]  # type: ignore[index]
+    assert need == pytest.approx(min(2 * half_width + FOOT_GAP_LEG_LENGTHS * biped.leg_length_m,
+                                     0.09))  # at most the stance separation (hips 90 mm apart)
+    for name in ("quad12", "hex18"):  # their NLPs are unchanged: feet far apart
+        assert foot_pairs(RobotModel(robots.load(name))) == ()
+    assert foot_pairs(RobotModel(robots.load(ZOO / "star5"))) == ()
+
+
+def _sole_rectangles(bot: robots.Robot, qpos: np.ndarray) -> list[np.ndarray]:
+    model = bot.mj_model()
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(model, data)
+    out = []
+    for leg in bot.legs:
+        centre, rot = sole_pose_world(model, data, leg)
+        hl, hw = leg.sole_half_extents_m  # type: ignore[misc]
+        corners = [centre + rot @ np.array([sx * hl, sy * hw, 0.0])
+                   for sx in (-1, 1) for sy in (-1, 1)]
+        out.append(np.array(corners)[:, :2])
+    return out
+
+
+def _overlap_along(a: np.ndarray, b: np.ndarray, axis: np.ndarray) -> float:
+    pa, pb = a @ axis, b @ axis
+    return float(min(pa.max(), pb.max()) - max(pa.min(), pb.min()))
+
+
+def _rectangles_separated(a: np.ndarray, b: np.ndarray) -> bool:
+    """Separating-axis test of two convex quadrilaterals (edges of both as candidate axes)."""
+    for poly in (a, b):
+        hull = poly[[0, 1, 3, 2]]
+        for k in range(4):
+            edge = hull[(k + 1) % 4] - hull[k]
+            axis = np.array([-edge[1], edge[0]]) / np.linalg.norm(edge)
+            if _overlap_along(a, b, axis) < 0:
+                return True
+    return False
+
+
+@pytest.mark.slow
+def test_planned_biped_walk_keeps_its_soles_apart() -> None:
+    """Before the foot-separation rows the cheapest biped walk crossed its feet (left sole centre
+    at y = −0.03 m, right at +0.03 m) and yawed its soles 22° so that the toes overlapped."""
+    from planner.nlp.spacetime import GaitPlanner
+
+    bot = robots.load("biped")
+    planner = GaitPlanner(bot, n_knots=12)
+    schedule = ContactSchedule(0.64, bot.foot_names, (0.0, 0.5), (0.6, 0.6))
+    result = planner.solve(schedule, 0.1, warm_start=False)
+    assert result.feasible, result.message
+    gait = planner.to_gait(result, "biped_walk")
+    model = bot.mj_model()
+    for k, q in enumerate(gait.knots_rad):
+        qpos = np.array(model.qpos0)
+        qpos[:7] = (0, 0, 0, 1, 0, 0, 0)
+        for name, angle in zip(gait.joint_names, q, strict=True):
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            qpos[model.jnt_qposadr[jid]] = angle
+        left, right = _sole_rectangles(bot, qpos)
+        assert left[:, 1].mean() > right[:, 1].mean() + 0.06, k  # left foot stays on the left
+        assert _rectangles_separated(left, right), k

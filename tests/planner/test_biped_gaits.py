@@ -1,0 +1,70 @@
+"""The built-in biped's gaits, end to end through `gaitsmith plan … --simulate`: the `--speed 0`
+stand holds 10 s in MuJoCo, a walk at a small N passes every simulator check, and the templates
+offered for two legs are the walk (double support) and the run (a flight phase)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import robots
+from gaitsmith.cli import main
+from planner.templates import default_gait_for, make_schedule, templates_for
+from robots import ContactSchedule
+
+
+def _flight_fraction(schedule: ContactSchedule) -> float:
+    """Share of the cycle with no foot on the ground (sampled at 1000 phases)."""
+    samples = [p / 1000 for p in range(1000)]
+    return sum(not any(schedule.in_stance(f, p) for f in range(schedule.n_feet))
+               for p in samples) / len(samples)
+
+
+def _double_support_fraction(schedule: ContactSchedule) -> float:
+    samples = [p / 1000 for p in range(1000)]
+    return sum(all(schedule.in_stance(f, p) for f in range(schedule.n_feet))
+               for p in samples) / len(samples)
+
+
+def test_biped_templates_walk_with_double_support_and_run_with_flight() -> None:
+    bot = robots.load("biped")
+    assert default_gait_for(bot) == "biped_walk"
+    assert {"biped_walk", "biped_run", "stand"} <= set(templates_for(bot))
+    walk, run = make_schedule(bot, "biped_walk"), make_schedule(bot, "biped_run")
+    assert _double_support_fraction(walk) > 0.1 and _flight_fraction(walk) == 0
+    assert _flight_fraction(run) > 0.2 and _double_support_fraction(run) == 0
+
+
+def _validation(path: Path) -> dict:
+    doc = json.loads(path.read_text())
+    assert doc["validation"]["passed"], doc["validation"]["reasons"]
+    return dict(doc["validation"])
+
+
+@pytest.mark.slow
+def test_biped_stands_10_s_from_its_speed_0_plan(tmp_path: Path) -> None:
+    out = tmp_path / "stand.json"
+    assert main(["plan", "biped", "--speed", "0", "--knots", "12", "-o", str(out),
+                 "--simulate"]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["gait_label"] == "stand"
+    assert all(d == 1.0 for d in doc["schedule"]["duty_factor"])
+    validation = _validation(out)
+    metrics = validation["metrics"]
+    # 10 s of the stand's cycles after the ramp-in (the whole run is longer), none of it falling
+    assert metrics["cycles_run"] * doc["period_s"] >= 10.0 and not metrics["fell"]
+    assert metrics["tilt_max_rad"] < 0.02
+
+
+@pytest.mark.slow
+def test_biped_walks_at_a_low_froude_number_in_mujoco(tmp_path: Path) -> None:
+    """0.1 m/s: Fr = v²/(g·L) = 0.004 on the biped's 0.25 m legs; N = 12."""
+    out = tmp_path / "walk.json"
+    assert main(["plan", "biped", "--speed", "0.1", "--knots", "12", "-o", str(out),
+                 "--simulate"]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["gait_label"] == "biped_walk"
+    metrics = _validation(out)["metrics"]
+    assert metrics["stances"] >= 20 and metrics["peak_torque_fraction"] < 0.8
