@@ -31,6 +31,7 @@ _COMMAND_MODULES = (
     "gaitsmith.simulate_cmd",
     "gaitsmith.sweep_cmd",
     "gaitsmith.retarget_cmd",
+    "gaitsmith.design_cmd",
 )
 for _name in _COMMAND_MODULES:
     try:

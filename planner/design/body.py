@@ -25,6 +25,8 @@ S·c and its second moment of mass about the centre Σ = ∫ρ·r·rᵀ becomes 
 grows by det S = s); the inertia is I = tr(Σ)·1 − Σ. The servos keep their catalogue mass
 whatever the scale, and a servo swap replaces the old servo's point mass by the new one's. The
 inertials are written explicitly into the MJCF (the planner and MuJoCo read them, not geoms).
+Front and hind legs scaled differently would leave the original stance angles standing the body
+on its shorter legs, tilted: the designed robot.toml gets a level stance (`level_stance_rad`).
 
 Servo groups (`ServoGroup`): the leg joints at the same depth of every leg that use the same
 servo model today (hip roll, hip pitch, knee of a quadruped). Their candidate models are sorted
@@ -529,6 +531,66 @@ def design_spec(robot: Robot, space: DesignSpace, design: BodyDesign) -> mujoco.
     return spec
 
 
+#: Stance residual weights: feet on one level (W_LEVEL), feet where the original stance angles put
+#: them on the new body (W_FOOTPRINT), angles near the original stance (W_ANGLE, per joint range).
+W_LEVEL, W_FOOTPRINT, W_ANGLE = 30.0, 1.0, 0.3
+#: The stance keeps this fraction of each joint's range inside its limits.
+STANCE_LIMIT_MARGIN = 0.05
+
+
+def level_stance_rad(robot: Robot, model: mujoco.MjModel) -> dict[str, float]:
+    """Leg joint angles that stand the designed body (`model`, the design's compiled MJCF) level
+    with every foot on the ground: the original stance angles would not once front and hind legs
+    are scaled differently (the body tips onto its shorter legs). Least squares (scipy, bounded)
+    from the original stance: all foot sites at one height below the level base, each foot where
+    the original angles put it horizontally on the new body, angles close to the original ones.
+    An unchanged body returns the original stance (all residuals are zero there)."""
+    from scipy.optimize import least_squares
+
+    leg_joints = [j for leg in robot.legs for j in leg.joints if not robot.joint(j).held]
+    jids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in leg_joints]
+    adr = np.array([model.jnt_qposadr[j] for j in jids])
+    sites = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site)
+             for leg in robot.legs]
+    lo, hi = model.jnt_range[jids, 0].copy(), model.jnt_range[jids, 1].copy()
+    for k, j in enumerate(leg_joints):
+        joint = robot.joint(j)
+        lo[k], hi[k] = max(lo[k], joint.lower_rad), min(hi[k], joint.upper_rad)
+    span = np.maximum(hi - lo, 1e-6)
+    lo_b, hi_b = lo + STANCE_LIMIT_MARGIN * span, hi - STANCE_LIMIT_MARGIN * span
+    q0 = np.array([robot.joint(j).stance_rad for j in leg_joints])
+    data = mujoco.MjData(model)
+
+    def feet(q: np.ndarray) -> np.ndarray:
+        data.qpos[:] = model.qpos0
+        data.qpos[0:3] = 0.0
+        data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
+        for joint in robot.joints:
+            if joint.held:
+                data.qpos[model.jnt_qposadr[mujoco.mj_name2id(
+                    model, mujoco.mjtObj.mjOBJ_JOINT, joint.name)]] = joint.stance_rad
+        data.qpos[adr] = q
+        mujoco.mj_kinematics(model, data)
+        return np.array([data.site_xpos[s] for s in sites])
+
+    start = feet(q0)
+    length = max(float(np.mean(-start[:, 2])), 1e-3)
+    target_xy = start[:, :2].copy()
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        pos = feet(x[:-1])
+        return np.concatenate([W_LEVEL * (pos[:, 2] + x[-1]) / length,
+                               W_FOOTPRINT * (pos[:, :2] - target_xy).ravel() / length,
+                               W_ANGLE * (x[:-1] - q0) / span])
+
+    x0 = np.r_[np.clip(q0, lo_b, hi_b), float(np.mean(-start[:, 2]))]
+    if np.allclose(start[:, 2], start[0, 2], atol=1e-9) and np.allclose(x0[:-1], q0):
+        return dict(zip(leg_joints, q0.tolist(), strict=True))
+    sol = least_squares(residuals, x0, bounds=(np.r_[lo_b, 0.0], np.r_[hi_b, 10 * length]),
+                        x_scale="jac")
+    return dict(zip(leg_joints, sol.x[:-1].tolist(), strict=True))
+
+
 # ---------------------------------------------------------------------------------------------
 # robot.toml
 
@@ -550,9 +612,11 @@ def _remap_ticks(ticks: int, old: ServoModel, new: ServoModel) -> int:
 
 
 def design_toml(robot: Robot, space: DesignSpace, design: BodyDesign, name: str,
-                note: str = "") -> str:
-    """`robot`'s robot.toml with `name`, the servos of `design` (zero offsets remapped) and a
-    header comment `note`; the rest of the file (comments included) is kept line for line."""
+                note: str = "", stance_rad: Mapping[str, float] | None = None) -> str:
+    """`robot`'s robot.toml with `name`, the servos of `design` (zero offsets remapped), the
+    stance angles `stance_rad` (joint → angle; others kept) and a header comment `note`; the
+    rest of the file (comments included) is kept line for line."""
+    stance_rad = dict(stance_rad or {})
     text = robot.toml_path.read_text(encoding="utf-8")
     file = str(robot.toml_path)
     data = read_toml(text, file)
@@ -571,6 +635,11 @@ def design_toml(robot: Robot, space: DesignSpace, design: BodyDesign, name: str,
                           line)
             done.add("[robot].name")
         joint = table[len("joints."):] if table.startswith("joints.") else ""
+        stance_line = re.match(r"^(\s*stance_deg\s*=\s*)[-+0-9_.eE]+", line)
+        if joint in stance_rad and stance_line:
+            line = (f"{stance_line.group(1)}{math.degrees(stance_rad[joint]):.3f}"
+                    + line[stance_line.end():])
+            done.add(f"{joint}.stance_deg")
         if joint in swap:
             new = space.model(swap[joint])
             old = robot.joint(joint).servo
@@ -586,6 +655,7 @@ def design_toml(robot: Robot, space: DesignSpace, design: BodyDesign, name: str,
         out.append(line)
     missing = [f"{j}.{key}" for j in swap for key in ("servo", "zero_offset_ticks")
                if f"{j}.{key}" not in done]
+    missing += [f"{j}.stance_deg" for j in stance_rad if f"{j}.stance_deg" not in done]
     if "[robot].name" not in done:
         missing.append("[robot].name")
     if missing:
@@ -597,9 +667,14 @@ def design_toml(robot: Robot, space: DesignSpace, design: BodyDesign, name: str,
 
 def write_design(robot: Robot, space: DesignSpace, design: BodyDesign, folder: Path, name: str,
                  note: str = "") -> Robot:
-    """Write the designed robot folder (robot.xml + robot.toml) and load it."""
-    return write_robot_folder(design_spec(robot, space, design),
-                              design_toml(robot, space, design, name, note), folder,
+    """Write the designed robot folder (robot.xml + robot.toml, level stance) and load it."""
+    spec = design_spec(robot, space, design)
+    try:
+        model = spec.compile()
+    except ValueError as exc:  # mujoco's compiler message
+        raise DesignError(f"design {describe(space, design)} of {robot.name}: {exc}") from None
+    stance = level_stance_rad(robot, model)
+    return write_robot_folder(spec, design_toml(robot, space, design, name, note, stance), folder,
                               f"design {describe(space, design)} of {robot.name}", DesignError)
 
 

@@ -192,7 +192,8 @@ def report_md(result: DesignResult, chosen: DesignSample, body: Robot, command: 
         _row("design cost J", num(orig, orig.cost), num(chosen, chosen.cost)),
         _row("peak τ/τ_stall", num(orig, orig.peak_torque_ratio),
              num(chosen, chosen.peak_torque_ratio)),
-        _row("MuJoCo", verdicts[0].text(), verdicts[1].text()),
+        _row("MuJoCo", verdicts[0].text().replace("|", "\\|"),
+             verdicts[1].text().replace("|", "\\|")),
         "", "## Why", "", *[f"- {line}" for line in why(result, chosen)], "",
         "## Search", "", "| generation | samples | feasible | best J | incumbent | elapsed [s] |",
         "|---|---|---|---|---|---|"]
