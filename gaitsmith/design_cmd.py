@@ -34,7 +34,7 @@ from gaitsmith.options import (
     check_speed,
 )
 from planner.design.body import SCALE_BOUNDS, describe, design_space, write_design
-from planner.design.report import Verdict, atomic_folder, design_note, write_report
+from planner.design.report import Verdict, atomic_folder, design_note, why, write_report
 from planner.design.search import (
     DEFAULT_GENERATIONS,
     DEFAULT_KNOTS,
@@ -208,6 +208,7 @@ def _finish(result: DesignResult, candidates: list[DesignSample], output: Path, 
             gait_io.save(original_gait, tmp / ORIGINAL_GAIT)
         write_report(tmp, result, cand, body, command, (_verdict(original_gait), _verdict(gait)))
         console.print(_table(result, cand, body, original_gait, gait))
+        console.print("why: " + "\n     ".join(why(result, cand)))
     extra = f"{ORIGINAL_GAIT}, " if original_gait is not None else ""
     console.print(f"wrote [bold]{output}[/] (robot.xml, robot.toml, {DESIGN_GAIT}, {extra}"
                   "design_report.md, design_tradeoff.png, design_samples.csv)")

@@ -18,7 +18,7 @@ itself (battery life, parts, the mass the robot must be lifted with), m₀ the o
 mass, ``w_m = DEFAULT_MASS_WEIGHT``: a body 10 % heavier pays 0.01·(w_m/0.1), about 2 % of
 quad12's trot cost at 0.35 m/s (0.62 at 16 knots). Infeasible samples rank below every feasible
 one (by constraint violation, `BasinCma.rank`). Servos that share no supply voltage range cannot
-run on one battery: such samples are redrawn before any solve (`_supplied_samples`), and a
+run on one battery: such samples are redrawn before any solve (`supplied_samples`), and a
 sample that still has them is infeasible without a solve (violation: the gap in volts).
 
 Samples run on `planner.search.executors` (serial, process pool, Ray): each worker builds its
@@ -231,7 +231,7 @@ class DesignResult:
 MAX_SUPPLY_REDRAWS = 50
 
 
-def _supplied_samples(cma: BasinCma, space: DesignSpace) -> np.ndarray:
+def supplied_samples(cma: BasinCma, space: DesignSpace) -> np.ndarray:
     """λ samples whose servos share a supply voltage, by resampling (Hansen's resampling of
     infeasible points: the supply constraint is known without a solve); after
     `MAX_SUPPLY_REDRAWS` draws the rest are taken as they come (they rank as infeasible)."""
@@ -287,7 +287,7 @@ def design_body(
     history: list[GenerationRow] = []
     with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
         for generation in range(generations):
-            xs = _supplied_samples(cma, space)
+            xs = supplied_samples(cma, space)
             warm = incumbent.warm_start if incumbent is not None else None
             results: list[DesignSample] = ex.map(ex.local_solve,
                                                  [DesignTask(x, warm) for x in xs])

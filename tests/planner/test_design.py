@@ -25,6 +25,8 @@ from planner.design.body import (
     write_design,
 )
 from planner.design.report import atomic_folder
+from planner.design.search import supplied_samples
+from planner.search.basin_cma import BasinCma
 from robots.servo import servo_model
 from sim.stand_check import check_stand
 from tests.zoo.fixtures import ZOO
@@ -186,3 +188,37 @@ def test_a_tiny_design_run_writes_a_folder_that_loads_and_stands(tmp_path: Path)
     gait.check_robot(body, str(out / "gait.json"))
     assert "quad12" in (out / "design_report.md").read_text()
     assert [p.name for p in tmp_path.iterdir()] == ["quad_design"]  # no temp folder left
+
+
+def test_front_and_hind_legs_scaled_apart_get_a_level_stance(quad: robots.Robot,
+                                                              tmp_path: Path) -> None:
+    space = design_space(quad)  # default: front and hind segments are separate groups
+    names = [g.name for g in space.link_groups]
+    scales = tuple(1.3 if n.startswith("fl_shank") else 0.8 if n.startswith("hl_shank") else 1.0
+                   for n in names)
+    body = write_design(quad, space, BodyDesign(scales, space.original().servos),
+                        tmp_path / "tilted", "tilted")
+    model = body.mj_model()
+    data = mujoco.MjData(model)
+    data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
+    for j in body.joints:
+        data.qpos[model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT,
+                                                      j.name)]] = j.stance_rad
+    mujoco.mj_kinematics(model, data)
+    z = [data.site_xpos[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site)][2]
+         for leg in body.legs]
+    assert max(z) - min(z) < 1e-4 * body.leg_length_m
+    assert body.joint("fl_knee").stance_rad != quad.joint("fl_knee").stance_rad
+    assert check_stand(body).stands
+
+
+def test_samples_are_redrawn_until_their_servos_share_a_supply(quad: robots.Robot) -> None:
+    space = design_space(quad)  # 7.4 V and 12 V models: many mixes share no supply
+    lo, hi = space.bounds()
+    cma = BasinCma(space.encode(space.original()), (hi - lo) / 3, (lo, hi), popsize=12,
+                   rng=np.random.default_rng(1))
+    xs = supplied_samples(cma, space)
+    assert xs.shape == (12, space.dim)
+    for x in xs:
+        v_lo, v_hi = space.supply_range_v(space.decode(x))
+        assert v_lo <= v_hi
