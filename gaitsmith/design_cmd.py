@@ -44,6 +44,7 @@ from planner.design.search import (
     GenerationRow,
     design_body,
     plan_body,
+    servos_alone,
 )
 from planner.errors import InfeasibleGaitError
 from planner.nlp.config import PlannerOptions
@@ -173,9 +174,10 @@ def _finish(result: DesignResult, candidates: list[DesignSample], output: Path, 
 
         with console.status(f"validating {source.name}'s gait in MuJoCo ({cycles} cycles)…"):
             original_gait = validate_and_annotate(original_gait, source, cycles)
+    notes: list[str] = []
     with atomic_folder(output) as tmp:
         chosen: tuple[DesignSample, Robot, Gait, bool] | None = None
-        for cand in candidates:
+        for rank, cand in enumerate(candidates, 1):
             body = write_design(source, space, cand.design, tmp, output.name,
                                 design_note(result, cand, command))
             planner, plan = plan_body(body, result.gait, result.speed_m_s, result.n_knots,
@@ -183,6 +185,8 @@ def _finish(result: DesignResult, candidates: list[DesignSample], output: Path, 
             if not plan.feasible:
                 console.print(f"[yellow]{describe(space, cand.design)}: no feasible gait when "
                               f"re-solved ({plan.message}); next candidate[/]")
+                notes.append(f"candidate {rank} (J {cand.cost:.5g}) did not re-solve feasibly: "
+                             f"{plan.message}")
                 continue
             gait = planner.to_gait(plan, result.gait, extra_metadata={"design": {
                 "source_robot": source.name, "source_fingerprint": source.fingerprint,
@@ -191,6 +195,10 @@ def _finish(result: DesignResult, candidates: list[DesignSample], output: Path, 
             ok = True
             if simulate:
                 gait, ok = _simulate(gait, body, cycles)
+                if not ok:
+                    notes.append(f"candidate {rank} (J {cand.cost:.5g}, "
+                                 f"{describe(space, cand.design)}) failed in MuJoCo: "
+                                 f"{_verdict(gait).text()}")
             if chosen is None or (ok and not chosen[3]):
                 chosen = (cand, body, gait, ok)
             if ok:
@@ -202,17 +210,34 @@ def _finish(result: DesignResult, candidates: list[DesignSample], output: Path, 
         cand, body, gait, ok = chosen
         body = write_design(source, space, cand.design, tmp, output.name,
                             design_note(result, cand, command))
+        alone = servos_alone(result, cand)
+        if alone is not None:
+            notes.append(_servo_share(result, cand, alone))
         gait = dataclasses.replace(gait, robot_dir=str(output.resolve()), robot_dir_relative=None)
         gait_io.save(gait, tmp / DESIGN_GAIT)
         if original_gait is not None:
             gait_io.save(original_gait, tmp / ORIGINAL_GAIT)
-        write_report(tmp, result, cand, body, command, (_verdict(original_gait), _verdict(gait)))
+        write_report(tmp, result, cand, body, command, (_verdict(original_gait), _verdict(gait)),
+                     notes)
         console.print(_table(result, cand, body, original_gait, gait))
-        console.print("why: " + "\n     ".join(why(result, cand)))
+        console.print("why: " + "\n     ".join([*why(result, cand), *notes]))
     extra = f"{ORIGINAL_GAIT}, " if original_gait is not None else ""
     console.print(f"wrote [bold]{output}[/] (robot.xml, robot.toml, {DESIGN_GAIT}, {extra}"
                   "design_report.md, design_tradeoff.png, design_samples.csv)")
     return ok
+
+
+def _servo_share(result: DesignResult, cand: DesignSample, alone: DesignSample) -> str:
+    """What the servos alone buy (original lengths) and what the lengths add on top."""
+    servos = ", ".join(dict.fromkeys(cand.design.servos))
+    if not alone.feasible:
+        return (f"the chosen servos ({servos}) on the original link lengths have no feasible "
+                f"gait ({alone.message}): the lengths are what makes it work")
+    start = (f"J {result.original.cost:.5g} → " if result.original.feasible
+             else "the original is infeasible; ")
+    return (f"the chosen servos alone ({servos}, original lengths): {start}{alone.cost:.5g} "
+            f"(peak τ/τ_stall {alone.peak_torque_ratio:.3f}); the lengths then take it to "
+            f"{cand.cost:.5g}")
 
 
 def _simulate(gait: Gait, body: Robot, cycles: int) -> tuple[Gait, bool]:

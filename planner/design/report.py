@@ -160,7 +160,7 @@ def _row(label: str, a: str, b: str) -> str:
 
 
 def report_md(result: DesignResult, chosen: DesignSample, body: Robot, command: str,
-              verdicts: tuple[Verdict, Verdict]) -> str:
+              verdicts: tuple[Verdict, Verdict], notes: Sequence[str] = ()) -> str:
     """The markdown report: the chosen body beside the original, why, the search, the figure."""
     space, orig, robot = result.space, result.original, result.robot
     lines = [f"# Body design: {robot.name} at {result.speed_m_s:g} m/s → {body.name}", "",
@@ -194,7 +194,8 @@ def report_md(result: DesignResult, chosen: DesignSample, body: Robot, command: 
              num(chosen, chosen.peak_torque_ratio)),
         _row("MuJoCo", verdicts[0].text().replace("|", "\\|"),
              verdicts[1].text().replace("|", "\\|")),
-        "", "## Why", "", *[f"- {line}" for line in why(result, chosen)], "",
+        "", "## Why", "", *[f"- {line}" for line in why(result, chosen)],
+        *[f"- {line}" for line in notes], "",
         "## Search", "", "| generation | samples | feasible | best J | incumbent | elapsed [s] |",
         "|---|---|---|---|---|---|"]
     for r in result.history:
@@ -212,8 +213,11 @@ def report_md(result: DesignResult, chosen: DesignSample, body: Robot, command: 
 
 
 def write_report(folder: Path, result: DesignResult, chosen: DesignSample, body: Robot,
-                 command: str, verdicts: tuple[Verdict, Verdict]) -> None:
-    atomic_write_text(folder / REPORT_MD, report_md(result, chosen, body, command, verdicts))
+                 command: str, verdicts: tuple[Verdict, Verdict], notes: Sequence[str] = ()
+                 ) -> None:
+    """The report (`notes`: more lines for its "Why" list), the samples and the figure."""
+    atomic_write_text(folder / REPORT_MD,
+                      report_md(result, chosen, body, command, verdicts, notes))
     atomic_write_text(folder / SAMPLES_CSV, samples_csv(result))
     tradeoff_png(result, chosen, folder / TRADEOFF_PNG)
 

@@ -309,6 +309,21 @@ def design_body(
                         planner, tuple(samples), tuple(history), time.perf_counter() - t0)
 
 
+def servos_alone(result: DesignResult, sample: DesignSample) -> DesignSample | None:
+    """The original link lengths with `sample`'s servos, solved like a sample: splits what the
+    servo choice bought from what the lengths bought (None if that body is the sample's or the
+    original's)."""
+    original = result.space.original()
+    body = BodyDesign(original.scales, sample.design.servos)
+    if body in (sample.design, original):
+        return None
+    solver = DesignSolverFactory(str(result.robot.root_dir), result.space, result.gait,
+                                 result.speed_m_s, result.n_knots,
+                                 result.original_planner.options, result.robot.mass_kg,
+                                 result.mass_weight)()
+    return solver(DesignTask(result.space.encode(body), result.original.warm_start))
+
+
 __all__ = [
     "DEFAULT_GENERATIONS",
     "DEFAULT_KNOTS",
@@ -323,4 +338,5 @@ __all__ = [
     "objective",
     "peak_torque_ratio",
     "plan_body",
+    "servos_alone",
 ]
