@@ -217,9 +217,10 @@ def _finish(result: DesignResult, candidates: list[DesignSample], output: Path, 
         gait_io.save(gait, tmp / DESIGN_GAIT)
         if original_gait is not None:
             gait_io.save(original_gait, tmp / ORIGINAL_GAIT)
-        write_report(tmp, result, cand, body, command, (_verdict(original_gait), _verdict(gait)),
-                     notes)
-        console.print(_table(result, cand, body, original_gait, gait))
+        before = (_verdict(original_gait) if original_gait is not None
+                  else Verdict(None, ("no feasible gait to simulate",)))
+        write_report(tmp, result, cand, body, command, (before, _verdict(gait)), notes)
+        console.print(_table(result, cand, body, before, gait))
         console.print("why: " + "\n     ".join([*why(result, cand), *notes]))
     extra = f"{ORIGINAL_GAIT}, " if original_gait is not None else ""
     console.print(f"wrote [bold]{output}[/] (robot.xml, robot.toml, {DESIGN_GAIT}, {extra}"
@@ -254,7 +255,7 @@ def _simulate(gait: Gait, body: Robot, cycles: int) -> tuple[Gait, bool]:
     return validated, bool(v.passed) and stand.stands
 
 
-def _table(result: DesignResult, cand: DesignSample, body: Robot, original_gait: Gait | None,
+def _table(result: DesignResult, cand: DesignSample, body: Robot, before: Verdict,
            gait: Gait) -> Table:
     orig = result.original
     table = Table(title=f"{result.robot.name} beside {body.name} at {result.speed_m_s:g} m/s")
@@ -275,7 +276,7 @@ def _table(result: DesignResult, cand: DesignSample, body: Robot, original_gait:
     table.add_row("design cost J", num(orig, orig.cost), num(cand, cand.cost))
     table.add_row("peak τ/τ_stall", num(orig, orig.peak_torque_ratio, ".3f"),
                   num(cand, cand.peak_torque_ratio, ".3f"))
-    table.add_row("MuJoCo", _verdict(original_gait).text(), _verdict(gait).text())
+    table.add_row("MuJoCo", before.text(), _verdict(gait).text())
     return table
 
 

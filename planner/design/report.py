@@ -52,7 +52,7 @@ class Verdict:
 
     def text(self) -> str:
         if self.passed is None:
-            return "not simulated (pass --simulate)"
+            return "; ".join(self.reasons) if self.reasons else "not simulated (pass --simulate)"
         return ("PASS" if self.passed else "FAIL") + (
             f" ({'; '.join(self.reasons)})" if self.reasons else "")
 
