@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import typer
@@ -102,6 +104,10 @@ def design_command(
         False, "--simulate",
         help="validate the original's and the design's gaits in MuJoCo and stand the new body"),
     cycles: int = typer.Option(12, "--cycles", help="cycles to simulate (--simulate)"),
+    sim_accept: bool = typer.Option(
+        False, "--sim-accept/--no-sim-accept",
+        help="rank bodies that do not stand or whose gait does not walk in MuJoCo as infeasible "
+        "(a stand check and a short rollout per body: slower)"),
 ) -> None:
     """Design leg lengths and servos for a speed (W&P 2009 §3.6) and write the robot folder."""
     check_speed("--speed", speed, allow_zero=False)
@@ -119,6 +125,8 @@ def design_command(
     space = design_space(source, vary_names, servo_names)
     command = _command_line(robot, speed, output, vary, servos, generations, popsize, workers,
                             ray, knots, mass_weight, seed, mu, simulate, cycles)
+    if sim_accept:
+        command = command.replace(" -o ", " --sim-accept -o ")
     console.print(
         f"designing [bold]{source.name}[/] ({source.mass_kg:.3f} kg, leg "
         f"{source.leg_length_m:.3f} m) for {speed:g} m/s: {len(space.link_groups)} length "
@@ -142,7 +150,8 @@ def design_command(
     result = design_body(source, speed, space, n_knots=knots, options=PlannerOptions(mu=mu),
                          mass_weight=mass_weight, generations=generations, popsize=popsize,
                          seed=seed, executor=executor, workers=workers, progress=on_generation,
-                         on_original=on_original)
+                         on_original=on_original,
+                         acceptance=BodyAcceptance() if sim_accept else None)
     candidates = result.best_feasible(FINAL_CANDIDATES)
     if not candidates:
         limits = ", ".join(f"{name} in {n}" for name, n in result.limits())
@@ -153,6 +162,35 @@ def design_command(
     passed = _finish(result, candidates, output, command, simulate, cycles)
     if not passed:
         raise typer.Exit(1)
+
+
+@dataclass(frozen=True)
+class _BodyVerdict:
+    passed: bool
+    badness: float
+    reasons: tuple[str, ...]
+
+
+def _stand_and_walk(body: Robot, gait: Gait) -> _BodyVerdict:
+    """MuJoCo acceptance of a designed body: it stands on its servos, and its gait walks
+    (`sim.acceptance.GaitCheck`: the search criteria, a short rollout)."""
+    from sim.acceptance import GaitCheck  # lazy: MuJoCo only with --sim-accept
+    from sim.stand_check import check_stand
+
+    stand = check_stand(body)
+    if not stand.stands:
+        return _BodyVerdict(False, float(1 + len(stand.reasons)),
+                            ("does not stand: " + "; ".join(stand.reasons),))
+    walk = GaitCheck(body)(gait)
+    return _BodyVerdict(walk.passed, walk.badness, walk.reasons)
+
+
+@dataclass(frozen=True)
+class BodyAcceptance:
+    """Picklable factory of the MuJoCo body check (one per executor worker)."""
+
+    def __call__(self) -> Callable[[Robot, Gait], _BodyVerdict]:
+        return _stand_and_walk
 
 
 def _verdict(gait: Gait | None) -> Verdict:

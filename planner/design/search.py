@@ -21,6 +21,12 @@ one (by constraint violation, `BasinCma.rank`). Servos that share no supply volt
 run on one battery: such samples are redrawn before any solve (`supplied_samples`), and a
 sample that still has them is infeasible without a solve (violation: the gap in volts).
 
+Acceptance (optional, `acceptance=`, as in `planner.search.gait_search`): a picklable factory of
+a check (body, gait) → verdict; a feasible sample it rejects ranks as infeasible. The command line
+passes MuJoCo's (the body stands on its servos and the gait walks under the servo model), so
+the search can prefer bodies that walk over bodies that only satisfy the NLP; `planner` never
+imports `sim`.
+
 Samples run on `planner.search.executors` (serial, process pool, Ray): each worker builds its
 `DesignSolver` once, writes each sample's robot folder into a temporary folder of its own and
 builds that body's NLP (the NLP is built per robot; it takes most of a sample's time).
@@ -33,8 +39,9 @@ import tempfile
 import time
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
@@ -45,7 +52,7 @@ from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.search.basin_cma import BasinCma, LocalResult
 from planner.search.executors import make_executor
 from planner.templates import default_gait_for, make_schedule
-from robots import Robot
+from robots import Gait, Robot
 from robots import load as load_robot
 
 DEFAULT_MASS_WEIGHT = 0.1
@@ -53,6 +60,26 @@ DEFAULT_KNOTS = 16
 DEFAULT_GENERATIONS = 3
 #: Initial CMA spread as a fraction of each box width: W&P §5 cover the box (⅓).
 SIGMA_FRACTION = 1.0 / 3.0
+
+
+#: Violation of a sample whose plan is feasible but whose body fails acceptance, per unit of the
+#: check's badness: ranks it after every accepted sample and ahead of NLP-infeasible ones.
+REJECTED_VIOLATION = 1e-9
+
+
+class BodyVerdict(Protocol):
+    @property
+    def passed(self) -> bool: ...
+
+    @property
+    def badness(self) -> float: ...
+
+    @property
+    def reasons(self) -> tuple[str, ...]: ...
+
+
+#: A check of a designed body and its planned gait (the CLI passes MuJoCo's: stand + walk).
+BodyCheck = Callable[[Robot, Gait], BodyVerdict]
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,6 +161,7 @@ class DesignSolver:
     options: PlannerOptions
     reference_mass_kg: float
     mass_weight: float
+    acceptance: BodyCheck | None = None
 
     def __call__(self, task: DesignTask) -> DesignSample:
         x = self.space.snap(task.x)
@@ -153,8 +181,17 @@ class DesignSolver:
             except (DesignError, PlannerConfigError) as exc:
                 return DesignSample(x, math.inf, False, 0, math.inf, design=design,
                                     message=str(exc), binding=(("body", math.inf),))
-            del planner
-            return sample_of(x, design, body, result, self.reference_mass_kg, self.mass_weight)
+            sample = sample_of(x, design, body, result, self.reference_mass_kg, self.mass_weight)
+            if not (sample.feasible and self.acceptance is not None):
+                return sample
+            verdict = self.acceptance(body, planner.to_gait(result, self.gait))
+            if verdict.passed:
+                return sample
+            return replace(sample, feasible=False,
+                           violation=REJECTED_VIOLATION * (1.0 + verdict.badness),
+                           binding=(("MuJoCo acceptance", verdict.badness),),
+                           message="planned, but in MuJoCo: " + "; ".join(verdict.reasons),
+                           warm_start=None)
 
 
 @dataclass(frozen=True)
@@ -169,10 +206,13 @@ class DesignSolverFactory:
     options: PlannerOptions
     reference_mass_kg: float
     mass_weight: float
+    acceptance: Callable[[], BodyCheck] | None = None
 
     def __call__(self) -> DesignSolver:
+        check = self.acceptance() if self.acceptance is not None else None
         return DesignSolver(load_robot(self.robot_dir), self.space, self.gait, self.speed_m_s,
-                            self.n_knots, self.options, self.reference_mass_kg, self.mass_weight)
+                            self.n_knots, self.options, self.reference_mass_kg, self.mass_weight,
+                            check)
 
 
 @dataclass(frozen=True)
@@ -262,9 +302,12 @@ def design_body(
     address: str | None = None,
     progress: Callable[[GenerationRow], None] | None = None,
     on_original: Callable[[DesignSample], None] | None = None,
+    acceptance: Callable[[], BodyCheck] | None = None,
 ) -> DesignResult:
     """Basin-CMA over `space` at `speed_m_s` (module docstring); the original robot is solved
-    first, in this process, as the baseline and the first incumbent."""
+    first, in this process, as the baseline and the first incumbent. `acceptance` (a picklable
+    factory, built once per worker) judges every feasible sample's body and gait; one it
+    rejects ranks as infeasible (after the accepted ones)."""
     if not math.isfinite(mass_weight) or mass_weight < 0:
         raise PlannerConfigError(f"mass weight must be ≥ 0, got {mass_weight!r}")
     if generations < 1:
@@ -278,7 +321,7 @@ def design_body(
     if on_original is not None:
         on_original(original)
     factory = DesignSolverFactory(str(robot.root_dir), space, gait, speed_m_s, n_knots, options,
-                                  robot.mass_kg, mass_weight)
+                                  robot.mass_kg, mass_weight, acceptance)
     lo, hi = space.bounds()
     cma = BasinCma(x0, (hi - lo) * SIGMA_FRACTION, (lo, hi), popsize=popsize,
                    rng=np.random.default_rng(seed))
@@ -328,6 +371,9 @@ __all__ = [
     "DEFAULT_GENERATIONS",
     "DEFAULT_KNOTS",
     "DEFAULT_MASS_WEIGHT",
+    "REJECTED_VIOLATION",
+    "BodyCheck",
+    "BodyVerdict",
     "DesignResult",
     "DesignSample",
     "DesignSolver",
