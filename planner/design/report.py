@@ -196,7 +196,7 @@ def report_md(result: DesignResult, chosen: DesignSample, body: Robot, command: 
              verdicts[1].text().replace("|", "\\|")),
         "", "## Why", "", *[f"- {line}" for line in why(result, chosen)],
         *[f"- {line}" for line in notes], "",
-        "## Search", "", "| generation | samples | feasible | best J | incumbent | elapsed [s] |",
+        "## Search", "", "| generation | samples | feasible | best J | best body | elapsed [s] |",
         "|---|---|---|---|---|---|"]
     for r in result.history:
         lines.append(f"| {r.generation} | {r.n_samples} | {r.n_feasible} | {r.best_cost:.5g} | "

@@ -222,8 +222,8 @@ class GenerationRow:
     generation: int
     n_samples: int
     n_feasible: int
-    best_cost: float  # best design cost so far (inf: no feasible body yet)
-    best: str  # `describe` of the incumbent
+    best_cost: float  # best design cost of the samples so far (inf: no feasible body yet)
+    best: str  # `describe` of that body
     elapsed_s: float
 
 
@@ -325,7 +325,10 @@ def design_body(
     lo, hi = space.bounds()
     cma = BasinCma(x0, (hi - lo) * SIGMA_FRACTION, (lo, hi), popsize=popsize,
                    rng=np.random.default_rng(seed))
+    # the incumbent warm-starts the samples (the original until a sample beats it); `best` is
+    # what the progress reports: samples only, since the original was not judged by `acceptance`
     incumbent: DesignSample | None = original if original.feasible else None
+    best: DesignSample | None = None
     samples: list[DesignSample] = []
     history: list[GenerationRow] = []
     with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
@@ -340,10 +343,12 @@ def design_body(
             for r in results:
                 if r.feasible and (incumbent is None or r.cost < incumbent.cost):
                     incumbent = r
+                if r.feasible and (best is None or r.cost < best.cost):
+                    best = r
             row = GenerationRow(
                 generation, len(results), sum(r.feasible for r in results),
-                incumbent.cost if incumbent is not None else math.inf,
-                describe(space, incumbent.design) if incumbent is not None else "-",
+                best.cost if best is not None else math.inf,
+                describe(space, best.design) if best is not None else "-",
                 time.perf_counter() - t0)
             history.append(row)
             if progress is not None:

@@ -78,3 +78,23 @@ def test_good_options_reach_the_search(tmp_path: Path) -> None:
     with pytest.raises(ExpensiveWorkStarted):
         main(["design", "quad12", "--speed", "0.3", "--vary", "thigh,shank",
               "--servos", "STS3215_7V4,STS3215_12V", "-o", str(tmp_path / "o")])
+
+
+def test_sim_accept_hands_the_search_a_picklable_mujoco_check(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import pickle
+
+    seen: dict[str, Any] = {}
+
+    def capture(*args: Any, **kwargs: Any) -> Any:
+        seen.update(kwargs)
+        raise ExpensiveWorkStarted
+
+    monkeypatch.setattr(gaitsmith.design_cmd, "design_body", capture)
+    with pytest.raises(ExpensiveWorkStarted):
+        main(["design", "quad12", "--speed", "0.3", "--sim-accept", "-o", str(tmp_path / "o")])
+    factory = seen["acceptance"]
+    assert isinstance(pickle.loads(pickle.dumps(factory)), gaitsmith.design_cmd.BodyAcceptance)
+    with pytest.raises(ExpensiveWorkStarted):
+        main(["design", "quad12", "--speed", "0.3", "-o", str(tmp_path / "o")])
+    assert seen["acceptance"] is None
