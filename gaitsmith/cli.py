@@ -34,6 +34,7 @@ _COMMAND_MODULES = (
     "gaitsmith.identify_cmd",
     "gaitsmith.library_cmd",
     "gaitsmith.drive_sim_cmd",
+    "gaitsmith.design_cmd",
 )
 for _name in _COMMAND_MODULES:
     try:

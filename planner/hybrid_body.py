@@ -126,18 +126,58 @@ def _lerp(a: np.ndarray, b: np.ndarray, alpha: float) -> np.ndarray:
     return (1.0 - alpha) * np.asarray(a, dtype=float) + alpha * np.asarray(b, dtype=float)
 
 
-def _compiled_spec(robot: Robot) -> mujoco.MjSpec:
+def compiled_spec(robot: Robot, error: type[PlannerError] = HybridBodyError) -> mujoco.MjSpec:
     """The robot's MJCF as MuJoCo writes it back (geoms as pos/quat/size, no fromto), so two
-    files that say the same thing in different words interpolate alike."""
+    files that say the same thing in different words interpolate alike. A file MuJoCo cannot
+    write back raises `error`."""
     try:
         spec = mujoco.MjSpec.from_file(str(robot.mjcf_path))
         spec.compile()
         return mujoco.MjSpec.from_string(spec.to_xml())
     except Exception as exc:  # mujoco raises ValueError with the parser's message
-        raise HybridBodyError(
-            f"{robot.mjcf_path}: cannot rewrite it for a hybrid series ({exc}); "
-            "MJCFs with mesh files are not interpolated"
+        raise error(
+            f"{robot.mjcf_path}: cannot rewrite it ({exc}); MJCFs with mesh files are not "
+            "rewritten"
         ) from None
+
+
+def make_inertials_explicit(spec: mujoco.MjSpec) -> None:
+    """Write every body's compiled inertial (mass, centre of mass, principal inertia and axes)
+    into `spec` and stop MuJoCo from recomputing them from the geoms, in place: a spec whose
+    geometry is edited then keeps exactly the inertials written into it."""
+    model = spec.compile()
+    for body in spec.bodies[1:]:
+        i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body.name)
+        body.explicitinertial = True
+        body.mass = float(model.body_mass[i])
+        body.ipos = model.body_ipos[i].copy()
+        body.iquat = model.body_iquat[i].copy()
+        body.inertia = model.body_inertia[i].copy()
+        body.fullinertia = np.full(6, np.nan)
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+
+
+def write_robot_folder(
+    spec: mujoco.MjSpec,
+    toml_text: str,
+    folder: Path,
+    what: str,
+    error: type[PlannerError] = HybridBodyError,
+) -> Robot:
+    """Write `spec` as `folder`/robot.xml and `toml_text` as robot.toml (each atomically) and
+    load the folder; a spec MuJoCo cannot write or a folder that does not load raises `error`
+    with `what` (the body being written) in front of the reason."""
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        xml = spec.to_xml()
+    except Exception as exc:  # mujoco raises ValueError with the compiler's message
+        raise error(f"{what}: {exc}") from None
+    atomic_write_text(folder / "robot.xml", xml)
+    atomic_write_text(folder / "robot.toml", toml_text)
+    try:
+        return robots.load(folder)
+    except robots.RobotsError as exc:
+        raise error(f"{what}: {exc}") from None
 
 
 def _nlerp(a: np.ndarray, b: np.ndarray, alpha: float) -> np.ndarray:
@@ -200,18 +240,9 @@ def hybrid_spec(source: Robot, target: Robot, pairs: BodyPairs, alpha: float) ->
     both in the source's joint conventions (`_rezero`)."""
     if not 0.0 <= alpha <= 1.0:
         raise HybridBodyError(f"hybrid fraction must be in [0, 1], got {alpha}")
-    spec, other = _compiled_spec(source), _compiled_spec(target)
+    spec, other = compiled_spec(source), compiled_spec(target)
     for sp in (spec, other):  # inertials explicit (compiled), so the rotation moves them too
-        model = sp.compile()
-        for body in sp.bodies[1:]:
-            i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body.name)
-            body.explicitinertial = True
-            body.mass = float(model.body_mass[i])
-            body.ipos = model.body_ipos[i].copy()
-            body.iquat = model.body_iquat[i].copy()
-            body.inertia = model.body_inertia[i].copy()
-            body.fullinertia = np.full(6, np.nan)
-        sp.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+        make_inertials_explicit(sp)
     _rezero(other, source, target, pairs)
     foot_sites = {leg.foot_site for leg in source.legs}
     joint_map = {js: jt for js, jt, _ in pairs.joints}
@@ -254,17 +285,8 @@ def hybrid_robot(
     """Write the hybrid's robot.xml (interpolated tree) and robot.toml (the source's servo map)
     into `folder` and load it."""
     spec = hybrid_spec(source, target, pairs, alpha)
-    folder.mkdir(parents=True, exist_ok=True)
-    try:
-        xml = spec.to_xml()
-    except Exception as exc:  # mujoco raises ValueError with the compiler's message
-        raise HybridBodyError(f"hybrid {alpha:.2f} of {source.name}/{target.name}: {exc}") from None
-    atomic_write_text(folder / "robot.xml", xml)
-    atomic_write_text(folder / "robot.toml", _without_limits(source))
-    try:
-        body = robots.load(folder)
-    except robots.RobotsError as exc:
-        raise HybridBodyError(f"hybrid {alpha:.2f} of {source.name}/{target.name}: {exc}") from None
+    body = write_robot_folder(spec, _without_limits(source), folder,
+                              f"hybrid {alpha:.2f} of {source.name}/{target.name}")
     lo, hi = sorted((source.leg_length_m, target.leg_length_m))
     slack = _LEG_LENGTH_SLACK * hi
     if not lo - slack <= body.leg_length_m <= hi + slack:
