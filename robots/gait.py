@@ -511,33 +511,47 @@ def _parse_int(text: str) -> int:
     return int(text)
 
 
-def loads(text: str, file: str = "<gait>") -> Gait:
-    if len(text) > MAX_GAIT_BYTES:
-        raise GaitFileError(file, "<file>", f"is {len(text)} characters; at most {MAX_GAIT_BYTES}")
+def parse_json_text(
+    text: str, file: str, max_chars: int, error: type[GaitFileError] = GaitFileError
+) -> Any:
+    """The JSON document of a gait (or gait-library) file, bounded in size and integer length;
+    `error` (a `GaitFileError`) names the file and what is wrong."""
+    if len(text) > max_chars:
+        raise error(file, "<file>", f"is {len(text)} characters; at most {max_chars}")
     try:
         # NaN/Infinity parse; field checks reject them by name
-        doc = json.loads(text, parse_int=_parse_int)
+        return json.loads(text, parse_int=_parse_int)
     except _HugeInteger as exc:
-        raise GaitFileError(
-            file, "<json>", f"integer {exc}… has more than {MAX_INT_DIGITS} digits"
-        ) from None
+        problem = f"integer {exc}… has more than {MAX_INT_DIGITS} digits"
+        raise error(file, "<json>", problem) from None
     except (ValueError, RecursionError) as exc:
-        raise GaitFileError(file, "<json>", f"not valid JSON: {exc}") from None
-    return from_dict(doc, file)
+        raise error(file, "<json>", f"not valid JSON: {exc}") from None
+
+
+def read_json_file(
+    path: str | Path, max_bytes: int, error: type[GaitFileError] = GaitFileError
+) -> tuple[str, Any]:
+    """(file name, JSON document) of a gait or gait-library file, read with a size bound."""
+    p = Path(path)
+    try:
+        if p.stat().st_size > max_bytes:
+            raise error(str(p), "<file>", f"larger than {max_bytes} bytes")
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(str(p), "<file>", f"cannot read: {exc}") from None
+    return str(p), parse_json_text(text, str(p), max_bytes, error)
+
+
+def loads(text: str, file: str = "<gait>") -> Gait:
+    return from_dict(parse_json_text(text, file, MAX_GAIT_BYTES), file)
 
 
 def load(path: str | Path, robot: Robot | None = None) -> Gait:
     """Read and validate a gait file; with `robot`, also check it was planned for that build."""
-    p = Path(path)
-    try:
-        if p.stat().st_size > MAX_GAIT_BYTES:
-            raise GaitFileError(str(p), "<file>", f"larger than {MAX_GAIT_BYTES} bytes")
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise GaitFileError(str(p), "<file>", f"cannot read: {exc}") from None
-    gait = loads(text, str(p))
+    file, doc = read_json_file(path, MAX_GAIT_BYTES)
+    gait = from_dict(doc, file)
     if robot is not None:
-        gait.check_robot(robot, str(p))
+        gait.check_robot(robot, file)
     return gait
 
 

@@ -269,29 +269,16 @@ def from_dict(d: Any, file: str = "<library>") -> GaitLibrary:
 
 
 def loads(text: str, file: str = "<library>") -> GaitLibrary:
-    if len(text) > MAX_LIBRARY_BYTES:
-        raise LibraryFileError(file, "<file>", f"larger than {MAX_LIBRARY_BYTES} characters")
-    try:
-        doc = json.loads(text, parse_int=gaitfile._parse_int)
-    except gaitfile._HugeInteger as exc:
-        raise LibraryFileError(file, "<json>", f"integer {exc}… is too long") from None
-    except (ValueError, RecursionError) as exc:
-        raise LibraryFileError(file, "<json>", f"not valid JSON: {exc}") from None
+    doc = gaitfile.parse_json_text(text, file, MAX_LIBRARY_BYTES, LibraryFileError)
     return from_dict(doc, file)
 
 
 def load(path: str | Path, robot: Robot | None = None) -> GaitLibrary:
     """Read and validate a library file; with `robot`, also check it was built for that build."""
-    p = Path(path)
-    try:
-        if p.stat().st_size > MAX_LIBRARY_BYTES:
-            raise LibraryFileError(str(p), "<file>", f"larger than {MAX_LIBRARY_BYTES} bytes")
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise LibraryFileError(str(p), "<file>", f"cannot read: {exc}") from None
-    library = loads(text, str(p))
+    file, doc = gaitfile.read_json_file(path, MAX_LIBRARY_BYTES, LibraryFileError)
+    library = from_dict(doc, file)
     if robot is not None:
-        library.check_robot(robot, str(p))
+        library.check_robot(robot, file)
     return library
 
 
