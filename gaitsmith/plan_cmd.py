@@ -45,7 +45,7 @@ from gaitsmith.search_options import (
     workers_option,
 )
 from planner.errors import InfeasibleGaitError
-from planner.nlp.config import PlannerOptions
+from planner.nlp.config import DERIVATIVE_PATHS, PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
@@ -83,6 +83,9 @@ def plan(
         None, "--schedule", help="JSON/TOML file: touchdown_phase and duty_factor per leg name "
         "(replaces the template)"),
     mu: float = typer.Option(0.5, "--mu", help="friction coefficient of the contact cone"),
+    solver: str = typer.Option(
+        "knot", "--solver", help="IPOPT+MUMPS derivative path: knot (default: one knot's "
+        "Jacobian and Hessian, cached; fast build) or expanded (whole NLP in SX; slow build)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
@@ -116,6 +119,8 @@ def plan(
                               address, search_knots, tipping_weight, sim_accept)
     _check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     _check_command(speed, vy, yaw_rate, search)
+    if solver not in DERIVATIVE_PATHS:
+        raise OptionError(f"--solver {solver!r}: use one of {', '.join(DERIVATIVE_PATHS)}")
     check_output_file("--output", output)
     bot = robots.load(robot)
     check_yaw_rate("--yaw-rate", yaw_rate, bot)
@@ -123,14 +128,15 @@ def plan(
     bot = robot_at_voltage(bot, supply_v)
     supply_meta = None if supply_v is None else {"supply_v": supply_v}
     if search:
-        _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v)
+        _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v,
+                     solver=solver)
         return
     gait = gait or default_gait(bot)
     if phases is None and schedule_file is None:
         check_gait_fits(bot, gait)
     schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
                                       schedule_file=schedule_file, period_s=period)
-    options = PlannerOptions(mu=mu, print_level=5 if verbose else 0)
+    options = PlannerOptions(mu=mu, print_level=5 if verbose else 0, derivatives=solver)
     command = f"{speed:.3f} m/s" + (
         f", vy {vy:+.3f} m/s, yaw rate {yaw_rate:+.3f} rad/s" if vy or yaw_rate else "")
     console.print(
@@ -236,7 +242,7 @@ class SearchSettings:
 
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
                  mu: float, st: SearchSettings, simulate: bool, cycles: int,
-                 supply_v: float | None = None) -> None:
+                 supply_v: float | None = None, solver: str = "knot") -> None:
     from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
@@ -258,7 +264,8 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         )
 
     result = search_gait(
-        bot, speed, n_knots=knots, options=PlannerOptions(mu=mu), symmetric=st.symmetric,
+        bot, speed, n_knots=knots, options=PlannerOptions(mu=mu, derivatives=solver),
+        symmetric=st.symmetric,
         max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
