@@ -146,3 +146,15 @@ def test_knot_path_reaches_the_expanded_optimum(
     assert load_directions(directions_path(knot_function(knot.model), 8, knot.options))
     c = again.solve(schedule, 0.2, warm_start=False)
     assert c.feasible and abs(c.cost - b.cost) <= 1e-8 * abs(b.cost)
+
+
+def test_plan_rejects_an_unknown_solver_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from gaitsmith.cli import main
+
+    out = tmp_path / "g.json"
+    assert main(["plan", "quad12", "-o", str(out), "--solver", "fast"]) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert lines == ["error: --solver 'fast': use one of knot, expanded"]
+    assert not out.exists()
