@@ -276,6 +276,7 @@ def main() -> None:
     ap.add_argument("--warm", type=int, default=10)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--random", type=int, default=5, help="random schedules in `compare`")
+    ap.add_argument("--robot", choices=("both", "quad12", "hex18"), default="both")
     ap.add_argument(
         "--section", choices=("all", "build", "solve", "compare"), default="all"
     )
@@ -287,8 +288,10 @@ def main() -> None:
         bench("quad12", "trot", 0.25, args.knots, args.warm, args.seed)
         bench("hex18", "tripod", 0.15, args.knots, args.warm, args.seed)
     if args.section in ("all", "compare"):
-        compare("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed)
-        compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed)
+        if args.robot in ("both", "quad12"):
+            compare("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed)
+        if args.robot in ("both", "hex18"):
+            compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed)
 
 
 if __name__ == "__main__":
