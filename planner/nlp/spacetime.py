@@ -9,6 +9,11 @@ Usage (also what basin-CMA calls in its inner loop)::
 The schedule (contact activity per knot, swing clearance profile), speed and period are NLP
 parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal and
 dual solution with IPOPT's ``warm_start_init_point``.
+
+IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the NLP un-expanded and
+hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
+"expanded" expands the whole NLP to SX (slow build). Same optimum; see
+docs/results/planner_speed.md.
 """
 
 from __future__ import annotations
