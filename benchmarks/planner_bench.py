@@ -2,6 +2,7 @@
 
     python benchmarks/planner_bench.py            # quad12 trot N=30 and hex18 tripod N=30
     python benchmarks/planner_bench.py --section build   # only the build-once measurement
+    python benchmarks/planner_bench.py --section compare # derivative paths side by side (#16)
 
 Each warm solve starts from the previous solution with a perturbed schedule (touchdown phases
 ±0.03, duty ±0.03, period ±5 %) — what basin-CMA's inner loop does. Prints times, the
@@ -16,6 +17,14 @@ the same solver written with CasADi's serialiser (`Function.save`) and read back
 For scale it also prints the instruction counts of the NLP's Jacobian and Lagrangian Hessian
 next to those of one knot (`planner.nlp.constraints.knot_function`) and the time to build the
 knot's own derivatives: the whole-NLP derivatives are N expanded copies of the knot's.
+
+The `compare` section runs today's path (``derivatives="expanded"``: whole NLP expanded to SX)
+and the per-knot path (``derivatives="knot"``, `planner.nlp.solver_cache`) in one run on the same
+schedules — every template of the robot and `--random` random schedules, cold, then a chain of
+`--warm` perturbed warm solves — and prints per path median/min/max solve time, iterations,
+ms/iteration and the ratio knot/expanded, the build times (expanded; knot with an empty disk
+cache; knot from the cache) and whether both reach the same optimum (same feasibility verdict,
+cost within 1e-4 relative or lower).
 """
 
 from __future__ import annotations
@@ -34,10 +43,14 @@ import casadi as ca
 import numpy as np
 
 import robots
+from planner.errors import PlannerConfigError
 from planner.nlp import spacetime
+from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import knot_function
 from planner.nlp.spacetime import GaitPlanner, PlanResult
-from planner.templates import make_schedule
+from planner.templates import make_schedule, templates_for
+
+SAME_COST_RTOL = 1e-4
 
 
 def perturbed(schedule: robots.ContactSchedule, rng: np.random.Generator) -> robots.ContactSchedule:
@@ -146,12 +159,127 @@ def _knot_derivatives(planner: GaitPlanner) -> tuple[float, int, int]:
     return time.perf_counter() - t0, jac.n_instructions(), hess.n_instructions()
 
 
+def random_schedule(
+    base: robots.ContactSchedule, rng: np.random.Generator
+) -> robots.ContactSchedule:
+    """Random touchdown phases, duty factors in [0.5, 0.85], period ±15 % of the template's."""
+    n = base.n_feet
+    return robots.ContactSchedule(
+        base.period_s * float(rng.uniform(0.85, 1.15)),
+        base.feet,
+        tuple(float(v) for v in rng.uniform(0.0, 1.0, n)),
+        tuple(float(v) for v in rng.uniform(0.5, 0.85, n)),
+    )
+
+
+def _spread(times: list[float], iters: list[int]) -> str:
+    per_it = 1e3 * sum(times) / max(1, sum(iters))
+    return (
+        f"median {statistics.median(times):.3f} s (min {min(times):.3f}, max {max(times):.3f}), "
+        f"{statistics.median(iters):.0f} it, {per_it:.1f} ms/it"
+    )
+
+
+def compare(
+    robot_name: str, gait: str, speed: float, n_knots: int, n_random: int, n_warm: int, seed: int
+) -> None:
+    """Expanded vs per-knot derivatives on the same schedules, in one run (module docstring)."""
+    robot = robots.load(robot_name)
+    with tempfile.TemporaryDirectory(prefix="planner_bench_cache_") as cache:
+        previous = os.environ.get("GAITSMITH_CACHE")
+        os.environ["GAITSMITH_CACHE"] = cache
+        try:
+            expanded = GaitPlanner(robot, n_knots, PlannerOptions(derivatives="expanded"))
+            knot_cold = GaitPlanner(robot, n_knots, PlannerOptions(derivatives="knot"))
+            knot = GaitPlanner(robot, n_knots, PlannerOptions(derivatives="knot"))
+        finally:
+            if previous is None:
+                os.environ.pop("GAITSMITH_CACHE", None)
+            else:
+                os.environ["GAITSMITH_CACHE"] = previous
+    cold_status = knot_cold.derivative_cache.status if knot_cold.derivative_cache else "?"
+    hit_status = knot.derivative_cache.status if knot.derivative_cache else "?"
+    print(
+        f"{robot_name} N={n_knots} build: expanded {expanded.build_time_s:.2f} s | knot, empty "
+        f"cache {knot_cold.build_time_s:.2f} s ({cold_status}) | knot from the cache "
+        f"{knot.build_time_s:.2f} s ({hit_status}) | expanded/knot cold "
+        f"{expanded.build_time_s / knot_cold.build_time_s:.1f}, expanded/knot cached "
+        f"{expanded.build_time_s / knot.build_time_s:.1f}"
+    )
+    del knot_cold
+    rng = np.random.default_rng(seed)
+    schedules: list[tuple[str, robots.ContactSchedule]] = []
+    for name in templates_for(robot):
+        schedules.append((name, make_schedule(robot, name)))
+    base = make_schedule(robot, gait)
+    schedules += [(f"random{i}", random_schedule(base, rng)) for i in range(n_random)]
+    rows: dict[str, tuple[list[float], list[int]]] = {"expanded": ([], []), "knot": ([], [])}
+    same, lower, worst_rel, verdicts = 0, 0, 0.0, 0
+    for label, schedule in schedules:
+        results = {}
+        for path, planner in (("expanded", expanded), ("knot", knot)):
+            try:
+                res = planner.solve(schedule, speed, warm_start=False)
+            except PlannerConfigError:
+                break  # e.g. "stand" at a moving speed: not a plan for either path
+            results[path] = res
+            rows[path][0].append(res.solve_time_s)
+            rows[path][1].append(res.iterations)
+        if len(results) < 2:
+            continue
+        a, b = results["expanded"], results["knot"]
+        verdicts += 1
+        if a.feasible != b.feasible:
+            print(f"  {label}: verdicts differ: expanded {a.status}, knot {b.status}")
+            continue
+        rel = (b.cost - a.cost) / max(abs(a.cost), 1e-12)
+        if a.feasible:
+            worst_rel = max(worst_rel, abs(rel))
+            lower += rel < -SAME_COST_RTOL
+        same += (not a.feasible) or rel <= SAME_COST_RTOL
+        print(
+            f"  {label}: expanded {a.cost:.6g} ({a.iterations} it, {a.solve_time_s:.2f} s, "
+            f"{'feasible' if a.feasible else a.status}) | knot {b.cost:.6g} ({b.iterations} it, "
+            f"{b.solve_time_s:.2f} s) | rel {rel:+.1e}"
+        )
+    ratio_med = statistics.median(rows["knot"][0]) / statistics.median(rows["expanded"][0])
+    ratio_it = (sum(rows["knot"][0]) / max(1, sum(rows["knot"][1]))) / (
+        sum(rows["expanded"][0]) / max(1, sum(rows["expanded"][1]))
+    )
+    print(
+        f"  cold solves over {verdicts} schedules: expanded {_spread(*rows['expanded'])} | "
+        f"knot {_spread(*rows['knot'])} | knot/expanded median {ratio_med:.2f}, ms/it "
+        f"{ratio_it:.2f}\n  same optimum: {same}/{verdicts} (same verdict and cost within "
+        f"{SAME_COST_RTOL:g} relative or lower; {lower} lower), worst |rel| {worst_rel:.1e}"
+    )
+    if n_warm:
+        cold = {p: pl.solve(base, speed, warm_start=False) for p, pl in
+                (("expanded", expanded), ("knot", knot))}
+        warm_rng = np.random.default_rng(seed + 1)
+        chain = [perturbed(base, warm_rng) for _ in range(n_warm)]
+        warm = {}
+        for path, planner in (("expanded", expanded), ("knot", knot)):
+            planner._last = cold[path].warm_start
+            chained = [planner.solve(s, speed) for s in chain]
+            warm[path] = ([r.solve_time_s for r in chained], [r.iterations for r in chained])
+        print(
+            f"  warm chain of {n_warm} ({gait}, perturbed): "
+            f"expanded {_spread(*warm['expanded'])} | "
+            f"knot {_spread(*warm['knot'])} | knot/expanded median "
+            f"{statistics.median(warm['knot'][0]) / statistics.median(warm['expanded'][0]):.2f}"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--knots", type=int, default=30)
     ap.add_argument("--warm", type=int, default=10)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--section", choices=("all", "build", "solve"), default="all")
+    ap.add_argument("--random", type=int, default=5, help="random schedules in `compare`")
+    ap.add_argument("--robot", choices=("both", "quad12", "hex18"), default="both")
+    ap.add_argument(
+        "--section", choices=("all", "build", "solve", "compare"), default="all"
+    )
     args = ap.parse_args()
     if args.section in ("all", "build"):
         build_bench("quad12", args.knots)
@@ -159,6 +287,11 @@ def main() -> None:
     if args.section in ("all", "solve"):
         bench("quad12", "trot", 0.25, args.knots, args.warm, args.seed)
         bench("hex18", "tripod", 0.15, args.knots, args.warm, args.seed)
+    if args.section in ("all", "compare"):
+        if args.robot in ("both", "quad12"):
+            compare("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed)
+        if args.robot in ("both", "hex18"):
+            compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed)
 
 
 if __name__ == "__main__":

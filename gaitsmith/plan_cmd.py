@@ -51,7 +51,7 @@ from gaitsmith.search_options import (
     workers_option,
 )
 from planner.errors import InfeasibleGaitError
-from planner.nlp.config import DEFAULT_FROUDE, PlannerOptions, default_speed_m_s
+from planner.nlp.config import DEFAULT_FROUDE, DERIVATIVE_PATHS, PlannerOptions, default_speed_m_s
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
@@ -95,6 +95,9 @@ def plan(
         None, "--schedule", help="JSON/TOML file: touchdown_phase and duty_factor per leg name "
         "(replaces the template)"),
     mu: float = typer.Option(0.5, "--mu", help="friction coefficient of the contact cone"),
+    solver: str = typer.Option(
+        "knot", "--solver", help="IPOPT+MUMPS derivative path: knot (default: one knot's "
+        "Jacobian and Hessian, cached; fast build) or expanded (whole NLP in SX; slow build)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
@@ -135,6 +138,8 @@ def plan(
                               address, search_knots, tipping_weight, sim_accept)
     _check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     _check_command(speed, vy, yaw_rate, search)
+    if solver not in DERIVATIVE_PATHS:
+        raise OptionError(f"--solver {solver!r}: use one of {', '.join(DERIVATIVE_PATHS)}")
     check_output_file("--output", output)
     bot = robots.load(robot)
     if speed is None:
@@ -154,7 +159,8 @@ def plan(
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
     if search:
-        _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v)
+        _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v,
+                     solver=solver)
         return
     custom = phases is not None or schedule_file is not None
     standing = _standing(speed, vy, yaw_rate, duty, phases, schedule_file)
@@ -164,7 +170,8 @@ def plan(
         gait = default_gait(bot, standing=standing)
     choice = commanded_gait(bot, gait, vy, yaw_rate,
                             PlannerOptions(mu=mu, print_level=5 if verbose else 0,
-                                           servo_settings=servo_settings))
+                                           servo_settings=servo_settings,
+                                           derivatives=solver))
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)
@@ -306,7 +313,7 @@ class SearchSettings:
 
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
                  mu: float, st: SearchSettings, simulate: bool, cycles: int | None,
-                 supply_v: float | None = None) -> None:
+                 supply_v: float | None = None, solver: str = "knot") -> None:
     from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
@@ -328,7 +335,8 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         )
 
     result = search_gait(
-        bot, speed, n_knots=knots, options=PlannerOptions(mu=mu), symmetric=st.symmetric,
+        bot, speed, n_knots=knots, options=PlannerOptions(mu=mu, derivatives=solver),
+        symmetric=st.symmetric,
         max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,

@@ -34,6 +34,8 @@ SWING_CLEARANCE_LEG_LENGTHS = 0.14
 BODY_CLEARANCE_LEG_LENGTHS = 0.17
 DEFAULT_FROUDE = 0.035
 GRAVITY_M_S2 = 9.81
+#: values of `PlannerOptions.derivatives`
+DERIVATIVE_PATHS = ("knot", "expanded")
 
 
 def speed_for_froude(froude: float, leg_length_m: float) -> float:
@@ -166,6 +168,11 @@ class PlannerOptions:
       every knot (TOWR's range-of-motion box, Winkler et al. 2018), so strides of any length
       stay possible.
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
+    - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
+      "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
+      (`planner.nlp.solver_cache`): builds in a fraction of the time; "expanded" — the whole NLP
+      expanded to SX and differentiated (the path before issue #16). See
+      docs/results/planner_speed.md for the measured build and solve times.
     """
 
     mu: float = 0.5
@@ -189,6 +196,7 @@ class PlannerOptions:
     max_iter: int = 150
     print_level: int = 0
     linear_solver: str = "mumps"
+    derivatives: str = "knot"
 
     def __post_init__(self) -> None:
         checks = {
@@ -209,6 +217,7 @@ class PlannerOptions:
             or 0 < self.mean_footprint_leg_lengths < 2,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
+            "derivatives": self.derivatives in DERIVATIVE_PATHS,
         }
         for name, ok in checks.items():
             if not ok:

@@ -112,10 +112,14 @@ def knot_function(model: RobotModel) -> ca.Function:
     )
 
 
-def knot_quantities(model: RobotModel, sym: Symbols, n_knots: int) -> KnotQuantities:
+def knot_quantities(
+    model: RobotModel, sym: Symbols, n_knots: int, knot: ca.Function | None = None
+) -> KnotQuantities:
+    """The knot function mapped over the knots; `knot`: a `knot_function(model)` to use instead
+    (e.g. one with precomputed derivatives, `planner.nlp.solver_cache`)."""
     bd, qd = sym.vel[:6, :], sym.vel[6:, :]
     bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
-    fn = knot_function(model).map(n_knots)
+    fn = (knot if knot is not None else knot_function(model)).map(n_knots)
     flat = [sym.moments] if model.flat_feet else []
     base_rows, tau, feet, body_z, w = fn(
         sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,

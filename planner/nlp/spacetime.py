@@ -9,6 +9,11 @@ Usage (also what basin-CMA calls in its inner loop)::
 The schedule (contact activity per knot, swing clearance profile), speed and period are NLP
 parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal and
 dual solution with IPOPT's ``warm_start_init_point``.
+
+IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the NLP un-expanded and
+hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
+"expanded" expands the whole NLP to SX (slow build). Same optimum; see
+docs/results/planner_speed.md.
 """
 
 from __future__ import annotations
@@ -30,9 +35,26 @@ from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp import diagnostics
 from planner.nlp.command import check_command
 from planner.nlp.config import PlannerOptions
-from planner.nlp.constraints import build_groups, group_labels, knot_quantities, row_scales
+from planner.nlp.constraints import (
+    build_groups,
+    group_labels,
+    knot_function,
+    knot_quantities,
+    row_scales,
+)
 from planner.nlp.costs import cost_terms, weighted_objective
 from planner.nlp.model import RobotModel
+from planner.nlp.solver_cache import (
+    ALL_DIRECTIONS,
+    CacheOutcome,
+    KnotDerivatives,
+    cached_jacobian_and_hessian,
+    directions_path,
+    load_directions,
+    save_directions,
+    used_directions,
+    with_knot_derivatives,
+)
 from planner.nlp.variables import (
     Layout,
     initial_guess,
@@ -138,7 +160,20 @@ class GaitPlanner:
             variable_scale(self.layout, self.model) if nondim else np.ones(self.layout.size)
         )
         sym = make_symbols(self.layout, self._x_scale if nondim else None)
-        kq = knot_quantities(self.model, sym, n_knots)
+        #: with `derivatives="knot"`: the knot function carrying its own derivatives (kept alive
+        #: here: CasADi's derivative cache holds weak references) and what the disk cache did
+        self.knot_derivatives: KnotDerivatives | None = None
+        self.derivative_cache: CacheOutcome | None = None
+        knot, plain = None, None
+        if self.options.derivatives == "knot":
+            plain = knot_function(self.model)
+            jac, hess, self.derivative_cache = cached_jacobian_and_hessian(plain)
+            directions = directions_path(plain, n_knots, self.options)
+            known = load_directions(directions)
+            forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)
+            self.knot_derivatives = with_knot_derivatives(plain, jac, hess, forward, second)
+            knot = self.knot_derivatives.knot
+        kq = knot_quantities(self.model, sym, n_knots, knot)
         groups = build_groups(self.model, sym, kq, n_knots, self.options)
         terms = cost_terms(self.model, sym, kq, n_knots)
         objective = weighted_objective(terms, self.options.weights)
@@ -162,6 +197,11 @@ class GaitPlanner:
         )
         self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
         self._solver = self._make_solver()
+        if self.knot_derivatives is not None and plain is not None:
+            # the next build with this knot, N and options creates only the derivatives used
+            used = used_directions(self._solver, plain.name())
+            if used != known:
+                save_directions(directions, *used)
         self._last: WarmStart | None = None
         self.build_time_s = time.perf_counter() - t0
 
@@ -209,7 +249,9 @@ class GaitPlanner:
         opts: dict[str, Any] = {
             "ipopt": ipopt,
             "print_time": False,
-            "expand": True,
+            # "knot": the MX NLP calls the knot's own derivatives (planner.nlp.solver_cache);
+            # expanding it to SX would differentiate N copies of the knot instead
+            "expand": o.derivatives == "expanded",
             "error_on_fail": False,
         }
         return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)

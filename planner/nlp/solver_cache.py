@@ -1,0 +1,342 @@
+"""Per-knot derivatives for the un-expanded NLP (issue #16, "build once, reuse").
+
+With ``expand=True`` `nlpsol` expands the whole NLP to SX and differentiates it: the Jacobian and
+the Lagrangian Hessian are N copies of one knot's (1.84M instructions at N = 12 against 152K for
+one knot) and building them is most of a planner's build time. With ``expand=False`` CasADi's MX
+AD calls the knot function's directional derivatives instead (``fwd<n>_knot``, ``adj1_knot`` and
+``fwd<n>_adj1_knot``, mapped over the knots), but it generates each of them as an SX sweep over n
+directions — 576K instructions for ``fwd64_knot`` — so it builds slowly and solves slowly.
+
+`with_knot_derivatives` gives the knot function those derivatives from one sparse Jacobian
+``J(u)`` and one Lagrangian Hessian ``H(u, λ) = ∇²(λᵀ knot(u))`` of a single knot:
+
+- ``fwd<n>_knot``:       (u, seeds Δu) ↦ J(u)·Δu
+- ``adj1_knot``:         (u, λ) ↦ J(u)ᵀ·λ
+- ``fwd<n>_adj1_knot``:  (u, λ, Δu, Δλ) ↦ H(u, λ)·Δu + J(u)ᵀ·Δλ
+
+(the exact derivatives, not approximations), prepopulated into the function cache CasADi looks
+them up in (`casadi.Function` option ``cache``), for every n up to `MAX_DIRECTIONS` (CasADi's MX
+AD batches at most 64 directions). J and H are SX functions of one knot, built once per robot
+whatever N is.
+
+Building H is most of what is left of the build (≈ 5 s for quad12 on a loaded 2-core machine), so
+`cached_jacobian_and_hessian` keeps J and H on disk (``$GAITSMITH_CACHE`` or
+``~/.cache/gaitsmith/``), keyed by `knot_cache_key`: the knot function's own serialised form
+(which is the robot's model: masses, inertias, kinematics, feet — and nothing else enters J or
+H, so neither N nor the planner options do) and the casadi and gaitsmith versions. Entries are
+written atomically with a checksum; an unreadable, corrupt or mismatching entry is rebuilt and
+replaced, never trusted.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+from dataclasses import dataclass
+from importlib import metadata as importlib_metadata
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+
+from robots.errors import OutputWriteError
+from robots.files import atomic_write_bytes
+
+#: CasADi's MX AD propagates at most this many directions at once (option ``max_num_dir``)
+MAX_DIRECTIONS = 64
+
+
+@dataclass(frozen=True, eq=False)
+class KnotDerivatives:
+    """The knot function with its derivatives prepopulated, and what keeps them alive.
+
+    CasADi's function cache holds weak references: the derivative functions stay in it only while
+    `keep_alive` does.
+    """
+
+    knot: ca.Function
+    jacobian: ca.Function  # u ↦ J(u), u = every knot input stacked
+    hessian: ca.Function  # (u, λ) ↦ H(u, λ), λ one multiplier per knot output row
+    keep_alive: tuple[ca.Function, ...]
+
+
+def stacked(values: list[Any]) -> Any:
+    return ca.vertcat(*[ca.vec(v) for v in values])
+
+
+def jacobian_and_hessian(knot: ca.Function) -> tuple[ca.Function, ca.Function]:
+    """SX functions J(u) and H(u, λ) of one knot (u: the knot's inputs stacked, λ: its outputs')."""
+    sx_in = knot.sx_in()
+    u = stacked(sx_in)
+    y = stacked(knot.call(sx_in))
+    lam = ca.SX.sym("lam", y.shape[0])
+    jac = ca.Function(f"J_{knot.name()}", [u], [ca.jacobian(y, u)], ["u"], ["J"])
+    hess = ca.Function(
+        f"H_{knot.name()}", [u, lam], [ca.hessian(ca.dot(lam, y), u)[0]], ["u", "lam"], ["H"]
+    )
+    return jac, hess
+
+
+ALL_DIRECTIONS = tuple(range(1, MAX_DIRECTIONS + 1))
+
+
+def with_knot_derivatives(
+    knot: ca.Function,
+    jacobian: ca.Function | None = None,
+    hessian: ca.Function | None = None,
+    forward: tuple[int, ...] = ALL_DIRECTIONS,
+    second: tuple[int, ...] = ALL_DIRECTIONS,
+) -> KnotDerivatives:
+    """A copy of the SX `knot` function whose forward/adjoint derivatives are J·Δu, Jᵀ·λ and
+    H·Δu + Jᵀ·Δλ (module docstring). `jacobian`/`hessian`: J and H already built or loaded
+    (`jacobian_and_hessian` signature), e.g. compiled ones; built here otherwise.
+    `forward`/`second`: the direction counts n to provide ``fwd<n>_knot`` / ``fwd<n>_adj1_knot``
+    for (`used_directions` of an earlier build); CasADi generates any other one itself (exact,
+    only slower), so a short list is never wrong."""
+    if jacobian is None or hessian is None:
+        jacobian, hessian = jacobian_and_hessian(knot)
+    n_in, n_out = knot.n_in(), knot.n_out()
+    names_in = [knot.name_in(i) for i in range(n_in)]
+    names_out = [knot.name_out(i) for i in range(n_out)]
+    sp_in = [knot.sparsity_in(i) for i in range(n_in)]
+    sp_out = [knot.sparsity_out(i) for i in range(n_out)]
+    for i, sp in enumerate(sp_in + sp_out):
+        if not sp.is_dense():
+            raise ValueError(f"knot function {knot.name()}: argument {i} is not dense")
+
+    def syms(prefix: str, names: list[str], sps: list[ca.Sparsity]) -> list[Any]:
+        return [ca.MX.sym(prefix + n, sp) for n, sp in zip(names, sps, strict=True)]
+
+    def empty(sps: list[ca.Sparsity], n_dir: int = 1) -> list[ca.Sparsity]:
+        return [ca.Sparsity(sp.size1(), sp.size2() * n_dir) for sp in sps]
+
+    def wide(sps: list[ca.Sparsity], n_dir: int) -> list[ca.Sparsity]:
+        return [ca.Sparsity.dense(sp.size1(), sp.size2() * n_dir) for sp in sps]
+
+    def seeds(values: list[Any], sps: list[ca.Sparsity], n_dir: int) -> Any:
+        """n_dir seeds per argument (argument i: rows_i × cols_i·n_dir) → Σnumel × n_dir."""
+        return ca.vertcat(
+            *[ca.reshape(v, sp.numel(), n_dir) for v, sp in zip(values, sps, strict=True)]
+        )
+
+    def split(matrix: Any, sps: list[ca.Sparsity], n_dir: int) -> list[Any]:
+        out, row = [], 0
+        for sp in sps:
+            block = matrix[row : row + sp.numel(), :]
+            out.append(ca.reshape(block, sp.size1(), sp.size2() * n_dir))
+            row += sp.numel()
+        return out
+
+    # adj1_knot: (u, out_y [empty], adj_y) -> adj_u = Jᵀ·adj_y
+    adj_name = f"adj1_{knot.name()}"
+    adj_names_in = names_in + [f"out_{n}" for n in names_out] + [f"adj_{n}" for n in names_out]
+    adj_names_out = [f"adj_{n}" for n in names_in]
+    adj_sp_in = sp_in + empty(sp_out) + sp_out
+    adj_cache: dict[str, ca.Function] = {}
+    for n_dir in second:
+        nominal = syms("", adj_names_in, adj_sp_in)
+        results = syms("out_", adj_names_out, empty(sp_in))
+        fwd_sp = wide(sp_in, n_dir) + empty(sp_out, n_dir) + wide(sp_out, n_dir)
+        fwd = syms("fwd_", adj_names_in, fwd_sp)
+        u, lam = stacked(nominal[:n_in]), stacked(nominal[n_in + n_out :])
+        du = seeds(fwd[:n_in], sp_in, n_dir)
+        dlam = seeds(fwd[n_in + n_out :], sp_out, n_dir)
+        sens = ca.mtimes(hessian(u, lam), du) + ca.mtimes(jacobian(u).T, dlam)
+        name = f"fwd{n_dir}_{adj_name}"
+        adj_cache[name] = ca.Function(
+            name,
+            nominal + results + fwd,
+            split(sens, sp_in, n_dir),
+            adj_names_in + [f"out_{n}" for n in adj_names_out] + [f"fwd_{n}" for n in adj_names_in],
+            [f"fwd_{n}" for n in adj_names_out],
+        )
+    nominal = syms("", adj_names_in, adj_sp_in)
+    adj_u = ca.mtimes(jacobian(stacked(nominal[:n_in])).T, stacked(nominal[n_in + n_out :]))
+    adjoint = ca.Function(
+        adj_name, nominal, split(adj_u, sp_in, 1), adj_names_in, adj_names_out,
+        {"cache": adj_cache},
+    )
+    # fwd<n>_knot: (u, out_y [empty], fwd_u) -> fwd_y = J·fwd_u
+    cache: dict[str, ca.Function] = {adj_name: adjoint}
+    for n_dir in forward:
+        nominal = syms("", names_in, sp_in)
+        results = syms("out_", names_out, empty(sp_out))
+        fwd = syms("fwd_", names_in, wide(sp_in, n_dir))
+        sens = ca.mtimes(jacobian(stacked(nominal)), seeds(fwd, sp_in, n_dir))
+        name = f"fwd{n_dir}_{knot.name()}"
+        cache[name] = ca.Function(
+            name,
+            nominal + results + fwd,
+            split(sens, sp_out, n_dir),
+            names_in + [f"out_{n}" for n in names_out] + [f"fwd_{n}" for n in names_in],
+            [f"fwd_{n}" for n in names_out],
+        )
+    sx_in = knot.sx_in()
+    new = ca.Function(
+        knot.name(), sx_in, knot.call(sx_in), names_in, names_out, {"cache": cache}
+    )
+    keep = (adjoint, *cache.values(), *adj_cache.values())
+    return KnotDerivatives(new, jacobian, hessian, keep)
+
+
+def used_directions(solver: ca.Function, knot_name: str) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """The direction counts n of the knot derivatives `solver` calls: ``fwd<n>_map<N>_knot``
+    (CasADi maps ``fwd<n>_knot``) and ``fwd<n>_adj1_map<N>_knot``, found in its Jacobian,
+    Hessian and gradient functions."""
+    forward_name = re.compile(rf"fwd(\d+)_map\d+_{re.escape(knot_name)}")
+    second_name = re.compile(rf"fwd(\d+)_adj1_map\d+_{re.escape(knot_name)}")
+    forward: set[int] = set()
+    second: set[int] = set()
+    for name in ("nlp_jac_g", "nlp_hess_l", "nlp_grad_f"):
+        try:
+            function = solver.get_function(name)
+        except RuntimeError:
+            continue
+        for k in range(function.n_instructions()):
+            if function.instruction_id(k) != ca.OP_CALL:
+                continue
+            called = function.instruction_MX(k).which_function().name()
+            for pattern, found in ((forward_name, forward), (second_name, second)):
+                match = pattern.fullmatch(called)
+                if match:
+                    found.add(int(match.group(1)))
+    return tuple(sorted(forward)), tuple(sorted(second))
+
+
+#: bump when the cached entry's layout changes
+CACHE_FORMAT = "knot-derivatives-1"
+_MAGIC = b"gaitsmith-knot-derivatives\n"
+
+
+def cache_dir() -> Path:
+    """Where cached knot derivatives live: ``$GAITSMITH_CACHE`` or ``~/.cache/gaitsmith``."""
+    env = os.environ.get("GAITSMITH_CACHE")
+    return Path(env).expanduser() if env else Path.home() / ".cache" / "gaitsmith"
+
+
+def _gaitsmith_version() -> str:
+    try:
+        return importlib_metadata.version("gaitsmith")
+    except importlib_metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def knot_cache_key(knot: ca.Function) -> str:
+    """Hex key of the knot's J and H: its serialised SX graph (robot model), casadi and gaitsmith
+    versions and `CACHE_FORMAT`."""
+    digest = hashlib.sha256()
+    for part in (CACHE_FORMAT, ca.CasadiMeta.version(), _gaitsmith_version()):
+        digest.update(part.encode() + b"\0")
+    digest.update(knot.serialize().encode())
+    return digest.hexdigest()[:32]
+
+
+def cache_path(knot: ca.Function, directory: Path | None = None) -> Path:
+    return (directory or cache_dir()) / f"knot-{knot_cache_key(knot)}.casadi"
+
+
+def _encode(jacobian: ca.Function, hessian: ca.Function) -> bytes:
+    writer = ca.StringSerializer()
+    writer.pack([jacobian, hessian])
+    payload = writer.encode().encode("latin-1")
+    return _MAGIC + hashlib.sha256(payload).hexdigest().encode() + b"\n" + payload
+
+
+def _decode(data: bytes, knot: ca.Function) -> tuple[ca.Function, ca.Function] | None:
+    """J and H from a cache file's bytes, None if it is not an intact entry for `knot`."""
+    if not data.startswith(_MAGIC):
+        return None
+    checksum, _, payload = data[len(_MAGIC) :].partition(b"\n")
+    if hashlib.sha256(payload).hexdigest().encode() != checksum:
+        return None
+    try:
+        functions = ca.StringDeserializer(payload.decode("latin-1")).unpack()
+    except (RuntimeError, UnicodeDecodeError):
+        return None
+    if not (isinstance(functions, list) and len(functions) == 2):
+        return None
+    jacobian, hessian = functions
+    n_u = sum(knot.sparsity_in(i).numel() for i in range(knot.n_in()))
+    n_y = sum(knot.sparsity_out(i).numel() for i in range(knot.n_out()))
+    if not (
+        isinstance(jacobian, ca.Function)
+        and isinstance(hessian, ca.Function)
+        and jacobian.size_in(0) == (n_u, 1)
+        and jacobian.size_out(0) == (n_y, n_u)
+        and hessian.size_in(1) == (n_y, 1)
+        and hessian.size_out(0) == (n_u, n_u)
+    ):
+        return None
+    return jacobian, hessian
+
+
+@dataclass(frozen=True)
+class CacheOutcome:
+    """What `cached_jacobian_and_hessian` did: "hit", "built" (no entry), "rebuilt" (a corrupt
+    or mismatching entry was replaced) or "uncached" (the folder is not writable)."""
+
+    path: Path
+    status: str
+
+
+def cached_jacobian_and_hessian(
+    knot: ca.Function, directory: Path | None = None
+) -> tuple[ca.Function, ca.Function, CacheOutcome]:
+    """J and H of one knot from the disk cache, built and stored on a miss (module docstring)."""
+    path = cache_path(knot, directory)
+    status = "built"
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        data = None
+    except OSError:
+        data, status = None, "rebuilt"
+    if data is not None:
+        loaded = _decode(data, knot)
+        if loaded is not None:
+            return (*loaded, CacheOutcome(path, "hit"))
+        status = "rebuilt"
+    jacobian, hessian = jacobian_and_hessian(knot)
+    try:
+        atomic_write_bytes(path, _encode(jacobian, hessian))
+    except OutputWriteError:
+        status = "uncached"  # a read-only home: plan anyway, just without the cache
+    return jacobian, hessian, CacheOutcome(path, status)
+
+
+def directions_path(
+    knot: ca.Function, n_knots: int, options: object, directory: Path | None = None
+) -> Path:
+    """Where the direction counts a solver of this knot, N and options used are kept: they
+    depend on the NLP's sparsity (N, options), so the key holds them besides the knot's."""
+    digest = hashlib.sha256(
+        f"{knot_cache_key(knot)}\0{n_knots}\0{options!r}".encode()
+    ).hexdigest()[:32]
+    return (directory or cache_dir()) / f"directions-{digest}.json"
+
+
+def load_directions(path: Path) -> tuple[tuple[int, ...], tuple[int, ...]] | None:
+    """(forward, second) direction counts stored at `path`, None if missing or not valid."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        forward, second = data["forward"], data["second"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    lists = (forward, second)
+    if not all(
+        isinstance(v, list) and all(type(n) is int and 1 <= n <= MAX_DIRECTIONS for n in v)
+        for v in lists
+    ):
+        return None
+    return tuple(forward), tuple(second)
+
+
+def save_directions(path: Path, forward: tuple[int, ...], second: tuple[int, ...]) -> None:
+    """Store the direction counts (atomically; a read-only cache folder is not an error)."""
+    text = json.dumps({"format": CACHE_FORMAT, "forward": list(forward), "second": list(second)})
+    try:
+        atomic_write_bytes(path, text.encode("utf-8"))
+    except OutputWriteError:
+        pass
