@@ -3,9 +3,13 @@
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import tempfile
 
 if "GAITSMITH_CACHE" not in os.environ:
     # set before any test imports the planner; subprocesses (CLI tests) inherit it
-    os.environ["GAITSMITH_CACHE"] = tempfile.mkdtemp(prefix="gaitsmith-test-cache-")
+    _CACHE = tempfile.mkdtemp(prefix="gaitsmith-test-cache-")
+    os.environ["GAITSMITH_CACHE"] = _CACHE
+    atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
