@@ -16,8 +16,11 @@ Default grid (`default_grid`), from the robot's size only:
   period (`planner.nlp.command.MAX_TURN_PER_PERIOD_RAD`);
 - vy ∈ {0}: side-steps only when asked (`vy_m_s=…`; each vy value triples the grid).
 
-Every entry uses the same schedule family (`default_gait_for` unless given) and the template's
-period (the period law is constant), and is written with the *template's* phase origin:
+Every entry uses the same schedule family (`default_gait_for` unless given) and one period and
+duty factor (the template's, or those chosen with the family: `gaitsmith library` asks
+`gaitsmith.gait_choice.grid_gait`, which gives a turning trotter grid the static walk of
+`commanded_gait` for every entry; the period law is constant), and is written with the
+*template's* phase origin:
 `GaitPlanner.to_gait` starts each cycle at its most rest-like knot, which differs between
 commands, so the entry is rotated back (`align_phase`) — the library's entries must share one
 phase origin to be blended at equal phase (`robots.blend`).
