@@ -155,5 +155,20 @@ def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_
     )
 
 
+def grid_gait(bot: robots.Robot, family: str | None, vy_values: tuple[float, ...],
+              yaw_values: tuple[float, ...], options: PlannerOptions) -> GaitChoice:
+    """The gait a library grid uses for ALL its entries (they blend at equal phase, so they
+    share one schedule): `commanded_gait`'s choice for the grid's turns and side-steps. A grid
+    with any command vy ≠ 0 or yaw rate ≠ 0 on a robot whose default stands on a support line
+    (`tips_on_a_line`) plans every entry, the straight ones too, as the static walk; a
+    straight-only grid, or an explicit `family`, keeps the default/asked family and `options`.
+    The choice depends only on whether the grid turns or side-steps, not on how much."""
+    turning = [(vy, w) for vy in vy_values for w in yaw_values if vy != 0.0 or w != 0.0]
+    if not turning:
+        return commanded_gait(bot, family, 0.0, 0.0, options)
+    vy, w = max(turning, key=lambda c: (abs(c[1]), abs(c[0])))
+    return commanded_gait(bot, family, vy, w, options)
+
+
 def _leg_counts() -> list[int]:
     return sorted({t.n_legs for t in TEMPLATES.values()})

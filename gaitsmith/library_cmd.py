@@ -20,7 +20,7 @@ from rich.table import Table
 import robots
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
-from gaitsmith.gait_choice import check_gait_fits, default_gait
+from gaitsmith.gait_choice import check_gait_fits, default_gait, grid_gait
 from gaitsmith.options import (
     check_cycles,
     check_integer,
@@ -137,7 +137,9 @@ def library(
         "at v/2 about the body centre)"),
     family: str | None = typer.Option(
         None, "--family", help="schedule family shared by every entry (default: the robot's "
-        "default gait, e.g. trot on 4 legs, tripod on 6)"),
+        "default gait, e.g. trot on 4 legs, tripod on 6; a grid that turns or side-steps on a "
+        "robot whose default stands on a support line, such as a trot, uses the static walk "
+        "`gaitsmith plan` uses for such commands, for every entry)"),
     knots: int = typer.Option(30, "--knots", help="knots per cycle (N)"),
     cycles: int = typer.Option(20, "--cycles", help="cycles simulated per entry"),
     workers: int | None = typer.Option(
@@ -170,10 +172,16 @@ def library(
     except TemplateError as exc:  # worded for `plan --gait`; here the option is --family
         raise OptionError(str(exc).replace("--gait ", "--family ", 1)) from None
     base = default_grid(bot, fam)
+    vy_values, yaw_values = axes[1] or base.vy_m_s, axes[2] or base.yaw_rate_rad_s
+    # one family for the whole grid, chosen as `plan` chooses it for its turns (issue #15)
+    choice = grid_gait(bot, family, vy_values, yaw_values, PlannerOptions())
+    fam = choice.gait
+    schedule = make_schedule(bot, fam, choice.period_s, choice.duty_factor)
+    if axes[2] is None and choice.period_s is not None:  # the yaw cap of the chosen period
+        yaw_values = default_grid(bot, fam, schedule.period_s).yaw_rate_rad_s
     try:
-        grid = GridSpec(axes[0] or base.vx_m_s, axes[1] or base.vy_m_s,
-                        axes[2] or base.yaw_rate_rad_s)
-        check_grid(bot, grid, make_schedule(bot, fam), knots)
+        grid = GridSpec(axes[0] or base.vx_m_s, vy_values, yaw_values)
+        check_grid(bot, grid, schedule, knots)
     except LibraryBuildError as exc:
         raise OptionError(f"--vx/--vy/--yaw-rate: {exc}") from None
     executor = "ray" if ray else ("serial" if workers == 1 else "process")
@@ -184,11 +192,14 @@ def library(
         f"{list(grid.yaw_rate_rad_s)} rad/s), N={knots}, {cycles} cycles in MuJoCo each, "
         f"executor {executor}" + (f" × {n_workers}" if n_workers else "")
         + ("" if warm else ", cold starts"))
+    console.print(f"family for every entry: {fam} (duty {schedule.duty_factor[0]:g}, period "
+                  f"{schedule.period_s:.3f} s) — {choice.reason}", highlight=False)
     validator = SimValidator(str(bot.root_dir), cycles)
     with console.status("validating the stand in MuJoCo…"):
         stand_check = validator()
     build = build_library(
-        bot, grid, family=fam, n_knots=knots, options=PlannerOptions(), validator=validator,
+        bot, grid, family=fam, period_s=choice.period_s, duty_factor=choice.duty_factor,
+        family_reason=choice.reason, n_knots=knots, options=choice.options, validator=validator,
         stand_validator=stand_check, executor=executor, workers=n_workers, address=address,
         on_entry=_progress, warm_start=warm)
     lib = build.library

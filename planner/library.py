@@ -16,8 +16,11 @@ Default grid (`default_grid`), from the robot's size only:
   period (`planner.nlp.command.MAX_TURN_PER_PERIOD_RAD`);
 - vy ∈ {0}: side-steps only when asked (`vy_m_s=…`; each vy value triples the grid).
 
-Every entry uses the same schedule family (`default_gait_for` unless given) and the template's
-period (the period law is constant), and is written with the *template's* phase origin:
+Every entry uses the same schedule family (`default_gait_for` unless given) and one period and
+duty factor (the template's, or those chosen with the family: `gaitsmith library` asks
+`gaitsmith.gait_choice.grid_gait`, which gives a turning trotter grid the static walk of
+`commanded_gait` for every entry; the period law is constant), and is written with the
+*template's* phase origin:
 `GaitPlanner.to_gait` starts each cycle at its most rest-like knot, which differs between
 commands, so the entry is rotated back (`align_phase`) — the library's entries must share one
 phase origin to be blended at equal phase (`robots.blend`).
@@ -132,10 +135,12 @@ def max_yaw_rate_rad_s(robot: Robot, period_s: float) -> float:
                0.25 * MAX_TURN_PER_PERIOD_RAD / period_s)
 
 
-def default_grid(robot: Robot, family: str | None = None) -> GridSpec:
-    """The grid of the module docstring for `robot` (and the period of `family`)."""
+def default_grid(robot: Robot, family: str | None = None,
+                 period_s: float | None = None) -> GridSpec:
+    """The grid of the module docstring for `robot` (and the period of `family`, or
+    `period_s`: a longer period lowers the yaw cap of a quarter turn per period)."""
     family = family or default_gait_for(robot)
-    period = make_schedule(robot, family).period_s
+    period = make_schedule(robot, family, period_s=period_s).period_s
     v = default_speed_m_s(robot.leg_length_m)
     w = min(0.5 * v / foot_radius_m(robot), max_yaw_rate_rad_s(robot, period))
     vx = tuple(round(x, 4) for x in (-0.5 * v, 0.0, 0.5 * v, v))
@@ -240,12 +245,14 @@ class EntrySolverFactory:
     n_knots: int
     options: PlannerOptions
     validator: ValidatorFactory | None
+    period_s: float | None = None  # None: the template's
+    duty_factor: float | None = None  # None: the template's
 
     def __call__(self) -> Callable[[EntryTask], EntryOutcome]:
         robot = load_robot(self.robot_dir)
         planner = GaitPlanner(robot, self.n_knots, self.options)
         check = self.validator() if self.validator is not None else None
-        template = make_schedule(robot, self.family)
+        template = make_schedule(robot, self.family, self.period_s, self.duty_factor)
         return _EntrySolver(robot, planner, check, template, self.family)
 
 
@@ -333,6 +340,9 @@ def build_library(
     grid: GridSpec | None = None,
     *,
     family: str | None = None,
+    period_s: float | None = None,
+    duty_factor: float | None = None,
+    family_reason: str = "",
     n_knots: int = 30,
     options: PlannerOptions | None = None,
     validator: ValidatorFactory,
@@ -346,11 +356,15 @@ def build_library(
 ) -> LibraryBuild:
     """Plan and validate every grid command (module docstring); raises LibraryBuildError if the
     stand fails or fewer than `min_entries` (or the whole grid, if smaller) pass. Without
-    `warm_start` every entry starts from the template's initial guess, all in one batch."""
+    `warm_start` every entry starts from the template's initial guess, all in one batch.
+    `period_s` / `duty_factor` (None: the template's) set the one schedule every entry shares,
+    e.g. the static walk `gaitsmith.gait_choice.grid_gait` chooses for a turning trotter;
+    `family_reason` says why, in the file's `built` metadata."""
     t_start = time.perf_counter()
     family = family or default_gait_for(robot)
-    template = make_schedule(robot, family)  # TemplateError names the offered families
-    grid = grid or default_grid(robot, family)
+    # TemplateError names the offered families
+    template = make_schedule(robot, family, period_s, duty_factor)
+    grid = grid or default_grid(robot, family, template.period_s)
     check_grid(robot, grid, template, n_knots)
     options = options or PlannerOptions()
     stand = stand_gait(robot, template.period_s)
@@ -363,7 +377,8 @@ def build_library(
         raise LibraryBuildError(f"{robot.name}: the stand failed in MuJoCo ({reasons}); "
                                 "no library written")
     stand = stand.with_validation(stand_validation)
-    factory = EntrySolverFactory(str(robot.root_dir), family, n_knots, options, validator)
+    factory = EntrySolverFactory(str(robot.root_dir), family, n_knots, options, validator,
+                                 period_s, duty_factor)
     done: dict[tuple[int, int, int], EntryOutcome] = {}
     order: list[EntryOutcome] = []
     n_workers = workers
@@ -403,9 +418,14 @@ def build_library(
     built = {
         "grid": grid.as_dict(),
         "family": family,
+        "family_choice": family_reason or "as given",
+        "duty_factor": float(template.duty_factor[0]),
+        "static_margin_leg_lengths": options.static_margin_leg_lengths,
+        "mean_footprint_leg_lengths": options.mean_footprint_leg_lengths,
         "n_knots": n_knots,
         "period_s": template.period_s,
-        "period_law": "constant (the template period)",
+        "period_law": ("constant (the template period)" if period_s is None
+                       else "constant (chosen with the family)"),
         "executor": executor,
         "warm_start": warm_start,
         "workers": n_workers,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -64,3 +65,65 @@ def test_unwritable_output(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 def test_unknown_robot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["library", "nosuchbot", "-o", str(tmp_path / "lib.json")]) == 2
     assert "nosuchbot" in capsys.readouterr().err
+
+
+class BuildAsked(Exception):
+    """The command reached build_library; the recorded call is what it asked for."""
+
+
+def _ask(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, robot: str,
+         *args: str) -> dict[str, Any]:
+    asked: dict[str, Any] = {}
+
+    def record(bot: Any, grid: Any, **kwargs: Any) -> Any:
+        asked.update(kwargs, grid=grid)
+        raise BuildAsked
+
+    monkeypatch.setattr(library_cmd, "build_library", record)
+    with pytest.raises(BuildAsked):
+        main(["library", robot, "-o", str(tmp_path / "lib.json"), *args])
+    return asked
+
+
+def test_a_turning_trotter_grid_plans_every_entry_as_the_static_walk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    asked = _ask(tmp_path, monkeypatch, "quad12", "--vx", "0,0.1", "--yaw-rate", "-0.4,0,0.4")
+    assert asked["family"] == "walk" and asked["duty_factor"] == 0.85
+    assert asked["period_s"] > 1.0  # the trot's swing time at duty 0.85
+    assert asked["options"].static_margin_leg_lengths == 0.05
+    assert asked["options"].mean_footprint_leg_lengths == 0.05
+    assert "static walk" in asked["family_reason"]
+    assert asked["grid"].vx_m_s == (0.0, 0.1)  # the straight entries too: one family
+    out = capsys.readouterr().out
+    assert "family for every entry: walk (duty 0.85" in out and "support line" in out
+
+
+def test_the_default_grid_of_a_trotter_turns_within_the_static_walks_period(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from tests.zoo.fixtures import ZOO
+
+    asked = _ask(tmp_path, monkeypatch, str(ZOO / "spotmicro"))  # a robot not built in
+    grid, period = asked["grid"], asked["period_s"]
+    assert asked["family"] == "walk" and asked["duty_factor"] == 0.85
+    w = max(grid.yaw_rate_rad_s)
+    assert w > 0.0 and w * period <= 0.25 * math.pi / 2 + 1e-3  # a quarter of the planner's cap
+
+
+@pytest.mark.parametrize(("robot", "args", "family"), [
+    ("quad12", ["--yaw-rate", "0"], "trot"),  # straight-only grid: the default family
+    ("quad12", ["--vy", "0"], None),  # vy 0 alone still turns on the default yaw axis
+    ("quad12", ["--family", "trot"], "trot"),  # --family overrides the choice
+    ("hex18", [], "tripod"),  # a tripod never stands on a line: keeps its default
+])
+def test_straight_grids_and_family_keep_the_default(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, robot: str, args: list[str],
+    family: str | None
+) -> None:
+    asked = _ask(tmp_path, monkeypatch, robot, *args)
+    if family is None:
+        assert asked["family"] == "walk"
+        return
+    assert asked["family"] == family and asked["duty_factor"] is None
+    assert asked["period_s"] is None and asked["options"].static_margin_leg_lengths is None

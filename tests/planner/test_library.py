@@ -141,3 +141,13 @@ def test_failed_entries_are_reported_and_left_out(quad: robots.Robot) -> None:
                        r"\(0.2, 0.0, 0.0\): MuJoCo: speed: made up"):
         build_library(quad, grid, n_knots=12, validator=FakeValidator(()), executor="serial",
                       warm_start=False)  # the cold path: one batch, same order
+
+
+def test_default_grid_caps_the_yaw_rate_at_the_given_period(quad: robots.Robot) -> None:
+    trot = default_grid(quad)
+    long_period_s = 2.0 * make_schedule(quad, "trot").period_s
+    slow = default_grid(quad, "walk", long_period_s)
+    assert slow.vx_m_s == trot.vx_m_s  # the speeds follow the leg length only
+    w = max(slow.yaw_rate_rad_s)
+    assert w == pytest.approx(max_yaw_rate_rad_s(quad, long_period_s), abs=1e-3)
+    assert w < max(trot.yaw_rate_rad_s)
