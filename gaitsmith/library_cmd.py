@@ -124,6 +124,9 @@ def _progress(i: int, n: int, o: EntryOutcome) -> None:
                       highlight=False, markup=True)
 
 
+AUTO_FAMILY = "auto"  # --family auto: the family `plan` would choose for the grid's turns
+
+
 def library(
     robot: str = typer.Argument(
         ..., help="built-in robot name or a folder with robot.xml + robot.toml"),
@@ -137,9 +140,9 @@ def library(
         "at v/2 about the body centre)"),
     family: str | None = typer.Option(
         None, "--family", help="schedule family shared by every entry (default: the robot's "
-        "default gait, e.g. trot on 4 legs, tripod on 6; a grid that turns or side-steps on a "
-        "robot whose default stands on a support line, such as a trot, uses the static walk "
-        "`gaitsmith plan` uses for such commands, for every entry)"),
+        "default gait, e.g. trot on 4 legs, tripod on 6); 'auto': as `gaitsmith plan` chooses "
+        "for turns — a grid that turns or side-steps on a robot whose default stands on a "
+        "support line, such as a trot, uses the static walk for every entry"),
     knots: int = typer.Option(30, "--knots", help="knots per cycle (N)"),
     cycles: int = typer.Option(20, "--cycles", help="cycles simulated per entry"),
     workers: int | None = typer.Option(
@@ -166,7 +169,8 @@ def library(
     bot = robots.load(robot)
     for v in axes[2] or ():
         check_yaw_rate("--yaw-rate", v, bot)
-    fam = family or default_gait(bot)
+    auto = family == AUTO_FAMILY
+    fam = default_gait(bot) if family is None or auto else family
     try:
         check_gait_fits(bot, fam)
     except TemplateError as exc:  # worded for `plan --gait`; here the option is --family
@@ -174,7 +178,10 @@ def library(
     base = default_grid(bot, fam)
     vy_values, yaw_values = axes[1] or base.vy_m_s, axes[2] or base.yaw_rate_rad_s
     # one family for the whole grid, chosen as `plan` chooses it for its turns (issue #15)
-    choice = grid_gait(bot, family, vy_values, yaw_values, PlannerOptions())
+    # (`--family auto`): measured on quad12, its static walk turns in place and walks slowly
+    # but plans no arc, while the default trot grid turns on arcs at trotting speed
+    # (docs/results/gait_library.md), so the default keeps the robot's default gait
+    choice = grid_gait(bot, None if auto else fam, vy_values, yaw_values, PlannerOptions())
     fam = choice.gait
     schedule = make_schedule(bot, fam, choice.period_s, choice.duty_factor)
     if axes[2] is None and choice.period_s is not None:  # the yaw cap of the chosen period

@@ -88,7 +88,8 @@ def _ask(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, robot: str,
 def test_a_turning_trotter_grid_plans_every_entry_as_the_static_walk(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    asked = _ask(tmp_path, monkeypatch, "quad12", "--vx", "0,0.1", "--yaw-rate", "-0.4,0,0.4")
+    asked = _ask(tmp_path, monkeypatch, "quad12", "--vx", "0,0.1", "--yaw-rate", "-0.4,0,0.4",
+                 "--family", "auto")
     assert asked["family"] == "walk" and asked["duty_factor"] == 0.85
     assert asked["period_s"] > 1.0  # the trot's swing time at duty 0.85
     assert asked["options"].static_margin_leg_lengths == 0.05
@@ -104,7 +105,7 @@ def test_the_default_grid_of_a_trotter_turns_within_the_static_walks_period(
 ) -> None:
     from tests.zoo.fixtures import ZOO
 
-    asked = _ask(tmp_path, monkeypatch, str(ZOO / "spotmicro"))  # a robot not built in
+    asked = _ask(tmp_path, monkeypatch, str(ZOO / "spotmicro"), "--family", "auto")  # not built in
     grid, period = asked["grid"], asked["period_s"]
     assert asked["family"] == "walk" and asked["duty_factor"] == 0.85
     w = max(grid.yaw_rate_rad_s)
@@ -112,8 +113,9 @@ def test_the_default_grid_of_a_trotter_turns_within_the_static_walks_period(
 
 
 @pytest.mark.parametrize(("robot", "args", "family"), [
-    ("quad12", ["--yaw-rate", "0"], "trot"),  # straight-only grid: the default family
-    ("quad12", ["--vy", "0"], None),  # vy 0 alone still turns on the default yaw axis
+    ("quad12", ["--yaw-rate", "0", "--family", "auto"], "trot"),  # straight-only grid
+    ("quad12", ["--vy", "0", "--family", "auto"], None),  # vy 0 alone still turns (yaw axis)
+    ("quad12", [], "trot"),  # without auto: the default family, turning grid or not
     ("quad12", ["--family", "trot"], "trot"),  # --family overrides the choice
     ("hex18", [], "tripod"),  # a tripod never stands on a line: keeps its default
 ])
