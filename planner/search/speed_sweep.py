@@ -84,17 +84,18 @@ Validator = Callable[[GaitSearchResult], tuple[bool, float]]
 
 def row_from(result: GaitSearchResult, validator: Validator | None = None) -> SweepRow:
     best = result.best
+    label = flight_label(result.label, best.schedule)
     passed, achieved = validator(result) if validator is not None and best.feasible \
         else (None, math.nan)
     return SweepRow(
         speed_m_s=result.speed_m_s, froude=result.froude,
-        gait_label=flight_label(result.label, best.schedule),
+        gait_label=label,
         best_template=result.best_template, period_s=best.schedule.period_s,
         mean_duty_factor=float(np.mean(best.schedule.duty_factor)), cost=best.cost,
         best_template_cost=result.best_template_cost,
         cost_of_transport=result.cost_of_transport, feasible=best.feasible,
         local_solves=result.cma.n_local_solves, elapsed_s=result.elapsed_s,
-        family=gait_family(flight_label(result.label, best.schedule)), search_cost=result.search_cost,
+        family=gait_family(label), search_cost=result.search_cost,
         search_feasible=result.search_feasible,
         tipping_amplification=result.tipping_amplification, sim_passed=passed,
         sim_speed_m_s=achieved, flight_fraction=flight_fraction(best.schedule),
