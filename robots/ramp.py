@@ -29,6 +29,22 @@ gait's phase 0 with its full motion, C² (α′ = α″ = 0 at both ends). k is 
 (≥ `min_blend_cycles`) for which the blend's own contribution to joint speed, α′·|g − m| ≤
 1.875·max|g − m|/(k·T), stays within the ramp's speed cap on top of the gait's planned speed.
 
+A *run* (a gait with a planned flight phase: no foot down for part of the cycle) also needs its
+speed built up: with k = 1 the built-in biped's 0.5 m/s run (duty 0.42, T = 0.48 s) fell
+backwards 0.5 s after the blend (issue #14) — the strides reached full length in one cycle while
+the body, starting from rest, had only reached 0.31 m/s, so it pitched back (−11° at phase 0,
+−29° half a cycle later) and fell. A walk has a foot down at every instant and catches up; a
+run cannot. So for a run k is also at least the cycles over which the body, accelerating
+uniformly to the gait's speed v, stays within `RUN_ENTRY_ACCEL_G`·g (about what the open-loop
+biped carried: 2 and 3 cycles, 0.54 and 0.36 m/s², stayed up but turned 7–16°; 4 cycles,
+0.26 m/s², passed):
+
+    k ≥ v / (a·T),   a = RUN_ENTRY_ACCEL_G · g   (runs only; walks keep the speed-cap k).
+
+The exit uses the same k (it decelerates the same way). A blend that starts each leg at its own
+touchdown phase (mirror legs then see the same weight at the same point of their strides) was
+measured and is worse: the biped turned 28–34° during the entry, so it is not used.
+
 The mean pose is also where a run may rest between ramp and gait ("the stand", issue #14):
 `gait_entry(..., hold_s=H)` holds it for H seconds before the blend. `gait_exit` is the same
 blend run backwards, how a run that completes normally ends (instead of a joint-space ramp from
@@ -56,6 +72,9 @@ if TYPE_CHECKING:
 MIN_JERK_PEAK_SPEED = 1.875  # max over u of ds/du for the quintic above
 DEFAULT_RAMP_S = 1.0
 DEFAULT_MIN_BLEND_CYCLES = 1
+RUN_ENTRY_ACCEL_G = 0.03  # a run's mean forward acceleration over its blend ≤ this · g
+STANDARD_GRAVITY_M_S2 = 9.80665
+FLIGHT_SAMPLES = 1000  # phases at which a schedule is checked for a flight phase
 
 
 def min_jerk(u: float | np.ndarray) -> np.ndarray:
@@ -165,7 +184,22 @@ def blend_cycles(
         raise ValueError("max_speed_rad_s must be positive")
     # wall-clock blend term: time_scale · 1.875 · A / (k · T) ≤ cap
     needed = np.max(MIN_JERK_PEAK_SPEED * time_scale * amplitude / (gait.period_s * speed))
-    return max(int(min_cycles), math.ceil(float(needed) - 1e-9))
+    return max(int(min_cycles), math.ceil(float(needed) - 1e-9), run_speed_up_cycles(gait))
+
+
+def has_flight(gait: Gait) -> bool:
+    """True when the gait's schedule has a phase with no foot in stance (a run)."""
+    in_stance = gait.schedule.contact_matrix(FLIGHT_SAMPLES)
+    return bool(np.any(~np.any(in_stance, axis=1)))
+
+
+def run_speed_up_cycles(gait: Gait, accel_g: float = RUN_ENTRY_ACCEL_G) -> int:
+    """Cycles a run needs to reach its speed at ≤ `accel_g`·g (k ≥ v/(a·T), module docstring);
+    1 for a gait without flight. At the planned speed and period (time scale 1)."""
+    if not has_flight(gait):
+        return 1
+    v = math.hypot(gait.velocity.vx_m_s, gait.velocity.vy_m_s)
+    return max(1, math.ceil(v / (accel_g * STANDARD_GRAVITY_M_S2 * gait.period_s) - 1e-9))
 
 
 @dataclass(frozen=True, eq=False)

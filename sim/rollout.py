@@ -101,6 +101,15 @@ class Trajectory:
         """Gait phase in cycles since the gait started (negative during hold and ramp)."""
         return (self.time_s - self.gait_start_s) / self.period_s
 
+    def flight_fraction(self, from_cycle: float = 2.0) -> float:
+        """Measured share of the gait's steps, from `from_cycle` cycles after the gait started
+        to the end of its cycles, with no foot touching the ground (NaN: no such step)."""
+        steady = (self.gait_phase() >= from_cycle) & (self.time_s <= self.gait_end_s)
+        if not np.any(steady):
+            return math.nan
+        airborne = ~np.any(self.foot_contacts[steady] > 0, axis=1)
+        return float(np.mean(airborne))
+
 
 @dataclass(frozen=True, eq=False)
 class RunPlan:

@@ -63,6 +63,20 @@ def flight_fraction(schedule: ContactSchedule, samples: int = 1000) -> float:
     return float(np.mean(~np.any(in_stance, axis=1)))
 
 
+#: biped labels by flight: a two-legged gait with a planned flight phase is a run, one without
+#: is a walk (the human definition, Alexander 1989), whatever template its duty factor is nearest
+BIPED_WALK, BIPED_RUN = "biped_walk", "biped_run"
+
+
+def flight_label(template_label: str, schedule: ContactSchedule) -> str:
+    """`template_label` (`planner.templates.label_gait`), except for two feet: `biped_run` when
+    the schedule has a flight phase (`flight_fraction` > 0), else `biped_walk`. Nearest-template
+    labels call a duty-0.48 gait (4 % flight) a walk because 0.48 is nearer the walk's 0.60."""
+    if len(schedule.feet) != 2 or template_label not in (BIPED_WALK, BIPED_RUN):
+        return template_label
+    return BIPED_RUN if flight_fraction(schedule) > 0.0 else BIPED_WALK
+
+
 #: (passed, achieved speed) of a search result's gait in simulation; supplied by the caller so
 #: that the planner package does not import the simulator.
 Validator = Callable[[GaitSearchResult], tuple[bool, float]]
@@ -70,16 +84,18 @@ Validator = Callable[[GaitSearchResult], tuple[bool, float]]
 
 def row_from(result: GaitSearchResult, validator: Validator | None = None) -> SweepRow:
     best = result.best
+    label = flight_label(result.label, best.schedule)
     passed, achieved = validator(result) if validator is not None and best.feasible \
         else (None, math.nan)
     return SweepRow(
-        speed_m_s=result.speed_m_s, froude=result.froude, gait_label=result.label,
+        speed_m_s=result.speed_m_s, froude=result.froude,
+        gait_label=label,
         best_template=result.best_template, period_s=best.schedule.period_s,
         mean_duty_factor=float(np.mean(best.schedule.duty_factor)), cost=best.cost,
         best_template_cost=result.best_template_cost,
         cost_of_transport=result.cost_of_transport, feasible=best.feasible,
         local_solves=result.cma.n_local_solves, elapsed_s=result.elapsed_s,
-        family=gait_family(result.label), search_cost=result.search_cost,
+        family=gait_family(label), search_cost=result.search_cost,
         search_feasible=result.search_feasible,
         tipping_amplification=result.tipping_amplification, sim_passed=passed,
         sim_speed_m_s=achieved, flight_fraction=flight_fraction(best.schedule),

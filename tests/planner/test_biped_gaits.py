@@ -13,6 +13,9 @@ import robots
 from gaitsmith.cli import main
 from planner.templates import default_gait_for, make_schedule, templates_for
 from robots import ContactSchedule
+from robots.gait import load as load_gait
+from robots.ramp import run_speed_up_cycles
+from sim.validate import simulate
 
 
 def _flight_fraction(schedule: ContactSchedule) -> float:
@@ -68,3 +71,23 @@ def test_biped_walks_at_a_low_froude_number_in_mujoco(tmp_path: Path) -> None:
     assert doc["gait_label"] == "biped_walk"
     metrics = _validation(out)["metrics"]
     assert metrics["stances"] >= 20 and metrics["peak_torque_fraction"] < 0.8
+
+
+@pytest.mark.slow
+def test_biped_run_with_flight_passes_mujoco(tmp_path: Path) -> None:
+    """Issue #14: a clear run (0.5 m/s, Fr 0.10, duty 0.42: 16 % planned flight) passes every
+    simulator check once the entry builds its speed up over k ≥ v/(a·T) cycles (it fell 0.5 s
+    after a one-cycle blend), and both feet are off the ground for part of its steady cycles in
+    MuJoCo's contact record."""
+    out = tmp_path / "run.json"
+    assert main(["plan", "biped", "--speed", "0.5", "--gait", "biped_run", "--duty", "0.42",
+                 "--knots", "12", "-o", str(out), "--simulate"]) == 0
+    doc = json.loads(out.read_text())
+    metrics = _validation(out)["metrics"]
+    assert not metrics["fell"]
+    gait = load_gait(out)
+    assert _flight_fraction(gait.schedule) > 0.1 and run_speed_up_cycles(gait) > 1
+    _, traj = simulate(gait, robots.load("biped"), 20)
+    assert not traj.stopped_early and traj.ramp.cycles == run_speed_up_cycles(gait)
+    assert traj.flight_fraction() > 0.0, "no step of the steady run had both feet in the air"
+    assert doc["velocity"]["vx_m_s"] == pytest.approx(0.5)

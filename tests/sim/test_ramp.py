@@ -2,22 +2,31 @@
 
 from __future__ import annotations
 
+import math
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from robots.gait import Gait
+from robots.gait import Gait, Velocity
 from robots.ramp import (
     MIN_JERK_PEAK_SPEED,
+    RUN_ENTRY_ACCEL_G,
+    STANDARD_GRAVITY_M_S2,
     GaitEntry,
     MinJerkRamp,
     blend_cycles,
     gait_entry,
+    gait_exit,
     gait_mean_pose,
+    has_flight,
     min_jerk,
     ramp_duration_s,
     ramp_to,
+    run_speed_up_cycles,
 )
 from robots.robot import Robot
+from robots.schedule import ContactSchedule
 
 
 def test_min_jerk_endpoints_and_symmetry() -> None:
@@ -102,3 +111,27 @@ def test_blend_cycles_respect_the_speed_cap(hex_tripod: Gait) -> None:
         blend_cycles(gait, 0.0)
     with pytest.raises(ValueError):
         GaitEntry(entry.ramp, gait, 0)
+
+
+def _as_run(gait: Gait, duty: float, speed_m_s: float) -> Gait:
+    """`gait` with its two tripods on `duty` (< 0.5: a flight phase) at `speed_m_s`."""
+    s = gait.schedule
+    sched = ContactSchedule(s.period_s, s.feet, s.touchdown_phase, (duty,) * s.n_feet)
+    return replace(gait, schedule=sched, velocity=Velocity(vx_m_s=speed_m_s))
+
+
+def test_a_run_blends_in_over_enough_cycles_to_reach_its_speed(hex_tripod: Gait) -> None:
+    """Issue #14: a gait with flight gets k ≥ v/(a·T) blend cycles, in and out; a walk keeps
+    the speed-cap k (quad12/hex18 walks and trots have no flight: their entry is unchanged)."""
+    walk_k = blend_cycles(hex_tripod, 5.0)
+    assert not has_flight(hex_tripod) and run_speed_up_cycles(hex_tripod) == 1
+    run = _as_run(hex_tripod, 0.4, 0.5)
+    assert has_flight(run)
+    need = math.ceil(0.5 / (RUN_ENTRY_ACCEL_G * STANDARD_GRAVITY_M_S2 * run.period_s))
+    assert need > walk_k and run_speed_up_cycles(run) == need
+    assert blend_cycles(run, 5.0) == need
+    entry = gait_entry(run, gait_mean_pose(run), 5.0)
+    assert entry.cycles == need and gait_exit(run, 0.0, 5.0).cycles == need
+    # the same schedule without flight (duty 0.5: one tripod lands as the other lifts) or at rest
+    assert not has_flight(_as_run(hex_tripod, 0.5, 0.5))
+    assert run_speed_up_cycles(_as_run(hex_tripod, 0.4, 0.0)) == 1

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from planner.search.speed_sweep import SweepRow, flight_fraction, to_markdown
+from planner.search.speed_sweep import SweepRow, flight_fraction, flight_label, to_markdown
 from robots import ContactSchedule
 
 FEET = ("left", "right")
@@ -31,3 +31,20 @@ def test_the_table_shows_the_flight_fraction() -> None:
     assert "| flight |" in table.splitlines()[0]
     assert "| 0.42 | 0.16 | 0.480 |" in table
     assert math.isnan(SweepRow(0.5, 0.1, "w", "w", 1, 1, 1, 1, 1, True, 1, 1).flight_fraction)
+
+
+@pytest.mark.parametrize(("duty", "label"), [(0.6, "biped_walk"), (0.5, "biped_walk"),
+                                             (0.48, "biped_run"), (0.35, "biped_run")])
+def test_a_biped_gait_with_flight_is_labelled_a_run(duty: float, label: str) -> None:
+    """Issue #14: duty 0.48 (4 % flight) is nearer the walk template's 0.60, but it is a run."""
+    schedule = ContactSchedule(0.5, FEET, (0.0, 0.5), (duty, duty))
+    assert flight_label("biped_walk", schedule) == label
+    assert flight_label("biped_run", schedule) == label
+
+
+def test_flight_labels_leave_other_robots_to_their_template() -> None:
+    feet = ("LF", "RF", "LH", "RH")
+    bound = ContactSchedule(0.4, feet, (0.5, 0.5, 0.0, 0.0), (0.4,) * 4)  # 20 % flight
+    assert flight_label("bound", bound) == "bound"
+    trot = ContactSchedule(0.4, feet, (0.0, 0.5, 0.5, 0.0), (0.6,) * 4)
+    assert flight_label("trot", trot) == "trot"
