@@ -276,12 +276,14 @@ def to_dict(gait: Gait, path: str | Path | None = None) -> dict[str, Any]:
     return out
 
 
-def _str(file: str, d: dict[str, Any], key: str) -> str:
+def _str(
+    file: str, d: dict[str, Any], key: str, error: type[GaitFileError] = GaitFileError
+) -> str:
     v = d.get(key)
     if not isinstance(v, str) or not v:
-        raise GaitFileError(file, key, "missing or not a non-empty string")
+        raise error(file, key, "missing or not a non-empty string")
     if len(v) > MAX_NAME_CHARS:
-        raise GaitFileError(file, key, f"longer than {MAX_NAME_CHARS} characters")
+        raise error(file, key, f"longer than {MAX_NAME_CHARS} characters")
     return v
 
 
@@ -382,17 +384,24 @@ def _robot_dir(file: str, v: Any) -> tuple[str | None, str | None]:
     return out[0], out[1]
 
 
+def check_document(
+    d: Any, file: str, schema: str, keys: set[str] | frozenset[str],
+    error: type[GaitFileError] = GaitFileError,
+) -> dict[str, Any]:
+    """`d` as a JSON object of `schema` with no field outside `keys` (gait and library files)."""
+    if not isinstance(d, dict):
+        raise error(file, "<root>", "must be a JSON object")
+    if d.get("schema") != schema:
+        raise error(file, "schema", f"unknown schema {d.get('schema')!r:.60}; expected {schema!r}")
+    unknown = sorted(set(d) - keys)
+    if unknown:
+        raise error(file, unknown[0][:60], "unknown field")
+    return d
+
+
 def from_dict(d: Any, file: str = "<gait>") -> Gait:
     """Validate a parsed gait JSON document; raises GaitFileError naming the field at fault."""
-    if not isinstance(d, dict):
-        raise GaitFileError(file, "<root>", "must be a JSON object")
-    if d.get("schema") != SCHEMA:
-        raise GaitFileError(
-            file, "schema", f"unknown schema {d.get('schema')!r:.60}; expected {SCHEMA!r}"
-        )
-    unknown = sorted(set(d) - _KEYS)
-    if unknown:
-        raise GaitFileError(file, unknown[0][:60], "unknown field")
+    d = check_document(d, file, SCHEMA, _KEYS)
     names = d.get("joint_names")
     if not isinstance(names, list) or not names or not all(isinstance(n, str) and n for n in names):
         raise GaitFileError(file, "joint_names", "must be a non-empty list of joint names")

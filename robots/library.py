@@ -127,12 +127,7 @@ def to_dict(library: GaitLibrary, path: str | Path | None = None) -> dict[str, A
 
 
 def _str(file: str, d: dict[str, Any], key: str) -> str:
-    v = d.get(key)
-    if not isinstance(v, str) or not v or len(v) > gaitfile.MAX_NAME_CHARS:
-        raise LibraryFileError(
-            file, key, f"missing or not a non-empty string of ≤ {gaitfile.MAX_NAME_CHARS} chars"
-        )
-    return v
+    return gaitfile._str(file, d, key, LibraryFileError)
 
 
 def _velocity(file: str, where: str, v: Any) -> Velocity:
@@ -228,15 +223,7 @@ def _check_family(file: str, family: str, entries: tuple[LibraryEntry, ...]) -> 
 
 def from_dict(d: Any, file: str = "<library>") -> GaitLibrary:
     """Validate a parsed library document; raises LibraryFileError naming the field at fault."""
-    if not isinstance(d, dict):
-        raise LibraryFileError(file, "<root>", "must be a JSON object")
-    if d.get("schema") != SCHEMA:
-        raise LibraryFileError(
-            file, "schema", f"unknown schema {d.get('schema')!r:.60}; expected {SCHEMA!r}"
-        )
-    unknown = sorted(set(d) - _KEYS)
-    if unknown:
-        raise LibraryFileError(file, unknown[0][:60], "unknown field")
+    d = gaitfile.check_document(d, file, SCHEMA, _KEYS, LibraryFileError)
     robot = _str(file, d, "robot")
     fingerprint = _str(file, d, "robot_fingerprint")
     family = _str(file, d, "family")
