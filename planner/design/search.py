@@ -51,6 +51,7 @@ from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.search.basin_cma import BasinCma, LocalResult
 from planner.search.executors import make_executor
+from planner.search.gait_search import DEFAULT_SIGMA_FRACTION, REJECTED_VIOLATION
 from planner.templates import default_gait_for, make_schedule
 from robots import Gait, Robot
 from robots import load as load_robot
@@ -58,13 +59,9 @@ from robots import load as load_robot
 DEFAULT_MASS_WEIGHT = 0.1
 DEFAULT_KNOTS = 16
 DEFAULT_GENERATIONS = 3
-#: Initial CMA spread as a fraction of each box width: W&P §5 cover the box (⅓).
-SIGMA_FRACTION = 1.0 / 3.0
-
-
-#: Violation of a sample whose plan is feasible but whose body fails acceptance, per unit of the
-#: check's badness: ranks it after every accepted sample and ahead of NLP-infeasible ones.
-REJECTED_VIOLATION = 1e-9
+#: Initial CMA spread (a fraction of each box width, W&P §5) and the violation of a feasible
+#: sample that fails acceptance: the gait search's own, so bodies and timings rank alike.
+SIGMA_FRACTION = DEFAULT_SIGMA_FRACTION
 
 
 class BodyVerdict(Protocol):
