@@ -30,6 +30,7 @@ from gaitsmith.options import (
     check_yaw_rate,
 )
 from gaitsmith.search_options import MAX_WORKERS
+from gaitsmith.validation_record import validation_record
 from planner.errors import TemplateError
 from planner.library import (
     EntryOutcome,
@@ -68,24 +69,6 @@ def _values(option: str, text: str | None) -> tuple[float, ...] | None:
     return values
 
 
-def _validation_block(result: Any, gait: Gait, robot: Robot) -> dict[str, Any]:
-    """What `gaitsmith plan --simulate` writes: verdict + thermal + supply (for pre-flight)."""
-    from robots.voltage import nominal_supply_v, voltage_margin
-    from sim.metrics import steady_mask
-    from sim.thermal_report import predict_from_trajectory
-
-    v: dict[str, Any] = result.to_dict()
-    if result.trajectory is not None:
-        warmup = result.criteria.warmup_cycles
-        v["thermal"] = predict_from_trajectory(result.trajectory, robot,
-                                               warmup_cycles=warmup).to_dict()
-        steady = steady_mask(result.trajectory, warmup)
-        v["supply"] = voltage_margin(robot, result.trajectory.torque_nm[steady],
-                                     float(gait.planner.get("supply_v")
-                                           or nominal_supply_v(robot))).to_dict()
-    return v
-
-
 @dataclass
 class _SimCheck:
     robot: Robot
@@ -95,7 +78,7 @@ class _SimCheck:
         from sim.validate import validate
 
         result = validate(gait, self.robot, self.cycles)
-        return _validation_block(result, gait, self.robot)
+        return validation_record(result, gait, self.robot)[0]
 
 
 @dataclass(frozen=True)

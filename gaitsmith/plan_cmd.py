@@ -50,13 +50,14 @@ from gaitsmith.search_options import (
     tipping_weight_option,
     workers_option,
 )
+from gaitsmith.validation_record import validation_record
 from planner.errors import InfeasibleGaitError
 from planner.nlp.config import DEFAULT_FROUDE, DERIVATIVE_PATHS, PlannerOptions, default_speed_m_s
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
 from robots.servo_params import ServoSetting
-from robots.voltage import nominal_supply_v, robot_at_voltage, voltage_margin
+from robots.voltage import robot_at_voltage, voltage_margin
 
 DEFAULT_CYCLES = 20  # simulated cycles of a stepping gait (--simulate)
 STAND_S = 10.0  # simulated seconds of a stand (issue #14: "standing 10 s in MuJoCo")
@@ -270,23 +271,13 @@ def simulated_cycles(gait_obj: robots.Gait, cycles: int | None) -> tuple[int, st
 def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,
            cycles: int | None, servo_settings: tuple[ServoSetting, ...] | None = None) -> None:
     if simulate:
-        from sim.metrics import steady_mask  # lazy: MuJoCo only on request
-        from sim.thermal_report import predict_from_trajectory
-        from sim.validate import validate
+        from sim.validate import validate  # lazy: MuJoCo only on request
 
         n_cycles, what = simulated_cycles(gait_obj, cycles)
         with console.status(f"validating in MuJoCo ({what})…"):
             result = validate(gait_obj, bot, n_cycles, servo_settings=servo_settings)
-        assert result.trajectory is not None  # validate keeps it by default
-        thermal = predict_from_trajectory(result.trajectory, bot,
-                                          warmup_cycles=result.criteria.warmup_cycles)
-        v = result.to_dict()
-        v["thermal"] = thermal.to_dict()  # the player's heating prediction
-        steady = steady_mask(result.trajectory, result.criteria.warmup_cycles)
-        v["supply"] = voltage_margin(  # the simulated peak torques, for pre-flight
-            bot, result.trajectory.torque_nm[steady],
-            float(gait_obj.planner.get("supply_v") or nominal_supply_v(bot)),
-        ).to_dict()
+        v, thermal = validation_record(result, gait_obj, bot)
+        assert thermal is not None  # validate keeps the trajectory by default
         gait_obj = gait_obj.with_validation(v)
         verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"
         console.print(f"simulation verdict ({what}): {verdict} " + "; ".join(result.reasons))
