@@ -18,13 +18,14 @@ For scale it also prints the instruction counts of the NLP's Jacobian and Lagran
 next to those of one knot (`planner.nlp.constraints.knot_function`) and the time to build the
 knot's own derivatives: the whole-NLP derivatives are N expanded copies of the knot's.
 
-The `compare` section runs today's path (``derivatives="expanded"``: whole NLP expanded to SX)
-and the per-knot path (``derivatives="knot"``, `planner.nlp.solver_cache`) in one run on the same
-schedules — every template of the robot and `--random` random schedules, cold, then a chain of
-`--warm` perturbed warm solves — and prints per path median/min/max solve time, iterations,
-ms/iteration and the ratio knot/expanded, the build times (expanded; knot with an empty disk
-cache; knot from the cache) and whether both reach the same optimum (same feasibility verdict,
-cost within 1e-4 relative or lower).
+The `compare` section runs the solver paths named by ``--paths`` (default ``expanded,knot``:
+the whole NLP expanded to SX, and the per-knot derivatives of `planner.nlp.solver_cache`; the
+first is the baseline, `PATHS` lists them all) in one run on the same schedules: every template
+of the robot and `--random` random schedules, cold, then a chain of `--warm` perturbed warm
+solves. It prints per path median/min/max solve time, iterations, ms/iteration and the ratio
+against the baseline, the build times (with an empty disk cache and from the cache) and whether
+each path reaches the baseline's optimum (same feasibility verdict, cost within 1e-4 relative or
+lower).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ import os
 import statistics
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -180,94 +182,129 @@ def _spread(times: list[float], iters: list[int]) -> str:
     )
 
 
-def compare(
-    robot_name: str, gait: str, speed: float, n_knots: int, n_random: int, n_warm: int, seed: int
-) -> None:
-    """Expanded vs per-knot derivatives on the same schedules, in one run (module docstring)."""
-    robot = robots.load(robot_name)
+#: Solver paths `compare` can run, by name: each builds a planner for (robot, N). The first
+#: path named in ``--paths`` is the baseline every other one is compared against. A new solver
+#: path (issue #16) adds one entry here.
+PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
+    "expanded": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="expanded")),
+    "knot": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="knot")),
+}
+
+
+def _build_paths(
+    robot: robots.Robot, n_knots: int, names: list[str]
+) -> dict[str, GaitPlanner]:
+    """Each path built twice, the first time into an empty disk cache (cold), the second from
+    it (cached); prints both build times. Returns the cached-build planners."""
+    planners: dict[str, GaitPlanner] = {}
     with tempfile.TemporaryDirectory(prefix="planner_bench_cache_") as cache:
         previous = os.environ.get("GAITSMITH_CACHE")
         os.environ["GAITSMITH_CACHE"] = cache
         try:
-            expanded = GaitPlanner(robot, n_knots, PlannerOptions(derivatives="expanded"))
-            knot_cold = GaitPlanner(robot, n_knots, PlannerOptions(derivatives="knot"))
-            knot = GaitPlanner(robot, n_knots, PlannerOptions(derivatives="knot"))
+            for name in names:
+                cold = PATHS[name](robot, n_knots)
+                cold_s = cold.build_time_s
+                del cold
+                planners[name] = PATHS[name](robot, n_knots)
+                status = planners[name].derivative_cache
+                print(
+                    f"  build {name}: empty cache {cold_s:.2f} s | from the cache "
+                    f"{planners[name].build_time_s:.2f} s"
+                    + (f" ({status.status})" if status is not None else "")
+                )
         finally:
             if previous is None:
                 os.environ.pop("GAITSMITH_CACHE", None)
             else:
                 os.environ["GAITSMITH_CACHE"] = previous
-    cold_status = knot_cold.derivative_cache.status if knot_cold.derivative_cache else "?"
-    hit_status = knot.derivative_cache.status if knot.derivative_cache else "?"
-    print(
-        f"{robot_name} N={n_knots} build: expanded {expanded.build_time_s:.2f} s | knot, empty "
-        f"cache {knot_cold.build_time_s:.2f} s ({cold_status}) | knot from the cache "
-        f"{knot.build_time_s:.2f} s ({hit_status}) | expanded/knot cold "
-        f"{expanded.build_time_s / knot_cold.build_time_s:.1f}, expanded/knot cached "
-        f"{expanded.build_time_s / knot.build_time_s:.1f}"
-    )
-    del knot_cold
+    return planners
+
+
+def compare(
+    robot_name: str,
+    gait: str,
+    speed: float,
+    n_knots: int,
+    n_random: int,
+    n_warm: int,
+    seed: int,
+    paths: list[str],
+) -> None:
+    """Solver paths side by side on the same schedules, in one run (module docstring)."""
+    robot = robots.load(robot_name)
+    print(f"{robot_name} N={n_knots} ({', '.join(paths)}; baseline {paths[0]})")
+    planners = _build_paths(robot, n_knots, paths)
+    base_name = paths[0]
     rng = np.random.default_rng(seed)
     schedules: list[tuple[str, robots.ContactSchedule]] = []
     for name in templates_for(robot):
         schedules.append((name, make_schedule(robot, name)))
     base = make_schedule(robot, gait)
     schedules += [(f"random{i}", random_schedule(base, rng)) for i in range(n_random)]
-    rows: dict[str, tuple[list[float], list[int]]] = {"expanded": ([], []), "knot": ([], [])}
-    same, lower, worst_rel, verdicts = 0, 0, 0.0, 0
+    rows: dict[str, tuple[list[float], list[int]]] = {p: ([], []) for p in paths}
+    same = {p: 0 for p in paths[1:]}
+    lower = {p: 0 for p in paths[1:]}
+    worst_rel = {p: 0.0 for p in paths[1:]}
+    verdicts = 0
     for label, schedule in schedules:
-        results = {}
-        for path, planner in (("expanded", expanded), ("knot", knot)):
+        results: dict[str, PlanResult] = {}
+        for path in paths:
             try:
-                res = planner.solve(schedule, speed, warm_start=False)
+                res = planners[path].solve(schedule, speed, warm_start=False)
             except PlannerConfigError:
-                break  # e.g. "stand" at a moving speed: not a plan for either path
+                break  # e.g. "stand" at a moving speed: not a plan for any path
             results[path] = res
+        if len(results) < len(paths):
+            continue
+        verdicts += 1
+        for path, res in results.items():
             rows[path][0].append(res.solve_time_s)
             rows[path][1].append(res.iterations)
-        if len(results) < 2:
+        a = results[base_name]
+        line = [f"{base_name} {a.cost:.6g} ({a.iterations} it, {a.solve_time_s:.2f} s, "
+                f"{'feasible' if a.feasible else a.status})"]
+        for path in paths[1:]:
+            b = results[path]
+            if a.feasible != b.feasible:
+                line.append(f"{path}: verdict differs ({b.status})")
+                continue
+            rel = (b.cost - a.cost) / max(abs(a.cost), 1e-12)
+            if a.feasible:
+                worst_rel[path] = max(worst_rel[path], abs(rel))
+                lower[path] += rel < -SAME_COST_RTOL
+            same[path] += (not a.feasible) or rel <= SAME_COST_RTOL
+            line.append(
+                f"{path} {b.cost:.6g} ({b.iterations} it, {b.solve_time_s:.2f} s) rel {rel:+.1e}"
+            )
+        print(f"  {label}: " + " | ".join(line))
+    print(f"  cold solves over {verdicts} schedules:")
+    for path in paths:
+        print(f"    {path}: {_spread(*rows[path])}")
+    for path in paths[1:]:
+        if not rows[path][0]:
             continue
-        a, b = results["expanded"], results["knot"]
-        verdicts += 1
-        if a.feasible != b.feasible:
-            print(f"  {label}: verdicts differ: expanded {a.status}, knot {b.status}")
-            continue
-        rel = (b.cost - a.cost) / max(abs(a.cost), 1e-12)
-        if a.feasible:
-            worst_rel = max(worst_rel, abs(rel))
-            lower += rel < -SAME_COST_RTOL
-        same += (not a.feasible) or rel <= SAME_COST_RTOL
-        print(
-            f"  {label}: expanded {a.cost:.6g} ({a.iterations} it, {a.solve_time_s:.2f} s, "
-            f"{'feasible' if a.feasible else a.status}) | knot {b.cost:.6g} ({b.iterations} it, "
-            f"{b.solve_time_s:.2f} s) | rel {rel:+.1e}"
+        ratio_med = statistics.median(rows[path][0]) / statistics.median(rows[base_name][0])
+        ratio_it = (sum(rows[path][0]) / max(1, sum(rows[path][1]))) / (
+            sum(rows[base_name][0]) / max(1, sum(rows[base_name][1]))
         )
-    ratio_med = statistics.median(rows["knot"][0]) / statistics.median(rows["expanded"][0])
-    ratio_it = (sum(rows["knot"][0]) / max(1, sum(rows["knot"][1]))) / (
-        sum(rows["expanded"][0]) / max(1, sum(rows["expanded"][1]))
-    )
-    print(
-        f"  cold solves over {verdicts} schedules: expanded {_spread(*rows['expanded'])} | "
-        f"knot {_spread(*rows['knot'])} | knot/expanded median {ratio_med:.2f}, ms/it "
-        f"{ratio_it:.2f}\n  same optimum: {same}/{verdicts} (same verdict and cost within "
-        f"{SAME_COST_RTOL:g} relative or lower; {lower} lower), worst |rel| {worst_rel:.1e}"
-    )
+        print(
+            f"    {path}/{base_name}: median {ratio_med:.2f}, ms/it {ratio_it:.2f}; same optimum "
+            f"{same[path]}/{verdicts} (same verdict and cost within {SAME_COST_RTOL:g} relative "
+            f"or lower; {lower[path]} lower), worst |rel| {worst_rel[path]:.1e}"
+        )
     if n_warm:
-        cold = {p: pl.solve(base, speed, warm_start=False) for p, pl in
-                (("expanded", expanded), ("knot", knot))}
         warm_rng = np.random.default_rng(seed + 1)
         chain = [perturbed(base, warm_rng) for _ in range(n_warm)]
-        warm = {}
-        for path, planner in (("expanded", expanded), ("knot", knot)):
-            planner._last = cold[path].warm_start
+        warm: dict[str, tuple[list[float], list[int]]] = {}
+        for path in paths:
+            planner = planners[path]
+            planner.solve(base, speed, warm_start=False)  # the chain starts from this optimum
             chained = [planner.solve(s, speed) for s in chain]
             warm[path] = ([r.solve_time_s for r in chained], [r.iterations for r in chained])
-        print(
-            f"  warm chain of {n_warm} ({gait}, perturbed): "
-            f"expanded {_spread(*warm['expanded'])} | "
-            f"knot {_spread(*warm['knot'])} | knot/expanded median "
-            f"{statistics.median(warm['knot'][0]) / statistics.median(warm['expanded'][0]):.2f}"
-        )
+        print(f"  warm chain of {n_warm} ({gait}, perturbed):")
+        for path in paths:
+            ratio = statistics.median(warm[path][0]) / statistics.median(warm[base_name][0])
+            print(f"    {path}: {_spread(*warm[path])}, /{base_name} median {ratio:.2f}")
 
 
 def main() -> None:
@@ -280,7 +317,16 @@ def main() -> None:
     ap.add_argument(
         "--section", choices=("all", "build", "solve", "compare"), default="all"
     )
+    ap.add_argument(
+        "--paths",
+        default="expanded,knot",
+        help=f"solver paths for `compare`, baseline first; known: {', '.join(PATHS)}",
+    )
     args = ap.parse_args()
+    paths = [p.strip() for p in args.paths.split(",") if p.strip()]
+    unknown = [p for p in paths if p not in PATHS]
+    if unknown or len(paths) < 2:
+        ap.error(f"--paths {args.paths!r}: name two or more of {', '.join(PATHS)}")
     if args.section in ("all", "build"):
         build_bench("quad12", args.knots)
         build_bench("hex18", args.knots)
@@ -289,9 +335,9 @@ def main() -> None:
         bench("hex18", "tripod", 0.15, args.knots, args.warm, args.seed)
     if args.section in ("all", "compare"):
         if args.robot in ("both", "quad12"):
-            compare("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed)
+            compare("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed, paths)
         if args.robot in ("both", "hex18"):
-            compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed)
+            compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed, paths)
 
 
 if __name__ == "__main__":
