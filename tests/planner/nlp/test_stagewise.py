@@ -91,3 +91,22 @@ def test_a_row_over_every_knot_is_refused() -> None:
     layout = Layout(N_KNOTS, model.n_joints, model.n_feet)
     with pytest.raises(PlannerConfigError, match="mean_footprint"):
         build_stagewise(model, N_KNOTS, options, layout)
+
+
+@pytest.mark.slow
+def test_fatrop_planner_keeps_ipopts_optimum() -> None:
+    """End to end (stage maps, bounds, FATROP's manual structure, the verdict on the planner's
+    NLP): started at IPOPT's optimum, a few FATROP iterations stay on it."""
+    from planner.nlp.fatrop_solver import FatropPlanner
+    from planner.nlp.spacetime import GaitPlanner
+
+    robot = robots.load("quad12")
+    schedule = make_schedule(robot, "trot")
+    ref = GaitPlanner(robot, N_KNOTS).solve(schedule, 0.25, warm_start=False)
+    assert ref.feasible
+    fatrop = FatropPlanner(robot, N_KNOTS, PlannerOptions(max_iter=3),
+                           {"mu_init": 1e-6, "bound_push": 1e-8, "bound_frac": 1e-8})
+    res = fatrop.solve(schedule, 0.25, warm_start=ref.warm_start)
+    assert res.iterations <= 4  # FATROP counts the iteration it stops at
+    assert res.max_violation < 1e-5
+    assert abs(res.cost - ref.cost) <= 1e-4 * abs(ref.cost)
