@@ -11,6 +11,7 @@ from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import build_groups, knot_quantities
 from planner.nlp.costs import cost_terms, weighted_objective
+from planner.nlp.diagnostics import FEASIBILITY_TOL
 from planner.nlp.model import RobotModel
 from planner.nlp.stagewise import build_stagewise, stage_bounds
 from planner.nlp.variables import (
@@ -108,5 +109,8 @@ def test_fatrop_planner_keeps_ipopts_optimum() -> None:
                            {"mu_init": 1e-6, "bound_push": 1e-8, "bound_frac": 1e-8})
     res = fatrop.solve(schedule, 0.25, warm_start=ref.warm_start)
     assert res.iterations <= 4  # FATROP counts the iteration it stops at
-    assert res.max_violation < 1e-5
+    # every row and bound of the planner's NLP met to the planner's own tolerance (FATROP did not
+    # stop on its test, so the verdict stays "not feasible": see docs/results/planner_speed_fatrop)
+    assert res.max_violation <= FEASIBILITY_TOL
+    assert not res.feasible and res.status.startswith("fatrop_return_flag")
     assert abs(res.cost - ref.cost) <= 1e-4 * abs(ref.cost)
