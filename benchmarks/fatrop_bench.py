@@ -11,6 +11,10 @@ initial guess (at most `--cold-iter` iterations) and started at IPOPT's optimum 
 the verdict on the planner's own NLP and the cost relative to IPOPT's; FATROP's time split
 (search direction vs function evaluations); at the end the ms/iteration ratio FATROP/IPOPT over
 all solves of the run. Prints the stage dimensions (nx, nu, rows per stage).
+
+`--stagewise-ipopt` adds IPOPT (same options as the planner's) on the stage-wise NLP itself, cold:
+whether the reformulation has the planner's optimum when solved from scratch, and what the larger
+formulation costs IPOPT per iteration (solver versus formulation).
 """
 
 from __future__ import annotations
@@ -21,10 +25,12 @@ import statistics
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import casadi as ca
 import numpy as np
 from planner_bench import random_schedule
 
@@ -32,6 +38,8 @@ import robots
 from planner.nlp.config import PlannerOptions
 from planner.nlp.fatrop_solver import FatropPlanner
 from planner.nlp.spacetime import GaitPlanner, PlanResult
+from planner.nlp.stagewise import stage_bounds
+from planner.nlp.variables import initial_guess, parameter_vector
 from planner.templates import make_schedule
 
 GAITS = {"quad12": ("trot", 0.25), "hex18": ("tripod", 0.15)}
@@ -51,6 +59,40 @@ def _line(name: str, r: PlanResult, ref: PlanResult | None) -> str:
     return text
 
 
+def _stagewise_ipopt(planner: FatropPlanner) -> ca.Function:
+    """IPOPT with the planner's default options (its iteration cap too) on `planner`'s stage-wise
+    NLP (expanded)."""
+    sw = planner.stagewise
+    assert sw is not None
+    o = planner.options
+    ipopt: dict[str, Any] = {
+        "tol": o.tol, "acceptable_tol": 1e-4, "constr_viol_tol": 1e-5,
+        "max_iter": PlannerOptions().max_iter, "print_level": 0, "mu_strategy": "adaptive",
+        "sb": "yes", "mumps_pivot_order": 5, "mu_init": 1e-2,
+    }
+    return ca.nlpsol("stagewise_ipopt", "ipopt", {"x": sw.w, "p": sw.p, "f": sw.f, "g": sw.g},
+                     {"ipopt": ipopt, "expand": True, "print_time": False,
+                      "error_on_fail": False})
+
+
+def _solve_stagewise_ipopt(
+    solver: ca.Function, planner: FatropPlanner, schedule: robots.ContactSchedule, speed: float
+) -> PlanResult:
+    sw = planner.stagewise
+    assert sw is not None
+    p = parameter_vector(schedule, planner.n_knots, speed, planner.swing_clearance_m)
+    w0 = np.asarray(sw.to_stage(initial_guess(planner.layout, planner.model, schedule), p))
+    lbw, ubw = stage_bounds(sw, planner._lbx, planner._ubx)
+    t0 = time.perf_counter()
+    sol = solver(x0=w0, p=p, lbx=lbw, ubx=ubw, lbg=sw.lbg, ubg=sw.ubg)
+    elapsed = time.perf_counter() - t0
+    stats = solver.stats()
+    x = np.asarray(sol["x"]).ravel()[sw.from_planner_index]
+    plain = {"x": x, "lam_x": np.zeros_like(x), "lam_g": np.zeros_like(planner._lbg),
+             "f": float(sol["f"])}
+    return planner._result(schedule, speed, p, plain, stats, elapsed)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--robot", choices=tuple(GAITS), default="quad12")
@@ -59,6 +101,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cold-iter", type=int, default=150)
     ap.add_argument("--warm-iter", type=int, default=30)
+    ap.add_argument("--stagewise-ipopt", action="store_true")
     args = ap.parse_args()
     robot = robots.load(args.robot)
     gait, speed = GAITS[args.robot]
@@ -79,6 +122,12 @@ def main() -> None:
           f"{cold_build:.2f} s | stage nx {sw.nx[0]}, nu {sw.nu[0]}, rows {sw.ng[1]} per stage "
           f"({sum(sw.equality)} equalities of {len(sw.equality)}), {sw.size} variables vs "
           f"{ipopt.layout.size} in the planner's NLP")
+    sw_ipopt = None
+    if args.stagewise_ipopt:
+        t0 = time.perf_counter()
+        sw_ipopt = _stagewise_ipopt(cold)
+        print(f"  build IPOPT on the stage-wise NLP {time.perf_counter() - t0:.2f} s")
+        per_it_extra: list[float] = []
     rng = np.random.default_rng(args.seed)
     base = make_schedule(robot, gait)
     schedules = [(gait, base)] + [(f"random{i}", random_schedule(base, rng))
@@ -95,10 +144,18 @@ def main() -> None:
         fw = warm.solve(schedule, speed, warm_start=ref.warm_start)
         print("    " + _line("fatrop at optimum", fw, ref))
         per_it["fatrop at optimum"].append(fw.solve_time_s / max(1, fw.iterations))
+        if sw_ipopt is not None:
+            si = _solve_stagewise_ipopt(sw_ipopt, cold, schedule, speed)
+            print("    " + _line("ipopt stage-wise ", si, ref))
+            per_it_extra.append(si.solve_time_s / max(1, si.iterations))
     med = {k: 1e3 * statistics.median(v) for k, v in per_it.items()}
     print("  median ms/iteration: " + ", ".join(f"{k} {v:.1f}" for k, v in med.items())
           + f" | FATROP/IPOPT per iteration: cold {med['fatrop cold'] / med['ipopt']:.1f}, "
           f"at optimum {med['fatrop at optimum'] / med['ipopt']:.1f}")
+    if sw_ipopt is not None:
+        extra = 1e3 * statistics.median(per_it_extra)
+        print(f"  IPOPT on the stage-wise NLP: {extra:.1f} ms/iteration, "
+              f"/IPOPT on the planner's NLP {extra / med['ipopt']:.1f}")
 
 
 if __name__ == "__main__":
