@@ -25,18 +25,40 @@ today's treadmill row.
 
 The planar motion over h enters the NLP as parameters (`motion_parameters`), so one build serves
 every command.
+
+**Stepping in place** (the zero command with a stepping schedule; issue #14 item 5) plans with
+`in_place_options`. Measured on quad12's trot in place (`--knots 16`, 2026-12-02,
+docs/results/stand_in_place.md), the walking defaults let it wander off its spot:
+
+- nothing anchors the footprint when the body does not travel: the optimiser moved the two
+  diagonals of the trot apart (FR 112 mm behind its stance position, FL 46 mm ahead), so the
+  gait's mean pose differed from the stance by up to 36°, and the entry ramp (`robots.ramp`,
+  to that mean pose) dragged the standing robot 0.11 m. `IN_PLACE_FOOTPRINT_LEG_LENGTHS`: the
+  cycle mean of every foot stays within ±0.01 L of its stance position (the
+  `PlannerOptions.mean_footprint_leg_lengths` constraint), so the mean pose is the stance and
+  the entry moves no foot;
+- with the footprint anchored the trot still drifted 17-23 mm/s: on each support diagonal the
+  body tipped 4.5° towards the free front foot in MuJoCo (planned: 0.5°), the front foot landed
+  early and the hind one late, every cycle. The tipping follows the swing: the walking
+  clearance 0.14 L (25 mm on quad12) over a 0.19 s swing lifts the foot at up to
+  h·π²/t² ≈ 7 m/s² (the clearance profile h·sin(π·s)), and the leg's reaction on a body
+  balanced on two feet is what the open-loop servos do not reproduce.
+  In place the foot travels no stride, so it needs to clear the floor, not scuffing across a
+  step: `IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS` = 0.07 L (half the walking clearance; an
+  explicit `swing_clearance_m` is kept) took the drift to 2.7 mm/s.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from planner.errors import PlannerConfigError
+from planner.nlp.config import PlannerOptions
 
 #: the planner's own bounds on a command (the CLI's are tighter and scale with the robot,
 #: `gaitsmith.options.check_yaw_rate`): speeds as `GaitPlanner`'s forward speed, and at most a
@@ -48,6 +70,11 @@ MAX_TURN_PER_PERIOD_RAD = math.pi / 2
 #: entries of the command block at the end of the parameter vector (after vx and T)
 N_MOTION_PARAMETERS = 8  # vy, W, cos(Wh), sin(Wh), d(+h) x, y, d(−h) x, y
 _SMALL_ANGLE = 1e-6
+
+#: stepping in place (module docstring): each foot's cycle-mean x, y within this · L of its
+#: stance position, and the swing clearance this · L (half `SWING_CLEARANCE_LEG_LENGTHS`)
+IN_PLACE_FOOTPRINT_LEG_LENGTHS = 0.01
+IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS = 0.07
 
 
 @dataclass(frozen=True)
@@ -61,6 +88,19 @@ class VelocityCommand:
     @property
     def moving(self) -> bool:
         return any(v != 0.0 for v in (self.vx_m_s, self.vy_m_s, self.yaw_rate_rad_s))
+
+
+def in_place_options(options: PlannerOptions, leg_length_m: float) -> PlannerOptions:
+    """`options` for stepping in place (zero command, feet stepping): the footprint anchored at
+    the stance and the swing clearance halved (module docstring). An explicit
+    `swing_clearance_m`, or a tighter `mean_footprint_leg_lengths`, is kept."""
+    footprint = options.mean_footprint_leg_lengths
+    if footprint is None or footprint > IN_PLACE_FOOTPRINT_LEG_LENGTHS:
+        footprint = IN_PLACE_FOOTPRINT_LEG_LENGTHS
+    clearance = options.swing_clearance_m
+    if clearance is None:
+        clearance = IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS * leg_length_m
+    return replace(options, mean_footprint_leg_lengths=footprint, swing_clearance_m=clearance)
 
 
 def check_command(vy_m_s: float, yaw_rate_rad_s: float, period_s: float, n_knots: int) -> None:
@@ -165,11 +205,14 @@ class MotionSymbols:
 
 
 __all__ = [
+    "IN_PLACE_FOOTPRINT_LEG_LENGTHS",
+    "IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS",
     "N_MOTION_PARAMETERS",
     "MotionSymbols",
     "VelocityCommand",
     "check_command",
     "compose",
+    "in_place_options",
     "motion_parameters",
     "planar_displacement",
     "world_base_poses",

@@ -1,6 +1,8 @@
 """`gaitsmith plan ROBOT --speed 0 --simulate` end to end (real NLP, real MuJoCo): a stand on a
-quadruped and a zoo robot, stepping in place on a quadruped, a hexapod and a zoo hexapod — all
-pass the zero-command criteria (drift, heading, tilt, fall, slip, torque)."""
+quadruped and a zoo robot, stepping in place on a quadruped (walk and trot), a hexapod and a zoo
+hexapod — all pass the zero-command criteria (drift, heading, tilt, fall, slip, torque) — and
+the in-place options (`planner.nlp.command.in_place_options`) chosen only for stepping at zero
+command."""
 
 from __future__ import annotations
 
@@ -9,13 +11,24 @@ from pathlib import Path
 
 import pytest
 
+import robots
 from gaitsmith.cli import main
+from gaitsmith.gait_choice import in_place_choice, steps
+from planner.nlp.command import (
+    IN_PLACE_FOOTPRINT_LEG_LENGTHS,
+    IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS,
+    in_place_options,
+)
+from planner.nlp.config import PlannerOptions
+from planner.templates import default_gait_for, make_schedule
 from tests.zoo.fixtures import ZOO
 
 CASES = [
     pytest.param("quad12", [], id="quad12-stand"),
     pytest.param(str(ZOO / "star5"), [], id="star5-stand"),
     pytest.param("quad12", ["--gait", "walk"], id="quad12-walk-in-place"),
+    # drifted 23.5 mm/s and 280 mm with the walking options (footprint free, 0.14 L clearance)
+    pytest.param("quad12", ["--gait", "trot"], id="quad12-trot-in-place"),
     pytest.param("hex18", ["--gait", "tripod"], id="hex18-tripod-in-place"),
     pytest.param(str(ZOO / "phantomx18"), ["--gait", "tripod"],
                  id="phantomx18-tripod-in-place"),
@@ -40,7 +53,38 @@ def test_speed_zero_plans_pass_mujoco(robot: str, extra: list[str], tmp_path: Pa
     if "--gait" in extra:
         assert max(duty) < 1.0 and v["metrics"]["stances"] > 0  # it steps
         assert "simulation verdict (20 cycles)" in printed
+        assert "stepping in place: each foot's cycle mean within 0.01 L" in printed
     else:
         assert set(duty) == {1.0} and gait["gait_label"] == "stand"
         assert v["metrics"]["duration_s"] >= 10.0  # a stand is judged over a duration
         assert "simulation verdict (standing 1" in printed
+
+
+def test_in_place_options_anchor_the_footprint_and_halve_the_clearance() -> None:
+    leg_m = 0.2
+    got = in_place_options(PlannerOptions(mu=0.4), leg_m)
+    assert got.mean_footprint_leg_lengths == IN_PLACE_FOOTPRINT_LEG_LENGTHS
+    assert got.swing_clearance_for(leg_m) == pytest.approx(
+        IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS * leg_m)
+    assert got.swing_clearance_for(leg_m) < PlannerOptions().swing_clearance_for(leg_m)
+    assert got.mu == 0.4  # the caller's options otherwise
+    # an explicit clearance and a tighter footprint are the caller's
+    kept = in_place_options(PlannerOptions(swing_clearance_m=0.03,
+                                           mean_footprint_leg_lengths=0.005), leg_m)
+    assert kept.swing_clearance_m == 0.03 and kept.mean_footprint_leg_lengths == 0.005
+    looser = in_place_options(PlannerOptions(mean_footprint_leg_lengths=0.05), leg_m)
+    assert looser.mean_footprint_leg_lengths == IN_PLACE_FOOTPRINT_LEG_LENGTHS
+
+
+@pytest.mark.parametrize("robot", ["quad12", "hex18", str(ZOO / "star5")])
+def test_in_place_choice_only_for_stepping_at_zero_command(robot: str) -> None:
+    bot = robots.load(robot)
+    options = PlannerOptions()
+    stand = make_schedule(bot, "stand")
+    stepping = make_schedule(bot, default_gait_for(bot))
+    assert not steps(stand) and steps(stepping)
+    assert in_place_choice(bot, stand, 0.0, 0.0, 0.0, options) is None
+    for moving in ((0.1, 0.0, 0.0), (0.0, 0.05, 0.0), (0.0, 0.0, 0.3)):
+        assert in_place_choice(bot, stepping, *moving, options) is None
+    chosen = in_place_choice(bot, stepping, 0.0, 0.0, 0.0, options)
+    assert chosen == in_place_options(options, bot.leg_length_m)
