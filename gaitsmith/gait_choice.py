@@ -43,8 +43,10 @@ Robots whose default does not stand on a line for long (hex18's tripod, star5's 
 their default gait and options: their commanded gaits passed before.
 
 Stepping in place (a zero command with a schedule that lifts a foot) plans with
-`planner.nlp.command.in_place_options` (`in_place_choice`): the footprint anchored at the stance
-and half the walking swing clearance, for every robot and gait (measurements in that module).
+`planner.nlp.command.in_place_options` (`in_place_choice`), for every robot and gait: the
+footprint anchored at the stance shifted under the centre of mass, the base height near the
+stance's, and half the walking swing clearance for a schedule that `tips_on_a_line`
+(measurements in that module).
 """
 
 from __future__ import annotations
@@ -123,13 +125,7 @@ def always_on_polygon(bot: robots.Robot, gait: str, duty_factor: float | None = 
 
 def tips_on_a_line(bot: robots.Robot, gait: str) -> bool:
     """Does `gait` stand on a support line for longer than `LINE_RUN_TAU_FRACTION`·τ at a time?"""
-    from planner.search.support import line_support_durations_s, tipping_time_constant_s
-
-    if len(bot.legs) < 3:
-        return True
-    tau = tipping_time_constant_s(float(bot.stance_base_height_m))
-    runs = line_support_durations_s(make_schedule(bot, gait), stance_foot_positions_m(bot))
-    return any(run > LINE_RUN_TAU_FRACTION * tau for run in runs)
+    return schedule_tips_on_a_line(bot, make_schedule(bot, gait))
 
 
 def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_rad_s: float,
@@ -172,7 +168,18 @@ def in_place_choice(bot: robots.Robot, schedule: ContactSchedule, vx_m_s: float,
     command is zero and `schedule` steps; None otherwise (a stand, or a moving command)."""
     if (vx_m_s, vy_m_s, yaw_rate_rad_s) != (0.0, 0.0, 0.0) or not steps(schedule):
         return None
-    return in_place_options(options, bot.leg_length_m)
+    return in_place_options(options, bot, halve_clearance=schedule_tips_on_a_line(bot, schedule))
+
+
+def schedule_tips_on_a_line(bot: robots.Robot, schedule: ContactSchedule) -> bool:
+    """`tips_on_a_line` for any schedule (a template's, `--duty`, `--phases`, `--schedule`)."""
+    from planner.search.support import line_support_durations_s, tipping_time_constant_s
+
+    if len(bot.legs) < 3:
+        return True
+    tau = tipping_time_constant_s(float(bot.stance_base_height_m))
+    runs = line_support_durations_s(schedule, stance_foot_positions_m(bot))
+    return any(run > LINE_RUN_TAU_FRACTION * tau for run in runs)
 
 
 def grid_gait(bot: robots.Robot, family: str | None, vy_values: tuple[float, ...],

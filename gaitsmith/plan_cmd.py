@@ -186,9 +186,11 @@ def plan(
     in_place = in_place_choice(bot, schedule, speed, vy, yaw_rate, options)
     if in_place is not None:
         options = in_place
+        dx, dy = in_place.mean_footprint_offset_m
         console.print(
             f"stepping in place: each foot's cycle mean within "
-            f"{in_place.mean_footprint_leg_lengths:g} L of its stance position, swing clearance "
+            f"{in_place.mean_footprint_leg_lengths:g} L of its stance position shifted "
+            f"({dx * 1000:+.1f}, {dy * 1000:+.1f}) mm under the centre of mass, swing clearance "
             f"{in_place.swing_clearance_for(bot.leg_length_m) * 1000:.1f} mm")
     command = f"{speed:.3f} m/s" + (
         f", vy {vy:+.3f} m/s, yaw rate {yaw_rate:+.3f} rad/s" if vy or yaw_rate else "")

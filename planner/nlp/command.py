@@ -27,25 +27,35 @@ The planar motion over h enters the NLP as parameters (`motion_parameters`), so 
 every command.
 
 **Stepping in place** (the zero command with a stepping schedule; issue #14 item 5) plans with
-`in_place_options`. Measured on quad12's trot in place (`--knots 16`, 2026-12-02,
-docs/results/stand_in_place.md), the walking defaults let it wander off its spot:
+`in_place_options`. Measured in MuJoCo (`--knots 16`, 2026-12-02,
+docs/results/stand_in_place.md), the walking defaults let the robots wander off their spot:
 
 - nothing anchors the footprint when the body does not travel: the optimiser moved the two
-  diagonals of the trot apart (FR 112 mm behind its stance position, FL 46 mm ahead), so the
-  gait's mean pose differed from the stance by up to 36°, and the entry ramp (`robots.ramp`,
-  to that mean pose) dragged the standing robot 0.11 m. `IN_PLACE_FOOTPRINT_LEG_LENGTHS`: the
-  cycle mean of every foot stays within ±0.01 L of its stance position (the
-  `PlannerOptions.mean_footprint_leg_lengths` constraint), so the mean pose is the stance and
-  the entry moves no foot;
-- with the footprint anchored the trot still drifted 17-23 mm/s: on each support diagonal the
-  body tipped 4.5° towards the free front foot in MuJoCo (planned: 0.5°), the front foot landed
-  early and the hind one late, every cycle. The tipping follows the swing: the walking
-  clearance 0.14 L (25 mm on quad12) over a 0.19 s swing lifts the foot at up to
-  h·π²/t² ≈ 7 m/s² (the clearance profile h·sin(π·s)), and the leg's reaction on a body
-  balanced on two feet is what the open-loop servos do not reproduce.
-  In place the foot travels no stride, so it needs to clear the floor, not scuffing across a
-  step: `IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS` = 0.07 L (half the walking clearance; an
-  explicit `swing_clearance_m` is kept) took the drift to 2.7 mm/s.
+  diagonals of quad12's trot apart (FR 112 mm behind its stance position, FL 46 mm ahead),
+  spotmicro's trot likewise (104 mm), so the gait's mean pose differed from the stance by up to
+  36°, the entry ramp (`robots.ramp`, to that mean pose) dragged the standing robot, and the
+  trots drifted 20-24 mm/s or turned 58°. `IN_PLACE_FOOTPRINT_LEG_LENGTHS`: the cycle mean of
+  every foot stays within ±0.01 L of its stance position (the
+  `PlannerOptions.mean_footprint_leg_lengths` constraint), so the entry moves no foot;
+- that stance position is the robot's nominal one *shifted under the centre of mass*
+  (`stance_com_offset_m`, `PlannerOptions.mean_footprint_offset_m`): quad12's CoM is 17 mm
+  behind its feet's centroid, and anchored at the nominal stance its walk in place tipped
+  towards each swinging hind foot (the CoM near the support triangle's edge) and drifted
+  20 mm/s backwards; centred, 3.6 mm/s. (A footprint centred on the CoM maximises the static
+  margin of a symmetric footprint and puts a trot's diagonals through it.) The entry shifts the
+  body over the planted feet by that offset;
+- with only the footprint, the walk in place rose 40 mm onto straighter legs (mean pose 38°
+  from the stance): `IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS` keeps the base within ±0.05 L of
+  the stance height (`PlannerOptions.base_height_band_leg_lengths`);
+- a gait that balances on a support line (`halve_clearance`, the caller's judgement, e.g.
+  `gaitsmith.gait_choice.tips_on_a_line`): quad12's anchored trot still drifted 12-23 mm/s —
+  on each diagonal the body tipped 4.5° towards the free front foot in MuJoCo (planned 0.5°),
+  which landed early. The walking clearance 0.14 L (25 mm) over a 0.19 s swing lifts the foot
+  at up to h·π²/t² ≈ 7 m/s² (the clearance profile h·sin(π·s)); the leg's reaction on a body
+  balanced on two feet is what the open-loop servos do not reproduce. In place the foot
+  travels no stride, so it needs to clear the floor, not scuff across a step:
+  `IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS` = 0.07 L (half; an explicit `swing_clearance_m` is
+  kept) took it to 3-5 mm/s. A walk keeps the walking clearance (halved: 6.0 vs 3.6 mm/s).
 """
 
 from __future__ import annotations
@@ -59,6 +69,7 @@ import numpy as np
 
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
+from robots.robot import Robot
 
 #: the planner's own bounds on a command (the CLI's are tighter and scale with the robot,
 #: `gaitsmith.options.check_yaw_rate`): speeds as `GaitPlanner`'s forward speed, and at most a
@@ -75,6 +86,8 @@ _SMALL_ANGLE = 1e-6
 #: stance position, and the swing clearance this · L (half `SWING_CLEARANCE_LEG_LENGTHS`)
 IN_PLACE_FOOTPRINT_LEG_LENGTHS = 0.01
 IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS = 0.07
+#: … and the base height within ± this · L of the stance height at every knot
+IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS = 0.05
 
 
 @dataclass(frozen=True)
@@ -90,17 +103,47 @@ class VelocityCommand:
         return any(v != 0.0 for v in (self.vx_m_s, self.vy_m_s, self.yaw_rate_rad_s))
 
 
-def in_place_options(options: PlannerOptions, leg_length_m: float) -> PlannerOptions:
-    """`options` for stepping in place (zero command, feet stepping): the footprint anchored at
-    the stance and the swing clearance halved (module docstring). An explicit
-    `swing_clearance_m`, or a tighter `mean_footprint_leg_lengths`, is kept."""
+def stance_com_offset_m(robot: Robot) -> tuple[float, float]:
+    """Ground projection of the centre of mass minus the centroid of the feet (x, y) in the base
+    frame, at the nominal stance (base level at the origin)."""
+    import mujoco
+
+    from planner.templates import stance_foot_positions_m
+
+    model = robot.mj_model()
+    data = mujoco.MjData(model)
+    data.qpos[:] = model.qpos0
+    data.qpos[0:7] = (0, 0, 0, 1, 0, 0, 0)
+    for j in robot.joints:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+        data.qpos[model.jnt_qposadr[jid]] = j.stance_rad
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    root = int(np.argmax(model.body_subtreemass[1:])) + 1  # the floating base: the heaviest tree
+    offset = data.subtree_com[root][:2] - stance_foot_positions_m(robot)[:, :2].mean(axis=0)
+    return float(offset[0]), float(offset[1])
+
+
+def in_place_options(options: PlannerOptions, robot: Robot, *,
+                     halve_clearance: bool) -> PlannerOptions:
+    """`options` for stepping in place (zero command, feet stepping; module docstring): each
+    foot's cycle mean within ±0.01 L of its stance position shifted under the centre of mass,
+    the base height within ±0.05 L of the stance's, and with `halve_clearance` (a gait that
+    balances on a support line) half the walking swing clearance. An explicit
+    `swing_clearance_m`, or a tighter footprint or height band, is kept."""
+    leg_m = robot.leg_length_m
     footprint = options.mean_footprint_leg_lengths
     if footprint is None or footprint > IN_PLACE_FOOTPRINT_LEG_LENGTHS:
         footprint = IN_PLACE_FOOTPRINT_LEG_LENGTHS
+    band = options.base_height_band_leg_lengths
+    if band is None or band > IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS:
+        band = IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS
     clearance = options.swing_clearance_m
-    if clearance is None:
-        clearance = IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS * leg_length_m
-    return replace(options, mean_footprint_leg_lengths=footprint, swing_clearance_m=clearance)
+    if clearance is None and halve_clearance:
+        clearance = IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS * leg_m
+    return replace(options, mean_footprint_leg_lengths=footprint,
+                   mean_footprint_offset_m=stance_com_offset_m(robot),
+                   swing_clearance_m=clearance, base_height_band_leg_lengths=band)
 
 
 def check_command(vy_m_s: float, yaw_rate_rad_s: float, period_s: float, n_knots: int) -> None:
@@ -205,6 +248,7 @@ class MotionSymbols:
 
 
 __all__ = [
+    "IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS",
     "IN_PLACE_FOOTPRINT_LEG_LENGTHS",
     "IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS",
     "N_MOTION_PARAMETERS",
@@ -215,5 +259,6 @@ __all__ = [
     "in_place_options",
     "motion_parameters",
     "planar_displacement",
+    "stance_com_offset_m",
     "world_base_poses",
 ]
