@@ -9,15 +9,18 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import robots
 from gaitsmith.cli import main
 from gaitsmith.gait_choice import in_place_choice, steps
 from planner.nlp.command import (
+    IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS,
     IN_PLACE_FOOTPRINT_LEG_LENGTHS,
     IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS,
     in_place_options,
+    stance_com_offset_m,
 )
 from planner.nlp.config import PlannerOptions
 from planner.templates import default_gait_for, make_schedule
@@ -60,31 +63,72 @@ def test_speed_zero_plans_pass_mujoco(robot: str, extra: list[str], tmp_path: Pa
         assert "simulation verdict (standing 1" in printed
 
 
-def test_in_place_options_anchor_the_footprint_and_halve_the_clearance() -> None:
-    leg_m = 0.2
-    got = in_place_options(PlannerOptions(mu=0.4), leg_m)
+def test_in_place_options_anchor_footprint_and_height_under_the_centre_of_mass() -> None:
+    quad = robots.load("quad12")
+    leg_m = quad.leg_length_m
+    got = in_place_options(PlannerOptions(mu=0.4), quad, halve_clearance=True)
     assert got.mean_footprint_leg_lengths == IN_PLACE_FOOTPRINT_LEG_LENGTHS
+    assert got.base_height_band_leg_lengths == IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS
     assert got.swing_clearance_for(leg_m) == pytest.approx(
         IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS * leg_m)
     assert got.swing_clearance_for(leg_m) < PlannerOptions().swing_clearance_for(leg_m)
     assert got.mu == 0.4  # the caller's options otherwise
+    # quad12's centre of mass sits 17 mm behind its feet's centroid, on the centre line
+    dx, dy = got.mean_footprint_offset_m
+    assert dx == pytest.approx(-0.0167, abs=1e-3) and dy == pytest.approx(0.0, abs=1e-6)
+    assert stance_com_offset_m(robots.load("hex18")) == pytest.approx((0.0, 0.0), abs=1e-6)
+    walk = in_place_options(PlannerOptions(), quad, halve_clearance=False)
+    assert walk.swing_clearance_m is None  # the walking clearance
     # an explicit clearance and a tighter footprint are the caller's
     kept = in_place_options(PlannerOptions(swing_clearance_m=0.03,
-                                           mean_footprint_leg_lengths=0.005), leg_m)
+                                           mean_footprint_leg_lengths=0.005), quad,
+                            halve_clearance=True)
     assert kept.swing_clearance_m == 0.03 and kept.mean_footprint_leg_lengths == 0.005
-    looser = in_place_options(PlannerOptions(mean_footprint_leg_lengths=0.05), leg_m)
+    looser = in_place_options(PlannerOptions(mean_footprint_leg_lengths=0.05), quad,
+                              halve_clearance=False)
     assert looser.mean_footprint_leg_lengths == IN_PLACE_FOOTPRINT_LEG_LENGTHS
 
 
-@pytest.mark.parametrize("robot", ["quad12", "hex18", str(ZOO / "star5")])
-def test_in_place_choice_only_for_stepping_at_zero_command(robot: str) -> None:
+@pytest.mark.parametrize(("robot", "on_a_line"),
+                         [("quad12", True), ("hex18", False), (str(ZOO / "star5"), False)])
+def test_in_place_choice_only_for_stepping_at_zero_command(robot: str, on_a_line: bool) -> None:
     bot = robots.load(robot)
     options = PlannerOptions()
     stand = make_schedule(bot, "stand")
-    stepping = make_schedule(bot, default_gait_for(bot))
+    stepping = make_schedule(bot, default_gait_for(bot))  # trot, tripod, ripple
     assert not steps(stand) and steps(stepping)
     assert in_place_choice(bot, stand, 0.0, 0.0, 0.0, options) is None
     for moving in ((0.1, 0.0, 0.0), (0.0, 0.05, 0.0), (0.0, 0.0, 0.3)):
         assert in_place_choice(bot, stepping, *moving, options) is None
     chosen = in_place_choice(bot, stepping, 0.0, 0.0, 0.0, options)
-    assert chosen == in_place_options(options, bot.leg_length_m)
+    assert chosen == in_place_options(options, bot, halve_clearance=on_a_line)
+
+
+@pytest.mark.slow
+def test_the_in_place_bounds_shift_the_footprint_and_band_the_base_height() -> None:
+    """`mean_footprint_offset_m` shifts the nominal footprint the constraint is centred on;
+    `base_height_band_leg_lengths` bounds the base height around the stance's."""
+    from planner.nlp.spacetime import GaitPlanner
+
+    quad = robots.load("quad12")
+    base = PlannerOptions(mean_footprint_leg_lengths=0.01)
+    shifted = PlannerOptions(mean_footprint_leg_lengths=0.01, base_height_band_leg_lengths=0.05,
+                             mean_footprint_offset_m=(-0.02, 0.005))
+    planners = [GaitPlanner(quad, n_knots=8, options=o) for o in (base, shifted)]
+    nf = len(quad.legs)
+    for bound in ("_lbg", "_ubg"):
+        rows = [_footprint_rows(p, bound) for p in planners]
+        delta = rows[1] - rows[0]
+        assert delta[:nf] == pytest.approx(-0.02) and delta[nf:] == pytest.approx(0.005)
+    z_lo, z_hi = (planners[1].layout.unpack(b)[0][:, 2] for b in (planners[1]._lbx,
+                                                                    planners[1]._ubx))
+    band_m = 0.05 * quad.leg_length_m
+    assert z_lo == pytest.approx(quad.stance_base_height_m - band_m)
+    assert z_hi == pytest.approx(quad.stance_base_height_m + band_m)
+    assert planners[0].layout.unpack(planners[0]._ubx)[0][0, 2] > 2 * quad.leg_length_m
+
+
+def _footprint_rows(planner: object, bound: str) -> np.ndarray:
+    rows = [s for name, s in planner._slices if name == "mean footprint"]  # type: ignore[attr-defined]
+    assert len(rows) == 1
+    return np.asarray(getattr(planner, bound)[rows[0]])
