@@ -44,8 +44,8 @@ their default gait and options: their commanded gaits passed before.
 
 Stepping in place (a zero command with a schedule that lifts a foot) plans with
 `planner.nlp.command.in_place_options` (`in_place_choice`), for every robot and gait: the
-footprint anchored at the stance shifted under the centre of mass, the base height near the
-stance's, and half the walking swing clearance for a schedule that `tips_on_a_line`
+footprint anchored at the stance (shifted under the centre of mass unless the schedule
+`tips_on_a_line`), the base height near the stance's, and half the walking swing clearance
 (measurements in that module).
 """
 
@@ -168,7 +168,8 @@ def in_place_choice(bot: robots.Robot, schedule: ContactSchedule, vx_m_s: float,
     command is zero and `schedule` steps; None otherwise (a stand, or a moving command)."""
     if (vx_m_s, vy_m_s, yaw_rate_rad_s) != (0.0, 0.0, 0.0) or not steps(schedule):
         return None
-    return in_place_options(options, bot, halve_clearance=schedule_tips_on_a_line(bot, schedule))
+    return in_place_options(options, bot,
+                            centre_under_com=not schedule_tips_on_a_line(bot, schedule))
 
 
 def schedule_tips_on_a_line(bot: robots.Robot, schedule: ContactSchedule) -> bool:

@@ -32,30 +32,31 @@ docs/results/stand_in_place.md), the walking defaults let the robots wander off 
 
 - nothing anchors the footprint when the body does not travel: the optimiser moved the two
   diagonals of quad12's trot apart (FR 112 mm behind its stance position, FL 46 mm ahead),
-  spotmicro's trot likewise (104 mm), so the gait's mean pose differed from the stance by up to
-  36°, the entry ramp (`robots.ramp`, to that mean pose) dragged the standing robot, and the
-  trots drifted 20-24 mm/s or turned 58°. `IN_PLACE_FOOTPRINT_LEG_LENGTHS`: the cycle mean of
-  every foot stays within ±0.01 L of its stance position (the
+  spotmicro's trot likewise (104 mm), quad12's and spotmicro's walks put the hind feet 77-79 mm
+  back, bittle8's trot spread its feet 28-37 mm; the gaits' mean poses differed from the stance
+  by up to 39°, so the entry ramp (`robots.ramp`, to that mean pose) moved the standing robot,
+  and the trots drifted 20-24 mm/s (or turned 58°). `IN_PLACE_FOOTPRINT_LEG_LENGTHS`: the
+  cycle mean of every foot stays within ±0.01 L of its stance position (the
   `PlannerOptions.mean_footprint_leg_lengths` constraint), so the entry moves no foot;
-- that stance position is the robot's nominal one *shifted under the centre of mass*
-  (`stance_com_offset_m`, `PlannerOptions.mean_footprint_offset_m`): quad12's CoM is 17 mm
-  behind its feet's centroid, and anchored at the nominal stance its walk in place tipped
-  towards each swinging hind foot (the CoM near the support triangle's edge) and drifted
-  20 mm/s backwards; centred, 3.6 mm/s. (A footprint centred on the CoM maximises the static
-  margin of a symmetric footprint and puts a trot's diagonals through it.) The entry shifts the
-  body over the planted feet by that offset;
-- with only the footprint, the walk in place rose 40 mm onto straighter legs (mean pose 38°
+- with the footprint alone the walk in place rose 40 mm onto straighter legs (mean pose 38°
   from the stance): `IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS` keeps the base within ±0.05 L of
   the stance height (`PlannerOptions.base_height_band_leg_lengths`);
-- a gait that balances on a support line (`halve_clearance`, the caller's judgement, e.g.
-  `gaitsmith.gait_choice.tips_on_a_line`): quad12's anchored trot still drifted 12-23 mm/s —
-  on each diagonal the body tipped 4.5° towards the free front foot in MuJoCo (planned 0.5°),
-  which landed early. The walking clearance 0.14 L (25 mm) over a 0.19 s swing lifts the foot
-  at up to h·π²/t² ≈ 7 m/s² (the clearance profile h·sin(π·s)); the leg's reaction on a body
-  balanced on two feet is what the open-loop servos do not reproduce. In place the foot
-  travels no stride, so it needs to clear the floor, not scuff across a step:
-  `IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS` = 0.07 L (half; an explicit `swing_clearance_m` is
-  kept) took it to 3-5 mm/s. A walk keeps the walking clearance (halved: 6.0 vs 3.6 mm/s).
+- on each support diagonal quad12's anchored trot tipped 4.5° towards the free front foot in
+  MuJoCo (planned 0.5°), which landed early, and it drifted 12-23 mm/s. The walking clearance
+  0.14 L (25 mm) over a 0.19 s swing lifts the foot at up to h·π²/t² ≈ 7 m/s² (the clearance
+  profile h·sin(π·s)), and the leg's reaction on a body balanced on two feet is what the
+  open-loop servos do not reproduce. In place the foot travels no stride, so it needs to clear
+  the floor, not scuff across a step: `IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS` = 0.07 L (half;
+  an explicit `swing_clearance_m` is kept): quad12 trot 1.4 mm/s, bittle8 trot 2.5 mm/s;
+- a gait that does not balance on a support line (`centre_under_com`: walk, wave, ripple,
+  tripod — the caller's judgement, e.g. not `gaitsmith.gait_choice.tips_on_a_line`) stands on
+  its support polygons, so the footprint's stance position is the nominal one *shifted under
+  the centre of mass* (`stance_com_offset_m`, `PlannerOptions.mean_footprint_offset_m`):
+  quad12's CoM is 17 mm behind its feet's centroid, and at the nominal footprint its walk in
+  place tipped towards each swinging hind foot (the CoM near that triangle's edge) and drifted
+  20 mm/s backwards; centred, 6.0 mm/s (bittle8 4.2 mm/s). The entry ramp then shifts the body
+  over the planted feet by that offset. The trots are not centred: measured, centring made
+  them drift more (quad12 2.9 vs 1.4 mm/s, bittle8 7.4 vs 2.5 mm/s).
 """
 
 from __future__ import annotations
@@ -125,11 +126,11 @@ def stance_com_offset_m(robot: Robot) -> tuple[float, float]:
 
 
 def in_place_options(options: PlannerOptions, robot: Robot, *,
-                     halve_clearance: bool) -> PlannerOptions:
+                     centre_under_com: bool) -> PlannerOptions:
     """`options` for stepping in place (zero command, feet stepping; module docstring): each
-    foot's cycle mean within ±0.01 L of its stance position shifted under the centre of mass,
-    the base height within ±0.05 L of the stance's, and with `halve_clearance` (a gait that
-    balances on a support line) half the walking swing clearance. An explicit
+    foot's cycle mean within ±0.01 L of its stance position (shifted under the centre of mass
+    with `centre_under_com`, for gaits that stand on support polygons), the base height within
+    ±0.05 L of the stance's and half the walking swing clearance. An explicit
     `swing_clearance_m`, or a tighter footprint or height band, is kept."""
     leg_m = robot.leg_length_m
     footprint = options.mean_footprint_leg_lengths
@@ -139,10 +140,10 @@ def in_place_options(options: PlannerOptions, robot: Robot, *,
     if band is None or band > IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS:
         band = IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS
     clearance = options.swing_clearance_m
-    if clearance is None and halve_clearance:
+    if clearance is None:
         clearance = IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS * leg_m
-    return replace(options, mean_footprint_leg_lengths=footprint,
-                   mean_footprint_offset_m=stance_com_offset_m(robot),
+    offset = stance_com_offset_m(robot) if centre_under_com else options.mean_footprint_offset_m
+    return replace(options, mean_footprint_leg_lengths=footprint, mean_footprint_offset_m=offset,
                    swing_clearance_m=clearance, base_height_band_leg_lengths=band)
 
 

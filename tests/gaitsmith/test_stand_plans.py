@@ -66,7 +66,7 @@ def test_speed_zero_plans_pass_mujoco(robot: str, extra: list[str], tmp_path: Pa
 def test_in_place_options_anchor_footprint_and_height_under_the_centre_of_mass() -> None:
     quad = robots.load("quad12")
     leg_m = quad.leg_length_m
-    got = in_place_options(PlannerOptions(mu=0.4), quad, halve_clearance=True)
+    got = in_place_options(PlannerOptions(mu=0.4), quad, centre_under_com=True)
     assert got.mean_footprint_leg_lengths == IN_PLACE_FOOTPRINT_LEG_LENGTHS
     assert got.base_height_band_leg_lengths == IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS
     assert got.swing_clearance_for(leg_m) == pytest.approx(
@@ -77,15 +77,15 @@ def test_in_place_options_anchor_footprint_and_height_under_the_centre_of_mass()
     dx, dy = got.mean_footprint_offset_m
     assert dx == pytest.approx(-0.0167, abs=1e-3) and dy == pytest.approx(0.0, abs=1e-6)
     assert stance_com_offset_m(robots.load("hex18")) == pytest.approx((0.0, 0.0), abs=1e-6)
-    walk = in_place_options(PlannerOptions(), quad, halve_clearance=False)
-    assert walk.swing_clearance_m is None  # the walking clearance
+    trot = in_place_options(PlannerOptions(), quad, centre_under_com=False)
+    assert trot.mean_footprint_offset_m == (0.0, 0.0)  # the nominal footprint
     # an explicit clearance and a tighter footprint are the caller's
     kept = in_place_options(PlannerOptions(swing_clearance_m=0.03,
                                            mean_footprint_leg_lengths=0.005), quad,
-                            halve_clearance=True)
+                            centre_under_com=True)
     assert kept.swing_clearance_m == 0.03 and kept.mean_footprint_leg_lengths == 0.005
     looser = in_place_options(PlannerOptions(mean_footprint_leg_lengths=0.05), quad,
-                              halve_clearance=False)
+                              centre_under_com=False)
     assert looser.mean_footprint_leg_lengths == IN_PLACE_FOOTPRINT_LEG_LENGTHS
 
 
@@ -101,7 +101,7 @@ def test_in_place_choice_only_for_stepping_at_zero_command(robot: str, on_a_line
     for moving in ((0.1, 0.0, 0.0), (0.0, 0.05, 0.0), (0.0, 0.0, 0.3)):
         assert in_place_choice(bot, stepping, *moving, options) is None
     chosen = in_place_choice(bot, stepping, 0.0, 0.0, 0.0, options)
-    assert chosen == in_place_options(options, bot, halve_clearance=on_a_line)
+    assert chosen == in_place_options(options, bot, centre_under_com=not on_a_line)
 
 
 @pytest.mark.slow
