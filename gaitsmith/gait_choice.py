@@ -45,8 +45,7 @@ their default gait and options: their commanded gaits passed before.
 Stepping in place (a zero command with a schedule that lifts a foot) plans with
 `planner.nlp.command.in_place_options` (`in_place_choice`), for every robot and gait: the
 footprint anchored at the stance (shifted under the centre of mass unless the schedule
-`tips_on_a_line`), the base height near the stance's, and half the walking swing clearance
-(measurements in that module).
+`tips_on_a_line`) and half the walking swing clearance (measurements in that module).
 """
 
 from __future__ import annotations

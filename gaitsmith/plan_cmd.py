@@ -191,8 +191,7 @@ def plan(
                  if (dx, dy) != (0.0, 0.0) else "")
         console.print(
             f"stepping in place: each foot's cycle mean within "
-            f"{in_place.mean_footprint_leg_lengths:g} L of its stance position{shift}, base "
-            f"height within {in_place.base_height_band_leg_lengths:g} L of the stance, swing "
+            f"{in_place.mean_footprint_leg_lengths:g} L of its stance position{shift}, swing "
             f"clearance {in_place.swing_clearance_for(bot.leg_length_m) * 1000:.1f} mm")
     command = f"{speed:.3f} m/s" + (
         f", vy {vy:+.3f} m/s, yaw rate {yaw_rate:+.3f} rad/s" if vy or yaw_rate else "")

@@ -38,9 +38,6 @@ docs/results/stand_in_place.md), the walking defaults let the robots wander off 
   and the trots drifted 20-24 mm/s (or turned 58°). `IN_PLACE_FOOTPRINT_LEG_LENGTHS`: the
   cycle mean of every foot stays within ±0.01 L of its stance position (the
   `PlannerOptions.mean_footprint_leg_lengths` constraint), so the entry moves no foot;
-- with the footprint alone the walk in place rose 40 mm onto straighter legs (mean pose 38°
-  from the stance): `IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS` keeps the base within ±0.05 L of
-  the stance height (`PlannerOptions.base_height_band_leg_lengths`);
 - on each support diagonal quad12's anchored trot tipped 4.5° towards the free front foot in
   MuJoCo (planned 0.5°), which landed early, and it drifted 12-23 mm/s. The walking clearance
   0.14 L (25 mm) over a 0.19 s swing lifts the foot at up to h·π²/t² ≈ 7 m/s² (the clearance
@@ -54,9 +51,13 @@ docs/results/stand_in_place.md), the walking defaults let the robots wander off 
   the centre of mass* (`stance_com_offset_m`, `PlannerOptions.mean_footprint_offset_m`):
   quad12's CoM is 17 mm behind its feet's centroid, and at the nominal footprint its walk in
   place tipped towards each swinging hind foot (the CoM near that triangle's edge) and drifted
-  20 mm/s backwards; centred, 6.0 mm/s (bittle8 4.2 mm/s). The entry ramp then shifts the body
-  over the planted feet by that offset. The trots are not centred: measured, centring made
-  them drift more (quad12 2.9 vs 1.4 mm/s, bittle8 7.4 vs 2.5 mm/s).
+  20 mm/s backwards; centred, 0.8 mm/s. The entry ramp then shifts the body over the planted
+  feet by that offset. The trots are not centred: measured, centring made them drift more
+  (quad12 2.9 vs 1.4 mm/s, bittle8 7.4 vs 2.5 mm/s).
+
+The base height is left free (above `min_base_height_fraction`): a band of ±0.05 L around the
+stance's (tried, 2026-12-02) made bittle8's trot drift 7.7 instead of 2.5 mm/s (it crouches
+16 mm when free) and quad12's walk 5.9 instead of 0.8 mm/s (it rises 37 mm when free).
 """
 
 from __future__ import annotations
@@ -87,8 +88,6 @@ _SMALL_ANGLE = 1e-6
 #: stance position, and the swing clearance this · L (half `SWING_CLEARANCE_LEG_LENGTHS`)
 IN_PLACE_FOOTPRINT_LEG_LENGTHS = 0.01
 IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS = 0.07
-#: … and the base height within ± this · L of the stance height at every knot
-IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS = 0.05
 
 
 @dataclass(frozen=True)
@@ -129,22 +128,18 @@ def in_place_options(options: PlannerOptions, robot: Robot, *,
                      centre_under_com: bool) -> PlannerOptions:
     """`options` for stepping in place (zero command, feet stepping; module docstring): each
     foot's cycle mean within ±0.01 L of its stance position (shifted under the centre of mass
-    with `centre_under_com`, for gaits that stand on support polygons), the base height within
-    ±0.05 L of the stance's and half the walking swing clearance. An explicit
-    `swing_clearance_m`, or a tighter footprint or height band, is kept."""
+    with `centre_under_com`, for gaits that stand on support polygons) and half the walking
+    swing clearance. An explicit `swing_clearance_m`, or a tighter footprint, is kept."""
     leg_m = robot.leg_length_m
     footprint = options.mean_footprint_leg_lengths
     if footprint is None or footprint > IN_PLACE_FOOTPRINT_LEG_LENGTHS:
         footprint = IN_PLACE_FOOTPRINT_LEG_LENGTHS
-    band = options.base_height_band_leg_lengths
-    if band is None or band > IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS:
-        band = IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS
     clearance = options.swing_clearance_m
     if clearance is None:
         clearance = IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS * leg_m
     offset = stance_com_offset_m(robot) if centre_under_com else options.mean_footprint_offset_m
     return replace(options, mean_footprint_leg_lengths=footprint, mean_footprint_offset_m=offset,
-                   swing_clearance_m=clearance, base_height_band_leg_lengths=band)
+                   swing_clearance_m=clearance)
 
 
 def check_command(vy_m_s: float, yaw_rate_rad_s: float, period_s: float, n_knots: int) -> None:
@@ -249,7 +244,6 @@ class MotionSymbols:
 
 
 __all__ = [
-    "IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS",
     "IN_PLACE_FOOTPRINT_LEG_LENGTHS",
     "IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS",
     "N_MOTION_PARAMETERS",

@@ -123,11 +123,6 @@ class PlannerOptions:
     - `max_tilt_rad`: bounds on base roll, pitch and yaw.
     - `min_base_height_fraction`: base height ≥ this × the robot's nominal stance height, so
       the optimiser cannot save torque by crouching the body onto the ground.
-    - `base_height_band_leg_lengths`: None (default) or b/L > 0: the base height stays within
-      ±b of the nominal stance height at every knot (and above `min_base_height_fraction`).
-      Stepping in place uses it (`planner.nlp.command.in_place_options`): anchored footprint
-      or not, quad12's walk in place rose 40 mm onto straighter legs (mean pose 38° from the
-      stance), and the entry ramp to that pose pushed the robot off its spot.
     - `joint_limit_margin_rad`, `joint_limit_margin_fraction`: keep every joint (planned
       angle and servo goal) off its limits by max(margin_rad, fraction × range), at most a
       quarter of the range — no plan parks a joint on its stop. The closest approach of each
@@ -190,7 +185,6 @@ class PlannerOptions:
     body_clearance_m: float | None = None
     max_tilt_rad: float = 0.35
     min_base_height_fraction: float = 0.8
-    base_height_band_leg_lengths: float | None = None
     joint_limit_margin_rad: float = 0.02
     joint_limit_margin_fraction: float = 0.02
     max_force_body_weights: float = 3.0
@@ -218,8 +212,6 @@ class PlannerOptions:
             "body_clearance_m": self.body_clearance_m is None or 0 <= self.body_clearance_m < 1,
             "max_tilt_rad": 0 < self.max_tilt_rad < 1.5,
             "min_base_height_fraction": 0 <= self.min_base_height_fraction < 1.5,
-            "base_height_band_leg_lengths": self.base_height_band_leg_lengths is None
-            or 0 < self.base_height_band_leg_lengths < 1,
             "joint_limit_margin_rad": 0 <= self.joint_limit_margin_rad < 0.5,
             "joint_limit_margin_fraction": 0 <= self.joint_limit_margin_fraction <= 0.25,
             "max_force_body_weights": self.max_force_body_weights > 0,

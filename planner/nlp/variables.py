@@ -260,19 +260,13 @@ def swing_height_profile(schedule: ContactSchedule, n_knots: int, clearance_m: f
 def variable_bounds(
     layout: Layout, model: RobotModel, options: PlannerOptions
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Box bounds: joint limits (minus a margin), held joints fixed at stance, tilt, base height
-    (≥ `min_base_height_fraction`, or within `base_height_band_leg_lengths` of the stance),
-    unilateral normal force f_z ≥ 0."""
+    """Box bounds: joint limits (minus a margin), held joints fixed at stance, tilt, unilateral
+    normal force f_z ≥ 0."""
     n = layout.n_knots
     tilt, inf = options.max_tilt_rad, np.inf
     z_min = options.min_base_height_fraction * model.robot.stance_base_height_m
-    z_max = 2.0 * model.robot.leg_length_m + 0.5
-    if options.base_height_band_leg_lengths is not None:  # stepping in place: near the stance
-        band_m = options.base_height_band_leg_lengths * model.robot.leg_length_m
-        z_min = max(z_min, model.robot.stance_base_height_m - band_m)
-        z_max = model.robot.stance_base_height_m + band_m
     base_lo = np.tile([-inf, -inf, z_min, -tilt, -tilt, -tilt], (n, 1))
-    base_hi = np.tile([inf, inf, z_max, tilt, tilt, tilt], (n, 1))
+    base_hi = np.tile([inf, inf, 2.0 * model.robot.leg_length_m + 0.5, tilt, tilt, tilt], (n, 1))
     lo, hi = model.joint_limits_rad()
     margin = options.joint_limit_margins_rad(lo, hi)
     q_lo, q_hi = np.tile(lo + margin, (n, 1)), np.tile(hi - margin, (n, 1))

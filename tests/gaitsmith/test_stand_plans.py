@@ -16,7 +16,6 @@ import robots
 from gaitsmith.cli import main
 from gaitsmith.gait_choice import in_place_choice, steps
 from planner.nlp.command import (
-    IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS,
     IN_PLACE_FOOTPRINT_LEG_LENGTHS,
     IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS,
     in_place_options,
@@ -68,7 +67,6 @@ def test_in_place_options_anchor_footprint_and_height_under_the_centre_of_mass()
     leg_m = quad.leg_length_m
     got = in_place_options(PlannerOptions(mu=0.4), quad, centre_under_com=True)
     assert got.mean_footprint_leg_lengths == IN_PLACE_FOOTPRINT_LEG_LENGTHS
-    assert got.base_height_band_leg_lengths == IN_PLACE_BASE_HEIGHT_BAND_LEG_LENGTHS
     assert got.swing_clearance_for(leg_m) == pytest.approx(
         IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS * leg_m)
     assert got.swing_clearance_for(leg_m) < PlannerOptions().swing_clearance_for(leg_m)
@@ -105,14 +103,13 @@ def test_in_place_choice_only_for_stepping_at_zero_command(robot: str, on_a_line
 
 
 @pytest.mark.slow
-def test_the_in_place_bounds_shift_the_footprint_and_band_the_base_height() -> None:
-    """`mean_footprint_offset_m` shifts the nominal footprint the constraint is centred on;
-    `base_height_band_leg_lengths` bounds the base height around the stance's."""
+def test_the_footprint_offset_shifts_the_mean_footprint_bounds() -> None:
+    """`mean_footprint_offset_m` shifts the nominal footprint the constraint is centred on."""
     from planner.nlp.spacetime import GaitPlanner
 
     quad = robots.load("quad12")
     base = PlannerOptions(mean_footprint_leg_lengths=0.01)
-    shifted = PlannerOptions(mean_footprint_leg_lengths=0.01, base_height_band_leg_lengths=0.05,
+    shifted = PlannerOptions(mean_footprint_leg_lengths=0.01,
                              mean_footprint_offset_m=(-0.02, 0.005))
     planners = [GaitPlanner(quad, n_knots=8, options=o) for o in (base, shifted)]
     nf = len(quad.legs)
@@ -120,12 +117,6 @@ def test_the_in_place_bounds_shift_the_footprint_and_band_the_base_height() -> N
         rows = [_footprint_rows(p, bound) for p in planners]
         delta = rows[1] - rows[0]
         assert delta[:nf] == pytest.approx(-0.02) and delta[nf:] == pytest.approx(0.005)
-    z_lo, z_hi = (planners[1].layout.unpack(b)[0][:, 2] for b in (planners[1]._lbx,
-                                                                    planners[1]._ubx))
-    band_m = 0.05 * quad.leg_length_m
-    assert z_lo == pytest.approx(quad.stance_base_height_m - band_m)
-    assert z_hi == pytest.approx(quad.stance_base_height_m + band_m)
-    assert planners[0].layout.unpack(planners[0]._ubx)[0][0, 2] > 2 * quad.leg_length_m
 
 
 def _footprint_rows(planner: object, bound: str) -> np.ndarray:
