@@ -53,7 +53,7 @@ docs/results/stand_in_place.md), the walking defaults let the robots wander off 
   place tipped towards each swinging hind foot (the CoM near that triangle's edge) and drifted
   20 mm/s backwards; centred, 0.8 mm/s. The entry ramp then shifts the body over the planted
   feet by that offset. The trots are not centred: measured, centring made them drift more
-  (quad12 2.9 vs 1.4 mm/s, bittle8 7.4 vs 2.5 mm/s).
+  (quad12 3.4 vs 1.4 mm/s and 64 vs 22 mm over the run, bittle8 3.9 vs 2.5 mm/s).
 
 The base height is left free (above `min_base_height_fraction`): a band of ±0.05 L around the
 stance's (tried, 2026-12-02) made bittle8's trot drift 7.7 instead of 2.5 mm/s (it crouches
