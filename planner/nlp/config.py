@@ -167,6 +167,9 @@ class PlannerOptions:
       by that much before the first step (`gaitsmith.gait_choice.commanded_gait`). The mean, not
       every knot (TOWR's range-of-motion box, Winkler et al. 2018), so strides of any length
       stay possible.
+    - `mean_footprint_offset_m`: (dx, dy) added to every foot's nominal position in that
+      constraint (base frame): stepping in place centres the footprint under the centre of mass
+      (`planner.nlp.command.in_place_options`).
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
       "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
@@ -192,6 +195,7 @@ class PlannerOptions:
     nondimensional: bool = False
     static_margin_leg_lengths: float | None = None
     mean_footprint_leg_lengths: float | None = None
+    mean_footprint_offset_m: tuple[float, float] = (0.0, 0.0)
     tol: float = 1e-6
     max_iter: int = 150
     print_level: int = 0
@@ -215,6 +219,8 @@ class PlannerOptions:
             or 0 < self.static_margin_leg_lengths < 1,
             "mean_footprint_leg_lengths": self.mean_footprint_leg_lengths is None
             or 0 < self.mean_footprint_leg_lengths < 2,
+            "mean_footprint_offset_m": len(self.mean_footprint_offset_m) == 2
+            and all(math.isfinite(v) and abs(v) < 1 for v in self.mean_footprint_offset_m),
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
