@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planner.errors import PlannerConfigError
+from planner.nlp.contact_margin import CAPTURE_SOLE_FRACTION, COP_SOLE_FRACTION
 from robots.servo_params import ServoSetting
 
 #: Scaling laws with the leg length L (see the module docstring).
@@ -167,6 +168,12 @@ class PlannerOptions:
       by that much before the first step (`gaitsmith.gait_choice.commanded_gait`). The mean, not
       every knot (TOWR's range-of-motion box, Winkler et al. 2018), so strides of any length
       stay possible.
+    - `cop_sole_fraction`: a flat foot's contact wrench stays in the cone of its sole shrunk
+      about the centre to this share of its half extents — a centre-of-pressure and
+      torsional-friction margin (`planner.nlp.contact_margin`; 1: the whole sole).
+    - `capture_sole_fraction`: None or s: in single support on a flat foot the instantaneous
+      capture point stays inside that sole shrunk to s of its half extents
+      (`planner.nlp.capture_margin`).
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
       "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
@@ -192,6 +199,8 @@ class PlannerOptions:
     nondimensional: bool = False
     static_margin_leg_lengths: float | None = None
     mean_footprint_leg_lengths: float | None = None
+    cop_sole_fraction: float = COP_SOLE_FRACTION
+    capture_sole_fraction: float | None = CAPTURE_SOLE_FRACTION
     tol: float = 1e-6
     max_iter: int = 150
     print_level: int = 0
@@ -215,6 +224,9 @@ class PlannerOptions:
             or 0 < self.static_margin_leg_lengths < 1,
             "mean_footprint_leg_lengths": self.mean_footprint_leg_lengths is None
             or 0 < self.mean_footprint_leg_lengths < 2,
+            "cop_sole_fraction": 0 < self.cop_sole_fraction <= 1,
+            "capture_sole_fraction": self.capture_sole_fraction is None
+            or 0 < self.capture_sole_fraction <= 1,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
