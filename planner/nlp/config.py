@@ -27,7 +27,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planner.errors import PlannerConfigError
-from planner.nlp.contact_margin import CAPTURE_SOLE_FRACTION, COP_SOLE_FRACTION
+from planner.nlp.contact_margin import (
+    CAPTURE_SOLE_FRACTION,
+    COP_SOLE_FRACTION,
+    FLAT_MEAN_FOOTPRINT_LEG_LENGTHS,
+)
 from robots.servo_params import ServoSetting
 
 #: Scaling laws with the leg length L (see the module docstring).
@@ -174,6 +178,9 @@ class PlannerOptions:
     - `capture_sole_fraction`: None or s: in single support on a flat foot the instantaneous
       capture point stays inside that sole shrunk to s of its half extents
       (`planner.nlp.capture_margin`).
+    - `flat_mean_footprint_leg_lengths`: None or t/L: a robot with flat feet gets the "mean
+      footprint" rows at this t when `mean_footprint_leg_lengths` is None
+      (`planner.nlp.contact_margin`: without them the biped's plans limp).
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
       "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
@@ -201,6 +208,7 @@ class PlannerOptions:
     mean_footprint_leg_lengths: float | None = None
     cop_sole_fraction: float = COP_SOLE_FRACTION
     capture_sole_fraction: float | None = CAPTURE_SOLE_FRACTION
+    flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
     tol: float = 1e-6
     max_iter: int = 150
     print_level: int = 0
@@ -227,6 +235,8 @@ class PlannerOptions:
             "cop_sole_fraction": 0 < self.cop_sole_fraction <= 1,
             "capture_sole_fraction": self.capture_sole_fraction is None
             or 0 < self.capture_sole_fraction <= 1,
+            "flat_mean_footprint_leg_lengths": self.flat_mean_footprint_leg_lengths is None
+            or 0 < self.flat_mean_footprint_leg_lengths < 2,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
