@@ -31,7 +31,10 @@ from __future__ import annotations
 COP_SOLE_FRACTION = 1.0
 #: default share of the half extents the capture point may use in single support
 #: (`planner.nlp.capture_margin`; None: no capture rows)
-CAPTURE_SOLE_FRACTION: float | None = 0.8
+CAPTURE_SOLE_FRACTION: float | None = 1.0
+#: flat-foot robots: the cycle-mean footprint within ±t·L of the nominal stance (the rows of
+#: `PlannerOptions.mean_footprint_leg_lengths`); None: not anchored
+FLAT_MEAN_FOOTPRINT_LEG_LENGTHS: float | None = 0.05
 
 
 def shrunk_half_extents(

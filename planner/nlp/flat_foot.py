@@ -246,6 +246,7 @@ def flat_foot_groups(
         capture = [group("capture margin", rows, zeros(size), np.full(size, inf),
                          model.robot.leg_length_m)]
     return [
+        *_anchored_footprint(model, sym, n, options),
         group(
             "sole level",
             ca.vertcat(ca.vec(c * normal[0::2, :]), ca.vec(c * normal[1::2, :])),
@@ -267,6 +268,21 @@ def flat_foot_groups(
         ),
         *capture,
     ]
+
+
+def _anchored_footprint(model: RobotModel, sym: Any, n_knots: int,
+                        options: PlannerOptions) -> list[Any]:
+    """The "mean footprint" rows (`PlannerOptions.mean_footprint_leg_lengths`) at
+    `PlannerOptions.flat_mean_footprint_leg_lengths` for a robot with flat feet, unless the
+    option already asks for them (`planner.nlp.contact_margin`: the limping optimum)."""
+    t = options.flat_mean_footprint_leg_lengths
+    if t is None or options.mean_footprint_leg_lengths is not None:
+        return []
+    from planner.nlp.constraints import _mean_footprint_groups  # it imports this module
+
+    return _mean_footprint_groups(
+        model, sym, n_knots, dataclasses.replace(options, mean_footprint_leg_lengths=t)
+    )
 
 
 def flat_foot_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:

@@ -334,7 +334,8 @@ def test_capture_point_is_the_com_plus_its_velocity_over_omega(biped_model: Robo
     schedule = make_schedule(model.robot, "biped_walk")
     p = parameter_vector(schedule, n, speed, 0.03)
     xi = np.asarray(fn(x, p))
-    com = np.array([np.asarray(model.fk(b[:3], b[3:], qk)[2]).ravel() for b, qk in zip(base, q)])
+    com = np.array([np.asarray(model.fk(b[:3], b[3:], qk)[2]).ravel()
+                    for b, qk in zip(base, q, strict=True)])
     h = schedule.period_s / n
     vel = (np.roll(com, -1, axis=0) - np.roll(com, 1, axis=0)) / (2 * h)
     vel[:, 0] += speed
