@@ -341,3 +341,28 @@ def test_capture_point_is_the_com_plus_its_velocity_over_omega(biped_model: Robo
     vel[:, 0] += speed
     expected = com[:, :2] + vel[:, :2] * np.sqrt(com[:, 2:3] / 9.81)
     np.testing.assert_allclose(xi.T, expected, atol=1e-9)
+
+
+def test_margins_are_off_by_default_and_add_their_rows_when_asked(biped_model: RobotModel) -> None:
+    """Default options: the flat-foot groups of main (no capture or footprint rows, the CWC of
+    the whole sole); the options add the capture rows (±y per flat foot and knot, labelled) and
+    the mean-footprint rows."""
+    from planner.nlp.config import PlannerOptions
+    from planner.nlp.constraints import Group
+    from planner.nlp.flat_foot import flat_foot_groups, flat_foot_labels
+    from planner.nlp.variables import Layout, make_symbols
+
+    model, n = biped_model, 8
+    sym = make_symbols(Layout(n, model.n_joints, model.n_feet, len(model.flat_feet)))
+    stick = ca.DM.ones(model.n_feet, n)
+    default = flat_foot_groups(model, sym, n, PlannerOptions(), stick, Group)
+    assert [g.name for g in default] == [
+        "sole level", "sole yaw hold", "sole clearance", "contact wrench cone"
+    ]
+    asked = PlannerOptions(capture_sole_fraction=0.8, flat_mean_footprint_leg_lengths=0.05)
+    groups = {g.name: g for g in flat_foot_groups(model, sym, n, asked, stick, Group)}
+    assert groups["capture margin"].expr.shape[0] == 2 * 2 * n
+    assert len(flat_foot_labels(model, n)["capture margin"]) == 2 * 2 * n
+    assert groups["mean footprint"].expr.shape[0] == 2 * model.n_feet
+    with pytest.raises(Exception, match="capture_sole_fraction"):
+        PlannerOptions(capture_sole_fraction=1.5)
