@@ -176,11 +176,12 @@ class PlannerOptions:
       about the centre to this share of its half extents — a centre-of-pressure and
       torsional-friction margin (`planner.nlp.contact_margin`; 1: the whole sole).
     - `capture_sole_fraction`: None or s: in single support on a flat foot the instantaneous
-      capture point stays inside that sole shrunk to s of its half extents
-      (`planner.nlp.capture_margin`).
+      capture point stays within s half widths of the stance sole's centre line (lateral;
+      `planner.nlp.capture_margin`).
     - `flat_mean_footprint_leg_lengths`: None or t/L: a robot with flat feet gets the "mean
-      footprint" rows at this t when `mean_footprint_leg_lengths` is None
-      (`planner.nlp.contact_margin`: without them the biped's plans limp).
+      footprint" rows at this t when `mean_footprint_leg_lengths` is None (some biped plans
+      limp without them, docs/results/biped_walk_robustness.md).
+    All three are off by default (`planner.nlp.contact_margin` says why).
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
       "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
