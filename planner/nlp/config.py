@@ -35,7 +35,7 @@ BODY_CLEARANCE_LEG_LENGTHS = 0.17
 DEFAULT_FROUDE = 0.035
 GRAVITY_M_S2 = 9.81
 #: values of `PlannerOptions.derivatives`
-DERIVATIVE_PATHS = ("knot", "expanded")
+DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 
 
 def speed_for_froude(froude: float, leg_length_m: float) -> float:

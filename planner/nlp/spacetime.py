@@ -48,8 +48,8 @@ from planner.nlp.solver_cache import (
     ALL_DIRECTIONS,
     CacheOutcome,
     KnotDerivatives,
-    cached_jacobian_and_hessian,
     directions_path,
+    knot_jacobian_and_hessian,
     load_directions,
     save_directions,
     used_directions,
@@ -165,9 +165,11 @@ class GaitPlanner:
         self.knot_derivatives: KnotDerivatives | None = None
         self.derivative_cache: CacheOutcome | None = None
         knot, plain = None, None
-        if self.options.derivatives == "knot":
+        if self.options.derivatives in ("knot", "compiled"):
             plain = knot_function(self.model)
-            jac, hess, self.derivative_cache = cached_jacobian_and_hessian(plain)
+            jac, hess, self.derivative_cache = knot_jacobian_and_hessian(
+                plain, self.options.derivatives
+            )
             directions = directions_path(plain, n_knots, self.options)
             known = load_directions(directions)
             forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)
