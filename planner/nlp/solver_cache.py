@@ -247,14 +247,23 @@ def _gaitsmith_version() -> str:
         return "unknown"
 
 
+#: the last knot function keyed and its key (a build asks for it three times; serialising and
+#: hashing a robot's knot costs ~0.1 s each). Holding the function keeps its identity unique.
+_last_key: list[tuple[ca.Function, str]] = []
+
+
 def knot_cache_key(knot: ca.Function) -> str:
     """Hex key of the knot's J and H: its serialised SX graph (robot model), casadi and gaitsmith
     versions and `CACHE_FORMAT`."""
+    if _last_key and _last_key[0][0] is knot:
+        return _last_key[0][1]
     digest = hashlib.sha256()
     for part in (CACHE_FORMAT, ca.CasadiMeta.version(), _gaitsmith_version()):
         digest.update(part.encode() + b"\0")
     digest.update(knot.serialize().encode())
-    return digest.hexdigest()[:32]
+    key = digest.hexdigest()[:32]
+    _last_key[:] = [(knot, key)]
+    return key
 
 
 def cache_path(knot: ca.Function, directory: Path | None = None) -> Path:
@@ -368,6 +377,42 @@ def save_directions(path: Path, forward: tuple[int, ...], second: tuple[int, ...
         pass
 
 
+def _compiled_entry(
+    knot: ca.Function, compiler: compiled_knot.Compiler, directory: Path | None
+) -> compiled_knot.CompiledEntry:
+    n_u = sum(knot.sparsity_in(i).numel() for i in range(knot.n_in()))
+    n_y = sum(knot.sparsity_out(i).numel() for i in range(knot.n_out()))
+    return compiled_knot.compiled_entry(
+        knot_cache_key(knot), compiler, directory or cache_dir(), n_u, n_y
+    )
+
+
+def compiled_jacobian_and_hessian(
+    knot: ca.Function,
+    directory: Path | None = None,
+    compiler: compiled_knot.Compiler | None = None,
+) -> tuple[ca.Function, ca.Function, CacheOutcome]:
+    """The compiled J and H of one knot (`planner.nlp.compiled_knot`): loaded from the cache, or
+    compiled now (minutes) from the SX entry if missing or not intact. `compiler`: default the
+    one `compiled_knot.find_compiler` finds with the default flags. Raises `CompileError` (no
+    compiler, the compiler failed) or `OutputWriteError` (cache folder not writable)."""
+    compiler = compiler or compiled_knot.find_compiler()
+    if compiler is None:
+        raise compiled_knot.CompileError(
+            "no C compiler found (gcc, cc or $GAITSMITH_CC) to compile the knot derivatives"
+        )
+    entry = _compiled_entry(knot, compiler, directory)
+    loaded = compiled_knot.load_compiled(entry)
+    if loaded is not None:
+        return (*loaded, CacheOutcome(entry.library, "hit", compiled=True))
+    status = "rebuilt" if entry.library.exists() or entry.manifest.exists() else "built"
+    jacobian, hessian, _ = cached_jacobian_and_hessian(knot, directory)
+    jacobian, hessian = compiled_knot.compile_jacobian_and_hessian(
+        entry, jacobian, hessian, compiler
+    )
+    return jacobian, hessian, CacheOutcome(entry.library, status, compiled=True)
+
+
 def knot_jacobian_and_hessian(
     knot: ca.Function, derivatives: str = "knot", directory: Path | None = None
 ) -> tuple[ca.Function, ca.Function, CacheOutcome]:
@@ -379,31 +424,15 @@ def knot_jacobian_and_hessian(
     - "compiled": the compiled entry, compiled now (minutes) if missing or not intact; with no C
       compiler or a failed compile, a one-line warning and the SX entry.
     """
-    folder = directory or cache_dir()
     compiler = compiled_knot.find_compiler()
-    entry = None
-    if compiler is not None:
-        n_u = sum(knot.sparsity_in(i).numel() for i in range(knot.n_in()))
-        n_y = sum(knot.sparsity_out(i).numel() for i in range(knot.n_out()))
-        entry = compiled_knot.compiled_entry(knot_cache_key(knot), compiler, folder, n_u, n_y)
+    if compiler is not None and derivatives != "compiled":
+        entry = _compiled_entry(knot, compiler, directory)
         loaded = compiled_knot.load_compiled(entry)
         if loaded is not None:
             return (*loaded, CacheOutcome(entry.library, "hit", compiled=True))
-    jacobian, hessian, outcome = cached_jacobian_and_hessian(knot, directory)
-    if derivatives != "compiled":
-        return jacobian, hessian, outcome
-    if compiler is None or entry is None:
-        compiled_knot.warn(
-            "no C compiler found (gcc, cc or $GAITSMITH_CC): planning with the uncompiled knot "
-            "derivatives"
-        )
-        return jacobian, hessian, outcome
-    status = "rebuilt" if entry.library.exists() or entry.manifest.exists() else "built"
-    try:
-        jacobian, hessian = compiled_knot.compile_jacobian_and_hessian(
-            entry, jacobian, hessian, compiler
-        )
-    except (compiled_knot.CompileError, OutputWriteError) as exc:
-        compiled_knot.warn(f"{exc}; planning with the uncompiled knot derivatives")
-        return jacobian, hessian, outcome
-    return jacobian, hessian, CacheOutcome(entry.library, status, compiled=True)
+    if derivatives == "compiled":
+        try:
+            return compiled_jacobian_and_hessian(knot, directory, compiler)
+        except (compiled_knot.CompileError, OutputWriteError) as exc:
+            compiled_knot.warn(f"{exc}; planning with the uncompiled knot derivatives")
+    return cached_jacobian_and_hessian(knot, directory)
