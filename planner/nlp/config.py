@@ -171,8 +171,10 @@ class PlannerOptions:
     - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
       "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
       (`planner.nlp.solver_cache`): builds in a fraction of the time; "expanded" — the whole NLP
-      expanded to SX and differentiated (the path before issue #16). See
-      docs/results/planner_speed.md for the measured build and solve times.
+      expanded to SX and differentiated (the path before issue #16); "compiled" — "knot" with
+      J and H compiled to C once per robot (`planner.nlp.compiled_knot`: minutes the first time,
+      then faster solves; "knot" uses a compiled entry it finds in the cache). See
+      docs/results/planner_speed.md and planner_speed_compiled.md for the measured times.
     """
 
     mu: float = 0.5

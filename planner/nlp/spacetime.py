@@ -12,8 +12,9 @@ dual solution with IPOPT's ``warm_start_init_point``.
 
 IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the NLP un-expanded and
 hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
-"expanded" expands the whole NLP to SX (slow build). Same optimum; see
-docs/results/planner_speed.md.
+"expanded" expands the whole NLP to SX (slow build); "compiled" is "knot" with J and H compiled
+to C once per robot (`planner.nlp.compiled_knot`; "knot" picks a compiled entry up). Same
+optimum; see docs/results/planner_speed.md and planner_speed_compiled.md.
 """
 
 from __future__ import annotations
