@@ -247,23 +247,26 @@ def _gaitsmith_version() -> str:
         return "unknown"
 
 
-#: the last knot function keyed and its key (a build asks for it three times; serialising and
-#: hashing a robot's knot costs ~0.1 s each). Holding the function keeps its identity unique.
-_last_key: list[tuple[ca.Function, str]] = []
+#: the last knot function hashed and the SHA-256 of its serialised form (a build asks for the
+#: key three times; serialising and hashing a robot's knot costs ~0.1 s each). Holding the
+#: function keeps its identity unique; CasADi functions are immutable.
+_last_digest: list[tuple[ca.Function, bytes]] = []
+
+
+def _knot_digest(knot: ca.Function) -> bytes:
+    if not (_last_digest and _last_digest[0][0] is knot):
+        _last_digest[:] = [(knot, hashlib.sha256(knot.serialize().encode()).digest())]
+    return _last_digest[0][1]
 
 
 def knot_cache_key(knot: ca.Function) -> str:
     """Hex key of the knot's J and H: its serialised SX graph (robot model), casadi and gaitsmith
     versions and `CACHE_FORMAT`."""
-    if _last_key and _last_key[0][0] is knot:
-        return _last_key[0][1]
     digest = hashlib.sha256()
     for part in (CACHE_FORMAT, ca.CasadiMeta.version(), _gaitsmith_version()):
         digest.update(part.encode() + b"\0")
-    digest.update(knot.serialize().encode())
-    key = digest.hexdigest()[:32]
-    _last_key[:] = [(knot, key)]
-    return key
+    digest.update(_knot_digest(knot))
+    return digest.hexdigest()[:32]
 
 
 def cache_path(knot: ca.Function, directory: Path | None = None) -> Path:
