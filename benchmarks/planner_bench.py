@@ -188,6 +188,7 @@ def _spread(times: list[float], iters: list[int]) -> str:
 PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "expanded": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="expanded")),
     "knot": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="knot")),
+    "compiled": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="compiled")),
     # EXPERIMENTAL: stage-wise FATROP (docs/results/planner_speed_fatrop.md)
     "fatrop": lambda robot, n: _fatrop_planner(robot, n),
 }

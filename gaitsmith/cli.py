@@ -35,6 +35,7 @@ _COMMAND_MODULES = (
     "gaitsmith.library_cmd",
     "gaitsmith.drive_sim_cmd",
     "gaitsmith.design_cmd",
+    "gaitsmith.cache_cmd",
 )
 for _name in _COMMAND_MODULES:
     try:

@@ -99,7 +99,9 @@ def plan(
     mu: float = typer.Option(0.5, "--mu", help="friction coefficient of the contact cone"),
     solver: str = typer.Option(
         "knot", "--solver", help="IPOPT+MUMPS derivative path: knot (default: one knot's "
-        "Jacobian and Hessian, cached; fast build) or expanded (whole NLP in SX; slow build)"),
+        "Jacobian and Hessian, cached; fast build; uses compiled ones if cached), expanded (whole "
+        "NLP in SX; slow build) or compiled (knot, with J and H compiled to C once per robot: "
+        "minutes the first time, faster solves after)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"

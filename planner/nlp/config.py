@@ -40,7 +40,7 @@ BODY_CLEARANCE_LEG_LENGTHS = 0.17
 DEFAULT_FROUDE = 0.035
 GRAVITY_M_S2 = 9.81
 #: values of `PlannerOptions.derivatives`
-DERIVATIVE_PATHS = ("knot", "expanded")
+DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 
 
 def speed_for_froude(froude: float, leg_length_m: float) -> float:
@@ -189,8 +189,10 @@ class PlannerOptions:
     - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
       "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
       (`planner.nlp.solver_cache`): builds in a fraction of the time; "expanded" — the whole NLP
-      expanded to SX and differentiated (the path before issue #16). See
-      docs/results/planner_speed.md for the measured build and solve times.
+      expanded to SX and differentiated (the path before issue #16); "compiled" — "knot" with
+      J and H compiled to C once per robot (`planner.nlp.compiled_knot`: minutes the first time,
+      then faster solves; "knot" uses a compiled entry it finds in the cache). See
+      docs/results/planner_speed.md and planner_speed_compiled.md for the measured times.
     """
 
     mu: float = 0.5

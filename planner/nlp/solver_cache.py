@@ -34,6 +34,7 @@ import hashlib
 import json
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import metadata as importlib_metadata
 from pathlib import Path
@@ -41,6 +42,7 @@ from typing import Any
 
 import casadi as ca
 
+from planner.nlp import compiled_knot
 from robots.errors import OutputWriteError
 from robots.files import atomic_write_bytes
 
@@ -112,9 +114,6 @@ def with_knot_derivatives(
     def empty(sps: list[ca.Sparsity], n_dir: int = 1) -> list[ca.Sparsity]:
         return [ca.Sparsity(sp.size1(), sp.size2() * n_dir) for sp in sps]
 
-    def wide(sps: list[ca.Sparsity], n_dir: int) -> list[ca.Sparsity]:
-        return [ca.Sparsity.dense(sp.size1(), sp.size2() * n_dir) for sp in sps]
-
     def seeds(values: list[Any], sps: list[ca.Sparsity], n_dir: int) -> Any:
         """n_dir seeds per argument (argument i: rows_i × cols_i·n_dir) → Σnumel × n_dir."""
         return ca.vertcat(
@@ -129,29 +128,62 @@ def with_knot_derivatives(
             row += sp.numel()
         return out
 
+    def forward_function(
+        name: str,
+        arguments: tuple[list[str], list[ca.Sparsity]],
+        results: tuple[list[str], list[ca.Sparsity]],
+        n_dir: int,
+        sensitivity: Callable[[list[Any], list[Any]], Any],
+    ) -> ca.Function:
+        """CasADi's forward-derivative signature of a function (`arguments` → `results`, names
+        and sparsities): (nominal arguments, nominal results [empty], n_dir seeds per argument)
+        ↦ sensitivities; `sensitivity(nominal, seeds)` gives them stacked (Σnumel × n_dir).
+        Arguments without non-zeros (the nominal results of an adjoint) get empty seeds."""
+        names_in, sps_in = arguments
+        names_out, sps_out = results
+        nominal = syms("", names_in, sps_in)
+        outputs = syms("out_", names_out, empty(sps_out))
+        seed_sps = [
+            ca.Sparsity.dense(sp.size1(), sp.size2() * n_dir) if sp.nnz() else empty([sp], n_dir)[0]
+            for sp in sps_in
+        ]
+        fwd = syms("fwd_", names_in, seed_sps)
+        return ca.Function(
+            name,
+            nominal + outputs + fwd,
+            split(sensitivity(nominal, fwd), sps_out, n_dir),
+            names_in + [f"out_{n}" for n in names_out] + [f"fwd_{n}" for n in names_in],
+            [f"fwd_{n}" for n in names_out],
+        )
+
     # adj1_knot: (u, out_y [empty], adj_y) -> adj_u = Jᵀ·adj_y
     adj_name = f"adj1_{knot.name()}"
     adj_names_in = names_in + [f"out_{n}" for n in names_out] + [f"adj_{n}" for n in names_out]
     adj_names_out = [f"adj_{n}" for n in names_in]
     adj_sp_in = sp_in + empty(sp_out) + sp_out
-    adj_cache: dict[str, ca.Function] = {}
-    for n_dir in second:
-        nominal = syms("", adj_names_in, adj_sp_in)
-        results = syms("out_", adj_names_out, empty(sp_in))
-        fwd_sp = wide(sp_in, n_dir) + empty(sp_out, n_dir) + wide(sp_out, n_dir)
-        fwd = syms("fwd_", adj_names_in, fwd_sp)
-        u, lam = stacked(nominal[:n_in]), stacked(nominal[n_in + n_out :])
-        du = seeds(fwd[:n_in], sp_in, n_dir)
-        dlam = seeds(fwd[n_in + n_out :], sp_out, n_dir)
-        sens = ca.mtimes(hessian(u, lam), du) + ca.mtimes(jacobian(u).T, dlam)
-        name = f"fwd{n_dir}_{adj_name}"
-        adj_cache[name] = ca.Function(
-            name,
-            nominal + results + fwd,
-            split(sens, sp_in, n_dir),
-            adj_names_in + [f"out_{n}" for n in adj_names_out] + [f"fwd_{n}" for n in adj_names_in],
-            [f"fwd_{n}" for n in adj_names_out],
+
+    def second_order(n_dir: int) -> Callable[[list[Any], list[Any]], Any]:
+        def sensitivity(nominal: list[Any], fwd: list[Any]) -> Any:
+            u, lam = stacked(nominal[:n_in]), stacked(nominal[n_in + n_out :])
+            du = seeds(fwd[:n_in], sp_in, n_dir)
+            dlam = seeds(fwd[n_in + n_out :], sp_out, n_dir)
+            return ca.mtimes(hessian(u, lam), du) + ca.mtimes(jacobian(u).T, dlam)
+
+        return sensitivity
+
+    def first_order(n_dir: int) -> Callable[[list[Any], list[Any]], Any]:
+        def sensitivity(nominal: list[Any], fwd: list[Any]) -> Any:
+            return ca.mtimes(jacobian(stacked(nominal)), seeds(fwd, sp_in, n_dir))
+
+        return sensitivity
+
+    adj_cache = {
+        f"fwd{n}_{adj_name}": forward_function(
+            f"fwd{n}_{adj_name}", (adj_names_in, adj_sp_in), (adj_names_out, sp_in), n,
+            second_order(n),
         )
+        for n in second
+    }
     nominal = syms("", adj_names_in, adj_sp_in)
     adj_u = ca.mtimes(jacobian(stacked(nominal[:n_in])).T, stacked(nominal[n_in + n_out :]))
     adjoint = ca.Function(
@@ -160,18 +192,10 @@ def with_knot_derivatives(
     )
     # fwd<n>_knot: (u, out_y [empty], fwd_u) -> fwd_y = J·fwd_u
     cache: dict[str, ca.Function] = {adj_name: adjoint}
-    for n_dir in forward:
-        nominal = syms("", names_in, sp_in)
-        results = syms("out_", names_out, empty(sp_out))
-        fwd = syms("fwd_", names_in, wide(sp_in, n_dir))
-        sens = ca.mtimes(jacobian(stacked(nominal)), seeds(fwd, sp_in, n_dir))
-        name = f"fwd{n_dir}_{knot.name()}"
-        cache[name] = ca.Function(
-            name,
-            nominal + results + fwd,
-            split(sens, sp_out, n_dir),
-            names_in + [f"out_{n}" for n in names_out] + [f"fwd_{n}" for n in names_in],
-            [f"fwd_{n}" for n in names_out],
+    for n in forward:
+        name = f"fwd{n}_{knot.name()}"
+        cache[name] = forward_function(
+            name, (names_in, sp_in), (names_out, sp_out), n, first_order(n)
         )
     sx_in = knot.sx_in()
     new = ca.Function(
@@ -223,13 +247,25 @@ def _gaitsmith_version() -> str:
         return "unknown"
 
 
+#: the last knot function hashed and the SHA-256 of its serialised form (a build asks for the
+#: key three times; serialising and hashing a robot's knot costs ~0.1 s each). Holding the
+#: function keeps its identity unique; CasADi functions are immutable.
+_last_digest: list[tuple[ca.Function, bytes]] = []
+
+
+def _knot_digest(knot: ca.Function) -> bytes:
+    if not (_last_digest and _last_digest[0][0] is knot):
+        _last_digest[:] = [(knot, hashlib.sha256(knot.serialize().encode()).digest())]
+    return _last_digest[0][1]
+
+
 def knot_cache_key(knot: ca.Function) -> str:
     """Hex key of the knot's J and H: its serialised SX graph (robot model), casadi and gaitsmith
     versions and `CACHE_FORMAT`."""
     digest = hashlib.sha256()
     for part in (CACHE_FORMAT, ca.CasadiMeta.version(), _gaitsmith_version()):
         digest.update(part.encode() + b"\0")
-    digest.update(knot.serialize().encode())
+    digest.update(_knot_digest(knot))
     return digest.hexdigest()[:32]
 
 
@@ -275,10 +311,12 @@ def _decode(data: bytes, knot: ca.Function) -> tuple[ca.Function, ca.Function] |
 @dataclass(frozen=True)
 class CacheOutcome:
     """What `cached_jacobian_and_hessian` did: "hit", "built" (no entry), "rebuilt" (a corrupt
-    or mismatching entry was replaced) or "uncached" (the folder is not writable)."""
+    or mismatching entry was replaced) or "uncached" (the folder is not writable); `compiled`:
+    J and H are the compiled library at `path` (`planner.nlp.compiled_knot`), else SX."""
 
     path: Path
     status: str
+    compiled: bool = False
 
 
 def cached_jacobian_and_hessian(
@@ -340,3 +378,64 @@ def save_directions(path: Path, forward: tuple[int, ...], second: tuple[int, ...
         atomic_write_bytes(path, text.encode("utf-8"))
     except OutputWriteError:
         pass
+
+
+def _compiled_entry(
+    knot: ca.Function, compiler: compiled_knot.Compiler, directory: Path | None
+) -> compiled_knot.CompiledEntry:
+    n_u = sum(knot.sparsity_in(i).numel() for i in range(knot.n_in()))
+    n_y = sum(knot.sparsity_out(i).numel() for i in range(knot.n_out()))
+    return compiled_knot.compiled_entry(
+        knot_cache_key(knot), compiler, directory or cache_dir(), n_u, n_y
+    )
+
+
+def compiled_jacobian_and_hessian(
+    knot: ca.Function,
+    directory: Path | None = None,
+    compiler: compiled_knot.Compiler | None = None,
+) -> tuple[ca.Function, ca.Function, CacheOutcome]:
+    """The compiled J and H of one knot (`planner.nlp.compiled_knot`): loaded from the cache, or
+    compiled now (minutes) from the SX entry if missing or not intact. `compiler`: default the
+    one `compiled_knot.find_compiler` finds with the default flags. Raises `CompileError` (no
+    compiler, the compiler failed) or `OutputWriteError` (cache folder not writable)."""
+    compiler = compiler or compiled_knot.find_compiler()
+    if compiler is None:
+        raise compiled_knot.CompileError(
+            "no C compiler found (gcc, cc or $GAITSMITH_CC) to compile the knot derivatives"
+        )
+    entry = _compiled_entry(knot, compiler, directory)
+    loaded = compiled_knot.load_compiled(entry)
+    if loaded is not None:
+        return (*loaded, CacheOutcome(entry.library, "hit", compiled=True))
+    status = "rebuilt" if entry.library.exists() or entry.manifest.exists() else "built"
+    jacobian, hessian, _ = cached_jacobian_and_hessian(knot, directory)
+    jacobian, hessian = compiled_knot.compile_jacobian_and_hessian(
+        entry, jacobian, hessian, compiler
+    )
+    return jacobian, hessian, CacheOutcome(entry.library, status, compiled=True)
+
+
+def knot_jacobian_and_hessian(
+    knot: ca.Function, derivatives: str = "knot", directory: Path | None = None
+) -> tuple[ca.Function, ca.Function, CacheOutcome]:
+    """J and H of one knot for the planner path `derivatives` (`PlannerOptions.derivatives`):
+
+    - "knot": the compiled entry (`planner.nlp.compiled_knot`) if the cache holds one for the C
+      compiler found and the default flags, else the SX entry (`cached_jacobian_and_hessian`);
+      never compiles.
+    - "compiled": the compiled entry, compiled now (minutes) if missing or not intact; with no C
+      compiler or a failed compile, a one-line warning and the SX entry.
+    """
+    compiler = compiled_knot.find_compiler()
+    if compiler is not None and derivatives != "compiled":
+        entry = _compiled_entry(knot, compiler, directory)
+        loaded = compiled_knot.load_compiled(entry)
+        if loaded is not None:
+            return (*loaded, CacheOutcome(entry.library, "hit", compiled=True))
+    if derivatives == "compiled":
+        try:
+            return compiled_jacobian_and_hessian(knot, directory, compiler)
+        except (compiled_knot.CompileError, OutputWriteError) as exc:
+            compiled_knot.warn(f"{exc}; planning with the uncompiled knot derivatives")
+    return cached_jacobian_and_hessian(knot, directory)

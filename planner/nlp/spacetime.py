@@ -12,8 +12,9 @@ dual solution with IPOPT's ``warm_start_init_point``.
 
 IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the NLP un-expanded and
 hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
-"expanded" expands the whole NLP to SX (slow build). Same optimum; see
-docs/results/planner_speed.md.
+"expanded" expands the whole NLP to SX (slow build); "compiled" is "knot" with J and H compiled
+to C once per robot (`planner.nlp.compiled_knot`; "knot" picks a compiled entry up). Same
+optimum; see docs/results/planner_speed.md and planner_speed_compiled.md.
 """
 
 from __future__ import annotations
@@ -48,8 +49,8 @@ from planner.nlp.solver_cache import (
     ALL_DIRECTIONS,
     CacheOutcome,
     KnotDerivatives,
-    cached_jacobian_and_hessian,
     directions_path,
+    knot_jacobian_and_hessian,
     load_directions,
     save_directions,
     used_directions,
@@ -165,9 +166,11 @@ class GaitPlanner:
         self.knot_derivatives: KnotDerivatives | None = None
         self.derivative_cache: CacheOutcome | None = None
         knot, plain = None, None
-        if self.options.derivatives == "knot":
+        if self.options.derivatives in ("knot", "compiled"):
             plain = knot_function(self.model)
-            jac, hess, self.derivative_cache = cached_jacobian_and_hessian(plain)
+            jac, hess, self.derivative_cache = knot_jacobian_and_hessian(
+                plain, self.options.derivatives
+            )
             directions = directions_path(plain, n_knots, self.options)
             known = load_directions(directions)
             forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)

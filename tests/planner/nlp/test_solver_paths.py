@@ -156,5 +156,5 @@ def test_plan_rejects_an_unknown_solver_in_one_line(
     out = tmp_path / "g.json"
     assert main(["plan", "quad12", "-o", str(out), "--solver", "fast"]) == 2
     lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
-    assert lines == ["error: --solver 'fast': use one of knot, expanded"]
+    assert lines == ["error: --solver 'fast': use one of knot, expanded, compiled"]
     assert not out.exists()
