@@ -6,7 +6,13 @@ import math
 
 import pytest
 
-from planner.search.speed_sweep import SweepRow, flight_fraction, flight_label, to_markdown
+from planner.search.speed_sweep import (
+    SweepRow,
+    flight_fraction,
+    flight_label,
+    measured_label,
+    to_markdown,
+)
 from robots import ContactSchedule
 
 FEET = ("left", "right")
@@ -48,3 +54,28 @@ def test_flight_labels_leave_other_robots_to_their_template() -> None:
     assert flight_label("bound", bound) == "bound"
     trot = ContactSchedule(0.4, feet, (0.0, 0.5, 0.5, 0.0), (0.6,) * 4)
     assert flight_label("trot", trot) == "trot"
+
+
+@pytest.mark.parametrize(("flight", "double", "label"), [
+    (0.267, 0.0, "run"), (0.004, 0.006, "run"), (0.0, 0.03, "walk"), (0.0, 0.0, "grounded"),
+    (math.nan, math.nan, "-")])
+def test_the_measured_label_is_what_mujoco_recorded(flight: float, double: float,
+                                                    label: str) -> None:
+    """Issue #14: a planned run may walk in MuJoCo (duty 0.47, 6 % planned flight, 0 % measured,
+    3 % double support); the row says what the simulation did beside what was planned."""
+    assert measured_label(flight, double) == label
+    row = SweepRow(0.1, 0.004, "biped_run", "biped_run", 0.52, 0.47, 0.2, 0.2, 0.9, True, 18,
+                   60.0, flight_fraction=0.064, sim_passed=True, sim_speed_m_s=0.1,
+                   sim_flight_fraction=flight, sim_double_support_fraction=double)
+    assert row.sim_gait == label
+
+
+def test_the_table_shows_the_measured_flight_and_double_support() -> None:
+    row = SweepRow(0.1, 0.004, "biped_run", "biped_run", 0.52, 0.47, 0.2, 0.2, 0.9, True, 18,
+                   60.0, flight_fraction=0.064, sim_passed=True, sim_speed_m_s=0.1,
+                   sim_flight_fraction=0.0, sim_double_support_fraction=0.0301)
+    table = to_markdown([row])
+    assert "MuJoCo: flight / double support" in table.splitlines()[0]
+    assert "| pass 0.100 m/s | walk: 0.0 % / 3.0 % |" in table
+    unsimulated = SweepRow(0.1, 0.004, "w", "w", 0.5, 0.6, 0.2, 0.2, 0.9, True, 1, 1.0)
+    assert "| - | - |" in to_markdown([unsimulated])
