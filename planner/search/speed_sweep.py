@@ -225,8 +225,15 @@ def to_markdown(rows: Sequence[SweepRow]) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: Froude number of the human walk–run transition (Alexander 1989; Thorstensson & Roberthson
+#: 1987): the plot names it, at the speed it would be on this robot's legs
+HUMAN_WALK_RUN_FROUDE = 0.5
+
+
 def plot(rows: Sequence[SweepRow], path: str | Path, title: str) -> None:
-    """Duty factor, cost of transport and gait label vs speed and Froude number (PNG)."""
+    """Duty factor, cost of transport and gait label vs speed and Froude number (PNG); with
+    simulated rows, a third panel of the planned flight share beside MuJoCo's measured flight
+    and double-support shares."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -234,7 +241,9 @@ def plot(rows: Sequence[SweepRow], path: str | Path, title: str) -> None:
 
     speeds = np.array([r.speed_m_s for r in rows])
     froude = np.array([r.froude for r in rows])
-    fig, axes = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    measured = any(not math.isnan(r.sim_flight_fraction) for r in rows)
+    fig, axes = plt.subplots(3 if measured else 2, 1, figsize=(7, 8.5 if measured else 6),
+                             sharex=True)
     labels = sorted({r.gait_label for r in rows})
     colours = {lab: plt.get_cmap("tab10")(i) for i, lab in enumerate(labels)}
     for ax, key, ylabel in ((axes[0], "mean_duty_factor", "duty factor"),
@@ -250,12 +259,23 @@ def plot(rows: Sequence[SweepRow], path: str | Path, title: str) -> None:
     axes[0].axhline(0.5, color="0.3", lw=0.8, ls="--")
     handles, names = axes[0].get_legend_handles_labels()
     unique = dict(zip(names, handles, strict=True))
-    axes[0].legend(unique.values(), unique.keys(), title="gait")
-    axes[1].set_xlabel("speed [m/s]")
+    axes[0].legend(unique.values(), unique.keys(), title="gait (planned)")
+    if measured:
+        ax = axes[2]
+        for key, name, style in (("flight_fraction", "flight, planned", "o--"),
+                                 ("sim_flight_fraction", "flight, MuJoCo", "s-"),
+                                 ("sim_double_support_fraction", "double support, MuJoCo", "^-")):
+            ax.plot(speeds, [100 * getattr(r, key) for r in rows], style, label=name)
+        ax.set_ylabel("share of the cycle [%]")
+        ax.legend()
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("speed [m/s]")
     k = float(np.max(froude / np.maximum(speeds, 1e-9) ** 2))  # Fr = k·v², k = 1/(g·L)
     top = axes[0].secondary_xaxis(
         "top", functions=(lambda v: k * np.square(v), lambda f: np.sqrt(np.abs(f) / k)))
-    top.set_xlabel("Froude number v²/(g·L)")
+    human_m_s = math.sqrt(HUMAN_WALK_RUN_FROUDE / k) if k > 0 else math.nan
+    top.set_xlabel(f"Froude number v²/(g·L)  (human walk–run transition ≈ "
+                   f"{HUMAN_WALK_RUN_FROUDE:g}: {human_m_s:.2f} m/s on these legs)")
     fig.suptitle(title)
     fig.tight_layout()
     try:

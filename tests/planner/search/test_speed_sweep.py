@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -11,6 +12,7 @@ from planner.search.speed_sweep import (
     flight_fraction,
     flight_label,
     measured_label,
+    plot,
     to_markdown,
 )
 from robots import ContactSchedule
@@ -79,3 +81,24 @@ def test_the_table_shows_the_measured_flight_and_double_support() -> None:
     assert "| pass 0.100 m/s | walk: 0.0 % / 3.0 % |" in table
     unsimulated = SweepRow(0.1, 0.004, "w", "w", 0.5, 0.6, 0.2, 0.2, 0.9, True, 1, 1.0)
     assert "| - | - |" in to_markdown([unsimulated])
+
+
+def test_the_plot_adds_the_measured_panel_for_simulated_rows(tmp_path: Path) -> None:
+    walk = SweepRow(0.1, 0.004, "biped_walk", "biped_walk", 0.6, 0.6, 0.2, 0.2, 0.7, True, 18,
+                    60.0, flight_fraction=0.0, sim_passed=True, sim_speed_m_s=0.1,
+                    sim_flight_fraction=0.0, sim_double_support_fraction=0.2)
+    run = SweepRow(0.5, 0.102, "biped_run", "biped_run", 0.32, 0.4, 1.0, 1.0, 1.2, True, 18,
+                   60.0, flight_fraction=0.19, sim_passed=False, sim_speed_m_s=0.5,
+                   sim_flight_fraction=0.267, sim_double_support_fraction=0.0)
+    plot([walk, run], tmp_path / "measured.png", "biped")
+    plot([SweepRow(0.1, 0.004, "w", "w", 0.6, 0.6, 0.2, 0.2, 0.7, True, 1, 1.0)],
+         tmp_path / "planned.png", "quad")
+    sizes = [png_size(tmp_path / name) for name in ("measured.png", "planned.png")]
+    assert sizes[0][1] > sizes[1][1]  # the measured panel makes the figure taller
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    """(width, height) of a PNG from its IHDR chunk."""
+    head = path.read_bytes()[:24]
+    assert head[:8] == b"\x89PNG\r\n\x1a\n"
+    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
