@@ -9,6 +9,7 @@ import pytest
 
 from planner.search.speed_sweep import (
     SweepRow,
+    airborne_knots,
     flight_fraction,
     flight_label,
     measured_label,
@@ -102,3 +103,16 @@ def png_size(path: Path) -> tuple[int, int]:
     head = path.read_bytes()[:24]
     assert head[:8] == b"\x89PNG\r\n\x1a\n"
     return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+
+
+@pytest.mark.parametrize(("duty", "n_knots", "expected"), [
+    (0.42, 12, 0), (0.40, 12, 2), (0.35, 12, 2), (0.49, 16, 0), (0.6, 16, 0)])
+def test_airborne_knots_count_the_flight_the_nlp_plans(duty: float, n_knots: int,
+                                                       expected: int) -> None:
+    """Duty 0.42 at N = 12: 16 % flight in the schedule, but every knot has a foot down."""
+    schedule = ContactSchedule(0.48, FEET, (0.0, 0.5), (duty, duty))
+    assert airborne_knots(schedule, n_knots) == expected
+    row = SweepRow(0.5, 0.1, "biped_run", "biped_run", 0.48, duty, 1.0, 1.0, 0.5, True, 10,
+                   60.0, flight_fraction=flight_fraction(schedule), airborne_knots=expected,
+                   n_knots=n_knots)
+    assert f"({expected}/{n_knots} knots) |" in to_markdown([row])
