@@ -29,7 +29,14 @@ from gaitsmith.search_options import (
 )
 from planner.nlp.config import PlannerOptions, default_speeds_m_s
 from planner.search.gait_search import GaitSearchResult, SearchLogRow
-from planner.search.speed_sweep import SweepRow, Validator, sweep_speeds, to_markdown, write_sweep
+from planner.search.speed_sweep import (
+    SimOutcome,
+    SweepRow,
+    Validator,
+    sweep_speeds,
+    to_markdown,
+    write_sweep,
+)
 from robots.errors import OutputWriteError
 
 
@@ -70,7 +77,9 @@ def sweep(
     def on_row(row: SweepRow) -> None:
         clock.finish_speed()
         sim = "" if row.sim_passed is None else \
-            f", sim {'pass' if row.sim_passed else 'FAIL'} at {row.sim_speed_m_s:.3f} m/s"
+            f", sim {'pass' if row.sim_passed else 'FAIL'} at {row.sim_speed_m_s:.3f} m/s " \
+            f"({row.sim_gait}: flight {100 * row.sim_flight_fraction:.1f} %, double support " \
+            f"{100 * row.sim_double_support_fraction:.1f} %)"
         console.print(f"[bold]{row.speed_m_s:.3f} m/s[/] (Fr {row.froude:.3f}): {row.gait_label}, "
                       f"duty {row.mean_duty_factor:.2f}, period {row.period_s:.3f} s, search cost "
                       f"{row.search_cost:.4g} vs template {row.best_template} "
@@ -172,12 +181,20 @@ class SweepClock:
 
 
 def _sim_validator(cycles: int) -> Validator:
-    def validate_result(result: GaitSearchResult) -> tuple[bool, float]:
+    def validate_result(result: GaitSearchResult) -> SimOutcome:
+        import numpy as np
+
         from sim.validate import validate  # lazy: MuJoCo rollouts only on request
 
         gait = result.planner.to_gait(result.best, result.label)
-        v = validate(gait, result.robot, cycles, keep_trajectory=False)
-        return v.passed, v.metrics.achieved_speed_m_s
+        v = validate(gait, result.robot, cycles)
+        traj = v.trajectory
+        assert traj is not None  # keep_trajectory=True
+        # the steady steps, as `Trajectory.flight_fraction` counts them (cycle 2 to the end)
+        steady = (traj.gait_phase() >= 2.0) & (traj.time_s <= traj.gait_end_s)
+        down = traj.foot_contacts[steady] > 0
+        double = float(np.mean(np.all(down, axis=1))) if down.size else float("nan")
+        return SimOutcome(v.passed, v.metrics.achieved_speed_m_s, traj.flight_fraction(), double)
 
     return validate_result
 

@@ -80,6 +80,9 @@ class CostWeights:
       keeps joints the gait does not need (and "hold" joints outside the legs) near their
       stance instead of wherever the optimiser leaves them. 0.01: a 0.3 rad mean deviation over
       12 joints costs ≈ 0.01, a few per cent of a walk's objective.
+    - `yaw_moment_mgl2`: Σ_feet τ_z² of the flat feet's contact moments about the vertical, in
+      units of (m·g·L)² — the yaw moment the soles must hold by friction (`planner.nlp.costs`).
+      0 by default (the objective is unchanged); point feet have no moment and add nothing.
 
     Default ratios follow W&P's C1:C2:C3:C4 = 25:0.1:25:100 scaled to servo units so the terms have
     the same general magnitude on a 2 kg robot.
@@ -92,6 +95,7 @@ class CostWeights:
     angular_velocity_s2: float = 0.1
     joint_accel_s4: float = 1e-5
     posture_rad2: float = 0.01
+    yaw_moment_mgl2: float = 0.0
 
     def __post_init__(self) -> None:
         for name, value in self.as_dict().items():
@@ -109,6 +113,7 @@ class CostWeights:
             "angular_velocity_s2": self.angular_velocity_s2,
             "joint_accel_s4": self.joint_accel_s4,
             "posture_rad2": self.posture_rad2,
+            "yaw_moment_mgl2": self.yaw_moment_mgl2,
         }
 
 

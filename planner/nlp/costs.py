@@ -1,6 +1,14 @@
 """Objective of the spacetime NLP (TOWR-style "costs" module): W&P 2009 eqs 13-16.
 
 Each term is a per-knot sum averaged over the N knots; `CostWeights` documents the weights.
+
+`yaw_moment_mgl2` (ours, issue #14) is the flat soles' contact moment about the vertical, τ_z,
+squared. An open-loop biped has nothing but sole friction to hold its heading: in single support
+the stance sole must supply the yaw moment that the swinging leg's angular momentum about the
+vertical asks for (τ_z = dH_z/dt of the whole body about the sole), and the contact wrench cone
+(`planner.nlp.flat_foot`, Caron et al. 2015 eq. 16) only bounds it by µ(X+Y)f_z. The built-in
+biped's 0.5 m/s run planned τ_z at up to 62 % of that bound; a gait that needs less of it has
+margin left for what the model does not see. Point feet carry no moment: the term is 0 for them.
 """
 
 from __future__ import annotations
@@ -34,7 +42,17 @@ def cost_terms(model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: int
         "joint_accel_s4": ca.sumsqr(kq.qdd) / n,
         # distance from the stance pose (CostWeights.posture_rad2)
         "posture_rad2": ca.sumsqr(sym.q - ca.repmat(stance, 1, n_knots)) / n,
+        # flat soles' yaw moment τ_z² in (m·g·L)² (module docstring; CostWeights.yaw_moment_mgl2)
+        "yaw_moment_mgl2": yaw_moment_term(sym, n_knots),
     }
+
+
+def yaw_moment_term(sym: Symbols, n_knots: int) -> Any:
+    """Σ τ_z² of the flat feet's moments (rows 3k+2 of `Symbols.moments`, world frame, units
+    of m·g·L) averaged over the knots; a constant 0 without flat feet."""
+    if sym.moments is None:
+        return ca.MX(0)
+    return ca.sumsqr(sym.moments[2::3, :]) / float(n_knots)
 
 
 def weighted_objective(terms: dict[str, Any], weights: CostWeights) -> Any:

@@ -366,13 +366,15 @@ def search_gait(
     final_acceptance: Callable[[], GaitAcceptance] | None = None,
     sigma_fraction: float = DEFAULT_SIGMA_FRACTION,
     progress: Callable[[SearchLogRow], None] | None = None,
+    final_candidates: int = FINAL_CANDIDATES,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
     `planner` is the final planner (n_knots, options); pass one to reuse its NLP across speeds.
     The executor's workers each build the coarse search NLP once (`search_knots`).
     `acceptance` judges every feasible sample, `final_acceptance` (default: `acceptance`) the
-    full-resolution candidates — the final judge may be stricter than the coarse one.
+    full-resolution candidates — the final judge may be stricter than the coarse one;
+    `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins.
     """
     t0 = time.perf_counter()
     options = options or PlannerOptions()
@@ -380,6 +382,8 @@ def search_gait(
         raise PlannerConfigError(f"planner has {planner.n_knots} knots, search asked for {n_knots}")
     if search_max_iter < 1:
         raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
+    if final_candidates < 1:
+        raise PlannerConfigError(f"final_candidates must be ≥ 1, got {final_candidates}")
     if not 0 < sigma_fraction <= 1:
         raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
     space = TimingSpace.for_robot(robot, symmetric)
@@ -433,7 +437,7 @@ def search_gait(
     final = planner or GaitPlanner(robot, n_knots, options)
     final_check = final_acceptance or acceptance
     check = final_check() if final_check is not None else None
-    candidates = pool.best_feasible(FINAL_CANDIDATES) or [(x0, seed_results[best_template])]
+    candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
     chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
     for x, searched in candidates:
         solved = final.solve(space.decode(x), speed_m_s, warm_start=False)

@@ -23,6 +23,7 @@ from planner.nlp.spacetime import GaitPlanner
 from planner.search.gait_search import (
     DEFAULT_SEARCH_KNOTS,
     DEFAULT_TIPPING_WEIGHT,
+    FINAL_CANDIDATES,
     GaitAcceptance,
     GaitSearchResult,
     SearchLogRow,
@@ -55,12 +56,33 @@ class SweepRow:
     sim_speed_m_s: float = math.nan
     #: planned share of the cycle with no foot on the ground (> 0: a run, W&P §6)
     flight_fraction: float = math.nan
+    #: measured in MuJoCo over the steady cycles (`SimOutcome`): share of the steps with no foot
+    #: touching the ground, and with every foot touching it
+    sim_flight_fraction: float = math.nan
+    sim_double_support_fraction: float = math.nan
+    #: knots of the final NLP with no foot in stance, and its knot count (`airborne_knots`)
+    airborne_knots: int = -1
+    n_knots: int = 0
+
+    @property
+    def sim_gait(self) -> str:
+        """What the gait did in MuJoCo (`measured_label`), '-' when not simulated."""
+        return measured_label(self.sim_flight_fraction, self.sim_double_support_fraction)
 
 
 def flight_fraction(schedule: ContactSchedule, samples: int = 1000) -> float:
     """Share of the cycle in which no foot is in stance (sampled at `samples` phases)."""
     in_stance = schedule.contact_matrix(samples)  # samples × feet
     return float(np.mean(~np.any(in_stance, axis=1)))
+
+
+def airborne_knots(schedule: ContactSchedule, n_knots: int) -> int:
+    """Knots at which no foot is in stance: the flight the NLP actually plans. The planner
+    imposes contact at its N knots only (`planner.nlp.variables.parameter_vector`), so a short
+    flight window between two knots exists in the schedule but not in the plan — the built-in
+    biped's duty-0.42 run at N = 12 (16 % flight in the schedule) has none, and MuJoCo measured
+    0.4 % flight for it."""
+    return int(np.sum(~np.any(schedule.contact_matrix(n_knots), axis=1)))
 
 
 #: biped labels by flight: a two-legged gait with a planned flight phase is a run, one without
@@ -77,16 +99,44 @@ def flight_label(template_label: str, schedule: ContactSchedule) -> str:
     return BIPED_RUN if flight_fraction(schedule) > 0.0 else BIPED_WALK
 
 
-#: (passed, achieved speed) of a search result's gait in simulation; supplied by the caller so
-#: that the planner package does not import the simulator.
-Validator = Callable[[GaitSearchResult], tuple[bool, float]]
+@dataclass(frozen=True)
+class SimOutcome:
+    """A search result's gait in simulation: the verdict, the achieved speed and the measured
+    shares of the steady steps in flight (no foot touching) and in full support (every foot)."""
+
+    passed: bool
+    speed_m_s: float
+    flight_fraction: float = math.nan
+    double_support_fraction: float = math.nan
+
+
+#: the `SimOutcome` of a search result's gait; supplied by the caller so that the planner
+#: package does not import the simulator.
+Validator = Callable[[GaitSearchResult], SimOutcome]
+
+#: timings re-solved at full resolution per speed for the final MuJoCo check (the first that
+#: passes wins, `search_gait`): twice the single search's, because the sweep's point is a gait
+#: that passes at every speed, and a run's verdict flips between neighbouring timings (the
+#: 0.5 m/s winner of `--speeds 0.1,0.5 --knots 12 --generations 3` failed at 97 % of stall
+#: and −5.6° of heading with the 4 candidates of a single search)
+SWEEP_FINAL_CANDIDATES = 2 * FINAL_CANDIDATES
+
+
+def measured_label(flight: float, double_support: float) -> str:
+    """A gait by the contacts MuJoCo recorded (the human definition, Alexander 1989): "run" if
+    some steady steps had no foot down, "walk" if some had every foot down and none flew,
+    "grounded" if neither (single support throughout), "-" if not measured."""
+    if math.isnan(flight) or math.isnan(double_support):
+        return "-"
+    if flight > 0.0:
+        return "run"
+    return "walk" if double_support > 0.0 else "grounded"
 
 
 def row_from(result: GaitSearchResult, validator: Validator | None = None) -> SweepRow:
     best = result.best
     label = flight_label(result.label, best.schedule)
-    passed, achieved = validator(result) if validator is not None and best.feasible \
-        else (None, math.nan)
+    outcome = validator(result) if validator is not None and best.feasible else None
     return SweepRow(
         speed_m_s=result.speed_m_s, froude=result.froude,
         gait_label=label,
@@ -97,8 +147,15 @@ def row_from(result: GaitSearchResult, validator: Validator | None = None) -> Sw
         local_solves=result.cma.n_local_solves, elapsed_s=result.elapsed_s,
         family=gait_family(label), search_cost=result.search_cost,
         search_feasible=result.search_feasible,
-        tipping_amplification=result.tipping_amplification, sim_passed=passed,
-        sim_speed_m_s=achieved, flight_fraction=flight_fraction(best.schedule),
+        tipping_amplification=result.tipping_amplification,
+        sim_passed=None if outcome is None else outcome.passed,
+        sim_speed_m_s=math.nan if outcome is None else outcome.speed_m_s,
+        flight_fraction=flight_fraction(best.schedule),
+        airborne_knots=airborne_knots(best.schedule, result.planner.n_knots),
+        n_knots=result.planner.n_knots,
+        sim_flight_fraction=math.nan if outcome is None else outcome.flight_fraction,
+        sim_double_support_fraction=(math.nan if outcome is None
+                                     else outcome.double_support_fraction),
     )
 
 
@@ -121,8 +178,10 @@ def sweep_speeds(
     validator: Validator | None = None,
     on_row: Callable[[SweepRow], None] | None = None,
     progress: Callable[[SearchLogRow], None] | None = None,
+    final_candidates: int = SWEEP_FINAL_CANDIDATES,
 ) -> tuple[SweepRow, ...]:
-    """Search the best gait at each speed; one final planner (one NLP build) serves every speed."""
+    """Search the best gait at each speed; one final planner (one NLP build) serves every speed.
+    `final_candidates` timings per speed are re-solved for `final_acceptance`, cheapest first."""
     options = options or PlannerOptions()
     planner = GaitPlanner(robot, n_knots, options)
     rows = []
@@ -132,7 +191,8 @@ def sweep_speeds(
                              popsize=popsize, seed=seed, executor=executor, workers=workers,
                              search_knots=search_knots, tipping_weight=tipping_weight,
                              acceptance=acceptance, final_acceptance=final_acceptance,
-                             planner=planner, progress=progress)
+                             planner=planner, progress=progress,
+                             final_candidates=final_candidates)
         row = row_from(result, validator)
         rows.append(row)
         if on_row is not None:
@@ -155,18 +215,23 @@ def to_csv(rows: Sequence[SweepRow]) -> str:
 
 def to_markdown(rows: Sequence[SweepRow]) -> str:
     head = ("| speed [m/s] | Froude | gait | duty | flight | period [s] | search cost | best "
-            "template (cost) | final cost | tipping | CoT | sim | solves |")
-    lines = [head, "|" + "---|" * 13]
+            "template (cost) | final cost | tipping | CoT | sim | MuJoCo: flight / double "
+            "support | solves |")
+    lines = [head, "|" + "---|" * 14]
     for r in rows:
         sim = "-" if r.sim_passed is None else \
             f"{'pass' if r.sim_passed else 'FAIL'} {r.sim_speed_m_s:.3f} m/s"
+        measured = "-" if r.sim_gait == "-" else (
+            f"{r.sim_gait}: {100 * r.sim_flight_fraction:.1f} % / "
+            f"{100 * r.sim_double_support_fraction:.1f} %")
+        knots = f" ({r.airborne_knots}/{r.n_knots} knots)" if r.n_knots else ""
         lines.append(
             f"| {r.speed_m_s:.3f} | {r.froude:.3f} | {r.gait_label} | {r.mean_duty_factor:.2f} | "
-            f"{r.flight_fraction:.2f} | {r.period_s:.3f} | "
+            f"{r.flight_fraction:.2f}{knots} | {r.period_s:.3f} | "
             f"{r.search_cost:.4g}{'' if r.search_feasible else ' †'} | "
             f"{r.best_template} "
             f"({r.best_template_cost:.4g}) | {r.cost:.4g} | {r.tipping_amplification:.3g} | "
-            f"{r.cost_of_transport:.3f} | {sim} | {r.local_solves} |"
+            f"{r.cost_of_transport:.3f} | {sim} | {measured} | {r.local_solves} |"
         )
     if not all(r.search_feasible for r in rows):
         lines.append("\n† no sample was feasible and accepted at the search resolution; the row "
@@ -175,8 +240,15 @@ def to_markdown(rows: Sequence[SweepRow]) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: Froude number of the human walk–run transition (Alexander 1989; Thorstensson & Roberthson
+#: 1987): the plot names it, at the speed it would be on this robot's legs
+HUMAN_WALK_RUN_FROUDE = 0.5
+
+
 def plot(rows: Sequence[SweepRow], path: str | Path, title: str) -> None:
-    """Duty factor, cost of transport and gait label vs speed and Froude number (PNG)."""
+    """Duty factor, cost of transport and gait label vs speed and Froude number (PNG); with
+    simulated rows, a third panel of the planned flight share beside MuJoCo's measured flight
+    and double-support shares."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -184,7 +256,9 @@ def plot(rows: Sequence[SweepRow], path: str | Path, title: str) -> None:
 
     speeds = np.array([r.speed_m_s for r in rows])
     froude = np.array([r.froude for r in rows])
-    fig, axes = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    measured = any(not math.isnan(r.sim_flight_fraction) for r in rows)
+    fig, axes = plt.subplots(3 if measured else 2, 1, figsize=(7, 8.5 if measured else 6),
+                             sharex=True)
     labels = sorted({r.gait_label for r in rows})
     colours = {lab: plt.get_cmap("tab10")(i) for i, lab in enumerate(labels)}
     for ax, key, ylabel in ((axes[0], "mean_duty_factor", "duty factor"),
@@ -200,12 +274,23 @@ def plot(rows: Sequence[SweepRow], path: str | Path, title: str) -> None:
     axes[0].axhline(0.5, color="0.3", lw=0.8, ls="--")
     handles, names = axes[0].get_legend_handles_labels()
     unique = dict(zip(names, handles, strict=True))
-    axes[0].legend(unique.values(), unique.keys(), title="gait")
-    axes[1].set_xlabel("speed [m/s]")
+    axes[0].legend(unique.values(), unique.keys(), title="gait (planned)")
+    if measured:
+        ax = axes[2]
+        for key, name, style in (("flight_fraction", "flight, planned", "o--"),
+                                 ("sim_flight_fraction", "flight, MuJoCo", "s-"),
+                                 ("sim_double_support_fraction", "double support, MuJoCo", "^-")):
+            ax.plot(speeds, [100 * getattr(r, key) for r in rows], style, label=name)
+        ax.set_ylabel("share of the cycle [%]")
+        ax.legend()
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("speed [m/s]")
     k = float(np.max(froude / np.maximum(speeds, 1e-9) ** 2))  # Fr = k·v², k = 1/(g·L)
     top = axes[0].secondary_xaxis(
         "top", functions=(lambda v: k * np.square(v), lambda f: np.sqrt(np.abs(f) / k)))
-    top.set_xlabel("Froude number v²/(g·L)")
+    human_m_s = math.sqrt(HUMAN_WALK_RUN_FROUDE / k) if k > 0 else math.nan
+    top.set_xlabel(f"Froude number v²/(g·L)  (human walk–run transition ≈ "
+                   f"{HUMAN_WALK_RUN_FROUDE:g}: {human_m_s:.2f} m/s on these legs)")
     fig.suptitle(title)
     fig.tight_layout()
     try:

@@ -86,18 +86,19 @@ def test_biped_walks_at_a_low_froude_number_in_mujoco(tmp_path: Path) -> None:
 @pytest.mark.slow
 def test_biped_run_with_flight_passes_mujoco(tmp_path: Path) -> None:
     """Issue #14: a clear run (0.5 m/s, Fr 0.10, duty 0.42: 16 % planned flight) passes every
-    simulator check once the entry builds its speed up over k ≥ v/(a·T) cycles (it fell 0.5 s
-    after a one-cycle blend), and both feet are off the ground for part of its steady cycles in
-    MuJoCo's contact record."""
+    simulator check over 30 cycles once the entry builds its speed up over k ≥ v/(a·T) cycles
+    (it fell 0.5 s after a one-cycle blend), and both feet are off the ground for part of its
+    steady cycles in MuJoCo's contact record. (Over 30 cycles this plan turned +1.9°; heading
+    is its tightest check: the open-loop yaw random-walks by about ±0.5° a cycle.)"""
     out = tmp_path / "run.json"
     assert main(["plan", "biped", "--speed", "0.5", "--gait", "biped_run", "--duty", "0.42",
-                 "--knots", "12", "-o", str(out), "--simulate"]) == 0
+                 "--knots", "12", "-o", str(out), "--simulate", "--cycles", "30"]) == 0
     doc = json.loads(out.read_text())
     metrics = _validation(out)["metrics"]
-    assert not metrics["fell"]
+    assert not metrics["fell"] and metrics["cycles_run"] == 30
     gait = load_gait(out)
     assert _flight_fraction(gait.schedule) > 0.1 and run_speed_up_cycles(gait) > 1
-    _, traj = simulate(gait, robots.load("biped"), 20)
+    _, traj = simulate(gait, robots.load("biped"), 30)
     assert not traj.stopped_early and traj.ramp.cycles == run_speed_up_cycles(gait)
     assert traj.flight_fraction() > 0.0, "no step of the steady run had both feet in the air"
     assert doc["velocity"]["vx_m_s"] == pytest.approx(0.5)

@@ -3,10 +3,19 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
-from planner.search.speed_sweep import SweepRow, flight_fraction, flight_label, to_markdown
+from planner.search.speed_sweep import (
+    SweepRow,
+    airborne_knots,
+    flight_fraction,
+    flight_label,
+    measured_label,
+    plot,
+    to_markdown,
+)
 from robots import ContactSchedule
 
 FEET = ("left", "right")
@@ -48,3 +57,62 @@ def test_flight_labels_leave_other_robots_to_their_template() -> None:
     assert flight_label("bound", bound) == "bound"
     trot = ContactSchedule(0.4, feet, (0.0, 0.5, 0.5, 0.0), (0.6,) * 4)
     assert flight_label("trot", trot) == "trot"
+
+
+@pytest.mark.parametrize(("flight", "double", "label"), [
+    (0.267, 0.0, "run"), (0.004, 0.006, "run"), (0.0, 0.03, "walk"), (0.0, 0.0, "grounded"),
+    (math.nan, math.nan, "-")])
+def test_the_measured_label_is_what_mujoco_recorded(flight: float, double: float,
+                                                    label: str) -> None:
+    """Issue #14: a planned run may walk in MuJoCo (duty 0.47, 6 % planned flight, 0 % measured,
+    3 % double support); the row says what the simulation did beside what was planned."""
+    assert measured_label(flight, double) == label
+    row = SweepRow(0.1, 0.004, "biped_run", "biped_run", 0.52, 0.47, 0.2, 0.2, 0.9, True, 18,
+                   60.0, flight_fraction=0.064, sim_passed=True, sim_speed_m_s=0.1,
+                   sim_flight_fraction=flight, sim_double_support_fraction=double)
+    assert row.sim_gait == label
+
+
+def test_the_table_shows_the_measured_flight_and_double_support() -> None:
+    row = SweepRow(0.1, 0.004, "biped_run", "biped_run", 0.52, 0.47, 0.2, 0.2, 0.9, True, 18,
+                   60.0, flight_fraction=0.064, sim_passed=True, sim_speed_m_s=0.1,
+                   sim_flight_fraction=0.0, sim_double_support_fraction=0.0301)
+    table = to_markdown([row])
+    assert "MuJoCo: flight / double support" in table.splitlines()[0]
+    assert "| pass 0.100 m/s | walk: 0.0 % / 3.0 % |" in table
+    unsimulated = SweepRow(0.1, 0.004, "w", "w", 0.5, 0.6, 0.2, 0.2, 0.9, True, 1, 1.0)
+    assert "| - | - |" in to_markdown([unsimulated])
+
+
+def test_the_plot_adds_the_measured_panel_for_simulated_rows(tmp_path: Path) -> None:
+    walk = SweepRow(0.1, 0.004, "biped_walk", "biped_walk", 0.6, 0.6, 0.2, 0.2, 0.7, True, 18,
+                    60.0, flight_fraction=0.0, sim_passed=True, sim_speed_m_s=0.1,
+                    sim_flight_fraction=0.0, sim_double_support_fraction=0.2)
+    run = SweepRow(0.5, 0.102, "biped_run", "biped_run", 0.32, 0.4, 1.0, 1.0, 1.2, True, 18,
+                   60.0, flight_fraction=0.19, sim_passed=False, sim_speed_m_s=0.5,
+                   sim_flight_fraction=0.267, sim_double_support_fraction=0.0)
+    plot([walk, run], tmp_path / "measured.png", "biped")
+    plot([SweepRow(0.1, 0.004, "w", "w", 0.6, 0.6, 0.2, 0.2, 0.7, True, 1, 1.0)],
+         tmp_path / "planned.png", "quad")
+    sizes = [png_size(tmp_path / name) for name in ("measured.png", "planned.png")]
+    assert sizes[0][1] > sizes[1][1]  # the measured panel makes the figure taller
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    """(width, height) of a PNG from its IHDR chunk."""
+    head = path.read_bytes()[:24]
+    assert head[:8] == b"\x89PNG\r\n\x1a\n"
+    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+
+
+@pytest.mark.parametrize(("duty", "n_knots", "expected"), [
+    (0.42, 12, 0), (0.40, 12, 2), (0.35, 12, 2), (0.49, 16, 0), (0.6, 16, 0)])
+def test_airborne_knots_count_the_flight_the_nlp_plans(duty: float, n_knots: int,
+                                                       expected: int) -> None:
+    """Duty 0.42 at N = 12: 16 % flight in the schedule, but every knot has a foot down."""
+    schedule = ContactSchedule(0.48, FEET, (0.0, 0.5), (duty, duty))
+    assert airborne_knots(schedule, n_knots) == expected
+    row = SweepRow(0.5, 0.1, "biped_run", "biped_run", 0.48, duty, 1.0, 1.0, 0.5, True, 10,
+                   60.0, flight_fraction=flight_fraction(schedule), airborne_knots=expected,
+                   n_knots=n_knots)
+    assert f"({expected}/{n_knots} knots) |" in to_markdown([row])
