@@ -188,7 +188,15 @@ def _spread(times: list[float], iters: list[int]) -> str:
 PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "expanded": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="expanded")),
     "knot": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="knot")),
+    # EXPERIMENTAL: stage-wise FATROP (docs/results/planner_speed_fatrop.md)
+    "fatrop": lambda robot, n: _fatrop_planner(robot, n),
 }
+
+
+def _fatrop_planner(robot: robots.Robot, n_knots: int) -> GaitPlanner:
+    from planner.nlp.fatrop_solver import FatropPlanner
+
+    return FatropPlanner(robot, n_knots)
 
 
 def _build_paths(

@@ -41,6 +41,11 @@ planner for a static walk instead of a quadruped-specific constant:
 
 Robots whose default does not stand on a line for long (hex18's tripod, star5's ripple) keep
 their default gait and options: their commanded gaits passed before.
+
+Stepping in place (a zero command with a schedule that lifts a foot) plans with
+`planner.nlp.command.in_place_options` (`in_place_choice`), for every robot and gait: the
+footprint anchored at the stance (shifted under the centre of mass unless the schedule
+`tips_on_a_line`) and half the walking swing clearance (measurements in that module).
 """
 
 from __future__ import annotations
@@ -49,6 +54,7 @@ from dataclasses import dataclass, replace
 
 import robots
 from planner.errors import TemplateError
+from planner.nlp.command import in_place_options
 from planner.nlp.config import GRAVITY_M_S2, PlannerOptions
 from planner.templates import (
     GENERIC_TEMPLATES,
@@ -58,6 +64,7 @@ from planner.templates import (
     stance_foot_positions_m,
     templates_for,
 )
+from robots.schedule import ContactSchedule
 
 STATIC_DUTY = 0.85
 LINE_RUN_TAU_FRACTION = 0.5
@@ -117,13 +124,7 @@ def always_on_polygon(bot: robots.Robot, gait: str, duty_factor: float | None = 
 
 def tips_on_a_line(bot: robots.Robot, gait: str) -> bool:
     """Does `gait` stand on a support line for longer than `LINE_RUN_TAU_FRACTION`·τ at a time?"""
-    from planner.search.support import line_support_durations_s, tipping_time_constant_s
-
-    if len(bot.legs) < 3:
-        return True
-    tau = tipping_time_constant_s(float(bot.stance_base_height_m))
-    runs = line_support_durations_s(make_schedule(bot, gait), stance_foot_positions_m(bot))
-    return any(run > LINE_RUN_TAU_FRACTION * tau for run in runs)
+    return schedule_tips_on_a_line(bot, make_schedule(bot, gait))
 
 
 def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_rad_s: float,
@@ -153,6 +154,32 @@ def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_
         "on a support line, which open-loop servos cannot balance while turning or side-stepping",
         swing_s / (1.0 - STATIC_DUTY),
     )
+
+
+def steps(schedule: ContactSchedule) -> bool:
+    """Does some foot lift during the cycle (duty factor < 1)? The `stand` does not."""
+    return any(float(d) < 1.0 - 1e-9 for d in schedule.duty_factor)
+
+
+def in_place_choice(bot: robots.Robot, schedule: ContactSchedule, vx_m_s: float, vy_m_s: float,
+                    yaw_rate_rad_s: float, options: PlannerOptions) -> PlannerOptions | None:
+    """The options for stepping in place (`planner.nlp.command.in_place_options`) when the
+    command is zero and `schedule` steps; None otherwise (a stand, or a moving command)."""
+    if (vx_m_s, vy_m_s, yaw_rate_rad_s) != (0.0, 0.0, 0.0) or not steps(schedule):
+        return None
+    return in_place_options(options, bot,
+                            centre_under_com=not schedule_tips_on_a_line(bot, schedule))
+
+
+def schedule_tips_on_a_line(bot: robots.Robot, schedule: ContactSchedule) -> bool:
+    """`tips_on_a_line` for any schedule (a template's, `--duty`, `--phases`, `--schedule`)."""
+    from planner.search.support import line_support_durations_s, tipping_time_constant_s
+
+    if len(bot.legs) < 3:
+        return True
+    tau = tipping_time_constant_s(float(bot.stance_base_height_m))
+    runs = line_support_durations_s(schedule, stance_foot_positions_m(bot))
+    return any(run > LINE_RUN_TAU_FRACTION * tau for run in runs)
 
 
 def grid_gait(bot: robots.Robot, family: str | None, vy_values: tuple[float, ...],

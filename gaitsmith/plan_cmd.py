@@ -28,6 +28,7 @@ from gaitsmith.gait_choice import (
     commanded_gait,
     default_gait,
     default_speed_note,
+    in_place_choice,
 )
 from gaitsmith.options import (
     MAX_PERIOD_S,
@@ -182,6 +183,16 @@ def plan(
         console.print(f"commanded gait: {choice.reason}")
     schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
                                       schedule_file=schedule_file, period_s=period)
+    in_place = in_place_choice(bot, schedule, speed, vy, yaw_rate, options)
+    if in_place is not None:
+        options = in_place
+        dx, dy = in_place.mean_footprint_offset_m
+        shift = (f" shifted ({dx * 1000:+.1f}, {dy * 1000:+.1f}) mm under the centre of mass"
+                 if (dx, dy) != (0.0, 0.0) else "")
+        console.print(
+            f"stepping in place: each foot's cycle mean within "
+            f"{in_place.mean_footprint_leg_lengths:g} L of its stance position{shift}, swing "
+            f"clearance {in_place.swing_clearance_for(bot.leg_length_m) * 1000:.1f} mm")
     command = f"{speed:.3f} m/s" + (
         f", vy {vy:+.3f} m/s, yaw rate {yaw_rate:+.3f} rad/s" if vy or yaw_rate else "")
     console.print(

@@ -48,6 +48,22 @@ from typer.core import TyperCommand
 
 from hardware.bus.servo_bus import BusConfig, ServoBus
 from hardware.errors import HardwareError
+from hardware.play.cli_options import (
+    SUSTAINED_RATE_HZ,
+    baud_option,
+    calibration_option,
+    fault_option,
+    on_stop_option,
+    port_option,
+    ramp_option,
+    rate_option,
+    realtime_option,
+    rest_option,
+    robot_option,
+    supply_option,
+    telemetry_option,
+    timeout_option,
+)
 from hardware.play.clock import Clock, MonotonicClock, VirtualClock
 from hardware.play.player import MAX_RAMP_S, OnStop, Player, PlayerConfig, PlayResult, RestPose
 from hardware.play.watchdog import EXIT_PREFLIGHT, StopReason
@@ -59,7 +75,6 @@ if TYPE_CHECKING:
 console = Console()
 err_console = Console(stderr=True)
 VIRTUAL_CHOICES = ("bus", "sim")
-SUSTAINED_RATE_HZ = 100.0  # the loop's sustainable rate (see the module docstring)
 RATE_SHORTFALL = 0.98  # achieved / requested below this: warn after the run
 OVERRUN_FRACTION = 0.05  # more overrunning ticks than this: warn after the run
 MAX_CYCLES = 1e6
@@ -248,24 +263,22 @@ def rate_warnings(result: PlayResult, requested_hz: float) -> list[str]:
 
 def run(
     gait: Path = typer.Argument(..., help="Gait file (gaitsmith.gait/1 JSON)."),
-    robot: str = typer.Option(..., "--robot", help="Robot name or folder, e.g. quad12."),
-    port: str | None = typer.Option(None, "--port", "-p", help="Serial device, e.g. /dev/ttyUSB0."),
+    robot: str = robot_option(),
+    port: str | None = port_option(),
     virtual: VirtualMode | None = typer.Option(
         None, "--virtual", help="No hardware: alone = in-process virtual bus; 'sim' = MuJoCo twin."
     ),
-    calibration: Path | None = typer.Option(None, "--calibration", help="Calibration JSON."),
-    rate_hz: float = typer.Option(
-        100.0, "--rate", help=f"Stream rate \\[Hz], 1..1000 (sustained: ≤ {SUSTAINED_RATE_HZ:g})."
-    ),
+    calibration: Path | None = calibration_option(),
+    rate_hz: float = rate_option(),
     cycles: float = typer.Option(
         1.0, "--cycles", help="Gait cycles to play (0 = until stopped by a signal)."
     ),
     speed_scale: float = typer.Option(1.0, "--speed-scale", help="Gait time scaling (<1 slower)."),
     dry_run: bool = typer.Option(False, "--dry-run", help="Check and compute; send nothing."),
-    telemetry: Path | None = typer.Option(None, "--telemetry", help="Write per-tick CSV here."),
-    ramp_s: float = typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time \\[s]."),
-    rest: RestPose = typer.Option(RestPose.STANCE, "--rest", help="Pose to ramp to on stop."),
-    on_stop: OnStop = typer.Option(OnStop.TORQUE_OFF, "--on-stop", help="After the rest ramp."),
+    telemetry: Path | None = telemetry_option(),
+    ramp_s: float = ramp_option(),
+    rest: RestPose = rest_option(),
+    on_stop: OnStop = on_stop_option(),
     stand_s: float = typer.Option(
         0.0, "--stand-s", help="Hold the gait's stand (mean pose) this long \\[s] after the "
         "ramp-in and, on completion, at the end."),
@@ -274,24 +287,20 @@ def run(
         help="On completion blend the gait out to its stand (default), or ramp to --rest. "
         "Stops for a fault or a signal always ramp to --rest."),
     force: bool = typer.Option(False, "--force", help="Play a gait that did not pass sim."),
-    timeout_ms: float = typer.Option(3.0, "--timeout-ms", help="Reply allowance per packet."),
-    baud: int | None = typer.Option(None, "--baud", help="Baud rate; default: the robot's."),
-    realtime: bool = typer.Option(True, "--realtime/--no-realtime", help="Virtual: real time."),
-    fault: list[str] | None = typer.Option(
-        None,
-        "--fault",
-        metavar="KIND=VALUE@T",
-        help="Virtual bus only, repeatable: inject a fault to rehearse the safe stop. "
+    timeout_ms: float = timeout_option(),
+    baud: int | None = baud_option(),
+    realtime: bool = realtime_option(),
+    fault: list[str] | None = fault_option(
+        "Virtual bus only, repeatable: inject a fault to rehearse the safe stop. "
         "KIND=VALUE is one of drop=P, corrupt=P, delay=S, sag=V, vanish=ID, overload=ID, "
         "overheat=ID, voltage-error=ID, or status-lost / unplug (no value; unplug: the serial "
         "adapter vanishes, EIO); an optional @T starts it "
         "T seconds into the run (without it: from the start, pre-flight included). "
-        "E.g. --fault drop=0.01 --fault vanish=3@2.0",
+        "E.g. --fault drop=0.01 --fault vanish=3@2.0"
     ),
-    supply_v: float | None = typer.Option(
-        None, "--supply-v",
-        help="Servo supply [V] for pre-flight's torque margin; default: measured (the lowest "
-        "servo reading).",
+    supply_v: float | None = supply_option(
+        "Servo supply [V] for pre-flight's torque margin; default: measured (the lowest "
+        "servo reading)."
     ),
 ) -> None:
     """Play a gait on the servos: pre-flight, ramp-in, stream, watchdog, safe stop.
@@ -447,7 +456,7 @@ def _warn_beyond_bus_budget(robot: Any, port: str, baud: int, rate_hz: float) ->
 
 def budget(
     robot: str = typer.Option(..., "--robot", help="Robot name or folder."),
-    baud: int | None = typer.Option(None, "--baud", help="Baud rate; default: the robot's."),
+    baud: int | None = baud_option(),
     return_delay_us: float | None = typer.Option(
         None, "--return-delay-us", help="Servos' Return Delay Time \\[µs]; default: factory."
     ),

@@ -21,9 +21,24 @@ import typer
 from rich.markup import escape
 
 from hardware.bus.servo_bus import BusConfig
+from hardware.play.cli_options import (
+    SUSTAINED_RATE_HZ,
+    baud_option,
+    calibration_option,
+    fault_option,
+    on_stop_option,
+    port_option,
+    ramp_option,
+    rate_option,
+    realtime_option,
+    rest_option,
+    robot_option,
+    supply_option,
+    telemetry_option,
+    timeout_option,
+)
 from hardware.play.clock import Clock, MonotonicClock, VirtualClock
 from hardware.play.commands import (
-    SUSTAINED_RATE_HZ,
     VirtualMode,
     _fail,
     _fault_schedule,
@@ -57,8 +72,8 @@ def _check(name: str, value: float) -> str | None:
 
 def drive(
     library: Path = typer.Argument(..., help="Gait library (gaitsmith.library/1 JSON)."),
-    robot: str = typer.Option(..., "--robot", help="Robot name or folder, e.g. quad12."),
-    port: str | None = typer.Option(None, "--port", "-p", help="Serial device, e.g. /dev/ttyUSB0."),
+    robot: str = robot_option(),
+    port: str | None = port_option(),
     virtual: VirtualMode | None = typer.Option(
         None, "--virtual", help="No hardware: alone = in-process virtual bus; 'sim' = MuJoCo twin."
     ),
@@ -71,10 +86,8 @@ def drive(
     deadman_s: float = typer.Option(
         0.5, "--deadman-s", help="No command for this long → decelerate to the stand \\[s]."
     ),
-    rate_hz: float = typer.Option(
-        100.0, "--rate", help=f"Stream rate \\[Hz], 1..1000 (sustained: ≤ {SUSTAINED_RATE_HZ:g})."
-    ),
-    telemetry: Path | None = typer.Option(None, "--telemetry", help="Write per-tick CSV here."),
+    rate_hz: float = rate_option(),
+    telemetry: Path | None = telemetry_option(),
     accel: float = typer.Option(0.5, "--accel", help="Command acceleration limit \\[m/s²]."),
     yaw_accel: float = typer.Option(
         1.5, "--yaw-accel", help="Yaw-rate acceleration limit \\[rad/s²]."
@@ -82,23 +95,18 @@ def drive(
     max_drive_s: float = typer.Option(
         0.0, "--max-drive-s", help="End (standing) after this long \\[s]; 0 = when input ends."
     ),
-    calibration: Path | None = typer.Option(None, "--calibration", help="Calibration JSON."),
-    ramp_s: float = typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time \\[s]."),
-    rest: RestPose = typer.Option(RestPose.STANCE, "--rest", help="Pose to ramp to on stop."),
-    on_stop: OnStop = typer.Option(OnStop.TORQUE_OFF, "--on-stop", help="After the rest ramp."),
+    calibration: Path | None = calibration_option(),
+    ramp_s: float = ramp_option(),
+    rest: RestPose = rest_option(),
+    on_stop: OnStop = on_stop_option(),
     force: bool = typer.Option(False, "--force", help="Drive gaits that did not pass sim."),
-    timeout_ms: float = typer.Option(3.0, "--timeout-ms", help="Reply allowance per packet."),
-    baud: int | None = typer.Option(None, "--baud", help="Baud rate; default: the robot's."),
-    realtime: bool = typer.Option(True, "--realtime/--no-realtime", help="Virtual: real time."),
-    fault: list[str] | None = typer.Option(
-        None,
-        "--fault",
-        metavar="KIND=VALUE@T",
-        help="Virtual bus only, repeatable: inject a fault (as `run --fault`).",
+    timeout_ms: float = timeout_option(),
+    baud: int | None = baud_option(),
+    realtime: bool = realtime_option(),
+    fault: list[str] | None = fault_option(
+        "Virtual bus only, repeatable: inject a fault (as `run --fault`)."
     ),
-    supply_v: float | None = typer.Option(
-        None, "--supply-v", help="Servo supply [V] for pre-flight's torque margin."
-    ),
+    supply_v: float | None = supply_option("Servo supply [V] for pre-flight's torque margin."),
 ) -> None:
     """Drive the robot live: keyboard, gamepad or JSON-line commands, blended from a gait
     library; every target through the safety gate; no command for --deadman-s → stand.

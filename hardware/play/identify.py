@@ -41,6 +41,16 @@ from rich.console import Console
 from hardware.bus.servo_bus import BusConfig, ServoBus
 from hardware.errors import HardwareError
 from hardware.play.calibration import Calibration
+from hardware.play.cli_options import (
+    baud_option,
+    calibration_option,
+    port_option,
+    ramp_option,
+    rate_option,
+    realtime_option,
+    robot_option,
+    timeout_option,
+)
 from hardware.play.clock import Clock, MonotonicClock, VirtualClock
 from hardware.play.commands import VirtualMode
 from hardware.play.errors import PlayerError
@@ -284,9 +294,9 @@ class IdentifyPlayer(Player):
 
 # -- the command ------------------------------------------------------------------------------
 def identify_command(
-    robot: str = typer.Option(..., "--robot", help="Robot name or folder, e.g. quad12."),
+    robot: str = robot_option(),
     output: Path = typer.Option(..., "--output", "-o", help="Telemetry CSV to record."),
-    port: str | None = typer.Option(None, "--port", "-p", help="Serial device, e.g. /dev/ttyUSB0."),
+    port: str | None = port_option(),
     virtual: VirtualMode | None = typer.Option(
         None,
         "--virtual",
@@ -302,12 +312,12 @@ def identify_command(
         DEFAULT_SEGMENT_S, "--duration-s", help="Excitation per joint group \\[s] (2..120)."
     ),
     yes: bool = typer.Option(False, "--yes", "-y", help="The robot is lifted: do not ask."),
-    calibration: Path | None = typer.Option(None, "--calibration", help="Calibration JSON."),
-    rate_hz: float = typer.Option(100.0, "--rate", help="Stream rate \\[Hz], 1..1000."),
-    ramp_s: float = typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time \\[s]."),
-    timeout_ms: float = typer.Option(3.0, "--timeout-ms", help="Reply allowance per packet."),
-    baud: int | None = typer.Option(None, "--baud", help="Baud rate; default: the robot's."),
-    realtime: bool = typer.Option(True, "--realtime/--no-realtime", help="Virtual: real time."),
+    calibration: Path | None = calibration_option(),
+    rate_hz: float = rate_option("Stream rate \\[Hz], 1..1000."),
+    ramp_s: float = ramp_option(),
+    timeout_ms: float = timeout_option(),
+    baud: int | None = baud_option(),
+    realtime: bool = realtime_option(),
     twin_servo_params: Path | None = typer.Option(
         None,
         "--twin-servo-params",

@@ -25,18 +25,53 @@ today's treadmill row.
 
 The planar motion over h enters the NLP as parameters (`motion_parameters`), so one build serves
 every command.
+
+**Stepping in place** (the zero command with a stepping schedule; issue #14 item 5) plans with
+`in_place_options`. Measured in MuJoCo (`--knots 16`, 2026-12-02,
+docs/results/stand_in_place.md), the walking defaults let the robots wander off their spot:
+
+- nothing anchors the footprint when the body does not travel: the optimiser moved the two
+  diagonals of quad12's trot apart (FR 112 mm behind its stance position, FL 46 mm ahead),
+  spotmicro's trot likewise (104 mm), quad12's and spotmicro's walks put the hind feet 77-79 mm
+  back, bittle8's trot spread its feet 28-37 mm; the gaits' mean poses differed from the stance
+  by up to 39°, so the entry ramp (`robots.ramp`, to that mean pose) moved the standing robot,
+  and the trots drifted 20-24 mm/s (or turned 58°). `IN_PLACE_FOOTPRINT_LEG_LENGTHS`: the
+  cycle mean of every foot stays within ±0.01 L of its stance position (the
+  `PlannerOptions.mean_footprint_leg_lengths` constraint), so the entry moves no foot;
+- on each support diagonal quad12's anchored trot tipped 4.5° towards the free front foot in
+  MuJoCo (planned 0.5°), which landed early, and it drifted 12-23 mm/s. The walking clearance
+  0.14 L (25 mm) over a 0.19 s swing lifts the foot at up to h·π²/t² ≈ 7 m/s² (the clearance
+  profile h·sin(π·s)), and the leg's reaction on a body balanced on two feet is what the
+  open-loop servos do not reproduce. In place the foot travels no stride, so it needs to clear
+  the floor, not scuff across a step: `IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS` = 0.07 L (half;
+  an explicit `swing_clearance_m` is kept): quad12 trot 1.4 mm/s, bittle8 trot 2.5 mm/s;
+- a gait that does not balance on a support line (`centre_under_com`: walk, wave, ripple,
+  tripod — the caller's judgement, e.g. not `gaitsmith.gait_choice.tips_on_a_line`) stands on
+  its support polygons, so the footprint's stance position is the nominal one *shifted under
+  the centre of mass* (`stance_com_offset_m`, `PlannerOptions.mean_footprint_offset_m`):
+  quad12's CoM is 17 mm behind its feet's centroid, and at the nominal footprint its walk in
+  place tipped towards each swinging hind foot (the CoM near that triangle's edge) and drifted
+  20 mm/s backwards; centred, 0.8 mm/s. The entry ramp then shifts the body over the planted
+  feet by that offset. The trots are not centred: measured, centring made them drift more
+  (quad12 3.4 vs 1.4 mm/s and 64 vs 22 mm over the run, bittle8 3.9 vs 2.5 mm/s).
+
+The base height is left free (above `min_base_height_fraction`): a band of ±0.05 L around the
+stance's (tried, 2026-12-02) made bittle8's trot drift 7.7 instead of 2.5 mm/s (it crouches
+16 mm when free) and quad12's walk 5.9 instead of 0.8 mm/s (it rises 37 mm when free).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from planner.errors import PlannerConfigError
+from planner.nlp.config import PlannerOptions
+from robots.robot import Robot
 
 #: the planner's own bounds on a command (the CLI's are tighter and scale with the robot,
 #: `gaitsmith.options.check_yaw_rate`): speeds as `GaitPlanner`'s forward speed, and at most a
@@ -48,6 +83,11 @@ MAX_TURN_PER_PERIOD_RAD = math.pi / 2
 #: entries of the command block at the end of the parameter vector (after vx and T)
 N_MOTION_PARAMETERS = 8  # vy, W, cos(Wh), sin(Wh), d(+h) x, y, d(−h) x, y
 _SMALL_ANGLE = 1e-6
+
+#: stepping in place (module docstring): each foot's cycle-mean x, y within this · L of its
+#: stance position, and the swing clearance this · L (half `SWING_CLEARANCE_LEG_LENGTHS`)
+IN_PLACE_FOOTPRINT_LEG_LENGTHS = 0.01
+IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS = 0.07
 
 
 @dataclass(frozen=True)
@@ -61,6 +101,45 @@ class VelocityCommand:
     @property
     def moving(self) -> bool:
         return any(v != 0.0 for v in (self.vx_m_s, self.vy_m_s, self.yaw_rate_rad_s))
+
+
+def stance_com_offset_m(robot: Robot) -> tuple[float, float]:
+    """Ground projection of the centre of mass minus the centroid of the feet (x, y) in the base
+    frame, at the nominal stance (base level at the origin)."""
+    import mujoco
+
+    from planner.templates import stance_foot_positions_m
+
+    model = robot.mj_model()
+    data = mujoco.MjData(model)
+    data.qpos[:] = model.qpos0
+    data.qpos[0:7] = (0, 0, 0, 1, 0, 0, 0)
+    for j in robot.joints:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+        data.qpos[model.jnt_qposadr[jid]] = j.stance_rad
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    root = int(np.argmax(model.body_subtreemass[1:])) + 1  # the floating base: the heaviest tree
+    offset = data.subtree_com[root][:2] - stance_foot_positions_m(robot)[:, :2].mean(axis=0)
+    return float(offset[0]), float(offset[1])
+
+
+def in_place_options(options: PlannerOptions, robot: Robot, *,
+                     centre_under_com: bool) -> PlannerOptions:
+    """`options` for stepping in place (zero command, feet stepping; module docstring): each
+    foot's cycle mean within ±0.01 L of its stance position (shifted under the centre of mass
+    with `centre_under_com`, for gaits that stand on support polygons) and half the walking
+    swing clearance. An explicit `swing_clearance_m`, or a tighter footprint, is kept."""
+    leg_m = robot.leg_length_m
+    footprint = options.mean_footprint_leg_lengths
+    if footprint is None or footprint > IN_PLACE_FOOTPRINT_LEG_LENGTHS:
+        footprint = IN_PLACE_FOOTPRINT_LEG_LENGTHS
+    clearance = options.swing_clearance_m
+    if clearance is None:
+        clearance = IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS * leg_m
+    offset = stance_com_offset_m(robot) if centre_under_com else options.mean_footprint_offset_m
+    return replace(options, mean_footprint_leg_lengths=footprint, mean_footprint_offset_m=offset,
+                   swing_clearance_m=clearance)
 
 
 def check_command(vy_m_s: float, yaw_rate_rad_s: float, period_s: float, n_knots: int) -> None:
@@ -165,12 +244,16 @@ class MotionSymbols:
 
 
 __all__ = [
+    "IN_PLACE_FOOTPRINT_LEG_LENGTHS",
+    "IN_PLACE_SWING_CLEARANCE_LEG_LENGTHS",
     "N_MOTION_PARAMETERS",
     "MotionSymbols",
     "VelocityCommand",
     "check_command",
     "compose",
+    "in_place_options",
     "motion_parameters",
     "planar_displacement",
+    "stance_com_offset_m",
     "world_base_poses",
 ]

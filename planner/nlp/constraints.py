@@ -299,7 +299,7 @@ def _mean_footprint_groups(model: RobotModel, sym: Symbols, n: int, options: Pla
     """Mean footprint (`PlannerOptions.mean_footprint_leg_lengths`): the cycle mean of each
     foot's x, y in the base frame — the forward kinematics of the joints alone, base at the
     origin and level — within ±t of its nominal stance position
-    (`planner.templates.stance_foot_positions_m`)."""
+    (`planner.templates.stance_foot_positions_m`) shifted by `mean_footprint_offset_m`."""
     if options.mean_footprint_leg_lengths is None:
         return []
     from planner.templates import stance_foot_positions_m
@@ -310,7 +310,8 @@ def _mean_footprint_groups(model: RobotModel, sym: Symbols, n: int, options: Pla
     nf = model.n_feet
     # 3 × (N·F), knot-major: the mean over knots of foot f is the mean of columns f, f+F, …
     mean = sum((feet[:2, k * nf:(k + 1) * nf] for k in range(n)), ca.MX.zeros(2, nf)) / n
-    centre = np.r_[nominal[:, 0], nominal[:, 1]]
+    dx, dy = options.mean_footprint_offset_m
+    centre = np.r_[nominal[:, 0] + dx, nominal[:, 1] + dy]
     return [Group("mean footprint", ca.vertcat(mean[0, :].T, mean[1, :].T), centre - tol_m,
                   centre + tol_m, model.robot.leg_length_m)]
 

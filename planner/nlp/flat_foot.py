@@ -25,7 +25,9 @@ and the planner imposes:
   — the full CWC (16 linear rows once the absolute values are split), not the simplified box
   |τ_z| ≤ µ_t f_z. µ is the linear pyramid inscribed in the Coulomb cone, µ_opt/√2, as for the
   point feet (W&P eq 9), applied at every corner of the sole, so the rows are conservative. With
-  f_z = 0 (swing: the "swing force" group) they force the whole wrench to zero;
+  f_z = 0 (swing: the "swing force" group) they force the whole wrench to zero. The planner
+  imposes the cone of the sole shrunk by `PlannerOptions.cop_sole_fraction` (X, Y → sX, sY): a
+  centre-of-pressure and torsional-friction margin, `planner.nlp.contact_margin`;
 - in swing the whole sole clears the ground: all four corners at least the swing profile H high;
 - the "body clearance" rows (W&P eq 1) spare the ankle: a flat foot's body and the ancestors
   sharing its origin stand only the ankle height above the sole, which its corners keep clear.
@@ -47,7 +49,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from planner.nlp.capture_margin import N_CAPTURE_ROWS, capture_margin_labels, capture_margin_rows
 from planner.nlp.config import PlannerOptions
+from planner.nlp.contact_margin import shrunk_half_extents
 from planner.nlp.model import RobotModel
 
 N_CWC_ROWS = 16
@@ -171,32 +175,36 @@ def _half_extents(model: RobotModel, foot: int) -> tuple[float, float]:
     return half
 
 
-def _knot_function(model: RobotModel, mu: float) -> ca.Function:
-    """SX function of one knot: sole normal xy, sole heading x̂ (xy), corner heights, CWC rows."""
+def _knot_function(model: RobotModel, mu: float, sole_fraction: float = 1.0) -> ca.Function:
+    """SX function of one knot: sole normal xy, sole heading x̂ (xy), corner heights, CWC rows
+    (the cone of the sole shrunk by `sole_fraction`, `planner.nlp.contact_margin`)."""
     nj, nf, nff = model.n_joints, model.n_feet, n_flat(model)
     b, q = ca.SX.sym("b", 6), ca.SX.sym("q", nj)
     f, m = ca.SX.sym("f", 3 * nf), ca.SX.sym("m", 3 * nff)
     feet, _, _ = model.fk(b[:3], b[3:], q)
     rots = model.soles(b[:3], b[3:], q)
     length = model.robot.leg_length_m
-    normal, heading, corners, cone = [], [], [], []
+    normal, heading, centres, corners, cone = [], [], [], [], []
     for k, i in enumerate(model.flat_feet):
         rot = rots[:, 3 * k : 3 * k + 3]
         normal.append(rot[:2, 2])
         heading.append(rot[:2, 0])
         centre = feet[:, i]
+        centres.append(centre[:2])
         hx, hy = _half_extents(model, i)
         for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
             corners.append(centre[2] + rot[2, 0] * sx * hx + rot[2, 1] * sy * hy)
         force_sole = rot.T @ f[3 * i : 3 * i + 3]
         moment_sole = rot.T @ m[3 * k : 3 * k + 3]  # units m·g·L: half extents in units of L
-        cone.append(cwc_rows(force_sole, moment_sole, hx / length, hy / length, mu))
+        cx, cy = shrunk_half_extents((hx, hy), sole_fraction)
+        cone.append(cwc_rows(force_sole, moment_sole, cx / length, cy / length, mu))
     return ca.Function(
         "flat_knot",
         [b, q, f, m],
-        [ca.vertcat(*normal), ca.vertcat(*heading), ca.vertcat(*corners), ca.vertcat(*cone)],
+        [ca.vertcat(*normal), ca.vertcat(*heading), ca.vertcat(*corners), ca.vertcat(*cone),
+         ca.vertcat(*centres)],
         ["b", "q", "f", "m"],
-        ["normal_xy", "heading_xy", "corner_z", "cwc"],
+        ["normal_xy", "heading_xy", "corner_z", "cwc", "centre_xy"],
     )
 
 
@@ -214,8 +222,8 @@ def flat_foot_groups(
         return []
     n, nff = n_knots, n_flat(model)
     mu = options.mu / math.sqrt(2.0)
-    fn = _knot_function(model, mu).map(n)
-    normal, heading, corner_z, cone = fn(sym.base, sym.q, sym.forces, sym.moments)
+    fn = _knot_function(model, mu, options.cop_sole_fraction).map(n)
+    normal, heading, corner_z, cone, centre = fn(sym.base, sym.q, sym.forces, sym.moments)
     flat = list(model.flat_feet)
     c = sym.contact[flat, :]
     hold = stick[flat, :]
@@ -231,7 +239,14 @@ def flat_foot_groups(
     for j in range(N_CORNERS):
         corner_rows.append(ca.vec(swing * (corner_z[j::N_CORNERS, :] - min_h)))
     zeros, inf = np.zeros, np.inf
+    capture = []
+    if options.capture_sole_fraction is not None:
+        rows = capture_margin_rows(model, sym, n, centre, heading, options.capture_sole_fraction)
+        size = N_CAPTURE_ROWS * nff * n
+        capture = [group("capture margin", rows, zeros(size), np.full(size, inf),
+                         model.robot.leg_length_m)]
     return [
+        *_anchored_footprint(model, sym, n, options),
         group(
             "sole level",
             ca.vertcat(ca.vec(c * normal[0::2, :]), ca.vec(c * normal[1::2, :])),
@@ -251,7 +266,23 @@ def flat_foot_groups(
             zeros(N_CWC_ROWS * nff * n),
             np.full(N_CWC_ROWS * nff * n, inf),
         ),
+        *capture,
     ]
+
+
+def _anchored_footprint(model: RobotModel, sym: Any, n_knots: int,
+                        options: PlannerOptions) -> list[Any]:
+    """The "mean footprint" rows (`PlannerOptions.mean_footprint_leg_lengths`) at
+    `PlannerOptions.flat_mean_footprint_leg_lengths` for a robot with flat feet, unless the
+    option already asks for them (`planner.nlp.contact_margin`: the limping optimum)."""
+    t = options.flat_mean_footprint_leg_lengths
+    if t is None or options.mean_footprint_leg_lengths is not None:
+        return []
+    from planner.nlp.constraints import _mean_footprint_groups  # it imports this module
+
+    return _mean_footprint_groups(
+        model, sym, n_knots, dataclasses.replace(options, mean_footprint_leg_lengths=t)
+    )
 
 
 def flat_foot_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
@@ -276,6 +307,7 @@ def flat_foot_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         "sole yaw hold": per_foot,
         "sole clearance": corners,
         "contact wrench cone": cwc,
+        "capture margin": capture_margin_labels(model, n_knots),
     }
 
 

@@ -120,7 +120,8 @@ def test_wrench_of_corner_forces_lies_in_the_cone() -> None:
 
 
 def test_flat_foot_rows_match_finite_differences(biped_model: RobotModel) -> None:
-    """CasADi's Jacobian of the sole/wrench rows (level, heading, corners, CWC) vs central FD."""
+    """CasADi's Jacobian of the sole/wrench rows (level, heading, corners, CWC, sole centres)
+    vs central FD."""
     fn = _knot_function(biped_model, MU / np.sqrt(2.0))
     n_in = [fn.size1_in(i) for i in range(fn.n_in())]
     x = ca.SX.sym("x", sum(n_in))
@@ -138,7 +139,7 @@ def test_flat_foot_rows_match_finite_differences(biped_model: RobotModel) -> Non
             rng.normal(size=n_in[3]) * 0.05,
         ]
         value, analytic = (np.asarray(v) for v in jac(point))
-        assert value.shape[0] == 2 * 2 + 2 * 2 + 4 * 2 + N_CWC_ROWS * 2
+        assert value.shape[0] == 2 * 2 + 2 * 2 + 4 * 2 + N_CWC_ROWS * 2 + 2 * 2
         eps = 1e-6
         numeric = np.zeros_like(analytic)
         for i in range(point.size):
@@ -283,3 +284,85 @@ def test_body_clearance_spares_only_the_flat_feet_ankles(biped_model: RobotModel
     assert np.all(lb[:, [b for b in range(biped_model.n_bodies) if b not in spared]] == 0.0)
     quad = RobotModel(robots.load("quad12"))
     assert np.all(body_clearance_lower_bounds(quad, 3) == 0.0)
+
+
+def test_the_shrunk_sole_cone_keeps_the_centre_of_pressure_off_the_edge() -> None:
+    """CoP margin (`planner.nlp.contact_margin`): a CoP at 0.7 Y is in the sole's cone but not
+    in the cone of the sole shrunk to 0.6; the torsion limit shrinks by the same share."""
+    from planner.nlp.contact_margin import shrunk_half_extents
+
+    small = shrunk_half_extents((X, Y), 0.6)
+    assert small == pytest.approx((0.6 * X, 0.6 * Y))
+    force, near_edge = np.array([0.0, 0.0, 10.0]), np.array([0.7 * Y * 10.0, 0.0, 0.0])
+    assert cwc_rows(force, near_edge, X, Y, MU).min() >= 0
+    assert cwc_rows(force, near_edge, *small, MU).min() < 0
+    inside = np.array([0.55 * Y * 10.0, 0.0, 0.0])
+    assert cwc_rows(force, inside, *small, MU).min() >= 0
+    twist = np.array([0.0, 0.0, 0.7 * MU * (X + Y) * 10.0])
+    assert cwc_rows(force, twist, X, Y, MU).min() >= 0 > cwc_rows(force, twist, *small, MU).min()
+    with pytest.raises(ValueError, match="sole fraction"):
+        shrunk_half_extents((X, Y), 0.0)
+
+
+def test_single_support_indicator_marks_knots_with_one_foot_down() -> None:
+    from planner.nlp.capture_margin import single_support
+
+    contact = ca.DM([[1, 1, 0, 0, 1], [1, 0, 0, 1, 0], [1, 0, 1, 0, 0]])
+    assert np.asarray(single_support(contact, 0)).ravel().tolist() == [0, 1, 0, 0, 1]
+    assert np.asarray(single_support(contact, 1)).ravel().tolist() == [0, 0, 0, 1, 0]
+
+
+def test_capture_point_is_the_com_plus_its_velocity_over_omega(biped_model: RobotModel) -> None:
+    """ξ = c + ċ/ω₀, ω₀ = √(g/c_z) (Koolen et al. 2012 eq 9), ċ by cyclic central differences
+    of the knots plus the commanded speed, against the same formula in numpy."""
+    from planner.nlp.capture_margin import capture_point_xy
+    from planner.nlp.variables import Layout, make_symbols, parameter_vector
+    from planner.templates import make_schedule
+
+    model, n, speed = biped_model, 8, 0.12
+    layout = Layout(n, model.n_joints, model.n_feet, len(model.flat_feet))
+    sym = make_symbols(layout)
+    fn = ca.Function("xi", [sym.x, sym.p], [capture_point_xy(model, sym, n)])
+    rng = np.random.default_rng(3)
+    stance = np.asarray(model.robot.nominal_stance_rad)
+    base = np.zeros((n, 6))
+    base[:, 0] = 0.01 * np.sin(2 * np.pi * np.arange(n) / n)
+    base[:, 1] = 0.02 * np.cos(2 * np.pi * np.arange(n) / n)
+    base[:, 2] = model.robot.stance_base_height_m
+    q = stance + 0.05 * rng.standard_normal((n, model.n_joints))
+    x = layout.pack(base, q, np.zeros((n, model.n_feet, 3)))
+    schedule = make_schedule(model.robot, "biped_walk")
+    p = parameter_vector(schedule, n, speed, 0.03)
+    xi = np.asarray(fn(x, p))
+    com = np.array([np.asarray(model.fk(b[:3], b[3:], qk)[2]).ravel()
+                    for b, qk in zip(base, q, strict=True)])
+    h = schedule.period_s / n
+    vel = (np.roll(com, -1, axis=0) - np.roll(com, 1, axis=0)) / (2 * h)
+    vel[:, 0] += speed
+    expected = com[:, :2] + vel[:, :2] * np.sqrt(com[:, 2:3] / 9.81)
+    np.testing.assert_allclose(xi.T, expected, atol=1e-9)
+
+
+def test_margins_are_off_by_default_and_add_their_rows_when_asked(biped_model: RobotModel) -> None:
+    """Default options: the flat-foot groups of main (no capture or footprint rows, the CWC of
+    the whole sole); the options add the capture rows (±y per flat foot and knot, labelled) and
+    the mean-footprint rows."""
+    from planner.nlp.config import PlannerOptions
+    from planner.nlp.constraints import Group
+    from planner.nlp.flat_foot import flat_foot_groups, flat_foot_labels
+    from planner.nlp.variables import Layout, make_symbols
+
+    model, n = biped_model, 8
+    sym = make_symbols(Layout(n, model.n_joints, model.n_feet, len(model.flat_feet)))
+    stick = ca.DM.ones(model.n_feet, n)
+    default = flat_foot_groups(model, sym, n, PlannerOptions(), stick, Group)
+    assert [g.name for g in default] == [
+        "sole level", "sole yaw hold", "sole clearance", "contact wrench cone"
+    ]
+    asked = PlannerOptions(capture_sole_fraction=0.8, flat_mean_footprint_leg_lengths=0.05)
+    groups = {g.name: g for g in flat_foot_groups(model, sym, n, asked, stick, Group)}
+    assert groups["capture margin"].expr.shape[0] == 2 * 2 * n
+    assert len(flat_foot_labels(model, n)["capture margin"]) == 2 * 2 * n
+    assert groups["mean footprint"].expr.shape[0] == 2 * model.n_feet
+    with pytest.raises(Exception, match="capture_sole_fraction"):
+        PlannerOptions(capture_sole_fraction=1.5)

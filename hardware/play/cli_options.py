@@ -1,0 +1,90 @@
+"""The typer options `gaitsmith-play run`, `drive` and `identify` share, declared once.
+
+Each function returns a fresh `typer.Option` (typer keeps per-parameter state on the object, so
+one instance is not shared between commands). The default and flag names are the same in every
+command; the help text may add what a command does differently.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import typer
+
+from hardware.play.player import OnStop, RestPose
+
+SUSTAINED_RATE_HZ = 100.0  # the loop's sustainable rate (see hardware.play.commands)
+
+
+def robot_option() -> Any:
+    return typer.Option(..., "--robot", help="Robot name or folder, e.g. quad12.")
+
+
+def port_option() -> Any:
+    return typer.Option(None, "--port", "-p", help="Serial device, e.g. /dev/ttyUSB0.")
+
+
+def calibration_option() -> Any:
+    return typer.Option(None, "--calibration", help="Calibration JSON.")
+
+
+def rate_option(help_text: str | None = None) -> Any:
+    return typer.Option(
+        100.0,
+        "--rate",
+        help=help_text or f"Stream rate \\[Hz], 1..1000 (sustained: ≤ {SUSTAINED_RATE_HZ:g}).",
+    )
+
+
+def telemetry_option() -> Any:
+    return typer.Option(None, "--telemetry", help="Write per-tick CSV here.")
+
+
+def ramp_option() -> Any:
+    return typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time \\[s].")
+
+
+def rest_option() -> Any:
+    return typer.Option(RestPose.STANCE, "--rest", help="Pose to ramp to on stop.")
+
+
+def on_stop_option() -> Any:
+    return typer.Option(OnStop.TORQUE_OFF, "--on-stop", help="After the rest ramp.")
+
+
+def timeout_option() -> Any:
+    return typer.Option(3.0, "--timeout-ms", help="Reply allowance per packet.")
+
+
+def baud_option() -> Any:
+    return typer.Option(None, "--baud", help="Baud rate; default: the robot's.")
+
+
+def realtime_option() -> Any:
+    return typer.Option(True, "--realtime/--no-realtime", help="Virtual: real time.")
+
+
+def fault_option(help_text: str) -> Any:
+    return typer.Option(None, "--fault", metavar="KIND=VALUE@T", help=help_text)
+
+
+def supply_option(help_text: str) -> Any:
+    return typer.Option(None, "--supply-v", help=help_text)
+
+
+__all__ = [
+    "SUSTAINED_RATE_HZ",
+    "baud_option",
+    "calibration_option",
+    "fault_option",
+    "on_stop_option",
+    "port_option",
+    "ramp_option",
+    "rate_option",
+    "realtime_option",
+    "rest_option",
+    "robot_option",
+    "supply_option",
+    "telemetry_option",
+    "timeout_option",
+]
