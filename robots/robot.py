@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -590,6 +590,7 @@ def _build(
     mujoco.mj_kinematics(model, data)
     held = {j.name for j in joints if j.held}
     foot_z, leg_lengths = [], []
+    sole_notices: list[str] = []
     legs: list[Leg] = []
     for leg in spec.legs:
         sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site)
@@ -634,6 +635,8 @@ def _build(
                 "geom; give the foot a geom with contype/conaffinity set",
             )
         built = Leg(leg.name, leg.foot_site, leg.joints, body_name, geoms)
+        if not leg.is_flat:
+            sole_notices.extend(_box_sole_notice(model, leg.name, geoms))
         # the contact point's height: the sphere's centre (its radius is added below) or, for a
         # flat foot, the sole centre lifted by the radius so both kinds compare alike
         foot = float(data.site_xpos[sid][2])
@@ -647,6 +650,8 @@ def _build(
         anchor = data.xanchor[first]
         foot_z.append(foot)
         leg_lengths.append(float(anchor[2] - foot) + (spec.foot_radius_m if leg.is_flat else 0.0))
+    if sole_notices:
+        prepared = replace(prepared, notices=(*prepared.notices, *sole_notices))
     height = spec.foot_radius_m - min(foot_z)
     if not 0.0 < height <= MAX_STANCE_HEIGHT_M:
         raise RobotConfigError(
@@ -672,6 +677,22 @@ def _build(
         leg_length_m=sum(leg_lengths) / len(leg_lengths),
         prepared=prepared,
     )
+
+
+def _box_sole_notice(model: Any, leg_name: str, foot_geoms: tuple[str, ...]) -> list[str]:
+    """A notice when a point foot's only collidable geom is a box: a sole the planner would
+    balance on a point (`robots init` declares such feet flat; a hand-written folder may not)."""
+    import mujoco
+
+    ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in foot_geoms]
+    if len(ids) != 1 or int(model.geom_type[ids[0]]) != int(mujoco.mjtGeom.mjGEOM_BOX):
+        return []
+    size = model.geom_size[ids[0]]
+    return [
+        f"[legs.{leg_name}]: the foot is box geom {foot_geoms[0]!r} "
+        f"({2e3 * size[0]:.0f} × {2e3 * size[1]:.0f} mm) but the leg declares a point foot; "
+        'add foot = "flat" so the planner keeps the sole flat on the ground'
+    ]
 
 
 # ---------------------------------------------------------------------------------------------

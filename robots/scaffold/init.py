@@ -18,16 +18,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
+import numpy as np
 
 from robots.errors import RobotsError
 from robots.scaffold.convert import load_spec, write_assets
 from robots.scaffold.errors import ScaffoldError
-from robots.scaffold.legs import find_legs
+from robots.scaffold.legs import FoundLeg, find_legs
 from robots.scaffold.stance import GROUND_TOL_M, find_stance
 from robots.scaffold.toml_text import JointEntry, LegEntry, robot_toml
 from robots.servo import ServoModel, load_catalogue
 
 REACH_MARGIN_RAD = math.radians(0.1)
+SOLE_NORMAL_TOL_RAD = math.radians(5.0)  # box z-axis this close to up: its −z face is the sole
 
 ServoQuestion = Callable[[list[str]], str | None]  # known models → chosen model (None: no answer)
 LimitQuestion = Callable[[str], tuple[float, float] | None]  # joint → (lower, upper) degrees
@@ -63,6 +65,34 @@ def _unique_name(model: mujoco.MjModel, kind: mujoco.mjtObj, count: int, name: s
     while out in taken:
         out, k = f"{name}_{k}", k + 1
     return out
+
+
+def _box_sole(model: mujoco.MjModel, leg: FoundLeg) -> str | None:
+    """The foot geom's name ("" if unnamed) when the loader can take a flat sole from it.
+
+    `robots.sole.resolve_sole` reads a flat foot's sole as the bottom (−z) face of the one
+    collidable box geom of the foot body, so that box must be the foot, the only collidable
+    box there, and its z-axis the sole's upward normal. None otherwise (a mesh or cylinder
+    sole, a box lying on its side): such a foot stays a point.
+    """
+    g = leg.foot.geom
+    if int(model.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_BOX):
+        return None
+    first = int(model.body_geomadr[leg.foot.body])
+    boxes = [
+        k
+        for k in range(first, first + int(model.body_geomnum[leg.foot.body]))
+        if int(model.geom_type[k]) == int(mujoco.mjtGeom.mjGEOM_BOX)
+        and (model.geom_contype[k] or model.geom_conaffinity[k])
+    ]
+    if boxes != [g]:
+        return None
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, model.geom_quat[g])
+    up = leg.foot.sole_normal_local / np.linalg.norm(leg.foot.sole_normal_local)
+    if float(rot.reshape(3, 3)[:, 2] @ up) < math.cos(SOLE_NORMAL_TOL_RAD):
+        return None
+    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
 
 
 def _choose_servo(servo: str | None, questions: Questions, source: str) -> ServoModel:
@@ -177,10 +207,21 @@ def init_robot(
     foot_radius = radii[len(radii) // 2]
     if radii[-1] - radii[0] > 1e-3:
         notes.append(f"feet differ in radius ({radii[0]:.4f}–{radii[-1]:.4f} m); used the median")
-    flat = [leg.name for leg in legs if leg.foot.flat]
-    if flat:
+    soles = {leg.name: _box_sole(model, leg) for leg in legs if leg.foot.flat}
+    declared = [name for name, geom in soles.items() if geom is not None]
+    undeclared = [name for name, geom in soles.items() if geom is None]
+    if declared:
         notes.append(
-            f"flat feet ({', '.join(flat)}): foot site {foot_radius * 1e3:.0f} mm above the sole"
+            f"flat feet ({', '.join(declared)}): foot = \"flat\", the sole is the bottom face "
+            f"of the foot's box geom (planned lying on the ground in stance); foot site "
+            f"{foot_radius * 1e3:.0f} mm above the sole"
+        )
+    if undeclared:
+        notes.append(
+            f"flat soles that are not one upright box geom ({', '.join(undeclared)}): planned "
+            f"as point feet at a site {foot_radius * 1e3:.0f} mm above the sole; to plan them "
+            'flat add foot = "flat" and sole_size_m = [length, width] to the leg, with its '
+            "foot site moved to the sole centre"
         )
     site_names: dict[str, str] = {}
     for leg in legs:
@@ -196,6 +237,8 @@ def init_robot(
             geom.name = _unique_name(
                 model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, f"{leg.name}_foot"
             )
+        if soles.get(leg.name) is not None:
+            soles[leg.name] = geom.name
     notes.append(
         f"found {len(legs)} legs ({', '.join(leg.name for leg in legs)}), named by where "
         "they leave the body (+x front, +y left)"
@@ -247,7 +290,12 @@ def init_robot(
         )
         bus += 1
     leg_entries = [
-        LegEntry(leg.name, site_names[leg.name], tuple(jname[j] for j in leg.joints))
+        LegEntry(
+            leg.name,
+            site_names[leg.name],
+            tuple(jname[j] for j in leg.joints),
+            sole_geom=soles.get(leg.name) or "",
+        )
         for leg in legs
     ]
     description = (

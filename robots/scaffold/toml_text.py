@@ -25,6 +25,9 @@ class LegEntry:
     name: str
     foot_site: str
     joints: tuple[str, ...]
+    #: the box geom whose bottom face is the sole (the leg is then declared `foot = "flat"`),
+    #: "" for a point foot
+    sole_geom: str = ""
 
 
 def _deg(rad: float) -> str:
@@ -91,4 +94,6 @@ def robot_toml(
             f"foot_site = {json.dumps(leg.foot_site)}",
             f"joints = {json.dumps(list(leg.joints))}",
         ]
+        if leg.sole_geom:
+            out.append(f'foot = "flat"  # the sole is the bottom face of box geom {leg.sole_geom}')
     return "\n".join(out) + "\n"

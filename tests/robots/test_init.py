@@ -125,6 +125,30 @@ def test_joints_outside_the_legs_are_held(tmp_path: Path) -> None:
     assert any("flat feet" in n for n in result.notes)
 
 
+def test_box_soles_are_declared_flat_feet(tmp_path: Path) -> None:
+    """A model whose feet are box soles gets `foot = "flat"` (before: point feet on the soles)."""
+    init_robot(ZOO / "humanoid20" / "robot.xml", tmp_path / "h", servo="XL430_W250")
+    legs = _toml(tmp_path / "h")["legs"]
+    assert [table.get("foot") for table in legs.values()] == ["flat", "flat"]
+    r = robots.load(tmp_path / "h")
+    assert all(leg.is_flat for leg in r.legs)
+    assert [leg.sole_geom for leg in r.legs] == ["l_sole", "r_sole"]
+    assert [leg.sole_half_extents_m for leg in r.legs] == [(0.05, 0.03), (0.05, 0.03)]
+
+
+def test_unnamed_box_feet_from_a_urdf_are_declared_flat(tmp_path: Path) -> None:
+    text = SPOT_URDF.read_text().replace(
+        '<geometry><sphere radius="0.015"/></geometry>',
+        '<geometry><box size="0.04 0.03 0.01"/></geometry>',
+    )
+    (tmp_path / "boxspot.urdf").write_text(text)
+    result = init_robot(tmp_path / "boxspot.urdf", tmp_path / "robot", servo="STS3215_12V")
+    assert any('foot = "flat"' in n for n in result.notes)
+    r = robots.load(tmp_path / "robot")
+    assert len(r.legs) == 4 and all(leg.is_flat and leg.sole_geom for leg in r.legs)
+    assert all(leg.sole_half_extents_m == pytest.approx((0.02, 0.015)) for leg in r.legs)
+
+
 def test_without_a_servo_it_stops_and_says_pass_servo(tmp_path: Path) -> None:
     with pytest.raises(ScaffoldError, match="pass --servo") as err:
         init_robot(SPOT_URDF, tmp_path / "x")
@@ -230,7 +254,9 @@ def test_mesh_feet_are_copied_and_resolve_from_any_folder(
     result = init_robot(src / "spot.urdf", out, servo="STS3215_12V")
     assert (out / "assets" / "foot.obj").is_file()
     assert 'file="assets/foot.obj"' in (out / "robot.xml").read_text()
-    assert any("flat feet" in n for n in result.notes)
+    # a mesh sole cannot be sized by the loader: a point foot, and the note says how to declare it
+    assert any("flat soles that are not one upright box" in n for n in result.notes)
+    assert all("foot" not in leg for leg in _toml(out)["legs"].values())
     monkeypatch.chdir(tmp_path / "src")
     r = robots.load(out)
     assert check_stand(r).stands

@@ -1,5 +1,6 @@
 import math
 import re
+import shutil
 from pathlib import Path
 
 import mujoco
@@ -129,3 +130,17 @@ def test_joint_ticks_follow_direction_and_offset() -> None:
     assert j.angle_to_ticks(0.0) == 2048
     assert j.angle_to_ticks(math.pi / 2) == pytest.approx(2048 - 1024)
     assert np.isclose(r.joint("fl_knee").angle_to_ticks(math.pi / 2), 2048 + 1024)
+
+
+def test_a_point_foot_on_a_box_sole_gets_a_notice(tmp_path: Path) -> None:
+    """A hand-written folder that declares box soles as points is told to declare them flat."""
+    from tests.zoo.fixtures import ZOO
+
+    folder = tmp_path / "h"
+    shutil.copytree(ZOO / "humanoid20", folder)
+    toml = folder / "robot.toml"
+    toml.write_text(re.sub(r'(?m)^foot = "flat".*$', "", toml.read_text()))
+    notices = robots.load(folder).notices
+    assert [n.split(":")[0] for n in notices] == ["[legs.l]", "[legs.r]"]
+    assert all('add foot = "flat"' in n and "100 × 60 mm" in n for n in notices)
+    assert robots.load(ZOO / "humanoid20").notices == ()
