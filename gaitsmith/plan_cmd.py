@@ -52,7 +52,7 @@ from gaitsmith.search_options import (
     workers_option,
 )
 from gaitsmith.validation_record import validation_record
-from planner.errors import InfeasibleGaitError
+from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp.config import DEFAULT_FROUDE, DERIVATIVE_PATHS, PlannerOptions, default_speed_m_s
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
@@ -103,6 +103,10 @@ def plan(
         "NLP in SX; slow build) or compiled (knot, with J and H compiled to C once per robot: "
         "minutes the first time, faster solves after)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
+    mirror: bool = typer.Option(
+        False, "--mirror", help="the second half of the cycle is the first half mirrored "
+        "left-right (straight gaits of symmetric bodies on half-cycle symmetric schedules: "
+        "biped walk/run, trot, pace, tripod; N even)"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
@@ -162,6 +166,10 @@ def plan(
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
+    if mirror and search:
+        raise OptionError("--mirror: not with --search yet; plan the chosen gait with --mirror")
+    if mirror and knots % 2:
+        raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if search:
         _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v,
                      solver=solver)
@@ -175,7 +183,7 @@ def plan(
     choice = commanded_gait(bot, gait, vy, yaw_rate,
                             PlannerOptions(mu=mu, print_level=5 if verbose else 0,
                                            servo_settings=servo_settings,
-                                           derivatives=solver))
+                                           derivatives=solver, half_cycle_mirror=mirror))
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)
@@ -185,6 +193,8 @@ def plan(
         console.print(f"commanded gait: {choice.reason}")
     schedule, gait = command_schedule(bot, gait, phases=phases, duty=duty,
                                       schedule_file=schedule_file, period_s=period)
+    if mirror:
+        _check_mirror(bot, schedule, knots, vy, yaw_rate)
     in_place = in_place_choice(bot, schedule, speed, vy, yaw_rate, options)
     if in_place is not None:
         options = in_place
@@ -220,6 +230,19 @@ def plan(
         )
     gait_obj = planner.to_gait(result, gait, extra_metadata=supply_meta)
     _write(gait_obj, bot, output, simulate, cycles, servo_settings)
+
+
+def _check_mirror(bot: robots.Robot, schedule: robots.ContactSchedule, knots: int, vy: float,
+                  yaw_rate: float) -> None:
+    """--mirror's conditions, before the NLP is built (`planner.nlp.mirror`)."""
+    from planner.nlp.mirror import check_schedule, joint_mirror
+    from planner.templates import mirror_permutation
+
+    try:
+        joint_mirror(bot)
+        check_schedule(schedule, mirror_permutation(bot), knots, vy, yaw_rate)
+    except PlannerConfigError as exc:
+        raise OptionError(str(exc)) from None
 
 
 def _standing(vx: float, vy: float, yaw_rate: float, duty: str | None, phases: str | None,

@@ -190,6 +190,10 @@ class PlannerOptions:
       footprint" rows at this t when `mean_footprint_leg_lengths` is None (some biped plans
       limp without them, docs/results/biped_walk_robustness.md).
     All three are off by default (`planner.nlp.contact_margin` says why).
+    - `half_cycle_mirror`: the second half of the cycle is the first half mirrored under
+      y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
+      half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric
+      optimum. Off by default; `gaitsmith plan --mirror`.
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
       "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
@@ -221,6 +225,7 @@ class PlannerOptions:
     cop_sole_fraction: float = COP_SOLE_FRACTION
     capture_sole_fraction: float | None = CAPTURE_SOLE_FRACTION
     flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
+    half_cycle_mirror: bool = False
     tol: float = 1e-6
     max_iter: int = 150
     print_level: int = 0

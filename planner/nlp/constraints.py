@@ -32,6 +32,7 @@ from planner.nlp.flat_foot import (
     spare_flat_foot_ankles,
 )
 from planner.nlp.foot_separation import foot_separation_labels, foot_separation_rows
+from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.variables import Symbols, time_unit_s
 
@@ -286,6 +287,7 @@ def build_groups(
         *flat_foot_groups(model, sym, n, options, stick, Group),
         *_static_margin_groups(model, sym, kq, n, options),
         *_mean_footprint_groups(model, sym, n, options),
+        *_mirror_groups(model, sym, n, options),
     ]
     separation, separation_lb = foot_separation_rows(model, sym, kq.feet_m)
     if separation_lb.size:  # neighbouring feet do not cross (`planner.nlp.foot_separation`)
@@ -314,6 +316,19 @@ def _mean_footprint_groups(model: RobotModel, sym: Symbols, n: int, options: Pla
     centre = np.r_[nominal[:, 0] + dx, nominal[:, 1] + dy]
     return [Group("mean footprint", ca.vertcat(mean[0, :].T, mean[1, :].T), centre - tol_m,
                   centre + tol_m, model.robot.leg_length_m)]
+
+
+def _mirror_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions
+                   ) -> list[Group]:
+    """Half-cycle mirror symmetry (`PlannerOptions.half_cycle_mirror`, `planner.nlp.mirror`)."""
+    if not options.half_cycle_mirror:
+        return []
+    mirror = joint_mirror(model.robot)
+    held = tuple(j for j, joint in enumerate(model.robot.joints) if joint.held)
+    rows, kinds = mirror_rows(mirror, held, sym.base, sym.q, n)
+    zero = np.zeros(kinds.size)
+    scale = np.where(kinds == 0, model.robot.leg_length_m, 1.0)
+    return [Group("half-cycle mirror", rows, zero, zero, scale)]
 
 
 def _static_margin_groups(
@@ -462,6 +477,7 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         ],
         "static margin": _static_margin_labels(model, n_knots),
         "mean footprint": [f"foot {f} mean {a}" for a in "xy" for f in feet],
+        "half-cycle mirror": mirror_labels(model.robot, n_knots),
         **flat_foot_labels(model, n_knots),
         "foot separation": foot_separation_labels(model, n_knots),
     }
