@@ -188,6 +188,14 @@ def _spread(times: list[float], iters: list[int]) -> str:
 PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "expanded": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="expanded")),
     "knot": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="knot")),
+    # IPOPT's options and warm start (`planner.nlp.spacetime.ipopt_options`): before and after
+    # the tuning of docs/results/planner_speed_ipopt.md ("knot" is the default, i.e. tuned)
+    "knot-s21": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(derivatives="knot", ipopt_tuning="session21")
+    ),
+    "knot-tuned": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(derivatives="knot", ipopt_tuning="tuned")
+    ),
 }
 
 

@@ -36,6 +36,8 @@ DEFAULT_FROUDE = 0.035
 GRAVITY_M_S2 = 9.81
 #: values of `PlannerOptions.derivatives`
 DERIVATIVE_PATHS = ("knot", "expanded")
+#: values of `PlannerOptions.ipopt_tuning` (`planner.nlp.spacetime.ipopt_options`)
+IPOPT_TUNINGS = ("tuned", "session21")
 
 
 def speed_for_froude(froude: float, leg_length_m: float) -> float:
@@ -173,6 +175,9 @@ class PlannerOptions:
       (`planner.nlp.solver_cache`): builds in a fraction of the time; "expanded" — the whole NLP
       expanded to SX and differentiated (the path before issue #16). See
       docs/results/planner_speed.md for the measured build and solve times.
+    - `ipopt_tuning`: IPOPT's option set and warm-start policy (`planner.nlp.spacetime`):
+      "tuned" (default, measured in docs/results/planner_speed_ipopt.md) or "session21" (the
+      options and warm start before that tuning, kept to measure against). Same optimum.
     """
 
     mu: float = 0.5
@@ -197,6 +202,7 @@ class PlannerOptions:
     print_level: int = 0
     linear_solver: str = "mumps"
     derivatives: str = "knot"
+    ipopt_tuning: str = "tuned"
 
     def __post_init__(self) -> None:
         checks = {
@@ -218,6 +224,7 @@ class PlannerOptions:
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
+            "ipopt_tuning": self.ipopt_tuning in IPOPT_TUNINGS,
         }
         for name, ok in checks.items():
             if not ok:
