@@ -175,9 +175,10 @@ class PlannerOptions:
       (`planner.nlp.solver_cache`): builds in a fraction of the time; "expanded" — the whole NLP
       expanded to SX and differentiated (the path before issue #16). See
       docs/results/planner_speed.md for the measured build and solve times.
-    - `ipopt_tuning`: IPOPT's option set and warm-start policy (`planner.nlp.spacetime`):
-      "tuned" (default, measured in docs/results/planner_speed_ipopt.md) or "session21" (the
-      options and warm start before that tuning, kept to measure against). Same optimum.
+    - `ipopt_tuning`: IPOPT's options (`planner.nlp.spacetime.ipopt_options`): "tuned"
+      (default: the start point and bound multipliers pushed 1e-3 inside the bounds, fewer
+      iterations cold and warm, docs/results/planner_speed_ipopt.md) or "session21" (1e-6, the
+      options before that tuning, kept to measure against). Same optimum.
     """
 
     mu: float = 0.5
