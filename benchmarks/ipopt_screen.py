@@ -128,7 +128,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
 
 
 def _solver(planner: GaitPlanner, extra: dict[str, Any]) -> Any:
-    ipopt = ipopt_options(replace(planner.options, ipopt_tuning="session21"))
+    ipopt = ipopt_options(replace(planner.options, ipopt_tuning="session21"), warm=False)
     ipopt.update(extra)
     return ca.nlpsol("spacetime", "ipopt", planner._nlp,
                      {"ipopt": ipopt, "print_time": False,

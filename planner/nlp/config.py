@@ -176,9 +176,10 @@ class PlannerOptions:
       expanded to SX and differentiated (the path before issue #16). See
       docs/results/planner_speed.md for the measured build and solve times.
     - `ipopt_tuning`: IPOPT's options (`planner.nlp.spacetime.ipopt_options`): "tuned"
-      (default: the start point and bound multipliers pushed 1e-3 inside the bounds, fewer
-      iterations cold and warm, docs/results/planner_speed_ipopt.md) or "session21" (1e-6, the
-      options before that tuning, kept to measure against). Same optimum.
+      (default: a warm start and its bound multipliers are pushed 1e-3 inside the bounds,
+      fewer iterations than a cold start, docs/results/planner_speed_ipopt.md; cold solves
+      unchanged) or "session21" (1e-6, the options before that tuning, kept to measure
+      against). Same optimum.
     """
 
     mu: float = 0.5

@@ -96,24 +96,25 @@ def _sigint_watch() -> Iterator[Callable[[], bool]]:
 #: duals wrong and IPOPT spends iterations unwinding them); starting from the template's solution
 #: instead of the last one, or μ_init 1e-5 with monotone μ, were worse (78 and 130 iterations).
 WARM_START_DUALS = False
-#: `ipopt_tuning="tuned"`: how far IPOPT pushes the start inside its bounds (relative to
-#: max(1, |bound|)) and the bound multipliers' lower limit, instead of 1e-6
-TUNED_BOUND_PUSH = 1e-3
+#: `ipopt_tuning="tuned"`, warm solves: how far IPOPT pushes the start off its bounds (relative
+#: to max(1, |bound|)) and the bound multipliers' lower limit, instead of 1e-6; and μ₀
+TUNED_WARM_BOUND_PUSH = 1e-3
+TUNED_WARM_MU_INIT = 1e-3
 
 
-def ipopt_options(options: PlannerOptions) -> dict[str, Any]:
-    """IPOPT's options under `PlannerOptions.ipopt_tuning`, for cold and warm solves alike.
+def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
+    """IPOPT's options for a cold or a warm solve under `PlannerOptions.ipopt_tuning`.
 
     Every solve passes its initial multipliers (``warm_start_init_point``): zeros for a cold
     start and, with `WARM_START_DUALS` off, for a warm one too; IPOPT then lifts the bound
     multipliers to ``warm_start_mult_bound_push`` and moves the point that far (relative) inside
-    its bounds. "session21" uses 1e-6: a warm start from the last optimum then sits on its
-    active bounds with multipliers 1e-6, far off the central path, and took more iterations
-    than a cold start (quad12 trot N=30, perturbed chain: 124 vs 104). "tuned" uses
-    `TUNED_BOUND_PUSH` (same chain 100 warm; cold templates 166 → 123 iterations; measured in
-    docs/results/planner_speed_ipopt.md with what lost).
+    its bounds. "session21" uses 1e-6 for both: a warm start from the last optimum then sits on
+    its active bounds with multipliers 1e-6, far off the central path, and took more iterations
+    than cold starts of the same schedules (quad12 trot N=30, perturbed chain: 124 vs 104).
+    "tuned" warm-starts with `TUNED_WARM_BOUND_PUSH` (same chain: 100) and keeps the cold
+    options: pushing cold starts too saved iterations on most templates but reached a 3.4 %
+    costlier optimum on quad12's wave (docs/results/planner_speed_ipopt.md).
     """
-    push = TUNED_BOUND_PUSH if options.ipopt_tuning == "tuned" else 1e-6
     ipopt: dict[str, Any] = {
         "tol": options.tol,
         "acceptable_tol": 1e-4,
@@ -124,19 +125,25 @@ def ipopt_options(options: PlannerOptions) -> dict[str, Any]:
         "mu_strategy": "adaptive",
         "sb": "yes",
         "print_timing_statistics": "yes" if options.print_level >= 5 else "no",
-        "warm_start_init_point": "yes",
-        "warm_start_bound_push": push,
-        "warm_start_slack_bound_push": push,
-        "warm_start_mult_bound_push": push,
-        # with mu_strategy adaptive μ₀ hardly matters (warm: 1e-2, 1e-3 and 1e-4 gave the same
-        # iterates, planner_speed_ipopt.md)
-        "mu_init": 1e-2,
     }
     if options.linear_solver == "mumps":
         # METIS fill-reducing ordering: the KKT factorisation dominates an iteration, and
         # MUMPS' automatic choice is 2.4x slower here (quad12 N=30 cold: 4.8 s -> 2.0 s, same
         # 22 iterations); scaling and memory options made no further difference.
         ipopt["mumps_pivot_order"] = 5
+    tuned_warm = warm and options.ipopt_tuning == "tuned"
+    push = TUNED_WARM_BOUND_PUSH if tuned_warm else 1e-6
+    ipopt.update(
+        {
+            "warm_start_init_point": "yes",
+            "warm_start_bound_push": push,
+            "warm_start_slack_bound_push": push,
+            "warm_start_mult_bound_push": push,
+            # with mu_strategy adaptive μ₀ matters little: warm, 1e-3 and 1e-4 gave the same
+            # iterates (planner_speed_ipopt.md)
+            "mu_init": TUNED_WARM_MU_INIT if tuned_warm else 1e-2,
+        }
+    )
     return ipopt
 
 
@@ -239,6 +246,7 @@ class GaitPlanner:
         )
         self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
         self._solver = self._make_solver()
+        self._warm_solver: Any | None = None  # `_solver_for`
         if self.knot_derivatives is not None and plain is not None:
             # the next build with this knot, N and options creates only the derivatives used
             used = used_directions(self._solver, plain.name())
@@ -256,11 +264,11 @@ class GaitPlanner:
     def body_clearance_m(self) -> float:
         return self.options.body_clearance_for(self.robot.leg_length_m)
 
-    def _make_solver(self) -> Any:
-        """One IPOPT instance for cold and warm solves (building the derivatives is the slow
-        part); its options are `ipopt_options`."""
+    def _make_solver(self, warm: bool = False) -> Any:
+        """An IPOPT instance for cold (`warm`=False) or warm solves (`ipopt_options`); the
+        derivatives it calls are built once per planner, so a second instance costs ≈ 1 s."""
         opts: dict[str, Any] = {
-            "ipopt": ipopt_options(self.options),
+            "ipopt": ipopt_options(self.options, warm),
             "print_time": False,
             # "knot": the MX NLP calls the knot's own derivatives (planner.nlp.solver_cache);
             # expanding it to SX would differentiate N copies of the knot instead
@@ -268,6 +276,15 @@ class GaitPlanner:
             "error_on_fail": False,
         }
         return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)
+
+    def _solver_for(self, warm: bool) -> Any:
+        """The IPOPT instance for a cold or a warm solve: one instance when the tuning uses the
+        same options for both, else the warm one is created at the first warm solve."""
+        if not warm or ipopt_options(self.options, True) == ipopt_options(self.options, False):
+            return self._solver
+        if self._warm_solver is None:
+            self._warm_solver = self._make_solver(warm=True)
+        return self._warm_solver
 
     # -- solving -----------------------------------------------------------------------------
 
@@ -317,6 +334,7 @@ class GaitPlanner:
             schedule, self.n_knots, speed_m_s, self.swing_clearance_m, vy_m_s, yaw_rate_rad_s
         )
         start = self._last if warm_start is None or warm_start is True else warm_start or None
+        warm = start is not None
         t0 = time.perf_counter()
         if start is None:
             x0 = initial_guess(self.layout, self.model, schedule)
@@ -324,7 +342,7 @@ class GaitPlanner:
         elif not WARM_START_DUALS:
             start = WarmStart(start.x, np.zeros_like(start.lam_x), np.zeros_like(start.lam_g))
         xs, gs = self._x_scale, self._g_scale
-        solver = self._solver
+        solver = self._solver_for(warm=warm)
         with _sigint_watch() as interrupted:
             # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
             sol = solver(
