@@ -334,7 +334,7 @@ class GaitPlanner:
             schedule, self.n_knots, speed_m_s, self.swing_clearance_m, vy_m_s, yaw_rate_rad_s
         )
         start = self._last if warm_start is None or warm_start is True else warm_start or None
-        warm = start is not None
+        solver = self._solver_for(warm=start is not None)  # before t0: a one-off build
         t0 = time.perf_counter()
         if start is None:
             x0 = initial_guess(self.layout, self.model, schedule)
@@ -342,7 +342,6 @@ class GaitPlanner:
         elif not WARM_START_DUALS:
             start = WarmStart(start.x, np.zeros_like(start.lam_x), np.zeros_like(start.lam_g))
         xs, gs = self._x_scale, self._g_scale
-        solver = self._solver_for(warm=warm)
         with _sigint_watch() as interrupted:
             # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
             sol = solver(
