@@ -137,7 +137,7 @@ def _solver(planner: GaitPlanner, extra: dict[str, Any]) -> Any:
 
 
 def screen(robot_name: str, gait: str, speed: float, n_knots: int, names: list[str],
-           templates: list[str], n_warm: int, seed: int) -> None:
+           templates: list[str], n_warm: int, seed: int, chain_cold: bool = False) -> None:
     robot = robots.load(robot_name)
     planner = GaitPlanner(robot, n_knots, PlannerOptions(ipopt_tuning="session21"))
     base = make_schedule(robot, gait)
@@ -173,6 +173,9 @@ def screen(robot_name: str, gait: str, speed: float, n_knots: int, names: list[s
                 res = solve(schedule, last.warm_start if last.feasible else None, f"warm {i}")
                 warm.append(res.iterations)
                 last = res
+            if chain_cold:  # the reference: the same chain, every schedule cold
+                cold += [solve(schedule, None, f"cold chain {i}").iterations
+                         for i, schedule in enumerate(chain)]
         finally:
             spacetime.WARM_START_DUALS = False
         print(f"{name}: cold {cold} (sum {sum(cold)}) | warm chain {warm} (sum {sum(warm)})",
@@ -189,13 +192,16 @@ def main() -> None:
     ap.add_argument("--templates", default="walk,trot,pace,bound,gallop_rotary")
     ap.add_argument("--warm", type=int, default=4)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--chain-cold", action="store_true",
+                    help="also solve every schedule of the warm chain cold")
     args = ap.parse_args()
     names = [n.strip() for n in args.variants.split(",") if n.strip()]
     unknown = [n for n in names if n not in VARIANTS]
     if unknown:
         ap.error(f"--variants: unknown {', '.join(unknown)}; known: {', '.join(VARIANTS)}")
     templates = [t.strip() for t in args.templates.split(",") if t.strip()]
-    screen(args.robot, args.gait, args.speed, args.knots, names, templates, args.warm, args.seed)
+    screen(args.robot, args.gait, args.speed, args.knots, names, templates, args.warm, args.seed,
+           args.chain_cold)
 
 
 if __name__ == "__main__":
