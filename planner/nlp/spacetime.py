@@ -7,8 +7,9 @@ Usage (also what basin-CMA calls in its inner loop)::
     gait = planner.to_gait(result, "trot")                   # raises InfeasibleGaitError
 
 The schedule (contact activity per knot, swing clearance profile), speed and period are NLP
-parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal and
-dual solution with IPOPT's ``warm_start_init_point``.
+parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal
+point (the multipliers restart, `WARM_START_DUALS`), pushed inside its bounds as
+`ipopt_options` says for `PlannerOptions.ipopt_tuning`.
 
 IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the NLP un-expanded and
 hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
