@@ -191,6 +191,14 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "compiled": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="compiled")),
     # EXPERIMENTAL: stage-wise FATROP (docs/results/planner_speed_fatrop.md)
     "fatrop": lambda robot, n: _fatrop_planner(robot, n),
+    # IPOPT's options and warm start (`planner.nlp.spacetime.ipopt_options`): before and after
+    # the tuning of docs/results/planner_speed_ipopt.md ("knot" is the default, i.e. tuned)
+    "knot-s21": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(derivatives="knot", ipopt_tuning="session21")
+    ),
+    "knot-tuned": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(derivatives="knot", ipopt_tuning="tuned")
+    ),
 }
 
 
@@ -238,16 +246,23 @@ def compare(
     n_warm: int,
     seed: int,
     paths: list[str],
+    only_templates: list[str] | None = None,
 ) -> None:
-    """Solver paths side by side on the same schedules, in one run (module docstring)."""
+    """Solver paths side by side on the same schedules, in one run (module docstring);
+    `only_templates`: these of the robot's templates instead of all."""
     robot = robots.load(robot_name)
     print(f"{robot_name} N={n_knots} ({', '.join(paths)}; baseline {paths[0]})")
     planners = _build_paths(robot, n_knots, paths)
     base_name = paths[0]
     rng = np.random.default_rng(seed)
     schedules: list[tuple[str, robots.ContactSchedule]] = []
+    unknown = sorted(set(only_templates or ()) - set(templates_for(robot)))
+    if unknown:
+        raise SystemExit(f"--templates: {robot_name} has no template {', '.join(unknown)}; "
+                         f"known: {', '.join(templates_for(robot))}")
     for name in templates_for(robot):
-        schedules.append((name, make_schedule(robot, name)))
+        if only_templates is None or name in only_templates:
+            schedules.append((name, make_schedule(robot, name)))
     base = make_schedule(robot, gait)
     schedules += [(f"random{i}", random_schedule(base, rng)) for i in range(n_random)]
     rows: dict[str, tuple[list[float], list[int]]] = {p: ([], []) for p in paths}
@@ -331,7 +346,11 @@ def main() -> None:
         default="expanded,knot",
         help=f"solver paths for `compare`, baseline first; known: {', '.join(PATHS)}",
     )
+    ap.add_argument(
+        "--templates", default=None, help="`compare`: only these templates (comma-separated)"
+    )
     args = ap.parse_args()
+    only = None if args.templates is None else [t.strip() for t in args.templates.split(",")]
     paths = [p.strip() for p in args.paths.split(",") if p.strip()]
     unknown = [p for p in paths if p not in PATHS]
     if unknown or len(paths) < 2:
@@ -344,9 +363,11 @@ def main() -> None:
         bench("hex18", "tripod", 0.15, args.knots, args.warm, args.seed)
     if args.section in ("all", "compare"):
         if args.robot in ("both", "quad12"):
-            compare("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed, paths)
+            compare("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed, paths,
+                    only)
         if args.robot in ("both", "hex18"):
-            compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed, paths)
+            compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed, paths,
+                    only)
 
 
 if __name__ == "__main__":

@@ -41,6 +41,8 @@ DEFAULT_FROUDE = 0.035
 GRAVITY_M_S2 = 9.81
 #: values of `PlannerOptions.derivatives`
 DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
+#: values of `PlannerOptions.ipopt_tuning` (`planner.nlp.spacetime.ipopt_options`)
+IPOPT_TUNINGS = ("tuned", "session21")
 
 
 def speed_for_froude(froude: float, leg_length_m: float) -> float:
@@ -202,6 +204,11 @@ class PlannerOptions:
       J and H compiled to C once per robot (`planner.nlp.compiled_knot`: minutes the first time,
       then faster solves; "knot" uses a compiled entry it finds in the cache). See
       docs/results/planner_speed.md and planner_speed_compiled.md for the measured times.
+    - `ipopt_tuning`: IPOPT's options (`planner.nlp.spacetime.ipopt_options`): "tuned"
+      (default: a warm start and its bound multipliers are pushed 1e-3 inside the bounds,
+      fewer iterations than a cold start, docs/results/planner_speed_ipopt.md; cold solves
+      unchanged) or "session21" (1e-6, the options before that tuning, kept to measure
+      against). Same optimum.
     """
 
     mu: float = 0.5
@@ -231,6 +238,7 @@ class PlannerOptions:
     print_level: int = 0
     linear_solver: str = "mumps"
     derivatives: str = "knot"
+    ipopt_tuning: str = "tuned"
 
     def __post_init__(self) -> None:
         checks = {
@@ -259,6 +267,7 @@ class PlannerOptions:
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
+            "ipopt_tuning": self.ipopt_tuning in IPOPT_TUNINGS,
         }
         for name, ok in checks.items():
             if not ok:

@@ -56,7 +56,9 @@ class FatropPlanner(GaitPlanner):
         # keeps it from building IPOPT's knot derivatives, which FATROP does not use
         super().__init__(robot, n_knots, dataclasses.replace(options, derivatives="expanded"))
 
-    def _make_solver(self) -> Any:
+    def _make_solver(self, warm: bool = False) -> Any:
+        """The FATROP instance (one for cold and warm solves: `warm` is IPOPT's, unused here;
+        FATROP's warm start is primal only)."""
         o = self.options
         sw = build_stagewise(self.model, self.n_knots, o, self.layout)
         self.stagewise = sw

@@ -7,8 +7,9 @@ Usage (also what basin-CMA calls in its inner loop)::
     gait = planner.to_gait(result, "trot")                   # raises InfeasibleGaitError
 
 The schedule (contact activity per knot, swing clearance profile), speed and period are NLP
-parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal and
-dual solution with IPOPT's ``warm_start_init_point``.
+parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal
+point (the multipliers restart, `WARM_START_DUALS`), pushed inside its bounds as
+`ipopt_options` says for `PlannerOptions.ipopt_tuning`.
 
 IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the NLP un-expanded and
 hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
@@ -98,6 +99,55 @@ def _sigint_watch() -> Iterator[Callable[[], bool]]:
 #: duals wrong and IPOPT spends iterations unwinding them); starting from the template's solution
 #: instead of the last one, or μ_init 1e-5 with monotone μ, were worse (78 and 130 iterations).
 WARM_START_DUALS = False
+#: `ipopt_tuning="tuned"`, warm solves: how far IPOPT pushes the start off its bounds (relative
+#: to max(1, |bound|)) and the bound multipliers' lower limit, instead of 1e-6; and μ₀
+TUNED_WARM_BOUND_PUSH = 1e-3
+TUNED_WARM_MU_INIT = 1e-3
+
+
+def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
+    """IPOPT's options for a cold or a warm solve under `PlannerOptions.ipopt_tuning`.
+
+    Every solve passes its initial multipliers (``warm_start_init_point``): zeros for a cold
+    start and, with `WARM_START_DUALS` off, for a warm one too; IPOPT then lifts the bound
+    multipliers to ``warm_start_mult_bound_push`` and moves the point that far (relative) inside
+    its bounds. "session21" uses 1e-6 for both: a warm start from the last optimum then sits on
+    its active bounds with multipliers 1e-6, far off the central path, and took more iterations
+    than cold starts of the same schedules (quad12 trot N=30, perturbed chain: 124 vs 104).
+    "tuned" warm-starts with `TUNED_WARM_BOUND_PUSH` (same chain: 100) and keeps the cold
+    options: pushing cold starts too saved iterations on most templates but reached a 3.4 %
+    costlier optimum on quad12's wave (docs/results/planner_speed_ipopt.md).
+    """
+    ipopt: dict[str, Any] = {
+        "tol": options.tol,
+        "acceptable_tol": 1e-4,
+        "constr_viol_tol": 1e-5,
+        "max_iter": options.max_iter,
+        "print_level": options.print_level,
+        "linear_solver": options.linear_solver,
+        "mu_strategy": "adaptive",
+        "sb": "yes",
+        "print_timing_statistics": "yes" if options.print_level >= 5 else "no",
+    }
+    if options.linear_solver == "mumps":
+        # METIS fill-reducing ordering: the KKT factorisation dominates an iteration, and
+        # MUMPS' automatic choice is 2.4x slower here (quad12 N=30 cold: 4.8 s -> 2.0 s, same
+        # 22 iterations); scaling and memory options made no further difference.
+        ipopt["mumps_pivot_order"] = 5
+    tuned_warm = warm and options.ipopt_tuning == "tuned"
+    push = TUNED_WARM_BOUND_PUSH if tuned_warm else 1e-6
+    ipopt.update(
+        {
+            "warm_start_init_point": "yes",
+            "warm_start_bound_push": push,
+            "warm_start_slack_bound_push": push,
+            "warm_start_mult_bound_push": push,
+            # with mu_strategy adaptive μ₀ matters little: warm, 1e-3 and 1e-4 gave the same
+            # iterates (planner_speed_ipopt.md)
+            "mu_init": TUNED_WARM_MU_INIT if tuned_warm else 1e-2,
+        }
+    )
+    return ipopt
 
 
 @dataclass(frozen=True)
@@ -201,6 +251,7 @@ class GaitPlanner:
         )
         self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
         self._solver = self._make_solver()
+        self._warm_solver: Any | None = None  # `_solver_for`
         if self.knot_derivatives is not None and plain is not None:
             # the next build with this knot, N and options creates only the derivatives used
             used = used_directions(self._solver, plain.name())
@@ -218,47 +269,27 @@ class GaitPlanner:
     def body_clearance_m(self) -> float:
         return self.options.body_clearance_for(self.robot.leg_length_m)
 
-    def _make_solver(self) -> Any:
-        """One IPOPT instance for cold and warm solves (building the derivatives is the slow part).
-
-        It always takes the initial multipliers we pass (``warm_start_init_point``): the last
-        solution's for warm starts, zeros (pushed off the bounds) for cold starts.
-        """
-        o = self.options
-        ipopt: dict[str, Any] = {
-            "tol": o.tol,
-            "acceptable_tol": 1e-4,
-            "constr_viol_tol": 1e-5,
-            "max_iter": o.max_iter,
-            "print_level": o.print_level,
-            "linear_solver": o.linear_solver,
-            "mu_strategy": "adaptive",
-            "sb": "yes",
-            "print_timing_statistics": "yes" if o.print_level >= 5 else "no",
-        }
-        if o.linear_solver == "mumps":
-            # METIS fill-reducing ordering: the KKT factorisation dominates an iteration, and
-            # MUMPS' automatic choice is 2.4x slower here (quad12 N=30 cold: 4.8 s -> 2.0 s, same
-            # 22 iterations); scaling and memory options made no further difference.
-            ipopt["mumps_pivot_order"] = 5
-        ipopt.update(
-            {
-                "warm_start_init_point": "yes",
-                "warm_start_bound_push": 1e-6,
-                "warm_start_slack_bound_push": 1e-6,
-                "warm_start_mult_bound_push": 1e-6,
-                "mu_init": 1e-2,
-            }
-        )
+    def _make_solver(self, warm: bool = False) -> Any:
+        """An IPOPT instance for cold (`warm`=False) or warm solves (`ipopt_options`); the
+        derivatives it calls are built once per planner, so a second instance costs ≈ 1 s."""
         opts: dict[str, Any] = {
-            "ipopt": ipopt,
+            "ipopt": ipopt_options(self.options, warm),
             "print_time": False,
             # "knot": the MX NLP calls the knot's own derivatives (planner.nlp.solver_cache);
             # expanding it to SX would differentiate N copies of the knot instead
-            "expand": o.derivatives == "expanded",
+            "expand": self.options.derivatives == "expanded",
             "error_on_fail": False,
         }
         return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)
+
+    def _solver_for(self, warm: bool) -> Any:
+        """The IPOPT instance for a cold or a warm solve: one instance when the tuning uses the
+        same options for both, else the warm one is created at the first warm solve."""
+        if not warm or ipopt_options(self.options, True) == ipopt_options(self.options, False):
+            return self._solver
+        if self._warm_solver is None:
+            self._warm_solver = self._make_solver(warm=True)
+        return self._warm_solver
 
     # -- solving -----------------------------------------------------------------------------
 
@@ -313,6 +344,7 @@ class GaitPlanner:
             schedule, self.n_knots, speed_m_s, self.swing_clearance_m, vy_m_s, yaw_rate_rad_s
         )
         start = self._last if warm_start is None or warm_start is True else warm_start or None
+        solver = self._solver_for(warm=start is not None)  # before t0: a one-off build
         t0 = time.perf_counter()
         if start is None:
             x0 = initial_guess(self.layout, self.model, schedule)
@@ -322,7 +354,7 @@ class GaitPlanner:
         xs, gs = self._x_scale, self._g_scale
         with _sigint_watch() as interrupted:
             # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
-            sol = self._solver(
+            sol = solver(
                 x0=start.x / xs,
                 lam_x0=start.lam_x * xs,
                 lam_g0=start.lam_g * gs,
@@ -338,7 +370,7 @@ class GaitPlanner:
             "lam_g": np.asarray(sol["lam_g"]).ravel() / gs,
             "f": float(sol["f"]),
         }
-        stats = self._solver.stats()
+        stats = solver.stats()
         if interrupted() or stats.get("return_status") in _USER_STOP:
             # CasADi swallows Ctrl-C (NonIpopt_Exception_Thrown), IPOPT's own handler returns
             # User_Requested_Stop: either way the user stopped it, the gait is not infeasible

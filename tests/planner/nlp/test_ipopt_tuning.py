@@ -1,0 +1,67 @@
+"""IPOPT's tuned options and warm start (`planner.nlp.spacetime.ipopt_options`, issue #16).
+
+The tuning changes how a warm start is pushed off its bounds, so it must reach the optimum the
+session-21 options reach, and a warm start after a changed contact pattern must not take more
+iterations than a cold start of the same schedule (docs/results/planner_speed_ipopt.md).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+import robots
+from planner.errors import PlannerConfigError
+from planner.nlp.config import PlannerOptions
+from planner.nlp.spacetime import GaitPlanner, ipopt_options
+from planner.templates import make_schedule
+
+N_KNOTS = 16
+SAME_COST_RTOL = 1e-4
+
+
+def _changed_trot(robot: robots.Robot) -> tuple[robots.ContactSchedule, robots.ContactSchedule]:
+    """quad12's trot and a perturbed one (phases, duty, period) whose contact pattern differs
+    at N_KNOTS knots: the warm-start situation of basin-CMA's inner loop."""
+    base = make_schedule(robot, "trot")
+    phases = tuple((p + d) % 1.0 for p, d in zip(base.touchdown_phase, (0.03, -0.02, 0.02, -0.03),
+                                                 strict=True))
+    duty = tuple(min(0.95, d + 0.03) for d in base.duty_factor)
+    changed = robots.ContactSchedule(base.period_s * 1.03, base.feet, phases, duty)
+    return base, changed
+
+
+def test_tunings_differ_only_in_the_warm_start() -> None:
+    tuned, before = PlannerOptions(), PlannerOptions(ipopt_tuning="session21")
+    assert ipopt_options(tuned, warm=False) == ipopt_options(before, warm=False)
+    assert ipopt_options(before, warm=True) == ipopt_options(before, warm=False)
+    warm, old = ipopt_options(tuned, warm=True), ipopt_options(before, warm=True)
+    pushes = ("warm_start_bound_push", "warm_start_slack_bound_push", "warm_start_mult_bound_push")
+    assert all(warm[k] > old[k] for k in pushes)
+    with pytest.raises(PlannerConfigError, match="ipopt_tuning"):
+        PlannerOptions(ipopt_tuning="fast")
+
+
+@pytest.mark.slow
+def test_tuned_warm_start_reaches_the_same_optimum_in_fewer_iterations_than_cold() -> None:
+    robot = robots.load("quad12")
+    base, changed = _changed_trot(robot)
+    assert (base.contact_matrix(N_KNOTS) != changed.contact_matrix(N_KNOTS)).any()
+    tuned = GaitPlanner(robot, N_KNOTS)
+    before = GaitPlanner(robot, N_KNOTS, PlannerOptions(ipopt_tuning="session21"))
+    # measured (docs/results/planner_speed_ipopt.md): cold 20 iterations, tuned warm 18,
+    # session-21 warm 24; costs within 1e-5 relative
+    start = tuned.solve(base, 0.25, warm_start=False)
+    assert start.feasible, start.message
+    cold = tuned.solve(changed, 0.25, warm_start=False)
+    old_cold = before.solve(changed, 0.25, warm_start=False)
+    warm = tuned.solve(changed, 0.25, warm_start=start.warm_start)
+    old_warm = before.solve(changed, 0.25, warm_start=start.warm_start)
+    assert cold.feasible and warm.feasible and old_warm.feasible
+    assert warm.optimal, warm.message
+    # cold solves use the same options under both tunings
+    assert cold.iterations == old_cold.iterations and cold.cost == pytest.approx(old_cold.cost,
+                                                                                 rel=1e-9)
+    for other in (cold, old_warm):
+        assert warm.cost <= other.cost * (1 + SAME_COST_RTOL), (warm.cost, other.cost)
+    assert warm.iterations <= cold.iterations, (warm.iterations, cold.iterations)
+    assert warm.iterations < old_warm.iterations, (warm.iterations, old_warm.iterations)
