@@ -103,6 +103,10 @@ def plan(
         "NLP in SX; slow build) or compiled (knot, with J and H compiled to C once per robot: "
         "minutes the first time, faster solves after)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
+    knife_edge: bool = typer.Option(
+        False, "--knife-edge", help="with --simulate: also re-plan at ±1% speed and N±4 and "
+        "simulate them and the plan at 5 and 10 ms servo latency; says whether the pass is "
+        "robust or on a knife edge (minutes)"),
     mirror: bool = typer.Option(
         False, "--mirror", help="the second half of the cycle is the first half mirrored "
         "left-right (straight gaits of symmetric bodies on half-cycle symmetric schedules: "
@@ -146,6 +150,13 @@ def plan(
                               address, search_knots, tipping_weight, sim_accept)
     _check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     _check_command(speed, vy, yaw_rate, search)
+    if knife_edge and (search or not simulate or vy or yaw_rate):
+        raise OptionError("--knife-edge: needs --simulate, a straight command (no --vy, "
+                          "--yaw-rate) and no --search")
+    if mirror and search:
+        raise OptionError("--mirror: not with --search yet; plan the chosen gait with --mirror")
+    if mirror and knots % 2:
+        raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
         raise OptionError(f"--solver {solver!r}: use one of {', '.join(DERIVATIVE_PATHS)}")
     check_output_file("--output", output)
@@ -166,10 +177,6 @@ def plan(
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
-    if mirror and search:
-        raise OptionError("--mirror: not with --search yet; plan the chosen gait with --mirror")
-    if mirror and knots % 2:
-        raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if search:
         _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v,
                      solver=solver)
@@ -230,6 +237,28 @@ def plan(
         )
     gait_obj = planner.to_gait(result, gait, extra_metadata=supply_meta)
     _write(gait_obj, bot, output, simulate, cycles, servo_settings)
+    if knife_edge:
+        _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles)
+
+
+def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.ContactSchedule,
+                label: str, speed: float, knots: int, options: PlannerOptions,
+                cycles: int | None) -> None:
+    """--knife-edge: `planner.robust_plan.replans` judged by `sim.robustness.knife_edge_check`."""
+    from planner.robust_plan import replans
+    from sim.robustness import knife_edge_check
+
+    with console.status("knife-edge check: re-planning at ±1 % speed and N±4…"):
+        variants = replans(bot, schedule, label, speed, knots, options)
+    n_cycles, _ = simulated_cycles(gait_obj, cycles)
+    with console.status("knife-edge check: simulating the variants…") as status:
+        check = knife_edge_check(
+            gait_obj, bot, [(v.label, v.gait) for v in variants], n_cycles,
+            progress=lambda done, total: status.update(
+                f"knife-edge check: simulated {done} of {total} runs…"),
+        )
+    colour = "green" if check.robust else "yellow" if check.nominal_passed else "red"
+    console.print(f"knife-edge check: [bold {colour}]{check.summary()}[/]")
 
 
 def _check_mirror(bot: robots.Robot, schedule: robots.ContactSchedule, knots: int, vy: float,

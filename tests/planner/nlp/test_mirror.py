@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 import robots
-from gaitsmith.cli import main
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.mirror import check_schedule, joint_mirror
@@ -61,17 +60,3 @@ def test_a_mirrored_trot_is_symmetric_and_costs_no_less_than_the_free_one() -> N
             base[k + n // 2], base[k] * np.array([1, -1, 1, -1, 1, -1]), atol=1e-6
         )
     assert res.cost >= free.cost - 1e-6 * abs(free.cost)  # a constraint never lowers the optimum
-
-
-def test_plan_refuses_mirror_for_an_odd_n_and_an_asymmetric_schedule(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    out = tmp_path / "g.json"
-    assert main(["plan", "quad12", "--gait", "trot", "--mirror", "--knots", "11", "-o",
-                 str(out)]) == 2
-    assert "--mirror needs an even --knots" in capsys.readouterr().err
-    assert main(["plan", "quad12", "--gait", "bound", "--mirror", "--knots", "12", "-o",
-                 str(out)]) == 2
-    err = capsys.readouterr().err
-    assert "not half-cycle mirror symmetric" in err and len(err.strip().splitlines()) == 1
-    assert not out.exists()
