@@ -222,7 +222,7 @@ class TimingSolver:
     #: wall time of building `planner` (and the check), reported once with the first result
     build_s: float = 0.0
 
-    def __call__(self, x: np.ndarray) -> LocalResult:
+    def __call__(self, x: np.ndarray) -> TimingResult:
         build_s, self.build_s = self.build_s, 0.0
         x = np.clip(np.asarray(x, dtype=float), *self.space.bounds())
         schedule = self.space.decode(x)
