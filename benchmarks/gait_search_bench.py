@@ -1,14 +1,23 @@
-"""Gait-search benchmark: one full basin-CMA search for quad12 at one speed, serial vs process pool.
+"""Gait-search benchmark: one full basin-CMA search at one speed, per derivative path and executor.
 
-    python benchmarks/gait_search_bench.py [--speed 0.25] [--generations 6] [--workers 2]
-                                           [--sim-accept]
+    python benchmarks/gait_search_bench.py [--robot quad12] [--speed 0.25] [--generations 6]
+                                           [--workers 2] [--sim-accept]
+                                           [--derivatives knot] [--executors serial,process]
 
-Target (issue 5): a full search finishes in ≤60 s on 2 cores. "Full" is what `gaitsmith plan
-ROBOT --speed V --search` runs by default: template seeds, 6 basin-CMA generations of the coarse
-(12-knot) NLP, then the final 30-knot solve of the best timings; `--sim-accept` adds the MuJoCo
-acceptance check of every feasible sample and of the final gait (the command line's default).
-Prints wall time (process start-up and every NLP build included), local solves, solves per
-second and the process-pool speed-up over serial measured in the same run.
+Targets: issue 5, a full search in ≤ 60 s on 2 cores; issue 16, the README's
+`gaitsmith plan quad12 --speed 0.25 --search` (MuJoCo acceptance on) in ≤ 15 s. "Full" is what
+`gaitsmith plan ROBOT --speed V --search` runs by default: template seeds, 6 basin-CMA
+generations of the coarse (12-knot) NLP, then the final 30-knot solve of the best timings;
+`--sim-accept` adds the MuJoCo acceptance check of every feasible sample and of the final gait
+(the command line's default, with the command line's own acceptance settings).
+
+Every combination of `--derivatives` (`PlannerOptions.derivatives`: "expanded" = the whole NLP
+expanded to SX, "knot" = per-knot derivatives, today's default) and `--executors` runs in this
+one process, one after the other, so their ratios are measured under the same load. Per run it
+prints wall time (process pool start-up and every NLP build included), local solves, IPOPT
+iterations, samples accepted / rejected by MuJoCo / infeasible, the winner and its final
+verdict, and where the time went: the phases of the search in wall time, and the workers' NLP
+builds, solves and acceptance checks summed over workers (seconds of worker time).
 """
 
 from __future__ import annotations
@@ -16,66 +25,152 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from dataclasses import dataclass
+from typing import get_args
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import robots
-from planner.search.gait_search import search_gait
-from sim.acceptance import SimAcceptance
-from sim.validate import PassCriteria
+from gaitsmith.plan_cmd import DEFAULT_CYCLES
+from gaitsmith.search_options import sim_acceptance
+from planner.nlp.config import DERIVATIVE_PATHS, PlannerOptions
+from planner.search.executors import ExecutorKind
+from planner.search.gait_search import GaitSearchResult, search_gait
 
 
-def run(
-    executor: str, speed: float, generations: int, workers: int, seed: int, sim_accept: bool
-) -> tuple[float, int, str, float]:
-    robot = robots.load("quad12")
-    root = str(robot.root_dir)
-    acceptance = (
-        {"acceptance": SimAcceptance(root),
-         "final_acceptance": SimAcceptance(root, 20, PassCriteria())}
-        if sim_accept else {}
-    )
+@dataclass(frozen=True)
+class SearchRun:
+    """One search, measured."""
+
+    derivatives: str
+    executor: str
+    wall_s: float
+    result: GaitSearchResult
+
+    @property
+    def solves(self) -> int:
+        return len(self.result.samples)
+
+    @property
+    def iterations(self) -> int:
+        """IPOPT iterations of the search's local solves (n_fevals = iterations + 1)."""
+        return sum(max(r.n_fevals - 1, 0) for _, r in self.result.samples)
+
+    def count(self, what: str) -> int:
+        """Samples "accepted" (feasible and passed acceptance), "rejected" (feasible plan,
+        failed acceptance) or "infeasible"."""
+        n = 0
+        for _, r in self.result.samples:
+            plan_ok = bool(getattr(r, "plan_feasible", r.feasible))
+            n += {"accepted": r.feasible, "rejected": plan_ok and not r.feasible,
+                  "infeasible": not plan_ok}[what]
+        return n
+
+    def worker_s(self, field: str) -> float:
+        """`build_s`, `solve_s` or `accept_s` summed over every local solve (worker seconds)."""
+        return sum(float(getattr(r, field, 0.0)) for _, r in self.result.samples)
+
+    def verdict(self) -> str:
+        accepted = self.result.accepted
+        if not self.result.best.feasible:
+            return "infeasible"
+        return {True: "MuJoCo pass", False: "MuJoCo FAIL", None: "not simulated"}[accepted]
+
+
+def run(robot_name: str, speed: float, generations: int, workers: int, seed: int,
+        sim_accept: bool, derivatives: str, executor: str, knots: int) -> SearchRun:
+    """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
+    NLP, the final one included, is built inside the timed call)."""
+    robot = robots.load(robot_name)
     t0 = time.perf_counter()
     result = search_gait(
-        robot, speed, max_generations=generations, seed=seed, executor=executor, workers=workers,
-        **acceptance,  # type: ignore[arg-type]
+        robot, speed, n_knots=knots, options=PlannerOptions(derivatives=derivatives),
+        max_generations=generations, seed=seed, executor=executor, workers=workers,
+        **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES),
     )
-    wall = time.perf_counter() - t0
-    return (
-        wall,
-        result.cma.n_local_solves + len(result.template_costs),
-        result.label,
-        result.search_cost,
-    )
+    return SearchRun(derivatives, executor, time.perf_counter() - t0, result)
+
+
+def report(r: SearchRun, target_s: float) -> str:
+    res = r.result
+    ph = res.phase_s
+    final = "; ".join(
+        f"{plan.iterations} it {plan.solve_time_s:.1f} s"
+        + ("" if ok is None else f" + check {check_s:.1f} s {'pass' if ok else 'FAIL'}")
+        for plan, check_s, ok in res.final_solves)
+    return "\n".join([
+        f"  {r.derivatives:8s} {r.executor:8s} {r.wall_s:7.1f} s  {r.solves:4d} solves  "
+        f"{r.iterations:5d} iterations  {r.solves / r.wall_s:5.2f} solves/s  "
+        f"{'OK' if r.wall_s <= target_s else 'over'} the {target_s:g} s target",
+        f"           samples: {r.count('accepted')} accepted, {r.count('rejected')} rejected in "
+        f"MuJoCo, {r.count('infeasible')} infeasible; winner {res.label} (search cost "
+        f"{res.search_cost:.5g}, best template {res.best_template} {res.best_template_cost:.5g}), "
+        f"final cost {res.best.cost:.6g}, period {res.best.schedule.period_s:.3f} s, "
+        f"{r.verdict()}",
+        f"           wall: final NLP build {ph['final_build']:.1f} s, seeding (pool, worker "
+        f"builds, templates) {ph['seed']:.1f} s, basin-CMA {ph['cma']:.1f} s, final re-solves "
+        f"{ph['final']:.1f} s [{final}]",
+        f"           worker time: builds {r.worker_s('build_s'):.1f} s, solves "
+        f"{r.worker_s('solve_s'):.1f} s, MuJoCo acceptance {r.worker_s('accept_s'):.1f} s",
+    ])
+
+
+def _choices(text: str, allowed: tuple[str, ...], option: str) -> list[str]:
+    values = [v.strip() for v in text.split(",") if v.strip()]
+    bad = [v for v in values if v not in allowed]
+    if bad or not values:
+        raise SystemExit(f"{option}: expected a comma-separated subset of {', '.join(allowed)}, "
+                         f"got {text!r}")
+    return values
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--robot", default="quad12")
     ap.add_argument("--speed", type=float, default=0.25)
+    ap.add_argument("--knots", type=int, default=30, help="knots of the final gait")
     ap.add_argument("--generations", type=int, default=6)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--sim-accept", action="store_true", help="MuJoCo acceptance of samples")
+    ap.add_argument("--derivatives", default="knot",
+                    help=f"comma-separated derivative paths, first = baseline "
+                         f"({', '.join(DERIVATIVE_PATHS)})")
+    ap.add_argument("--executors", default="serial,process",
+                    help=f"comma-separated executors ({', '.join(get_args(ExecutorKind))})")
+    ap.add_argument("--target", type=float, default=60.0, help="target wall time [s]")
     args = ap.parse_args()
+    paths = _choices(args.derivatives, tuple(DERIVATIVE_PATHS), "--derivatives")
+    executors = _choices(args.executors, get_args(ExecutorKind), "--executors")
     print(
-        f"quad12 gait search at {args.speed} m/s, {args.generations} generations, "
-        f"sim acceptance {'on' if args.sim_accept else 'off'}, "
-        f"load average {os.getloadavg()[0]:.2f}"
+        f"{args.robot} gait search at {args.speed} m/s, {args.generations} generations, "
+        f"final N={args.knots}, sim acceptance {'on' if args.sim_accept else 'off'}, "
+        f"{args.workers} workers, load average {os.getloadavg()[0]:.2f}, "
+        f"{time.strftime('%Y-%m-%d %H:%M:%S', time.gmtime())} UTC", flush=True
     )
-    times = {}
-    for executor in ("serial", "process"):
-        wall, solves, label, cost = run(
-            executor, args.speed, args.generations, args.workers, args.seed, args.sim_accept
-        )
-        times[executor] = wall
-        print(
-            f"  {executor:8s} {wall:7.1f} s  {solves:4d} solves  {solves / wall:5.2f} solves/s  "
-            f"best {label} search cost {cost:.5g}  {'OK' if wall <= 60 else 'over'} the 60 s target"
-        )
-    print(
-        f"  process-pool speed-up over serial: {times['serial'] / times['process']:.2f}x "
-        f"({args.workers} workers)"
-    )
+    runs: list[SearchRun] = []
+    for derivatives in paths:
+        for executor in executors:
+            r = run(args.robot, args.speed, args.generations, args.workers, args.seed,
+                    args.sim_accept, derivatives, executor, args.knots)
+            runs.append(r)
+            print(report(r, args.target), flush=True)
+    for executor in executors:
+        same = [r for r in runs if r.executor == executor]
+        for r in same[1:]:
+            base = same[0]
+            rel = (r.result.best.cost - base.result.best.cost) / abs(base.result.best.cost)
+            print(f"  {executor}: {r.derivatives}/{base.derivatives} wall "
+                  f"{r.wall_s / base.wall_s:.2f}, solves {r.solves}/{base.solves}, iterations "
+                  f"{r.iterations}/{base.iterations}, winner {r.result.label}/{base.result.label}, "
+                  f"final cost rel {rel:+.1e}")
+    for derivatives in paths:
+        by = {r.executor: r for r in runs if r.derivatives == derivatives}
+        if "serial" in by and "process" in by:
+            print(f"  {derivatives}: process-pool speed-up over serial "
+                  f"{by['serial'].wall_s / by['process'].wall_s:.2f}x ({args.workers} workers)")
+    print(f"  load average at the end {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":

@@ -195,9 +195,16 @@ def cost_of_transport(result: PlanResult, robot: Robot) -> float:
 
 @dataclass(frozen=True)
 class TimingResult(LocalResult):
-    """A local solve of the search; `plan_feasible`: the NLP solved, whatever acceptance said."""
+    """A local solve of the search; `plan_feasible`: the NLP solved, whatever acceptance said.
+
+    For measurement (`benchmarks/gait_search_bench.py`): `solve_s` the NLP solve's wall time,
+    `accept_s` the acceptance check's, `build_s` the worker's planner build (on the first
+    result a worker returns, 0 on the others)."""
 
     plan_feasible: bool = False
+    solve_s: float = 0.0
+    accept_s: float = 0.0
+    build_s: float = 0.0
 
 
 @dataclass
@@ -212,25 +219,37 @@ class TimingSolver:
     speed_m_s: float
     tipping: TippingCost | None = None
     acceptance: GaitAcceptance | None = None
+    #: wall time of building `planner` (and the check), reported once with the first result
+    build_s: float = 0.0
 
-    def __call__(self, x: np.ndarray) -> LocalResult:
+    def __call__(self, x: np.ndarray) -> TimingResult:
+        build_s, self.build_s = self.build_s, 0.0
         x = np.clip(np.asarray(x, dtype=float), *self.space.bounds())
         schedule = self.space.decode(x)
+        t0 = time.perf_counter()
         try:
             # cold start: on a new contact timing a warm start costs more iterations than it
             # saves (planner_bench: warm/cold 1.49), and cold solves make every sample's cost
             # independent of which samples a worker solved before (executor-invariant search)
             result = self.planner.solve(schedule, self.speed_m_s, warm_start=False)
         except PlannerConfigError:  # e.g. a foot never lands on any knot
-            return TimingResult(x, math.inf, False, 0, math.inf)
+            return TimingResult(x, math.inf, False, 0, math.inf,
+                                solve_s=time.perf_counter() - t0, build_s=build_s)
+        solve_s = time.perf_counter() - t0
         evals = int(result.iterations) + 1
         cost = result.cost + (self.tipping(schedule) if self.tipping is not None else 0.0)
         if result.feasible and self.acceptance is not None:
+            t1 = time.perf_counter()
             verdict = self.acceptance(self.planner.to_gait(result, "search sample"))
+            accept_s = time.perf_counter() - t1
             if not verdict.passed:
                 return TimingResult(x, cost, False, evals,
-                                    REJECTED_VIOLATION * (1.0 + verdict.badness), True)
-        return TimingResult(x, cost, result.feasible, evals, result.max_violation, result.feasible)
+                                    REJECTED_VIOLATION * (1.0 + verdict.badness), True,
+                                    solve_s, accept_s, build_s)
+            return TimingResult(x, cost, True, evals, result.max_violation, True,
+                                solve_s, accept_s, build_s)
+        return TimingResult(x, cost, result.feasible, evals, result.max_violation, result.feasible,
+                            solve_s, 0.0, build_s)
 
 
 @dataclass(frozen=True)
@@ -246,12 +265,13 @@ class TimingSolverFactory:
     acceptance: Callable[[], GaitAcceptance] | None = None
 
     def __call__(self) -> TimingSolver:
+        t0 = time.perf_counter()
         robot = load_robot(self.robot_dir)
         planner = GaitPlanner(robot, self.n_knots, self.options)
         tipping = TippingCost.for_robot(robot, self.tipping_weight) if self.tipping_weight else None
         check = self.acceptance() if self.acceptance is not None else None
         return TimingSolver(planner, TimingSpace.for_robot(robot, self.symmetric), self.speed_m_s,
-                            tipping, check)
+                            tipping, check, time.perf_counter() - t0)
 
 
 class RecordingExecutor:
@@ -328,6 +348,13 @@ class GaitSearchResult:
     accepted: bool | None  # the final gait passed the acceptance check (None: no check)
     planner: GaitPlanner  # the final planner (builds the gait file from `best`)
     symmetric: bool = True  # the search used the mirror half-period symmetry (TimingSpace)
+    #: every local solve of the search, template seeds first, as (sample, result)
+    samples: tuple[tuple[np.ndarray, LocalResult], ...] = ()
+    #: the full-resolution candidates re-solved: (plan, acceptance wall time [s], verdict)
+    final_solves: tuple[tuple[PlanResult, float, bool | None], ...] = ()
+    #: wall time [s] of the search's phases: "final_build" (the final planner, 0 if passed in),
+    #: "seed" (executor start, worker builds, template solves), "cma", "final" (re-solves + checks)
+    phase_s: dict[str, float] = field(default_factory=dict)
 
     @property
     def froude(self) -> float:
@@ -409,6 +436,7 @@ def search_gait(
             progress(row)
 
     lo, hi = space.bounds()
+    t_seed = time.perf_counter()
     with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
         pool = RecordingExecutor(ex)
         # 1. seed with the hand templates that fit the encoding (one parallel batch)
@@ -426,6 +454,7 @@ def search_gait(
                           for name, r in seed_results.items()}
         best_template = min(template_costs, key=lambda n: template_costs[n])
         x0 = dict(named_x)[best_template]
+        t_cma = time.perf_counter()
         # 2. basin-CMA over the timings (projection = coarse spacetime solve)
         cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),
                         popsize=popsize,
@@ -434,17 +463,23 @@ def search_gait(
                         callback=on_generation)
     # 3. the cheapest timings, re-solved at full resolution; the first feasible (and accepted)
     #    one wins, else the first feasible one (reported as not accepted)
+    t_final = time.perf_counter()
     final = planner or GaitPlanner(robot, n_knots, options)
+    final_build_s = 0.0 if planner is not None else time.perf_counter() - t_final
     final_check = final_acceptance or acceptance
     check = final_check() if final_check is not None else None
     candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
     chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
+    final_solves: list[tuple[PlanResult, float, bool | None]] = []
     for x, searched in candidates:
         solved = final.solve(space.decode(x), speed_m_s, warm_start=False)
         if not solved.feasible:
+            final_solves.append((solved, 0.0, None))
             chosen = chosen or (solved, searched, None)
             continue
+        t_check = time.perf_counter()
         ok = None if check is None else bool(check(final.to_gait(solved, "search")).passed)
+        final_solves.append((solved, time.perf_counter() - t_check, ok))
         if ok is not False:
             chosen = (solved, searched, ok)
             break
@@ -460,7 +495,10 @@ def search_gait(
         support_cost=tipping(schedule), tipping_amplification=tipping.amplification(schedule),
         log=tuple(log), cma=cma, elapsed_s=time.perf_counter() - t0,
         cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
-        accepted=accepted, planner=final, symmetric=symmetric,
+        accepted=accepted, planner=final, symmetric=symmetric, samples=tuple(pool.records),
+        final_solves=tuple(final_solves),
+        phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
+                 "final": time.perf_counter() - t_final - final_build_s},
     )
 
 

@@ -17,6 +17,7 @@ from planner.search.executors import SerialExecutor
 from planner.search.gait_search import (
     DEFAULT_TIPPING_WEIGHT,
     RecordingExecutor,
+    SearchLogRow,
     TimingResult,
     TimingSolver,
     TimingSolverFactory,
@@ -129,6 +130,7 @@ def test_rejected_samples_rank_after_feasible_and_before_infeasible_ones(
     assert len(seen) == 1 and seen[0].n_knots == small_quad_planner.n_knots
     assert not r.feasible and math.isfinite(r.cost)
     assert 0 < r.violation < 1e-6  # ranks ahead of plans that violate the NLP (≥ 1e-4)
+    assert r.solve_s > 0 and r.accept_s > 0 and r.build_s == 0  # timed for the benchmarks
     ok = TimingSolver(small_quad_planner, space, 0.2, None, lambda g: _Verdict(True, 0.0))(x)
     assert ok.feasible and ok.cost == pytest.approx(r.cost)
 
@@ -157,7 +159,7 @@ def test_search_beats_or_matches_the_best_template_and_logs(
     small_quad_planner: GaitPlanner, tmp_path: Path
 ) -> None:
     robot = small_quad_planner.robot
-    rows = []
+    rows: list[SearchLogRow] = []
     result = search_gait(robot, 0.2, n_knots=20, max_generations=2, popsize=4, seed=1,
                          planner=small_quad_planner, progress=rows.append)
     assert result.best.feasible
@@ -174,6 +176,16 @@ def test_search_beats_or_matches_the_best_template_and_logs(
     assert len(rows) == 3  # the seeding notice + one per generation
     assert result.cost_of_transport == pytest.approx(cost_of_transport(result.best, robot))
     assert result.froude == pytest.approx(0.04 / (9.81 * robot.leg_length_m))
+    # what gait_search_bench measures: every local solve (templates first), the worker's one
+    # build, the full-resolution re-solves and the phases' wall times
+    assert len(result.samples) == result.cma.n_local_solves + len(result.template_costs)
+    timed = [r for _, r in result.samples if isinstance(r, TimingResult)]
+    assert len(timed) == len(result.samples)
+    assert sum(r.build_s > 0 for r in timed) == 1  # the serial worker, built once
+    assert all(r.solve_s > 0 for r in timed)
+    assert any(plan is result.best for plan, _, _ in result.final_solves)
+    assert set(result.phase_s) == {"seed", "cma", "final_build", "final"}
+    assert result.phase_s["final_build"] == 0 and min(result.phase_s.values()) >= 0
     log = tmp_path / "search.csv"
     write_search_log(result, log)
     text = log.read_text().splitlines()
