@@ -38,7 +38,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
@@ -46,6 +45,7 @@ from planner.errors import PlannerError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.servo_loop import servo_goals_rad, servo_loops
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
+from planner.stance import stance_kinematics
 from planner.templates import stance_foot_positions_m
 from robots import ContactSchedule, Gait, Robot
 from robots.spline import PeriodicSpline
@@ -112,15 +112,8 @@ def normalised_stance_xy(robot: Robot) -> np.ndarray:
 
 def _stance_axes(robot: Robot) -> np.ndarray:
     """J × 3 joint axes in the world frame at the nominal stance (base at the origin, level)."""
-    model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
-    data = mujoco.MjData(model)
-    data.qpos[:] = model.qpos0
-    data.qpos[0:7] = (0, 0, 0, 1, 0, 0, 0)
-    ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name) for j in robot.joints]
-    for jid, joint in zip(ids, robot.joints, strict=True):
-        data.qpos[model.jnt_qposadr[jid]] = joint.stance_rad
-    mujoco.mj_kinematics(model, data)
-    return np.array(data.xaxis[ids], dtype=float)
+    stance = stance_kinematics(robot)
+    return np.array(stance.data.xaxis[list(stance.joint_ids)], dtype=float)
 
 
 def match_legs(source: Robot, target: Robot) -> LegMatch:

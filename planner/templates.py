@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from planner.errors import TemplateError
+from planner.stance import stance_kinematics
 from robots import ContactSchedule, Robot
 
 
@@ -105,14 +106,8 @@ def stance_foot_positions_m(robot: Robot) -> np.ndarray:
     cached = _STANCE_CACHE.get(key)
     if cached is not None:
         return cached.copy()
-    model = robot.mj_model()
-    data = mujoco.MjData(model)
-    data.qpos[:] = model.qpos0
-    data.qpos[0:7] = (0, 0, 0, 1, 0, 0, 0)
-    for j in robot.joints:
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
-        data.qpos[model.jnt_qposadr[jid]] = j.stance_rad
-    mujoco.mj_kinematics(model, data)
+    stance = stance_kinematics(robot)
+    model, data = stance.model, stance.data
     sites = [
         mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site) for leg in robot.legs
     ]

@@ -108,16 +108,11 @@ def stance_com_offset_m(robot: Robot) -> tuple[float, float]:
     frame, at the nominal stance (base level at the origin)."""
     import mujoco
 
+    from planner.stance import stance_kinematics
     from planner.templates import stance_foot_positions_m
 
-    model = robot.mj_model()
-    data = mujoco.MjData(model)
-    data.qpos[:] = model.qpos0
-    data.qpos[0:7] = (0, 0, 0, 1, 0, 0, 0)
-    for j in robot.joints:
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
-        data.qpos[model.jnt_qposadr[jid]] = j.stance_rad
-    mujoco.mj_kinematics(model, data)
+    stance = stance_kinematics(robot)
+    model, data = stance.model, stance.data
     mujoco.mj_comPos(model, data)
     root = int(np.argmax(model.body_subtreemass[1:])) + 1  # the floating base: the heaviest tree
     offset = data.subtree_com[root][:2] - stance_foot_positions_m(robot)[:, :2].mean(axis=0)

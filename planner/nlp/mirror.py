@@ -49,19 +49,12 @@ class JointMirror:
 def joint_mirror(robot: Robot) -> JointMirror:
     """Each joint's mirror image at the stance pose, or PlannerConfigError naming the joint
     that has none (the model is not left–right symmetric)."""
-    import mujoco
+    from planner.stance import stance_kinematics
 
-    model = robot.mj_model()
-    data = mujoco.MjData(model)
-    data.qpos[:] = model.qpos0
-    ids = []
-    for j in robot.joints:
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
-        ids.append(jid)
-        data.qpos[model.jnt_qposadr[jid]] = j.stance_rad
-    mujoco.mj_kinematics(model, data)
-    anchors = np.array([data.xanchor[i] for i in ids])
-    axes = np.array([data.xaxis[i] for i in ids])
+    stance = stance_kinematics(robot)
+    ids = list(stance.joint_ids)
+    anchors = np.array(stance.data.xanchor[ids], dtype=float)
+    axes = np.array(stance.data.xaxis[ids], dtype=float)
     tol_m = 0.02 * robot.leg_length_m
     image: list[int] = []
     sign: list[float] = []

@@ -25,26 +25,8 @@ from planner.nlp.solver_cache import (
 )
 from planner.nlp.spacetime import GaitPlanner
 from planner.templates import make_schedule
+from tests.planner.nlp.toy_knot import mapped_derivatives, toy_knot
 from tests.zoo.fixtures import ZOO
-
-
-def _toy_knot() -> ca.Function:
-    """A small nonlinear 'knot' (compiles in well under a second)."""
-    x, y = ca.SX.sym("x", 4), ca.SX.sym("y", 2)
-    out = ca.vertcat(ca.sin(x[0] * x[1]) + y[0] * x[2] ** 3, ca.cos(x[3]) * y[1] * x[0])
-    return ca.Function("knot", [x, y], [out, x[1] * y[0] ** 2], ["x", "y"], ["a", "b"])
-
-
-def _mapped_derivatives(knot: ca.Function, n: int) -> ca.Function:
-    """Jacobian and Lagrangian Hessian of `knot` mapped over n columns, by MX AD."""
-    x, y, lam = ca.MX.sym("X", 4, n), ca.MX.sym("Y", 2, n), ca.MX.sym("L", 3, n)
-    a, b = knot.map(n)(x, y)
-    v = ca.vertcat(ca.vec(x), ca.vec(y))
-    lagrangian = ca.dot(ca.vec(lam[:2, :]), ca.vec(a)) + ca.dot(lam[2, :], b) + ca.sumsqr(a)
-    return ca.Function(
-        "derivs", [x, y, lam], [ca.jacobian(ca.vertcat(ca.vec(a), ca.vec(b)), v),
-                                ca.hessian(lagrangian, v)[0]]
-    )
 
 
 def _assert_same_functions(
@@ -71,7 +53,7 @@ def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 def test_compiled_knot_derivatives_equal_the_sx_ones_and_casadi_ad(cache: Path) -> None:
-    plain = _toy_knot()
+    plain = toy_knot()
     jac, hess, outcome = knot_jacobian_and_hessian(plain, "compiled")
     assert outcome.compiled and outcome.status == "built" and outcome.path.parent == cache
     assert outcome.path.suffix == ".so" and outcome.path.with_suffix(".json").is_file()
@@ -81,8 +63,8 @@ def test_compiled_knot_derivatives_equal_the_sx_ones_and_casadi_ad(cache: Path) 
     # sparsity in the library is what makes this so), and so are the values
     rng = np.random.default_rng(3)
     args = rng.normal(size=(4, 5)), rng.normal(size=(2, 5)), rng.normal(size=(3, 5))
-    reference = _mapped_derivatives(plain, 5)
-    ours = _mapped_derivatives(with_knot_derivatives(plain, jac, hess).knot, 5)
+    reference = mapped_derivatives(plain, 5)
+    ours = mapped_derivatives(with_knot_derivatives(plain, jac, hess).knot, 5)
     for i in range(2):
         assert ours.sparsity_out(i) == reference.sparsity_out(i)
     for ref, got in zip(reference(*args), ours(*args), strict=True):
@@ -90,7 +72,7 @@ def test_compiled_knot_derivatives_equal_the_sx_ones_and_casadi_ad(cache: Path) 
 
 
 def test_knot_picks_up_a_compiled_entry_and_never_compiles(cache: Path) -> None:
-    plain = _toy_knot()
+    plain = toy_knot()
     _, _, outcome = knot_jacobian_and_hessian(plain, "knot")
     assert not outcome.compiled and outcome.status == "built"  # SX entry, nothing compiled
     assert not list(cache.glob("*.so"))
@@ -105,7 +87,7 @@ def test_knot_picks_up_a_compiled_entry_and_never_compiles(cache: Path) -> None:
                                     "manifest not json"])
 def test_a_corrupt_or_foreign_compiled_entry_is_rebuilt_not_loaded(cache: Path,
                                                                    damage: str) -> None:
-    plain = _toy_knot()
+    plain = toy_knot()
     _, _, outcome = knot_jacobian_and_hessian(plain, "compiled")
     library, manifest = outcome.path, outcome.path.with_suffix(".json")
     good = library.read_bytes()
@@ -129,7 +111,7 @@ def test_a_corrupt_or_foreign_compiled_entry_is_rebuilt_not_loaded(cache: Path,
 
 
 def test_the_key_holds_the_compiler_and_its_flags() -> None:
-    sx_key = knot_cache_key(_toy_knot())
+    sx_key = knot_cache_key(toy_knot())
     gcc = compiled_knot.Compiler("/usr/bin/gcc", "gcc 12", ("-O1",))
     keys = {
         compiled_knot.compiled_key(sx_key, gcc),
@@ -164,7 +146,7 @@ def test_no_or_a_failing_compiler_warns_once_and_uses_the_sx_path(
     else:
         script = _fake_compiler(bin_dir, "echo 'fatal error: out of memory' >&2\nexit 4\n")
         monkeypatch.setenv("GAITSMITH_CC", str(script))
-    plain = _toy_knot()
+    plain = toy_knot()
     jac, hess, outcome = knot_jacobian_and_hessian(plain, "compiled")
     assert not outcome.compiled and outcome.path.suffix == ".casadi"
     lines = capsys.readouterr().err.strip().splitlines()

@@ -25,34 +25,16 @@ from planner.nlp.solver_cache import (
 )
 from planner.nlp.spacetime import GaitPlanner
 from planner.templates import make_schedule
-
-
-def _toy_knot() -> ca.Function:
-    """A small nonlinear 'knot': two inputs, two outputs, products and trigonometry."""
-    x, y = ca.SX.sym("x", 4), ca.SX.sym("y", 2)
-    out = ca.vertcat(ca.sin(x[0] * x[1]) + y[0] * x[2] ** 3, ca.cos(x[3]) * y[1] * x[0])
-    return ca.Function("knot", [x, y], [out, x[1] * y[0] ** 2], ["x", "y"], ["a", "b"])
-
-
-def _mapped_derivatives(knot: ca.Function, n: int) -> ca.Function:
-    """Jacobian and Lagrangian Hessian of `knot` mapped over n columns, by MX AD."""
-    x, y, lam = ca.MX.sym("X", 4, n), ca.MX.sym("Y", 2, n), ca.MX.sym("L", 3, n)
-    a, b = knot.map(n)(x, y)
-    v = ca.vertcat(ca.vec(x), ca.vec(y))
-    lagrangian = ca.dot(ca.vec(lam[:2, :]), ca.vec(a)) + ca.dot(lam[2, :], b) + ca.sumsqr(a)
-    return ca.Function(
-        "derivs", [x, y, lam], [ca.jacobian(ca.vertcat(ca.vec(a), ca.vec(b)), v),
-                                ca.hessian(lagrangian, v)[0]]
-    )
+from tests.planner.nlp.toy_knot import mapped_derivatives, toy_knot
 
 
 def test_knot_derivatives_equal_casadi_ad() -> None:
-    plain = _toy_knot()
+    plain = toy_knot()
     custom = with_knot_derivatives(plain)
     rng = np.random.default_rng(3)
     args = rng.normal(size=(4, 5)), rng.normal(size=(2, 5)), rng.normal(size=(3, 5))
-    reference = _mapped_derivatives(plain, 5)(*args)
-    ours = _mapped_derivatives(custom.knot, 5)(*args)
+    reference = mapped_derivatives(plain, 5)(*args)
+    ours = mapped_derivatives(custom.knot, 5)(*args)
     for ref, got in zip(reference, ours, strict=True):
         np.testing.assert_allclose(np.asarray(got), np.asarray(ref), rtol=1e-12, atol=1e-12)
 
@@ -71,7 +53,7 @@ def test_cache_key_follows_the_robot_and_the_directions_key_n_and_options() -> N
 
 
 def test_cache_key_follows_the_casadi_version(monkeypatch: pytest.MonkeyPatch) -> None:
-    knot = _toy_knot()
+    knot = toy_knot()
     key = knot_cache_key(knot)
     monkeypatch.setattr(ca.CasadiMeta, "version", staticmethod(lambda: "0.0.0-other"))
     assert knot_cache_key(knot) != key
@@ -79,7 +61,7 @@ def test_cache_key_follows_the_casadi_version(monkeypatch: pytest.MonkeyPatch) -
 
 @pytest.mark.parametrize("damage", ["garbage", "truncated", "flipped"])
 def test_a_corrupt_cache_entry_is_rebuilt(tmp_path: Path, damage: str) -> None:
-    knot = _toy_knot()
+    knot = toy_knot()
     _, _, first = cached_jacobian_and_hessian(knot, tmp_path)
     assert first.status == "built"
     assert cached_jacobian_and_hessian(knot, tmp_path)[2].status == "hit"
@@ -101,7 +83,7 @@ def test_a_corrupt_cache_entry_is_rebuilt(tmp_path: Path, damage: str) -> None:
 
 
 def test_an_entry_of_another_knot_is_not_trusted(tmp_path: Path) -> None:
-    knot = _toy_knot()
+    knot = toy_knot()
     x = ca.SX.sym("x", 3)
     other = ca.Function("knot", [x], [x * x])
     cached_jacobian_and_hessian(other, tmp_path)
