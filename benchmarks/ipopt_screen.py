@@ -51,23 +51,40 @@ def _push(value: float, mu_init: float | None = None) -> dict[str, Any]:
     return out
 
 
-def _changed_cells(planner: GaitPlanner, new: np.ndarray, old: np.ndarray) -> set[tuple[int, int]]:
-    return {(f, k) for k in range(planner.n_knots) for f in range(new.shape[1])
-            if new[k, f] != old[k, f]}
+def _contact_changes() -> Callable[[GaitPlanner, robots.ContactSchedule], set[tuple[int, int]]
+                                    | None]:
+    """A tracker of the schedule between solves: called with each solve's planner and schedule,
+    it returns the (foot, knot) cells whose contact mode changed since the previous call (None
+    on the first)."""
+    last: dict[str, np.ndarray] = {}
+
+    def changed(pl: GaitPlanner, s: robots.ContactSchedule) -> set[tuple[int, int]] | None:
+        new = s.contact_matrix(pl.n_knots)
+        old = last.get("contact")
+        last["contact"] = new
+        if old is None:
+            return None
+        return {(f, k) for k in range(pl.n_knots) for f in range(new.shape[1])
+                if new[k, f] != old[k, f]}
+
+    return changed
+
+
+def _force_mask(pl: GaitPlanner, cells: set[tuple[int, int]]) -> np.ndarray:
+    """The decision variables that are the contact forces of `cells`."""
+    forces = {f"foot {f} f{a}@knot {k}" for f, k in cells for a in "xyz"}
+    return np.array([lab in forces for lab in pl._x_labels])
 
 
 def reset_changed_duals() -> Policy:
     """Last multipliers, but those of every row and force of a (foot, knot) whose contact mode
     changed since the last solve set to zero."""
-    last: dict[str, np.ndarray] = {}
+    changes = _contact_changes()
 
     def policy(pl: GaitPlanner, s: robots.ContactSchedule, ws: WarmStart | None) -> Any:
-        new = s.contact_matrix(pl.n_knots)
-        old = last.get("contact")
-        last["contact"] = new
-        if ws is None or old is None:
+        changed = changes(pl, s)
+        if ws is None or changed is None:
             return ws
-        changed = _changed_cells(pl, new, old)
         names = pl.robot.foot_names
         rows = {f"foot {names[f]}@knot {k}" for f, k in changed}
         lam_g, lam_x = ws.lam_g.copy(), ws.lam_x.copy()
@@ -75,8 +92,7 @@ def reset_changed_duals() -> Policy:
             labels = pl._labels.get(group)
             if labels is not None:
                 lam_g[np.arange(sl.start, sl.stop)[[lab in rows for lab in labels]]] = 0.0
-        forces = {f"foot {f} f{a}@knot {k}" for f, k in changed for a in "xyz"}
-        lam_x[[lab in forces for lab in pl._x_labels]] = 0.0
+        lam_x[_force_mask(pl, changed)] = 0.0
         return WarmStart(ws.x, lam_x, lam_g)
 
     return policy
@@ -87,17 +103,13 @@ def reset_changed_forces() -> Policy:
     from the cold initial guess (`planner.nlp.variables.initial_guess`); zero multipliers."""
     from planner.nlp.variables import initial_guess
 
-    last: dict[str, np.ndarray] = {}
+    changes = _contact_changes()
 
     def policy(pl: GaitPlanner, s: robots.ContactSchedule, ws: WarmStart | None) -> Any:
-        new = s.contact_matrix(pl.n_knots)
-        old = last.get("contact")
-        last["contact"] = new
-        if ws is None or old is None:
+        changed = changes(pl, s)
+        if ws is None or changed is None:
             return ws
-        forces = {f"foot {f} f{a}@knot {k}" for f, k in _changed_cells(pl, new, old)
-                  for a in "xyz"}
-        mask = np.array([lab in forces for lab in pl._x_labels])
+        mask = _force_mask(pl, changed)
         x = ws.x.copy()
         x[mask] = initial_guess(pl.layout, pl.model, s)[mask]
         return WarmStart(x, np.zeros_like(ws.lam_x), np.zeros_like(ws.lam_g))
