@@ -264,12 +264,11 @@ def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.Conta
 def _check_mirror(bot: robots.Robot, schedule: robots.ContactSchedule, knots: int, vy: float,
                   yaw_rate: float) -> None:
     """--mirror's conditions, before the NLP is built (`planner.nlp.mirror`)."""
-    from planner.nlp.mirror import check_schedule, joint_mirror
-    from planner.templates import mirror_permutation
+    from planner.nlp.mirror import check_mirror, joint_mirror
 
     try:
         joint_mirror(bot)
-        check_schedule(schedule, mirror_permutation(bot), knots, vy, yaw_rate)
+        check_mirror(bot, schedule, knots, vy, yaw_rate)
     except PlannerConfigError as exc:
         raise OptionError(str(exc)) from None
 

@@ -141,3 +141,12 @@ def check_schedule(schedule: ContactSchedule, foot_image: tuple[int, ...] | None
             "does); use a symmetric gait (e.g. biped_walk, biped_run, trot, pace, tripod) or "
             "plan without --mirror"
         )
+
+
+def check_mirror(robot: Robot, schedule: ContactSchedule, n_knots: int, vy_m_s: float,
+                 yaw_rate_rad_s: float) -> None:
+    """`check_schedule` with the robot's own foot images
+    (`planner.templates.mirror_permutation`)."""
+    from planner.templates import mirror_permutation
+
+    check_schedule(schedule, mirror_permutation(robot), n_knots, vy_m_s, yaw_rate_rad_s)

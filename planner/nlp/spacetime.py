@@ -45,7 +45,7 @@ from planner.nlp.constraints import (
     row_scales,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
-from planner.nlp.mirror import check_schedule as check_mirror_schedule
+from planner.nlp.mirror import check_mirror
 from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import (
     ALL_DIRECTIONS,
@@ -309,10 +309,7 @@ class GaitPlanner:
             raise PlannerConfigError(f"speed must be in [-10, 10] m/s, got {speed_m_s!r}")
         check_command(vy_m_s, yaw_rate_rad_s, schedule.period_s, self.n_knots)
         if self.options.half_cycle_mirror:
-            from planner.templates import mirror_permutation
-
-            check_mirror_schedule(schedule, mirror_permutation(self.robot), self.n_knots,
-                                  vy_m_s, yaw_rate_rad_s)
+            check_mirror(self.robot, schedule, self.n_knots, vy_m_s, yaw_rate_rad_s)
         contact = schedule.contact_matrix(self.n_knots)
         if speed_m_s != 0 or vy_m_s != 0 or yaw_rate_rad_s != 0:
             for foot, duty in zip(schedule.feet, schedule.duty_factor, strict=True):
