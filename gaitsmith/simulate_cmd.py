@@ -48,6 +48,17 @@ MAX_VIDEO_S = 3600.0
 MAX_STAND_S = 60.0  # sim.rollout.RunSettings' own bound
 
 
+def _closest_limit(result: ValidationResult) -> str:
+    """The joint that came closest to one of its limits in the steady cycles (the report has
+    every joint, planned and simulated)."""
+    joints = [j for j in result.joints if math.isfinite(j.limit_clearance_rad)]
+    if not joints:
+        return "—"
+    j = min(joints, key=lambda jm: jm.limit_clearance_fraction)
+    return (f"{j.name} {math.degrees(j.limit_clearance_rad):.1f}° "
+            f"({j.limit_clearance_fraction:.0%} of its range)")
+
+
 def _metrics_table(result: ValidationResult) -> Table:
     m = result.metrics
     table = Table(title="simulation metrics (steady cycles; heading and drift over the run)")
@@ -95,6 +106,7 @@ def _metrics_table(result: ValidationResult) -> Table:
         ),
         ("mechanical power", f"{m.mechanical_power_w:.2f} W"),
         ("cost of transport", opt(m.cost_of_transport, ".2f")),
+        ("closest to a joint limit", _closest_limit(result)),
     )
     for k, v in rows:
         table.add_row(k, v)

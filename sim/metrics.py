@@ -105,6 +105,11 @@ class JointMetrics:
     tracking_rms_rad: float
     tracking_max_rad: float
     peak_speed_rad_s: float
+    #: closest approach of the simulated angle to the joint's nearer limit over the steady cycles
+    #: (`Robot` limits: the MJCF range narrowed to the servo's); negative means past the limit
+    limit_clearance_rad: float = math.nan
+    #: the same as a share of the joint's range
+    limit_clearance_fraction: float = math.nan
 
 
 def _json(v: object) -> object:
@@ -112,6 +117,15 @@ def _json(v: object) -> object:
         return v
     f = float(v)  # type: ignore[arg-type]
     return f if math.isfinite(f) else None
+
+
+def limit_clearance_rad(
+    q_rad: np.ndarray, lower_rad: np.ndarray, upper_rad: np.ndarray
+) -> np.ndarray:
+    """Per joint (columns of `q_rad`, samples × joints): the smallest distance of any sample to
+    the nearer of the joint's two limits [rad]; negative where a sample lies past a limit."""
+    q = np.asarray(q_rad, dtype=float)
+    return np.asarray(np.minimum(q.min(axis=0) - lower_rad, upper_rad - q.max(axis=0)))
 
 
 def yaw_of(quat: np.ndarray) -> np.ndarray:
@@ -351,6 +365,9 @@ def compute(
         mechanical_power_w=power,
         cost_of_transport=cot,
     )
+    lower = np.array([jt.lower_rad for jt in sim.robot.joints])
+    upper = np.array([jt.upper_rad for jt in sim.robot.joints])
+    clearance = limit_clearance_rad(traj.q_rad[w], lower, upper)
     joints = tuple(
         JointMetrics(
             name=name,
@@ -359,6 +376,8 @@ def compute(
             tracking_rms_rad=float(np.sqrt(np.mean(err[:, j] ** 2))),
             tracking_max_rad=float(np.abs(err[:, j]).max()),
             peak_speed_rad_s=float(np.abs(traj.qd_rad_s[w, j]).max()),
+            limit_clearance_rad=float(clearance[j]),
+            limit_clearance_fraction=float(clearance[j] / (upper[j] - lower[j])),
         )
         for j, name in enumerate(sim.robot.joint_names)
     )

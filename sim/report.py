@@ -116,6 +116,58 @@ def _thermal_html(pred: ThermalPrediction, voltage: VoltageMargin | None) -> lis
     return parts
 
 
+def _planned_clearance_rad(gait: Gait) -> dict[str, tuple[float, float]]:
+    """Per joint from the planner's metadata (`planner.nlp.metadata.joint_limit_clearance`):
+    (closest approach of the planned angles and servo goals to a limit, the margin the planner
+    kept), both in rad; empty for gaits without that block (older files, synthetic gaits)."""
+    block = (gait.planner or {}).get("joint_limit_clearance")
+    out: dict[str, tuple[float, float]] = {}
+    if not isinstance(block, dict):
+        return out
+    for name, entry in block.items():
+        try:
+            out[str(name)] = (float(entry["closest_rad"]), float(entry["margin_rad"]))
+        except (KeyError, TypeError, ValueError):
+            continue  # a hand-edited or partial block: show "—" for that joint
+    return out
+
+
+def _deg(v: float | None) -> str:
+    return "—" if v is None or not math.isfinite(v) else f"{math.degrees(v):.1f}"
+
+
+def _joints_html(result: ValidationResult, gait: Gait) -> list[str]:
+    """The per-joint table: torque, tracking, speed and each joint's closest approach to its
+    limits, planned (from the gait's planner metadata, with the margin the planner kept) and
+    simulated (over the steady cycles). A simulated approach inside the planner's margin is
+    marked: the joint ran closer to its stop than the plan allowed."""
+    planned = _planned_clearance_rad(gait)
+    parts = [
+        "<h2>Joints</h2><p>Closest approach to a joint limit: the smallest distance of the "
+        "joint's angle to the nearer end of its range (the MJCF range narrowed to the servo's), "
+        "planned (angles and servo goals, with the margin the planner kept) and simulated "
+        "(steady cycles).</p><table><tr><th>joint</th><th>peak τ/stall</th>"
+        "<th>RMS τ/stall</th><th>tracking RMS [°]</th><th>peak speed [rad/s]</th>"
+        "<th>closest to limit, planned [°] (margin)</th>"
+        "<th>closest to limit, simulated [°]</th><th>of range</th></tr>"
+    ]
+    for j in result.joints:
+        plan, margin = planned.get(j.name, (None, None))
+        sim_c = j.limit_clearance_rad
+        inside = margin is not None and math.isfinite(sim_c) and sim_c < margin
+        cls = " class='fail'" if inside else ""
+        frac = j.limit_clearance_fraction
+        parts.append(
+            f"<tr><td>{html.escape(j.name)}</td><td>{j.peak_torque_fraction:.0%}</td>"
+            f"<td>{j.rms_torque_fraction:.0%}</td><td>{math.degrees(j.tracking_rms_rad):.2f}</td>"
+            f"<td>{j.peak_speed_rad_s:.2f}</td>"
+            f"<td>{_deg(plan)} ({_deg(margin)})</td><td{cls}>{_deg(sim_c)}</td>"
+            f"<td>{'—' if not math.isfinite(frac) else f'{frac:.0%}'}</td></tr>"
+        )
+    parts.append("</table>")
+    return parts
+
+
 def render_html(
     result: ValidationResult, gait: Gait, sim: SimModel, *, title: str | None = None,
     robustness: RobustnessResult | None = None, thermal: ThermalPrediction | None = None,
@@ -155,17 +207,8 @@ def render_html(
     parts.append("</table><h2>Conditions</h2><table>")
     for key, value in result.conditions.items():
         parts.append(f"<tr><td>{html.escape(key)}</td><td>{_fmt(value)}</td></tr>")
-    parts.append(
-        "</table><h2>Joints</h2><table><tr><th>joint</th><th>peak τ/stall</th>"
-        "<th>RMS τ/stall</th><th>tracking RMS [°]</th><th>peak speed [rad/s]</th></tr>"
-    )
-    for j in result.joints:
-        parts.append(
-            f"<tr><td>{html.escape(j.name)}</td><td>{j.peak_torque_fraction:.0%}</td>"
-            f"<td>{j.rms_torque_fraction:.0%}</td><td>{math.degrees(j.tracking_rms_rad):.2f}</td>"
-            f"<td>{j.peak_speed_rad_s:.2f}</td></tr>"
-        )
     parts.append("</table>")
+    parts.extend(_joints_html(result, gait))
     if robustness is not None:
         parts.extend(_robustness_html(robustness))
     if thermal is not None:

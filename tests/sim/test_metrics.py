@@ -198,3 +198,16 @@ def test_a_fast_turn_is_judged_by_its_yaw_rate_not_again_by_its_speed(quad: Robo
     assert m.achieved_speed_m_s == pytest.approx(SPEED_M_S, rel=1e-3)
     assert m.achieved_yaw_rate_rad_s == pytest.approx(1.12 * rate, rel=1e-2)
     assert "speed" not in _failed(quad, traj, gait)
+
+
+def test_limit_clearance_is_the_closest_approach_to_either_limit() -> None:
+    from sim.metrics import limit_clearance_rad
+
+    q = np.array([[0.0, 1.0], [0.5, -0.2], [0.9, 0.0]])
+    lower, upper = np.array([-1.0, -0.25]), np.array([1.0, 1.5])
+    # joint 0 comes within 0.1 of its upper limit, joint 1 within 0.05 of its lower one
+    assert limit_clearance_rad(q, lower, upper) == pytest.approx([0.1, 0.05])
+    # past a limit: negative
+    assert limit_clearance_rad(np.array([[1.2]]), np.array([-1.0]), np.array([1.0]))[0] == (
+        pytest.approx(-0.2)
+    )

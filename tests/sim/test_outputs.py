@@ -250,3 +250,34 @@ def test_cli_simulate_robustness_goes_into_the_report(  # type: ignore[no-untype
     assert main(["simulate", str(good), "--cycles", "4", "--robustness",
                  "--report", str(report)]) == 0
     assert calls and "<td>latency_s</td><td>0.02</td>" in report.read_text(encoding="utf-8")
+
+
+def test_report_shows_each_joints_closest_approach_to_its_limits(  # type: ignore[no-untyped-def]
+    tripod_run, hex_tripod: Gait
+) -> None:
+    import dataclasses
+    import math
+
+    from sim.report import render_html
+
+    sim, traj = tripod_run
+    res = evaluate(traj, hex_tripod, sim)
+    lower = np.array([j.lower_rad for j in sim.robot.joints])
+    upper = np.array([j.upper_rad for j in sim.robot.joints])
+    from sim.metrics import steady_mask
+
+    q = traj.q_rad[steady_mask(traj, 2)]  # the steady cycles, as the metrics use them
+    for j, (jm, lo, hi) in enumerate(zip(res.joints, lower, upper, strict=True)):
+        assert jm.name == sim.robot.joint_names[j]
+        assert jm.limit_clearance_rad == pytest.approx(min(q[:, j].min() - lo, hi - q[:, j].max()))
+        assert jm.limit_clearance_fraction == pytest.approx(jm.limit_clearance_rad / (hi - lo))
+    # the planner's closest approach and margin from the gait's metadata, and a simulated
+    # approach inside that margin is marked
+    first = res.joints[0].name
+    meta = {"joint_limit_clearance": {first: {"closest_rad": 0.5, "margin_rad": 10.0}}}
+    text = render_html(res, dataclasses.replace(hex_tripod, planner=meta), sim)
+    row = next(r for r in text.split("<tr>") if r.startswith(f"<td>{first}</td>"))
+    assert f"{math.degrees(0.5):.1f} ({math.degrees(10.0):.1f})" in row
+    assert "class='fail'" in row
+    plain = render_html(res, hex_tripod, sim)
+    assert "closest to limit, simulated" in plain and "— (—)" in plain
