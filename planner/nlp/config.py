@@ -32,6 +32,7 @@ from planner.nlp.contact_margin import (
     COP_SOLE_FRACTION,
     FLAT_MEAN_FOOTPRINT_LEG_LENGTHS,
 )
+from planner.nlp.sideways_locked import SIDEWAYS_SLIP_LEG_LENGTHS
 from robots.servo_params import ServoSetting
 
 #: Scaling laws with the leg length L (see the module docstring).
@@ -196,6 +197,9 @@ class PlannerOptions:
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
       half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric
       optimum. Off by default; `gaitsmith plan --mirror`.
+    - `sideways_slip_leg_lengths`: ε/L of the lateral no-slip band of feet whose legs cannot
+      move them sideways relative to the body (hip-and-knee legs; `planner.nlp.sideways_locked`):
+      their equality rows are degenerate and IPOPT stalled on them. 0: equality rows.
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
     - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
       "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
@@ -233,6 +237,7 @@ class PlannerOptions:
     capture_sole_fraction: float | None = CAPTURE_SOLE_FRACTION
     flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
     half_cycle_mirror: bool = False
+    sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
     max_iter: int = 150
     print_level: int = 0
@@ -264,6 +269,7 @@ class PlannerOptions:
             or 0 < self.capture_sole_fraction <= 1,
             "flat_mean_footprint_leg_lengths": self.flat_mean_footprint_leg_lengths is None
             or 0 < self.flat_mean_footprint_leg_lengths < 2,
+            "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter > 0,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,

@@ -34,6 +34,7 @@ from planner.nlp.flat_foot import (
 from planner.nlp.foot_separation import foot_separation_labels, foot_separation_rows
 from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
+from planner.nlp.sideways_locked import lateral_slip_bounds_m
 from planner.nlp.variables import Symbols, time_unit_s
 
 GOAL_SPEED_SAMPLES_PER_KNOT = 8  # as the player's pre-flight (hardware.play.preflight)
@@ -191,6 +192,9 @@ def build_groups(
     rate = np.r_[[length / t0] * 3, [1.0 / t0] * (3 + nj)]
     fd_scale = np.r_[np.tile(rate, n), np.tile(rate / t0, n)]
     next_feet_x, next_feet_y = motion.next_in_frame(_shift(feet_x, 1), _shift(feet_y, 1))
+    lateral_lb, lateral_ub = lateral_slip_bounds_m(
+        model.robot, n, options.sideways_slip_leg_lengths
+    )
     groups = [
         # cyclic central differences tie the lifted rates to the poses (linear in x)
         Group(
@@ -219,14 +223,16 @@ def build_groups(
         # k, is where it was at k (on a treadmill: moves at −v along x, not sideways); with
         # `vertical_contact_transitions` also over the last swing interval before touchdown and
         # the first one after lift-off
+        # (the lateral rows of feet that cannot move sideways relative to the body get a band
+        # of ±ε: `planner.nlp.sideways_locked`)
         Group(
             "stance no-slip",
             ca.vertcat(
                 col(stick * (next_feet_x - feet_x)),
                 col(stick * (next_feet_y - feet_y)),
             ),
-            zeros(2 * nf * n),
-            zeros(2 * nf * n),
+            np.r_[zeros(nf * n), lateral_lb],
+            np.r_[zeros(nf * n), lateral_ub],
             length,
         ),
         # eq 1 for feet + anti-scuffing clearance profile in swing

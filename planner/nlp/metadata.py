@@ -128,6 +128,7 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
         "joint_limit_margin_rad": o.joint_limit_margin_rad,
         "joint_limit_margin_fraction": o.joint_limit_margin_fraction,
         "nondimensional": o.nondimensional,
+        "sideways_slip_leg_lengths": o.sideways_slip_leg_lengths,
         **joint_angle_semantics(planner, result),
         "versions": package_versions(),
     }
