@@ -67,7 +67,7 @@ def _stagewise_ipopt(planner: FatropPlanner) -> ca.Function:
     o = planner.options
     ipopt: dict[str, Any] = {
         "tol": o.tol, "acceptable_tol": 1e-4, "constr_viol_tol": 1e-5,
-        "max_iter": PlannerOptions().max_iter, "print_level": 0, "mu_strategy": "adaptive",
+        "max_iter": o.max_iter_for(sw.w.numel()), "print_level": 0, "mu_strategy": "adaptive",
         "sb": "yes", "mumps_pivot_order": 5, "mu_init": 1e-2,
     }
     return ca.nlpsol("stagewise_ipopt", "ipopt", {"x": sw.w, "p": sw.p, "f": sw.f, "g": sw.g},

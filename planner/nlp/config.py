@@ -64,6 +64,31 @@ def default_speeds_m_s(leg_length_m: float, froudes: tuple[float, ...] = (0.002,
     return [round(speed_for_froude(fr, leg_length_m), 4) for fr in froudes]
 
 
+#: IPOPT's iteration cap (`iteration_cap`): `BASE_ITERATION_CAP` at `REFERENCE_VARIABLES` (quad12
+#: at 30 knots, whose templates converge in 21-45 iterations), growing with the square root of
+#: the number of variables, at most `MAX_ITERATION_CAP`
+BASE_ITERATION_CAP = 150
+REFERENCE_VARIABLES = 2700
+MAX_ITERATION_CAP = 1000
+
+
+def iteration_cap(n_variables: int) -> int:
+    """The default IPOPT iteration cap for an NLP of `n_variables` decision variables.
+
+    Interior-point iteration counts grow slowly with the size of a discretised problem (the
+    mesh-independence of Newton-type methods; Wächter & Biegler 2006 report counts nearly flat
+    in the mesh size), so the cap grows with √n rather than n: 150 for quad12 at 30 knots
+    (2700 variables), 150 for anything smaller, 212 at twice that size, 300 at four times
+    (humanoid20 at 60 knots). A point met at the cap is still a gait if it meets every
+    constraint (`planner.nlp.diagnostics.ACCEPT_IF_FEASIBLE`); measured iteration counts per
+    robot and template are in docs/results/iteration_cap.md.
+    """
+    if n_variables < 1:
+        raise PlannerConfigError(f"an NLP needs variables, got {n_variables}")
+    grown = BASE_ITERATION_CAP * math.sqrt(n_variables / REFERENCE_VARIABLES)
+    return int(min(MAX_ITERATION_CAP, max(BASE_ITERATION_CAP, round(grown))))
+
+
 @dataclass(frozen=True)
 class CostWeights:
     """Weights of the objective terms (W&P eqs 13-16 with servo-normalised effort).
@@ -201,6 +226,7 @@ class PlannerOptions:
       move them sideways relative to the body (hip-and-knee legs; `planner.nlp.sideways_locked`):
       their equality rows are degenerate and IPOPT stalled on them. 0: equality rows.
     - `tol`, `max_iter`, `print_level`: IPOPT; `print_level` 0 silences it, 5 shows iterations.
+      `max_iter` None (default): the cap follows the problem size, `iteration_cap`.
     - `derivatives`: how IPOPT gets the NLP's Jacobian and Hessian (the optimum is the same):
       "knot" — from one knot's sparse Jacobian and Lagrangian Hessian, cached on disk
       (`planner.nlp.solver_cache`): builds in a fraction of the time; "expanded" — the whole NLP
@@ -239,7 +265,7 @@ class PlannerOptions:
     half_cycle_mirror: bool = False
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
-    max_iter: int = 150
+    max_iter: int | None = None
     print_level: int = 0
     linear_solver: str = "mumps"
     derivatives: str = "knot"
@@ -271,7 +297,7 @@ class PlannerOptions:
             or 0 < self.flat_mean_footprint_leg_lengths < 2,
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
             "tol": 0 < self.tol < 1,
-            "max_iter": self.max_iter > 0,
+            "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
             "ipopt_tuning": self.ipopt_tuning in IPOPT_TUNINGS,
         }
@@ -280,6 +306,10 @@ class PlannerOptions:
                 raise PlannerConfigError(
                     f"planner option {name}={getattr(self, name)!r} is out of range"
                 )
+
+    def max_iter_for(self, n_variables: int) -> int:
+        """IPOPT's iteration cap for an NLP of `n_variables`: the option, or `iteration_cap`."""
+        return self.max_iter if self.max_iter is not None else iteration_cap(n_variables)
 
     def swing_clearance_for(self, leg_length_m: float) -> float:
         """Swing clearance [m] for legs of `leg_length_m` (the option, or the scaling law)."""

@@ -201,11 +201,13 @@ class GaitPlanner:
         t0 = time.perf_counter()
         self.robot = robot
         self.n_knots = n_knots
-        self.options = options or PlannerOptions()
         self.model = RobotModel(robot)
         self.layout = Layout(
             n_knots, self.model.n_joints, self.model.n_feet, len(self.model.flat_feet)
         )
+        options = options or PlannerOptions()
+        # the iteration cap of this NLP's size (`planner.nlp.config.iteration_cap`) unless set
+        self.options = dataclasses.replace(options, max_iter=options.max_iter_for(self.layout.size))
         # nondimensional NLP: the solver sees x / x_scale and g / g_scale (see variable_scale)
         nondim = self.options.nondimensional
         self._x_scale = (

@@ -421,7 +421,8 @@ def search_gait(
         space = TimingSpace.for_robot(robot, False)
     symmetric = space.symmetric
     tipping = TippingCost.for_robot(robot, tipping_weight)
-    search_options = replace(options, max_iter=min(options.max_iter, search_max_iter))
+    search_options = replace(options, max_iter=search_max_iter if options.max_iter is None
+                             else min(options.max_iter, search_max_iter))
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
                                   search_options, tipping_weight, acceptance)
     log: list[SearchLogRow] = []
