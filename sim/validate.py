@@ -41,7 +41,7 @@ class PassCriteria:
     # Heading and path over the whole run, from the rest pose (ramp-in included). 5° of heading
     # error puts an open-loop walk 0.09 m off its line per metre (tan 5°), the same order as a
     # foot's width on these robots; a 15° turn during the ramp-in (0.27 m/m) fails both checks.
-    max_heading_error_rad: float = math.radians(5.0)  # |yaw change − commanded turn| over the run
+    max_heading_error_rad: float = math.radians(5.0)  # |yaw change − commanded turn|, cycle mean
     max_lateral_drift_per_m: float = 0.15  # metres off the commanded path per metre along it
     max_yaw_drift_rad_per_m: float = 0.35  # steady turning: ≈ 20° of unwanted turn per metre
     # Turning and side-stepping commands (`gaitsmith plan --yaw-rate/--vy`): the achieved rate,
@@ -192,8 +192,8 @@ def judge(
             "commanded turn over the run)"
             if turning
             else f"turned {math.degrees(m.heading_error_rad):+.1f}° off the commanded heading over "
-            f"the run, {math.degrees(m.ramp_yaw_rad):+.1f}° of it before the gait started "
-            f"(limit ±{math.degrees(c.max_heading_error_rad):.0f}°)",
+            f"the run (mean over its last cycle), {math.degrees(m.ramp_yaw_rad):+.1f}° of it on "
+            f"the gait's first cycle (limit ±{math.degrees(c.max_heading_error_rad):.0f}°)",
         )
     )
     lat = m.lateral_drift_per_m

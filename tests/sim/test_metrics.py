@@ -211,3 +211,31 @@ def test_limit_clearance_is_the_closest_approach_to_either_limit() -> None:
     assert limit_clearance_rad(np.array([[1.2]]), np.array([-1.0]), np.array([1.0]))[0] == (
         pytest.approx(-0.2)
     )
+
+
+def _oscillate(traj: Trajectory, amplitude_rad: float) -> Trajectory:
+    """`traj` with its body yawing ±`amplitude_rad` once per gait period once the gait has
+    started (the torso counter-rotation of a run): −amplitude at each whole cycle, so also at
+    the instant the run ends."""
+    t = traj.time_s
+    walking = t - traj.gait_start_s
+    wobble = np.where(walking > 0, -amplitude_rad * np.cos(2 * math.pi * walking / PERIOD_S), 0.0)
+    yaw = 2 * np.arctan2(traj.base_quat[:, 3], traj.base_quat[:, 0]) + wobble
+    quat = np.stack([np.cos(yaw / 2), 0 * yaw, 0 * yaw, np.sin(yaw / 2)], axis=1)
+    return dataclasses.replace(traj, base_quat=quat)
+
+
+def test_heading_is_the_cycle_mean_not_the_last_instant(quad: Robot) -> None:
+    """A straight run whose body yaws ±12° within each cycle ends at −12° of that oscillation:
+    its heading (the mean over the last period) is on course and passes; a 6° turn during the
+    ramp under the same oscillation still fails."""
+    gait = _walking_gait(quad, Velocity(vx_m_s=SPEED_M_S))
+    sim = build_sim_model(quad, SimConditions())
+    wobbly = _oscillate(_walk(quad, 0.0), math.radians(12.0))
+    m, _ = compute(wobbly, gait, sim)
+    assert math.degrees(m.heading_change_rad) < -10.0  # the instant the run ended
+    assert abs(m.heading_error_rad) < math.radians(1.0)
+    assert "heading" not in _failed(quad, wobbly, gait)
+    turned = _oscillate(_walk(quad, math.radians(-6.0)), math.radians(12.0))
+    assert "heading" in _failed(quad, turned, gait)
+    assert math.degrees(compute(turned, gait, sim)[0].ramp_yaw_rad) == pytest.approx(-6.0, abs=1.0)
