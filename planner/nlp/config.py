@@ -43,6 +43,8 @@ GRAVITY_M_S2 = 9.81
 DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 #: values of `PlannerOptions.ipopt_tuning` (`planner.nlp.spacetime.ipopt_options`)
 IPOPT_TUNINGS = ("tuned", "session21")
+#: upper bound of `PlannerOptions.knot_threads`
+MAX_KNOT_THREADS = 64
 
 
 def speed_for_froude(froude: float, leg_length_m: float) -> float:
@@ -239,6 +241,7 @@ class PlannerOptions:
     linear_solver: str = "mumps"
     derivatives: str = "knot"
     ipopt_tuning: str = "tuned"
+    knot_threads: int = 1
 
     def __post_init__(self) -> None:
         checks = {
@@ -268,6 +271,8 @@ class PlannerOptions:
             "max_iter": self.max_iter > 0,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
             "ipopt_tuning": self.ipopt_tuning in IPOPT_TUNINGS,
+            "knot_threads": type(self.knot_threads) is int
+            and 1 <= self.knot_threads <= MAX_KNOT_THREADS,
         }
         for name, ok in checks.items():
             if not ok:

@@ -209,8 +209,9 @@ def used_directions(solver: ca.Function, knot_name: str) -> tuple[tuple[int, ...
     """The direction counts n of the knot derivatives `solver` calls: ``fwd<n>_map<N>_knot``
     (CasADi maps ``fwd<n>_knot``) and ``fwd<n>_adj1_map<N>_knot``, found in its Jacobian,
     Hessian and gradient functions."""
-    forward_name = re.compile(rf"fwd(\d+)_map\d+_{re.escape(knot_name)}")
-    second_name = re.compile(rf"fwd(\d+)_adj1_map\d+_{re.escape(knot_name)}")
+    knot = re.escape(knot_name)
+    forward_name = re.compile(rf"fwd(\d+)_(?:threadmap\d+_)?(?:map\d+_)?{knot}")
+    second_name = re.compile(rf"fwd(\d+)_adj1_(?:threadmap\d+_)?(?:map\d+_)?{knot}")
     forward: set[int] = set()
     second: set[int] = set()
     for name in ("nlp_jac_g", "nlp_hess_l", "nlp_grad_f"):

@@ -227,7 +227,7 @@ class GaitPlanner:
             forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)
             self.knot_derivatives = with_knot_derivatives(plain, jac, hess, forward, second)
             knot = self.knot_derivatives.knot
-        kq = knot_quantities(self.model, sym, n_knots, knot)
+        kq = knot_quantities(self.model, sym, n_knots, knot, self.options.knot_threads)
         groups = build_groups(self.model, sym, kq, n_knots, self.options)
         terms = cost_terms(self.model, sym, kq, n_knots)
         objective = weighted_objective(terms, self.options.weights)
