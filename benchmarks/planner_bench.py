@@ -32,6 +32,7 @@ is counted apart, with its cost difference, and not called the same optimum.
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import statistics
 import tempfile
@@ -200,7 +201,28 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "knot-tuned": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="knot", ipopt_tuning="tuned")
     ),
+    # docs/results/planner_speed_threads.md: "knot" before its objective-gradient change (ω
+    # from the knot's own output, so grad_f evaluated the knot Jacobian), and the knot
+    # functions and their derivatives evaluated on 2 threads
+    "knot-w": lambda robot, n: _omega_from_knot_planner(robot, n, PlannerOptions()),
+    "knot-t2": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(knot_threads=2)),
+    "compiled-t2": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(derivatives="compiled", knot_threads=2)
+    ),
 }
+
+
+def _omega_from_knot_planner(
+    robot: robots.Robot, n_knots: int, options: PlannerOptions
+) -> GaitPlanner:
+    """A planner whose objective takes ω from the knot function's output (the NLP before the
+    objective-gradient change; `knot_quantities(omega_from_knot=True)`)."""
+    original = spacetime.knot_quantities
+    spacetime.knot_quantities = functools.partial(original, omega_from_knot=True)  # type: ignore[assignment]
+    try:
+        return GaitPlanner(robot, n_knots, options)
+    finally:
+        spacetime.knot_quantities = original  # type: ignore[assignment]
 
 
 def _fatrop_planner(robot: robots.Robot, n_knots: int) -> GaitPlanner:

@@ -119,23 +119,28 @@ def knot_quantities(
     n_knots: int,
     knot: ca.Function | None = None,
     threads: int = 1,
+    omega_from_knot: bool = False,
 ) -> KnotQuantities:
     """The knot function mapped over the knots; `knot`: a `knot_function(model)` to use instead
     (e.g. one with precomputed derivatives, `planner.nlp.solver_cache`). `threads` > 1: the
     knots are split into that many chunks evaluated on parallel threads (CasADi's "thread"
-    map; its derivatives are threaded maps of the knot's derivatives too)."""
+    map; its derivatives are threaded maps of the knot's derivatives too). `omega_from_knot`:
+    ω from the knot's "w" output as before issue #16's objective-gradient change (same values;
+    kept for benchmarks/planner_bench.py to measure against)."""
     bd, qd = sym.vel[:6, :], sym.vel[6:, :]
     bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
     fn = mapped_knots(knot if knot is not None else knot_function(model), n_knots, threads)
     flat = [sym.moments] if model.flat_feet else []
     yaw_rate = _motion(sym).yaw_rate_rad_s
-    base_rows, tau, feet, body_z, _ = fn(
+    base_rows, tau, feet, body_z, w_knot = fn(
         sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,
         _motion(sym).vy_m_s, yaw_rate, *flat
     )
     # ω from its own small function, not the knot's "w" output: the objective's gradient then
     # differentiates a few dozen instructions instead of the knot's whole Jacobian
-    w = omega_function(model).map(n_knots)(sym.base[3:6, :], bd[3:6, :], yaw_rate)
+    w = w_knot if omega_from_knot else omega_function(model).map(n_knots)(
+        sym.base[3:6, :], bd[3:6, :], yaw_rate
+    )
     return KnotQuantities(base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w)
 
 
@@ -154,11 +159,14 @@ def omega_function(model: RobotModel) -> ca.Function:
 
 
 def mapped_knots(knot: ca.Function, n_knots: int, threads: int = 1) -> ca.Function:
-    """`knot` over `n_knots` knots: a serial map, or with `threads` > 1 a "thread" map of at
-    most that many chunks (never more chunks than knots)."""
-    if threads <= 1:
+    """`knot` over `n_knots` knots: a serial map, or with `threads` > 1 a "thread" map of
+    equal chunks: the largest divisor of `n_knots` that is ≤ `threads` (serial if none is > 1).
+    CasADi pads an uneven split and wraps it in a helper function whose derivatives
+    `planner.nlp.solver_cache.used_directions` cannot name."""
+    chunks = max(d for d in range(1, max(1, min(threads, n_knots)) + 1) if n_knots % d == 0)
+    if chunks <= 1:
         return knot.map(n_knots)
-    return knot.map(n_knots, "thread", min(threads, n_knots))
+    return knot.map(n_knots, "thread", chunks)
 
 
 def _motion(sym: Symbols) -> MotionSymbols:

@@ -255,7 +255,7 @@ class GaitPlanner:
         if self.knot_derivatives is not None and plain is not None:
             # the next build with this knot, N and options creates only the derivatives used
             used = used_directions(self._solver, plain.name())
-            if used != known:
+            if used != known and used[0]:  # none found: a map CasADi named otherwise
                 save_directions(directions, *used)
         self._last: WarmStart | None = None
         self.build_time_s = time.perf_counter() - t0
