@@ -14,10 +14,12 @@ directions — 576K instructions for ``fwd64_knot`` — so it builds slowly and 
 - ``adj1_knot``:         (u, λ) ↦ J(u)ᵀ·λ
 - ``fwd<n>_adj1_knot``:  (u, λ, Δu, Δλ) ↦ H(u, λ)·Δu + J(u)ᵀ·Δλ
 
-(the exact derivatives, not approximations), prepopulated into the function cache CasADi looks
-them up in (`casadi.Function` option ``cache``), for every n up to `MAX_DIRECTIONS` (CasADi's MX
-AD batches at most 64 directions). J and H are SX functions of one knot, built once per robot
-whatever N is.
+(the exact derivatives, not approximations; ``fwd<n>_adj1_knot`` skips J when Δλ is exactly
+zero, which it is whenever the NLP is linear in the knot's outputs: quad12 N = 30, 43 → 35 ms
+of CPU per Hessian, docs/results/planner_speed_threads.md), prepopulated into the function
+cache CasADi looks them up in (`casadi.Function` option ``cache``), for every n up to
+`MAX_DIRECTIONS` (CasADi's MX AD batches at most 64 directions). J and H are SX functions of
+one knot, built once per robot whatever N is.
 
 Building H is most of what is left of the build (≈ 5 s for quad12 on a loaded 2-core machine), so
 `cached_jacobian_and_hessian` keeps J and H on disk (``$GAITSMITH_CACHE`` or
@@ -167,7 +169,14 @@ def with_knot_derivatives(
             u, lam = stacked(nominal[:n_in]), stacked(nominal[n_in + n_out :])
             du = seeds(fwd[:n_in], sp_in, n_dir)
             dlam = seeds(fwd[n_in + n_out :], sp_out, n_dir)
-            return ca.mtimes(hessian(u, lam), du) + ca.mtimes(jacobian(u).T, dlam)
+            h_du = ca.mtimes(hessian(u, lam), du)
+            # Δλ is often exactly zero (the NLP is linear in the knot's outputs): J(u) is then
+            # not evaluated at all (a short-circuit switch)
+            jt_dlam = ca.if_else(
+                ca.norm_inf(dlam) == 0, ca.MX.zeros(h_du.sparsity()),
+                ca.mtimes(jacobian(u).T, dlam), True,
+            )
+            return h_du + jt_dlam
 
         return sensitivity
 

@@ -100,3 +100,27 @@ def test_objective_gradient_does_not_evaluate_the_knot() -> None:
             if function.instruction_id(k) == ca.OP_CALL
         ]
         assert called and not any(c.endswith("_knot") for c in called), (name, called)
+
+
+@pytest.mark.parametrize("linear", [True, False])
+def test_knot_hessian_skips_the_jacobian_only_when_its_seeds_are_zero(linear: bool) -> None:
+    """A Lagrangian linear in the knot's outputs gives zero Δλ seeds (J is not evaluated); a
+    nonlinear one does not: both equal CasADi's own AD of the plain knot."""
+    plain = toy_knot()
+    custom = with_knot_derivatives(plain).knot
+
+    def hessian(knot: ca.Function) -> ca.Function:
+        x, y, lam = ca.MX.sym("X", 4, 6), ca.MX.sym("Y", 2, 6), ca.MX.sym("L", 3, 6)
+        a, b = knot.map(6)(x, y)
+        v = ca.vertcat(ca.vec(x), ca.vec(y))
+        lagrangian = ca.dot(ca.vec(lam[:2, :]), ca.vec(a)) + ca.dot(lam[2, :], b)
+        if not linear:
+            lagrangian += ca.sumsqr(b)
+        return ca.Function("h", [x, y, lam], [ca.hessian(lagrangian, v)[0]])
+
+    rng = np.random.default_rng(2)
+    args = rng.normal(size=(4, 6)), rng.normal(size=(2, 6)), rng.normal(size=(3, 6))
+    np.testing.assert_allclose(
+        np.asarray(hessian(custom)(*args)), np.asarray(hessian(plain)(*args)),
+        rtol=1e-12, atol=1e-12,
+    )
