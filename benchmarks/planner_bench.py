@@ -216,13 +216,17 @@ def _omega_from_knot_planner(
     robot: robots.Robot, n_knots: int, options: PlannerOptions
 ) -> GaitPlanner:
     """A planner whose objective takes ω from the knot function's output (the NLP before the
-    objective-gradient change; `knot_quantities(omega_from_knot=True)`)."""
-    original = spacetime.knot_quantities
-    spacetime.knot_quantities = functools.partial(original, omega_from_knot=True)  # type: ignore[assignment]
+    objective-gradient change; `knot_quantities(omega_from_knot=True)`). It shares the
+    direction-count file of "knot" (same options) but needs more directions (J·Δu in the
+    Hessian), so it builds them all and leaves the file alone."""
+    saved = spacetime.knot_quantities, spacetime.load_directions, spacetime.save_directions
+    spacetime.knot_quantities = functools.partial(saved[0], omega_from_knot=True)  # type: ignore[assignment]
+    spacetime.load_directions = lambda path: None  # type: ignore[assignment]
+    spacetime.save_directions = lambda path, forward, second: None  # type: ignore[assignment]
     try:
         return GaitPlanner(robot, n_knots, options)
     finally:
-        spacetime.knot_quantities = original  # type: ignore[assignment]
+        spacetime.knot_quantities, spacetime.load_directions, spacetime.save_directions = saved  # type: ignore[assignment]
 
 
 def _fatrop_planner(robot: robots.Robot, n_knots: int) -> GaitPlanner:
