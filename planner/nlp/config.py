@@ -211,6 +211,11 @@ class PlannerOptions:
       fewer iterations than a cold start, docs/results/planner_speed_ipopt.md; cold solves
       unchanged) or "session21" (1e-6, the options before that tuning, kept to measure
       against). Same optimum.
+    - `knot_threads`: evaluate the knot function and its derivatives in that many threads
+      (CasADi "thread" map in equal chunks, `planner.nlp.constraints.mapped_knots`); same
+      values. 1 (default): on the shared 2-core machine two threads cost 5 % more CPU and
+      their wall-time gain could not be told from the load; a search's worker processes
+      already use the cores (docs/results/planner_speed_threads.md).
     """
 
     mu: float = 0.5
