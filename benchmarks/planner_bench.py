@@ -201,10 +201,16 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "knot-tuned": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="knot", ipopt_tuning="tuned")
     ),
-    # docs/results/planner_speed_threads.md: "knot" before its objective-gradient change (ω
-    # from the knot's own output, so grad_f evaluated the knot Jacobian), and the knot
-    # functions and their derivatives evaluated on 2 threads
-    "knot-w": lambda robot, n: _omega_from_knot_planner(robot, n, PlannerOptions()),
+    # docs/results/planner_speed_threads.md: "knot" as this session found it (ω from the knot's
+    # own output, so grad_f evaluated the knot Jacobian; base x, y through the knot, so the NLP
+    # Jacobian took 66 directions, 64 + 2), "knot" before only the second change, and the knot
+    # functions and their derivatives on 2 threads
+    "knot-w": lambda robot, n: _variant_planner(
+        robot, n, PlannerOptions(), omega_from_knot=True, origin_base_xy=False
+    ),
+    "knot-xy": lambda robot, n: _variant_planner(
+        robot, n, PlannerOptions(), origin_base_xy=False
+    ),
     "knot-t2": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(knot_threads=2)),
     "compiled-t2": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="compiled", knot_threads=2)
@@ -212,15 +218,15 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
 }
 
 
-def _omega_from_knot_planner(
-    robot: robots.Robot, n_knots: int, options: PlannerOptions
+def _variant_planner(
+    robot: robots.Robot, n_knots: int, options: PlannerOptions, **knot_quantities: bool
 ) -> GaitPlanner:
-    """A planner whose objective takes ω from the knot function's output (the NLP before the
-    objective-gradient change; `knot_quantities(omega_from_knot=True)`). It shares the
-    direction-count file of "knot" (same options) but needs more directions (J·Δu in the
-    Hessian), so it builds them all and leaves the file alone."""
+    """A planner whose NLP is built by `knot_quantities(**knot_quantities)` (the NLP before this
+    session's changes: `omega_from_knot`, `origin_base_xy`). It shares the direction-count file
+    of "knot" (same options) but needs other directions, so it builds them all and leaves the
+    file alone."""
     saved = spacetime.knot_quantities, spacetime.load_directions, spacetime.save_directions
-    spacetime.knot_quantities = functools.partial(saved[0], omega_from_knot=True)  # type: ignore[assignment]
+    spacetime.knot_quantities = functools.partial(saved[0], **knot_quantities)  # type: ignore[assignment]
     spacetime.load_directions = lambda path: None  # type: ignore[assignment]
     spacetime.save_directions = lambda path, forward, second: None  # type: ignore[assignment]
     try:

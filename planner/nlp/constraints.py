@@ -120,22 +120,35 @@ def knot_quantities(
     knot: ca.Function | None = None,
     threads: int = 1,
     omega_from_knot: bool = False,
+    origin_base_xy: bool = True,
 ) -> KnotQuantities:
     """The knot function mapped over the knots; `knot`: a `knot_function(model)` to use instead
     (e.g. one with precomputed derivatives, `planner.nlp.solver_cache`). `threads` > 1: the
     knots are split into that many chunks evaluated on parallel threads (CasADi's "thread"
     map; its derivatives are threaded maps of the knot's derivatives too). `omega_from_knot`:
     ω from the knot's "w" output as before issue #16's objective-gradient change (same values;
-    kept for benchmarks/planner_bench.py to measure against)."""
+    kept for benchmarks/planner_bench.py to measure against). `origin_base_xy` (default): the
+    knot is evaluated with the base at x = y = 0 and its feet shifted by the base's x, y
+    afterwards (the same values to rounding; False: the base through the knot, as before)."""
     bd, qd = sym.vel[:6, :], sym.vel[6:, :]
     bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
     fn = mapped_knots(knot if knot is not None else knot_function(model), n_knots, threads)
     flat = [sym.moments] if model.flat_feet else []
     yaw_rate = _motion(sym).yaw_rate_rad_s
+    base = sym.base
+    if origin_base_xy:
+        # the knot's rows do not depend on the base's x, y (translation invariance, tested) and
+        # its feet move with them: evaluated at x = y = 0 the knot has 2 NLP-variable inputs
+        # fewer (quad12: 64, one batch of forward directions for the NLP Jacobian instead of
+        # 64 + 2, i.e. one evaluation of every knot's J instead of two)
+        base = ca.vertcat(ca.MX.zeros(2, n_knots), sym.base[2:, :])
     base_rows, tau, feet, body_z, w_knot = fn(
-        sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,
+        base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,
         _motion(sym).vy_m_s, yaw_rate, *flat
     )
+    if origin_base_xy:
+        shift = ca.vertcat(sym.base[0:2, :], ca.MX.zeros(1, n_knots))
+        feet = feet + ca.repmat(shift, model.n_feet, 1)
     # ω from its own small function, not the knot's "w" output: the objective's gradient then
     # differentiates a few dozen instructions instead of the knot's whole Jacobian
     w = w_knot if omega_from_knot else omega_function(model).map(n_knots)(

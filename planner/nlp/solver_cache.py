@@ -241,6 +241,10 @@ def used_directions(solver: ca.Function, knot_name: str) -> tuple[tuple[int, ...
 
 #: bump when the cached entry's layout changes
 CACHE_FORMAT = "knot-derivatives-1"
+#: bump when the NLP's use of the knot changes the direction counts its solver asks for (a
+#: stale file only costs speed: CasADi generates a missing count itself); 2: the objective's ω
+#: and the base x, y outside the knot (docs/results/planner_speed_threads.md)
+DIRECTIONS_FORMAT = 2
 _MAGIC = b"gaitsmith-knot-derivatives\n"
 
 
@@ -360,7 +364,7 @@ def directions_path(
     """Where the direction counts a solver of this knot, N and options used are kept: they
     depend on the NLP's sparsity (N, options), so the key holds them besides the knot's."""
     digest = hashlib.sha256(
-        f"{knot_cache_key(knot)}\0{n_knots}\0{options!r}".encode()
+        f"{knot_cache_key(knot)}\0{n_knots}\0{options!r}\0{DIRECTIONS_FORMAT}".encode()
     ).hexdigest()[:32]
     return (directory or cache_dir()) / f"directions-{digest}.json"
 

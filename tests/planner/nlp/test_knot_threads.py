@@ -1,5 +1,5 @@
-"""The knot function on threads (`PlannerOptions.knot_threads`) and the objective's own ω function
-(issue #16, docs/results/planner_speed_threads.md): same values and derivatives as before."""
+"""The knot function on threads (`PlannerOptions.knot_threads`, issue #16,
+docs/results/planner_speed_threads.md): same values and derivatives as the serial map."""
 
 from __future__ import annotations
 
@@ -10,8 +10,7 @@ import pytest
 import robots
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
-from planner.nlp.constraints import knot_function, mapped_knots, omega_function
-from planner.nlp.model import RobotModel
+from planner.nlp.constraints import mapped_knots
 from planner.nlp.solver_cache import used_directions, with_knot_derivatives
 from planner.nlp.spacetime import GaitPlanner
 from tests.planner.nlp.toy_knot import toy_knot
@@ -78,49 +77,3 @@ def test_knot_threads_is_validated_in_one_line(threads: object) -> None:
     with pytest.raises(PlannerConfigError, match="knot_threads") as err:
         PlannerOptions(knot_threads=threads)  # type: ignore[arg-type]
     assert "\n" not in str(err.value)
-
-
-def test_omega_function_is_the_knot_w_output() -> None:
-    model = RobotModel(robots.load("quad12"))
-    knot, omega = knot_function(model), omega_function(model)
-    rng = np.random.default_rng(1)
-    args = [rng.normal(size=knot.size_in(i)) for i in range(knot.n_in())]
-    w = knot(*args)[knot.index_out("w")]
-    b, bd, yaw_rate = args[0], args[2], args[knot.index_in("yaw_rate")]
-    np.testing.assert_array_equal(np.asarray(omega(b[3:], bd[3:], yaw_rate)), np.asarray(w))
-
-
-def test_objective_gradient_does_not_evaluate_the_knot() -> None:
-    planner = GaitPlanner(robots.load("quad12"), 8)
-    for name in ("nlp_grad_f", "nlp_f"):
-        function = planner._solver.get_function(name)
-        called = [
-            function.instruction_MX(k).which_function().name()
-            for k in range(function.n_instructions())
-            if function.instruction_id(k) == ca.OP_CALL
-        ]
-        assert called and not any(c.endswith("_knot") for c in called), (name, called)
-
-
-@pytest.mark.parametrize("linear", [True, False])
-def test_knot_hessian_skips_the_jacobian_only_when_its_seeds_are_zero(linear: bool) -> None:
-    """A Lagrangian linear in the knot's outputs gives zero Δλ seeds (J is not evaluated); a
-    nonlinear one does not: both equal CasADi's own AD of the plain knot."""
-    plain = toy_knot()
-    custom = with_knot_derivatives(plain).knot
-
-    def hessian(knot: ca.Function) -> ca.Function:
-        x, y, lam = ca.MX.sym("X", 4, 6), ca.MX.sym("Y", 2, 6), ca.MX.sym("L", 3, 6)
-        a, b = knot.map(6)(x, y)
-        v = ca.vertcat(ca.vec(x), ca.vec(y))
-        lagrangian = ca.dot(ca.vec(lam[:2, :]), ca.vec(a)) + ca.dot(lam[2, :], b)
-        if not linear:
-            lagrangian += ca.sumsqr(b)
-        return ca.Function("h", [x, y, lam], [ca.hessian(lagrangian, v)[0]])
-
-    rng = np.random.default_rng(2)
-    args = rng.normal(size=(4, 6)), rng.normal(size=(2, 6)), rng.normal(size=(3, 6))
-    np.testing.assert_allclose(
-        np.asarray(hessian(custom)(*args)), np.asarray(hessian(plain)(*args)),
-        rtol=1e-12, atol=1e-12,
-    )
