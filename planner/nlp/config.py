@@ -213,8 +213,8 @@ class PlannerOptions:
       against). Same optimum.
     - `knot_threads`: evaluate the knot function and its derivatives in that many threads
       (CasADi "thread" map in equal chunks, `planner.nlp.constraints.mapped_knots`); same
-      values. 1 (default): on the shared 2-core machine two threads cost 5 % more CPU and
-      their wall-time gain could not be told from the load; a search's worker processes
+      values. 1 (default): two threads cost 5–15 % more CPU and lost where measured without
+      heavy oversubscription (quad12 trot 1.16× per solve); a search's worker processes
       already use the cores (docs/results/planner_speed_threads.md).
     """
 
