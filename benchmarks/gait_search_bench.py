@@ -11,6 +11,9 @@ generations of the coarse (12-knot) NLP, then the final 30-knot solve of the bes
 `--sim-accept` adds the MuJoCo acceptance check of every feasible sample and of the final gait
 (the command line's default, with the command line's own acceptance settings).
 
+`--warm-starts cold,nearest,incumbent` runs each path with those search warm starts
+(`planner.search.gait_search.SEARCH_WARM_STARTS`; labelled ``knot+nearest`` etc.).
+
 Every combination of `--derivatives` (`PlannerOptions.derivatives`: "expanded" = the whole NLP
 expanded to SX, "knot" = per-knot derivatives, today's default) and `--executors` runs in this
 one process, one after the other, so their ratios are measured under the same load. Per run it
@@ -35,7 +38,7 @@ from gaitsmith.plan_cmd import DEFAULT_CYCLES
 from gaitsmith.search_options import sim_acceptance
 from planner.nlp.config import DERIVATIVE_PATHS, PlannerOptions
 from planner.search.executors import ExecutorKind
-from planner.search.gait_search import GaitSearchResult, search_gait
+from planner.search.gait_search import SEARCH_WARM_STARTS, GaitSearchResult, search_gait
 
 
 @dataclass(frozen=True)
@@ -78,7 +81,8 @@ class SearchRun:
 
 
 def run(robot_name: str, speed: float, generations: int, workers: int, seed: int,
-        sim_accept: bool, derivatives: str, executor: str, knots: int) -> SearchRun:
+        sim_accept: bool, derivatives: str, executor: str, knots: int,
+        warm_start: str = "cold") -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call)."""
     robot = robots.load(robot_name)
@@ -86,9 +90,10 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     result = search_gait(
         robot, speed, n_knots=knots, options=PlannerOptions(derivatives=derivatives),
         max_generations=generations, seed=seed, executor=executor, workers=workers,
-        **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES),
+        warm_start=warm_start, **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES),
     )
-    return SearchRun(derivatives, executor, time.perf_counter() - t0, result)
+    label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
+    return SearchRun(label, executor, time.perf_counter() - t0, result)
 
 
 def report(r: SearchRun, target_s: float) -> str:
@@ -139,10 +144,14 @@ def main() -> None:
                          f"({', '.join(DERIVATIVE_PATHS)})")
     ap.add_argument("--executors", default="serial,process",
                     help=f"comma-separated executors ({', '.join(get_args(ExecutorKind))})")
+    ap.add_argument("--warm-starts", default="cold",
+                    help=f"comma-separated search warm starts, run after each derivative path "
+                         f"({', '.join(SEARCH_WARM_STARTS)})")
     ap.add_argument("--target", type=float, default=60.0, help="target wall time [s]")
     args = ap.parse_args()
     paths = _choices(args.derivatives, tuple(DERIVATIVE_PATHS), "--derivatives")
     executors = _choices(args.executors, get_args(ExecutorKind), "--executors")
+    warm_starts = _choices(args.warm_starts, SEARCH_WARM_STARTS, "--warm-starts")
     print(
         f"{args.robot} gait search at {args.speed} m/s, {args.generations} generations, "
         f"final N={args.knots}, sim acceptance {'on' if args.sim_accept else 'off'}, "
@@ -151,11 +160,12 @@ def main() -> None:
     )
     runs: list[SearchRun] = []
     for derivatives in paths:
-        for executor in executors:
-            r = run(args.robot, args.speed, args.generations, args.workers, args.seed,
-                    args.sim_accept, derivatives, executor, args.knots)
-            runs.append(r)
-            print(report(r, args.target), flush=True)
+        for warm_start in warm_starts:
+            for executor in executors:
+                r = run(args.robot, args.speed, args.generations, args.workers, args.seed,
+                        args.sim_accept, derivatives, executor, args.knots, warm_start)
+                runs.append(r)
+                print(report(r, args.target), flush=True)
     for executor in executors:
         same = [r for r in runs if r.executor == executor]
         for r in same[1:]:
@@ -165,7 +175,7 @@ def main() -> None:
                   f"{r.wall_s / base.wall_s:.2f}, solves {r.solves}/{base.solves}, iterations "
                   f"{r.iterations}/{base.iterations}, winner {r.result.label}/{base.result.label}, "
                   f"final cost rel {rel:+.1e}")
-    for derivatives in paths:
+    for derivatives in dict.fromkeys(r.derivatives for r in runs):
         by = {r.executor: r for r in runs if r.derivatives == derivatives}
         if "serial" in by and "process" in by:
             print(f"  {derivatives}: process-pool speed-up over serial "

@@ -44,6 +44,8 @@ GRAVITY_M_S2 = 9.81
 DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 #: values of `PlannerOptions.ipopt_tuning` (`planner.nlp.spacetime.ipopt_options`)
 IPOPT_TUNINGS = ("tuned", "session21")
+#: upper bound of `PlannerOptions.knot_threads`
+MAX_KNOT_THREADS = 64
 
 
 def speed_for_froude(froude: float, leg_length_m: float) -> float:
@@ -239,6 +241,11 @@ class PlannerOptions:
       fewer iterations than a cold start, docs/results/planner_speed_ipopt.md; cold solves
       unchanged) or "session21" (1e-6, the options before that tuning, kept to measure
       against). Same optimum.
+    - `knot_threads`: evaluate the knot function and its derivatives in that many threads
+      (CasADi "thread" map in equal chunks, `planner.nlp.constraints.mapped_knots`); same
+      values. 1 (default): two threads cost 5–15 % more CPU and lost where measured without
+      heavy oversubscription (quad12 trot 1.16× per solve); a search's worker processes
+      already use the cores (docs/results/planner_speed_threads.md).
     """
 
     mu: float = 0.5
@@ -270,6 +277,7 @@ class PlannerOptions:
     linear_solver: str = "mumps"
     derivatives: str = "knot"
     ipopt_tuning: str = "tuned"
+    knot_threads: int = 1
 
     def __post_init__(self) -> None:
         checks = {
@@ -300,6 +308,8 @@ class PlannerOptions:
             "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
             "ipopt_tuning": self.ipopt_tuning in IPOPT_TUNINGS,
+            "knot_threads": type(self.knot_threads) is int
+            and 1 <= self.knot_threads <= MAX_KNOT_THREADS,
         }
         for name, ok in checks.items():
             if not ok:

@@ -115,19 +115,72 @@ def knot_function(model: RobotModel) -> ca.Function:
 
 
 def knot_quantities(
-    model: RobotModel, sym: Symbols, n_knots: int, knot: ca.Function | None = None
+    model: RobotModel,
+    sym: Symbols,
+    n_knots: int,
+    knot: ca.Function | None = None,
+    threads: int = 1,
+    omega_from_knot: bool = False,
+    origin_base_xy: bool = True,
 ) -> KnotQuantities:
     """The knot function mapped over the knots; `knot`: a `knot_function(model)` to use instead
-    (e.g. one with precomputed derivatives, `planner.nlp.solver_cache`)."""
+    (e.g. one with precomputed derivatives, `planner.nlp.solver_cache`). `threads` > 1: the
+    knots are split into that many chunks evaluated on parallel threads (CasADi's "thread"
+    map; its derivatives are threaded maps of the knot's derivatives too). `omega_from_knot`:
+    ω from the knot's "w" output as before issue #16's objective-gradient change (same values;
+    kept for benchmarks/planner_bench.py to measure against). `origin_base_xy` (default): the
+    knot is evaluated with the base at x = y = 0 and its feet shifted by the base's x, y
+    afterwards (the same values to rounding; False: the base through the knot, as before)."""
     bd, qd = sym.vel[:6, :], sym.vel[6:, :]
     bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
-    fn = (knot if knot is not None else knot_function(model)).map(n_knots)
+    fn = mapped_knots(knot if knot is not None else knot_function(model), n_knots, threads)
     flat = [sym.moments] if model.flat_feet else []
-    base_rows, tau, feet, body_z, w = fn(
-        sym.base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,
-        _motion(sym).vy_m_s, _motion(sym).yaw_rate_rad_s, *flat
+    yaw_rate = _motion(sym).yaw_rate_rad_s
+    base = sym.base
+    if origin_base_xy:
+        # the knot's rows do not depend on the base's x, y (translation invariance, tested) and
+        # its feet move with them: evaluated at x = y = 0 the knot has 2 NLP-variable inputs
+        # fewer (quad12: 64, one batch of forward directions for the NLP Jacobian instead of
+        # 64 + 2, i.e. one evaluation of every knot's J instead of two)
+        base = ca.vertcat(ca.MX.zeros(2, n_knots), sym.base[2:, :])
+    base_rows, tau, feet, body_z, w_knot = fn(
+        base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,
+        _motion(sym).vy_m_s, yaw_rate, *flat
+    )
+    if origin_base_xy:
+        shift = ca.vertcat(sym.base[0:2, :], ca.MX.zeros(1, n_knots))
+        feet = feet + ca.repmat(shift, model.n_feet, 1)
+    # ω from its own small function, not the knot's "w" output: the objective's gradient then
+    # differentiates a few dozen instructions instead of the knot's whole Jacobian
+    w = w_knot if omega_from_knot else omega_function(model).map(n_knots)(
+        sym.base[3:6, :], bd[3:6, :], yaw_rate
     )
     return KnotQuantities(base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w)
+
+
+def omega_function(model: RobotModel) -> ca.Function:
+    """SX function of one knot's base ω in the world minus the commanded turn (0, 0, W): the
+    knot function's "w" output alone, the same operations (so the same values). The objective's
+    angular-velocity term uses it; through the knot's "w" its gradient evaluated the knot's
+    whole Jacobian at every iteration (quad12 N = 30: 11 ms of 150; issue #16)."""
+    rpy, rpy_rate = ca.SX.sym("rpy", 3), ca.SX.sym("rpy_rate", 3)
+    yaw_rate = ca.SX.sym("yaw_rate")
+    turn = ca.vertcat(0, 0, yaw_rate)
+    w, _ = model.base_rates(rpy, rpy_rate + turn, ca.SX.zeros(3))
+    return ca.Function(
+        "omega", [rpy, rpy_rate, yaw_rate], [w - turn], ["rpy", "rpy_rate", "yaw_rate"], ["w"]
+    )
+
+
+def mapped_knots(knot: ca.Function, n_knots: int, threads: int = 1) -> ca.Function:
+    """`knot` over `n_knots` knots: a serial map, or with `threads` > 1 a "thread" map of
+    equal chunks: the largest divisor of `n_knots` that is ≤ `threads` (serial if none is > 1).
+    CasADi pads an uneven split and wraps it in a helper function whose derivatives
+    `planner.nlp.solver_cache.used_directions` cannot name."""
+    chunks = max(d for d in range(1, max(1, min(threads, n_knots)) + 1) if n_knots % d == 0)
+    if chunks <= 1:
+        return knot.map(n_knots)
+    return knot.map(n_knots, "thread", chunks)
 
 
 def _motion(sym: Symbols) -> MotionSymbols:

@@ -14,10 +14,12 @@ directions — 576K instructions for ``fwd64_knot`` — so it builds slowly and 
 - ``adj1_knot``:         (u, λ) ↦ J(u)ᵀ·λ
 - ``fwd<n>_adj1_knot``:  (u, λ, Δu, Δλ) ↦ H(u, λ)·Δu + J(u)ᵀ·Δλ
 
-(the exact derivatives, not approximations), prepopulated into the function cache CasADi looks
-them up in (`casadi.Function` option ``cache``), for every n up to `MAX_DIRECTIONS` (CasADi's MX
-AD batches at most 64 directions). J and H are SX functions of one knot, built once per robot
-whatever N is.
+(the exact derivatives, not approximations; ``fwd<n>_adj1_knot`` skips J when Δλ is exactly
+zero, which it is whenever the NLP is linear in the knot's outputs: quad12 N = 30, 43 → 35 ms
+of CPU per Hessian, docs/results/planner_speed_threads.md), prepopulated into the function
+cache CasADi looks them up in (`casadi.Function` option ``cache``), for every n up to
+`MAX_DIRECTIONS` (CasADi's MX AD batches at most 64 directions). J and H are SX functions of
+one knot, built once per robot whatever N is.
 
 Building H is most of what is left of the build (≈ 5 s for quad12 on a loaded 2-core machine), so
 `cached_jacobian_and_hessian` keeps J and H on disk (``$GAITSMITH_CACHE`` or
@@ -167,7 +169,14 @@ def with_knot_derivatives(
             u, lam = stacked(nominal[:n_in]), stacked(nominal[n_in + n_out :])
             du = seeds(fwd[:n_in], sp_in, n_dir)
             dlam = seeds(fwd[n_in + n_out :], sp_out, n_dir)
-            return ca.mtimes(hessian(u, lam), du) + ca.mtimes(jacobian(u).T, dlam)
+            h_du = ca.mtimes(hessian(u, lam), du)
+            # Δλ is often exactly zero (the NLP is linear in the knot's outputs): J(u) is then
+            # not evaluated at all (a short-circuit switch)
+            jt_dlam = ca.if_else(
+                ca.norm_inf(dlam) == 0, ca.MX.zeros(h_du.sparsity()),
+                ca.mtimes(jacobian(u).T, dlam), True,
+            )
+            return h_du + jt_dlam
 
         return sensitivity
 
@@ -209,8 +218,9 @@ def used_directions(solver: ca.Function, knot_name: str) -> tuple[tuple[int, ...
     """The direction counts n of the knot derivatives `solver` calls: ``fwd<n>_map<N>_knot``
     (CasADi maps ``fwd<n>_knot``) and ``fwd<n>_adj1_map<N>_knot``, found in its Jacobian,
     Hessian and gradient functions."""
-    forward_name = re.compile(rf"fwd(\d+)_map\d+_{re.escape(knot_name)}")
-    second_name = re.compile(rf"fwd(\d+)_adj1_map\d+_{re.escape(knot_name)}")
+    knot = re.escape(knot_name)
+    forward_name = re.compile(rf"fwd(\d+)_(?:threadmap\d+_)?(?:map\d+_)?{knot}")
+    second_name = re.compile(rf"fwd(\d+)_adj1_(?:threadmap\d+_)?(?:map\d+_)?{knot}")
     forward: set[int] = set()
     second: set[int] = set()
     for name in ("nlp_jac_g", "nlp_hess_l", "nlp_grad_f"):
@@ -231,6 +241,10 @@ def used_directions(solver: ca.Function, knot_name: str) -> tuple[tuple[int, ...
 
 #: bump when the cached entry's layout changes
 CACHE_FORMAT = "knot-derivatives-1"
+#: bump when the NLP's use of the knot changes the direction counts its solver asks for (a
+#: stale file only costs speed: CasADi generates a missing count itself); 2: the objective's ω
+#: and the base x, y outside the knot (docs/results/planner_speed_threads.md)
+DIRECTIONS_FORMAT = 2
 _MAGIC = b"gaitsmith-knot-derivatives\n"
 
 
@@ -350,7 +364,7 @@ def directions_path(
     """Where the direction counts a solver of this knot, N and options used are kept: they
     depend on the NLP's sparsity (N, options), so the key holds them besides the knot's."""
     digest = hashlib.sha256(
-        f"{knot_cache_key(knot)}\0{n_knots}\0{options!r}".encode()
+        f"{knot_cache_key(knot)}\0{n_knots}\0{options!r}\0{DIRECTIONS_FORMAT}".encode()
     ).hexdigest()[:32]
     return (directory or cache_dir()) / f"directions-{digest}.json"
 

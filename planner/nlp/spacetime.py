@@ -229,7 +229,7 @@ class GaitPlanner:
             forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)
             self.knot_derivatives = with_knot_derivatives(plain, jac, hess, forward, second)
             knot = self.knot_derivatives.knot
-        kq = knot_quantities(self.model, sym, n_knots, knot)
+        kq = knot_quantities(self.model, sym, n_knots, knot, self.options.knot_threads)
         groups = build_groups(self.model, sym, kq, n_knots, self.options)
         terms = cost_terms(self.model, sym, kq, n_knots)
         objective = weighted_objective(terms, self.options.weights)
@@ -257,7 +257,7 @@ class GaitPlanner:
         if self.knot_derivatives is not None and plain is not None:
             # the next build with this knot, N and options creates only the derivatives used
             used = used_directions(self._solver, plain.name())
-            if used != known:
+            if used != known and used[0]:  # none found: a map CasADi named otherwise
                 save_directions(directions, *used)
         self._last: WarmStart | None = None
         self.build_time_s = time.perf_counter() - t0

@@ -56,7 +56,7 @@ import numpy as np
 
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
-from planner.nlp.spacetime import GaitPlanner, PlanResult
+from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
 from planner.search.executors import Executor, make_executor
 from planner.search.support import TippingCost
@@ -90,6 +90,15 @@ DEFAULT_SIGMA_FRACTION = 1.0 / 3.0
 #: Violation reported for a sample whose plan is feasible but fails acceptance, per unit of the
 #: check's badness: ranks it after the feasible samples and ahead of NLP-infeasible ones.
 REJECTED_VIOLATION = 1e-9
+#: How a worker starts each sample's NLP solve (`search_gait(warm_start=...)`): "cold" (the
+#: planner's initial guess: every sample's cost is independent of which samples the worker
+#: solved before, so the search is executor-invariant), "nearest" (the worker's earlier
+#: NLP-feasible solution whose timing is closest, in box-normalised timing coordinates) or
+#: "incumbent" (the worker's cheapest NLP-feasible solution so far). Measured in
+#: docs/results/planner_speed_threads.md.
+SEARCH_WARM_STARTS = ("cold", "nearest", "incumbent")
+#: solutions a worker keeps to warm-start from (oldest dropped first)
+WARM_START_MEMORY = 64
 
 
 class AcceptanceVerdict(Protocol):
@@ -221,23 +230,46 @@ class TimingSolver:
     acceptance: GaitAcceptance | None = None
     #: wall time of building `planner` (and the check), reported once with the first result
     build_s: float = 0.0
+    #: `SEARCH_WARM_STARTS`; "cold" by default (the search stays executor-invariant)
+    warm_start: str = "cold"
+    #: this worker's NLP-feasible solutions (normalised timing, cost, start point), newest last
+    solved: list[tuple[np.ndarray, float, WarmStart]] = field(default_factory=list)
+
+    def start_for(self, x: np.ndarray) -> WarmStart | None:
+        """The point the solve of timing `x` starts from under `warm_start` (None: cold)."""
+        if self.warm_start == "cold" or not self.solved:
+            return None
+        if self.warm_start == "incumbent":
+            return min(self.solved, key=lambda s: s[1])[2]
+        u = self._normalised(x)
+        return min(self.solved, key=lambda s: float(np.sum((s[0] - u) ** 2)))[2]
+
+    def _normalised(self, x: np.ndarray) -> np.ndarray:
+        lo, hi = self.space.bounds()
+        return (np.asarray(x, dtype=float) - lo) / (hi - lo)
 
     def __call__(self, x: np.ndarray) -> TimingResult:
         build_s, self.build_s = self.build_s, 0.0
         x = np.clip(np.asarray(x, dtype=float), *self.space.bounds())
         schedule = self.space.decode(x)
         t0 = time.perf_counter()
+        start = self.start_for(x)
         try:
-            # cold start: on a new contact timing a warm start costs more iterations than it
-            # saves (planner_bench: warm/cold 1.49), and cold solves make every sample's cost
+            # cold by default: on a new contact timing a warm start saved few iterations if
+            # any (planner_speed_threads.md), and cold solves make every sample's cost
             # independent of which samples a worker solved before (executor-invariant search)
-            result = self.planner.solve(schedule, self.speed_m_s, warm_start=False)
+            result = self.planner.solve(
+                schedule, self.speed_m_s, warm_start=start if start is not None else False
+            )
         except PlannerConfigError:  # e.g. a foot never lands on any knot
             return TimingResult(x, math.inf, False, 0, math.inf,
                                 solve_s=time.perf_counter() - t0, build_s=build_s)
         solve_s = time.perf_counter() - t0
         evals = int(result.iterations) + 1
         cost = result.cost + (self.tipping(schedule) if self.tipping is not None else 0.0)
+        if result.feasible and self.warm_start != "cold":
+            self.solved.append((self._normalised(x), cost, result.warm_start))
+            del self.solved[:-WARM_START_MEMORY]
         if result.feasible and self.acceptance is not None:
             t1 = time.perf_counter()
             verdict = self.acceptance(self.planner.to_gait(result, "search sample"))
@@ -263,6 +295,7 @@ class TimingSolverFactory:
     options: PlannerOptions = field(default_factory=PlannerOptions)
     tipping_weight: float = 0.0
     acceptance: Callable[[], GaitAcceptance] | None = None
+    warm_start: str = "cold"
 
     def __call__(self) -> TimingSolver:
         t0 = time.perf_counter()
@@ -271,7 +304,7 @@ class TimingSolverFactory:
         tipping = TippingCost.for_robot(robot, self.tipping_weight) if self.tipping_weight else None
         check = self.acceptance() if self.acceptance is not None else None
         return TimingSolver(planner, TimingSpace.for_robot(robot, self.symmetric), self.speed_m_s,
-                            tipping, check, time.perf_counter() - t0)
+                            tipping, check, time.perf_counter() - t0, self.warm_start)
 
 
 class RecordingExecutor:
@@ -394,6 +427,7 @@ def search_gait(
     sigma_fraction: float = DEFAULT_SIGMA_FRACTION,
     progress: Callable[[SearchLogRow], None] | None = None,
     final_candidates: int = FINAL_CANDIDATES,
+    warm_start: str = "cold",
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -402,6 +436,7 @@ def search_gait(
     `acceptance` judges every feasible sample, `final_acceptance` (default: `acceptance`) the
     full-resolution candidates — the final judge may be stricter than the coarse one;
     `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins.
+    `warm_start`: how each worker starts a sample's solve (`SEARCH_WARM_STARTS`).
     """
     t0 = time.perf_counter()
     options = options or PlannerOptions()
@@ -411,6 +446,10 @@ def search_gait(
         raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
     if final_candidates < 1:
         raise PlannerConfigError(f"final_candidates must be ≥ 1, got {final_candidates}")
+    if warm_start not in SEARCH_WARM_STARTS:
+        raise PlannerConfigError(
+            f"warm_start must be one of {', '.join(SEARCH_WARM_STARTS)}, got {warm_start!r}"
+        )
     if not 0 < sigma_fraction <= 1:
         raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
     space = TimingSpace.for_robot(robot, symmetric)
@@ -424,7 +463,7 @@ def search_gait(
     search_options = replace(options, max_iter=search_max_iter if options.max_iter is None
                              else min(options.max_iter, search_max_iter))
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
-                                  search_options, tipping_weight, acceptance)
+                                  search_options, tipping_weight, acceptance, warm_start)
     log: list[SearchLogRow] = []
 
     def on_generation(rep: GenerationReport) -> None:
@@ -535,6 +574,7 @@ __all__ = [
     "DEFAULT_SEARCH_MAX_ITER",
     "DEFAULT_SIGMA_FRACTION",
     "DEFAULT_TIPPING_WEIGHT",
+    "SEARCH_WARM_STARTS",
     "AcceptanceVerdict",
     "GaitAcceptance",
     "GaitSearchResult",
