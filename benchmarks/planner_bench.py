@@ -226,7 +226,7 @@ def _variant_planner(
     of "knot" (same options) but needs other directions, so it builds them all and leaves the
     file alone."""
     saved = spacetime.knot_quantities, spacetime.load_directions, spacetime.save_directions
-    spacetime.knot_quantities = functools.partial(saved[0], **knot_quantities)  # type: ignore[assignment]
+    spacetime.knot_quantities = functools.partial(saved[0], **knot_quantities)  # type: ignore[assignment,arg-type]
     spacetime.load_directions = lambda path: None  # type: ignore[assignment]
     spacetime.save_directions = lambda path, forward, second: None  # type: ignore[assignment]
     try:
