@@ -81,8 +81,15 @@ def main(argv: list[str]) -> None:
         i = argv.index("--out")
         out = Path(argv[i + 1])
         argv = argv[:i] + argv[i + 2:]
+    if len(argv) < 3 or argv[0] in ("-h", "--help"):
+        print(__doc__)
+        raise SystemExit(0 if argv and argv[0] in ("-h", "--help") else 2)
     robot, speed, label, *pairs = argv
-    row = screen(robot, float(speed), label, **parse(pairs))
+    try:
+        speed_m_s = float(speed)
+    except ValueError:
+        raise SystemExit(f"error: speed {speed!r} is not a number [m/s]") from None
+    row = screen(robot, speed_m_s, label, **parse(pairs))
     print(json.dumps(row), flush=True)
     with out.open("a") as f:
         f.write(json.dumps(row) + "\n")
