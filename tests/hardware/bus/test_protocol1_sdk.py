@@ -45,7 +45,10 @@ def _inproc_port(vbus: VirtualServoBus) -> Iterator[Any]:
 
 @pytest.fixture(params=["pty", "in-process"])
 def transport(request: pytest.FixtureRequest) -> Callable[..., Iterator[Any]]:
-    return _pty_port if request.param == "pty" else _inproc_port
+    if request.param == "pty":  # a thread-served pty: see tests.hardware.conftest
+        request.getfixturevalue("patient_sdk_timeouts")
+        return _pty_port
+    return _inproc_port
 
 
 def test_sdk_protocol1_ping_read_write_sync_write(transport: Any) -> None:

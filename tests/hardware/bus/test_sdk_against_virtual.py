@@ -39,7 +39,10 @@ def _inproc_port(vbus: VirtualServoBus, sdk: Any) -> Iterator[Any]:
 
 @pytest.fixture(params=["pty", "in-process"])
 def transport(request: pytest.FixtureRequest) -> Callable[..., Iterator[Any]]:
-    return _pty_port if request.param == "pty" else _inproc_port
+    if request.param == "pty":  # a thread-served pty: see tests.hardware.conftest
+        request.getfixturevalue("patient_sdk_timeouts")
+        return _pty_port
+    return _inproc_port
 
 
 def test_dynamixel_sdk(make_vbus: Any, clock: ManualClock, transport: Any) -> None:
