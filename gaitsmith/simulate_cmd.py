@@ -51,10 +51,9 @@ MAX_STAND_S = 60.0  # sim.rollout.RunSettings' own bound
 def _closest_limit(result: ValidationResult) -> str:
     """The joint that came closest to one of its limits in the steady cycles (the report has
     every joint, planned and simulated)."""
-    joints = [j for j in result.joints if math.isfinite(j.limit_clearance_rad)]
-    if not joints:
+    if not result.joints:
         return "—"
-    j = min(joints, key=lambda jm: jm.limit_clearance_fraction)
+    j = min(result.joints, key=lambda jm: jm.limit_clearance_fraction)
     return (f"{j.name} {math.degrees(j.limit_clearance_rad):.1f}° "
             f"({j.limit_clearance_fraction:.0%} of its range)")
 

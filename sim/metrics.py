@@ -115,9 +115,9 @@ class JointMetrics:
     peak_speed_rad_s: float
     #: closest approach of the simulated angle to the joint's nearer limit over the steady cycles
     #: (`Robot` limits: the MJCF range narrowed to the servo's); negative means past the limit
-    limit_clearance_rad: float = math.nan
+    limit_clearance_rad: float
     #: the same as a share of the joint's range
-    limit_clearance_fraction: float = math.nan
+    limit_clearance_fraction: float
 
 
 def _json(v: object) -> object:

@@ -154,15 +154,13 @@ def _joints_html(result: ValidationResult, gait: Gait) -> list[str]:
     for j in result.joints:
         plan, margin = planned.get(j.name, (None, None))
         sim_c = j.limit_clearance_rad
-        inside = margin is not None and math.isfinite(sim_c) and sim_c < margin
-        cls = " class='fail'" if inside else ""
-        frac = j.limit_clearance_fraction
+        cls = " class='fail'" if margin is not None and sim_c < margin else ""
         parts.append(
             f"<tr><td>{html.escape(j.name)}</td><td>{j.peak_torque_fraction:.0%}</td>"
             f"<td>{j.rms_torque_fraction:.0%}</td><td>{math.degrees(j.tracking_rms_rad):.2f}</td>"
             f"<td>{j.peak_speed_rad_s:.2f}</td>"
             f"<td>{_deg(plan)} ({_deg(margin)})</td><td{cls}>{_deg(sim_c)}</td>"
-            f"<td>{'—' if not math.isfinite(frac) else f'{frac:.0%}'}</td></tr>"
+            f"<td>{j.limit_clearance_fraction:.0%}</td></tr>"
         )
     parts.append("</table>")
     return parts
