@@ -95,6 +95,16 @@ def knot_linear(values: np.ndarray, phase: np.ndarray) -> np.ndarray:
     return (1 - w) * values[i] + w * values[(i + 1) % n]
 
 
+def tracking_lag(expected: np.ndarray, actual: np.ndarray, dt_s: float,
+                 max_lag_s: float = 0.06) -> tuple[float, float]:
+    """(lag [ms] of `actual` behind `expected` maximising their correlation, RMS error [deg])."""
+    e, a = expected - expected.mean(), actual - actual.mean()
+    lags = range(-round(max_lag_s / dt_s), round(max_lag_s / dt_s) + 1)
+    best = max(lags, key=lambda k: float(np.dot(e[max(0, -k):len(e) - max(0, k)],
+                                                a[max(0, k):len(a) - max(0, -k)])))
+    return best * dt_s * 1e3, float(np.degrees(np.sqrt(np.mean((actual - expected) ** 2))))
+
+
 def main(argv: list[str]) -> None:
     robot_arg, speed = argv[0], float(argv[1])
     kw: dict[str, Any] = {}
@@ -210,6 +220,14 @@ def main(argv: list[str]) -> None:
                   f"{m[0] + m[2]:5.1f} {m[1] + m[3]:5.1f} | "
                   f"{m[4]:+.2f} {m[5]:+.2f} ({mx[5]:.2f}) | "
                   f"{m[6]:5.1f} {m[7]:5.1f} | {m[8]:5.1f} {m[9]:5.1f} {m[10]:5.1f}")
+    steady = (phase >= 3) & (phase < last_cycle - 1)
+    print("\n## servo tracking, steady cycles: lag of the simulated angle behind the planned "
+          "(expected) one by cross-correlation, and the RMS error")
+    for j, name in enumerate(bot.joint_names):
+        if not any(name in leg.joints for leg in bot.legs) or "yaw" in name:
+            continue
+        lag_ms, rms_deg = tracking_lag(traj.expected_rad[steady, j], traj.q_rad[steady, j], dt)
+        print(f"  {name:16s} lag {lag_ms:+5.1f} ms, RMS error {rms_deg:4.2f}°")
     print(json.dumps({"passed": verdict.passed, "reasons": list(verdict.reasons)}))
 
 

@@ -92,6 +92,9 @@ def test_a_row_over_every_knot_is_refused() -> None:
     layout = Layout(N_KNOTS, model.n_joints, model.n_feet)
     with pytest.raises(PlannerConfigError, match="mean_footprint"):
         build_stagewise(model, N_KNOTS, options, layout)
+    rate = PlannerOptions(normal_force_rate_weights_per_t0=5.0)
+    with pytest.raises(PlannerConfigError, match="normal_force_rate"):
+        build_stagewise(model, N_KNOTS, rate, layout)
 
 
 @pytest.mark.slow
