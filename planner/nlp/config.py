@@ -221,12 +221,13 @@ class PlannerOptions:
       footprint" rows at this t when `mean_footprint_leg_lengths` is None (some biped plans
       limp without them, docs/results/biped_walk_robustness.md).
     All three are off by default (`planner.nlp.contact_margin` says why).
-    - `normal_force_rate_weights_per_t0`: None or ρ > 0: every foot's normal force changes by
+    - `normal_force_rate_weights_per_t0`: ρ > 0 or None: every foot's normal force changes by
       at most ρ body weights per leg time unit √(L/g) between neighbouring knots, swing knots
       included (`planner.nlp.force_rate`): the load builds over several knots after touchdown
       and fades before lift-off instead of jumping to ≈ 2 body weights in one knot, which
       position servos cannot produce (measured in MuJoCo, docs/results/zoo_gaits.md,
-      "Session 24").
+      "Session 24"). Default 5 (one body weight in 0.2·√(L/g): scaled by body weight and leg
+      length); None: no rows (the NLP before it).
     - `half_cycle_mirror`: the second half of the cycle is the first half mirrored under
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
       half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric

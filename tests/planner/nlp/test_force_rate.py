@@ -47,11 +47,12 @@ def test_a_one_knot_touchdown_spike_violates_the_bound() -> None:
     assert rate > 15
 
 
-def test_off_by_default_and_rows_with_labels_when_asked() -> None:
+def test_on_by_default_off_with_none_and_rows_have_labels() -> None:
     model, n = RobotModel(robots.load(BIPED)), 8
     sym = make_symbols(Layout(n, model.n_joints, model.n_feet, len(model.flat_feet)))
-    assert PlannerOptions().normal_force_rate_weights_per_t0 is None
-    assert _force_rate_groups(model, sym, n, PlannerOptions(), n / sym.period_s, 0.1) == []
+    assert PlannerOptions().normal_force_rate_weights_per_t0 == 5.0
+    off = PlannerOptions(normal_force_rate_weights_per_t0=None)
+    assert _force_rate_groups(model, sym, n, off, n / sym.period_s, 0.1) == []
     asked = PlannerOptions(normal_force_rate_weights_per_t0=4.0)
     (group,) = _force_rate_groups(model, sym, n, asked, n / sym.period_s, 0.1)
     assert isinstance(group, Group) and group.name == "normal force rate"
