@@ -60,6 +60,7 @@ from planner.templates import (
     GENERIC_TEMPLATES,
     TEMPLATES,
     default_gait_for,
+    hip_and_knee_quadruped,
     make_schedule,
     stance_foot_positions_m,
     templates_for,
@@ -75,7 +76,8 @@ MEAN_FOOTPRINT_LEG_LENGTHS = 0.05
 def default_gait(bot: robots.Robot, standing: bool = False) -> str:
     """The template `plan` uses without `--gait`: `stand` (all feet down) when `standing` (a
     zero command with no stepping schedule), else `planner.templates.default_gait_for` — walk
-    on two legs, trot on four, tripod on six, else ripple (wave for three legs)."""
+    on two legs, trot on four (walk on hip-and-knee legs), tripod on six, else ripple (wave for
+    three legs)."""
     return "stand" if standing else default_gait_for(bot)
 
 
@@ -138,7 +140,9 @@ def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_
     chosen = gait or default_gait(bot)
     if gait is not None or (vy_m_s == 0.0 and yaw_rate_rad_s == 0.0):
         return GaitChoice(chosen, None, options, "as asked" if gait else "default")
-    if not tips_on_a_line(bot, chosen):
+    # a hip-and-knee quadruped's default walk does not tip, but its legs cannot step sideways:
+    # it turns and side-steps with the static walk as it did when its default was the trot
+    if not tips_on_a_line(bot, chosen) and not hip_and_knee_quadruped(bot):
         return GaitChoice(chosen, None, options, "default (no long support-line phase)")
     static = next((name for name in templates_for(bot)
                    if always_on_polygon(bot, name, STATIC_DUTY)), None)
@@ -150,8 +154,10 @@ def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_
         static, STATIC_DUTY,
         replace(options, static_margin_leg_lengths=STATIC_MARGIN_LEG_LENGTHS,
                 mean_footprint_leg_lengths=MEAN_FOOTPRINT_LEG_LENGTHS),
-        f"static {static} (duty {STATIC_DUTY:g}, the template's swing time): {chosen} stands "
-        "on a support line, which open-loop servos cannot balance while turning or side-stepping",
+        f"static {static} (duty {STATIC_DUTY:g}, the template's swing time): "
+        + (f"{chosen} stands on a support line, which open-loop servos cannot balance"
+           if tips_on_a_line(bot, chosen) else "legs without hip roll cannot step sideways")
+        + " while turning or side-stepping",
         swing_s / (1.0 - STATIC_DUTY),
     )
 

@@ -18,7 +18,8 @@ a cycle apart, 5+ legs), ``alternating`` (every other foot together, even counts
 of 4 legs, the tripod of 6; an odd count has no balanced split, so it is not offered), ``pronk``
 and ``stand`` — so every robot has templates. Robots whose feet pair up left/right (2, 4, 6
 legs) keep the named patterns above, and azimuth templates that duplicate one are dropped.
-`default_gait_for` picks walk/trot/tripod for 2/4/6 legs, else ripple (wave for 3 legs).
+`default_gait_for` picks walk/trot/tripod for 2/4/6 legs, else ripple (wave for 3 legs); a
+quadruped on hip-and-knee legs (no hip roll) walks instead of trotting.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ import mujoco
 import numpy as np
 
 from planner.errors import TemplateError
+from planner.nlp.sideways_locked import sideways_locked_feet
 from planner.stance import stance_kinematics
 from robots import ContactSchedule, Robot
 
@@ -273,10 +275,28 @@ _DEFAULT_BY_LEGS = {2: "biped_walk", 4: "trot", 6: "tripod"}
 _FALLBACK = ("ripple", "wave", "alternating", "pronk")
 
 
+def hip_and_knee_quadruped(robot: Robot) -> bool:
+    """Four legs, none of which can move its foot sideways (`planner.nlp.sideways_locked`)."""
+    return len(robot.legs) == 4 and all(sideways_locked_feet(robot))
+
+
 def default_gait_for(robot: Robot) -> str:
     """The default template: walk for 2 legs, trot for 4, tripod for 6 (when the feet form
-    left/right pairs), else ripple (5+ legs) or wave (3 legs)."""
+    left/right pairs), else ripple (5+ legs) or wave (3 legs).
+
+    A quadruped whose legs are all hip-and-knee legs (no hinge that moves a foot sideways,
+    `planner.nlp.sideways_locked`) gets the walk instead of the trot. A trot stands on one
+    diagonal for most of its stance, and without hip roll nothing in an open-loop gait holds
+    the body's roll about that line. Measured on the two such robots in the zoo, in MuJoCo
+    (docs/results/zoo_gaits.md §Session 24):
+    - bittle8 (Fr 0.02): the converged template trot fails (15 % slow, feet down 55/40/49/73 %
+      of the cycle against 60 % planned); walk and diagonal walk pass.
+    - knee8: the trot never passed (it falls or turns 15–86°); the walk passed with a light
+      rotor (armature 0.005 kg·m²) at 0.13 m/s.
+    """
     offered = robot_templates(robot)
+    if "walk" in offered and hip_and_knee_quadruped(robot):
+        return "walk"
     preferred = _DEFAULT_BY_LEGS.get(len(robot.legs))
     if preferred in offered:
         return str(preferred)

@@ -702,6 +702,17 @@ TYPICAL_SPEED_FRACTION = 0.5  # typical peak joint speed in a gait: half the no-
 TYPICAL_FREQUENCY_HZ = 2.0  # a joint swinging at that speed as a 2 Hz sinusoid (q̈ = 2πf·q̇)
 DOUBLE_COUNT_FRACTION = 0.5  # MJCF damping ≥ half the servo's back-EMF slope: likely the motor
 LOAD_SHARE_FLAG = 0.25  # damping + armature take more than a quarter of the stall torque
+# MJCF armature below this share of the servo's identified rotor inertia: legs too light
+ARMATURE_LOW_FRACTION = 0.5
+ARMATURE_OWN_ROTOR_FRACTION = 1.5  # up to this multiple it is the servo's own rotor, not a mistake
+
+
+def _own_rotor(armature_kg_m2: float, identified_kg_m2: float | None) -> bool:
+    """Whether the MJCF armature is the servo's identified rotor inertia (a heavy rotor is a
+    property of the servo, not a modelling mistake to flag)."""
+    if identified_kg_m2 is None:
+        return False
+    return armature_kg_m2 <= ARMATURE_OWN_ROTOR_FRACTION * identified_kg_m2
 
 
 @dataclass(frozen=True)
@@ -739,6 +750,7 @@ def damping_budget(
         damping = float(model.dof_damping[dof])
         armature = float(model.dof_armature[dof])
         stall, w0 = j.servo.stall_torque_nm, j.servo.no_load_speed_rad_s
+        identified = j.servo.armature_kg_m2
         b = stall / w0
         speed = speed_fraction * w0
         acc = 2.0 * math.pi * frequency_hz * speed
@@ -751,7 +763,14 @@ def damping_budget(
                 f"motor again; set damping_nm_s_per_rad in [joints.{j.name}] (gearbox loss only) "
                 "or lower damping in the MJCF"
             )
-        elif d_share + a_share > LOAD_SHARE_FLAG:
+        elif identified is not None and armature < ARMATURE_LOW_FRACTION * identified:
+            flag = (
+                f"MJCF armature {armature:.3g} kg·m² is {armature / identified:.0%} of "
+                f"{j.servo.name}'s identified rotor inertia {identified:.3g} (robots/servos.toml): "
+                "the legs swing lighter in MuJoCo than on the real servos; set armature_kg_m2 = "
+                f"{identified:g} in [joints.{j.name}] or the MJCF"
+            )
+        elif d_share + a_share > LOAD_SHARE_FLAG and not _own_rotor(armature, identified):
             flag = (
                 f"MJCF damping and armature take {d_share + a_share:.0%} of {j.servo.name}'s "
                 f"stall torque at {speed:.2g} rad/s; check damping_nm_s_per_rad / "

@@ -46,6 +46,9 @@ class ServoModel:
     default_baud: int
     mass_kg: float
     max_temperature_c: float
+    # identified reflected rotor inertia at the output shaft [kg·m²] (MJCF joint `armature`);
+    # None where no identification is published (`robots/servos.toml`)
+    armature_kg_m2: float | None = None
 
     @property
     def ticks_per_rad(self) -> float:
@@ -74,7 +77,9 @@ _INT_FIELDS: dict[str, tuple[int, int]] = {
     "position_max_tick": (0, 10**7),
     "default_baud": (0, 10**8),  # 0: a PWM servo (no bus), see _check_bus_fields
 }
-SERVO_FIELDS = ("vendor", "protocol", *_FLOAT_FIELDS, *_INT_FIELDS)
+# optional figures: absent means not known for this servo
+_OPTIONAL_FLOAT_FIELDS: dict[str, tuple[float, float]] = {"armature_kg_m2": (1e-7, 10.0)}
+SERVO_FIELDS = ("vendor", "protocol", *_FLOAT_FIELDS, *_INT_FIELDS, *_OPTIONAL_FLOAT_FIELDS)
 ENV_CATALOGUE = "GAITSMITH_SERVOS"
 
 
@@ -99,6 +104,9 @@ def parse_servo(file: str, where: str, name: str, table: Any) -> ServoModel:
         values[key] = ts.number(file, f"{where}.{key}", table.get(key), lo, hi, lo_open=True)
     for key, (ilo, ihi) in _INT_FIELDS.items():
         values[key] = ts.integer(file, f"{where}.{key}", table.get(key), ilo, ihi)
+    for key, (lo, hi) in _OPTIONAL_FLOAT_FIELDS.items():
+        if key in table:
+            values[key] = ts.number(file, f"{where}.{key}", table[key], lo, hi, lo_open=True)
     if values["position_max_tick"] <= values["position_min_tick"]:
         raise RobotConfigError(file, f"{where}.position_max_tick", "must exceed position_min_tick")
     if not values["voltage_min_v"] <= values["nominal_voltage_v"] <= values["voltage_max_v"]:

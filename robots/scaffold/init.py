@@ -258,10 +258,21 @@ def init_robot(
             f"{math.degrees(hi):.1f}]° ({chosen.name} reaches only that around its centre)"
         )
     no_armature = [jname[j] for j in limits if model.dof_armature[model.jnt_dofadr[j]] == 0.0]
-    if no_armature:
+    if no_armature and chosen.armature_kg_m2 is not None:
+        # the servo's identified rotor inertia (robots/servos.toml): without it the servos'
+        # legs swing like weightless ones and a gait that walks in MuJoCo is out of the real
+        # servo's reach (docs/results/servo_armature.md)
+        for joint_name in no_armature:
+            spec.joint(joint_name).armature = chosen.armature_kg_m2
         notes.append(
-            f"{len(no_armature)} joints have no armature (reflected rotor inertia); add it in "
-            "robot.xml if `gaitsmith robots check` reports jitter"
+            f"{len(no_armature)} joints had no armature (reflected rotor inertia): set to "
+            f"{chosen.name}'s identified {chosen.armature_kg_m2:g} kg·m² (robots/servos.toml)"
+        )
+    elif no_armature:
+        notes.append(
+            f"{len(no_armature)} joints have no armature (reflected rotor inertia) and no "
+            f"identified figure is known for {chosen.name}: add the servo's armature in robot.xml "
+            "(without it the legs swing faster in MuJoCo than the real servos can)"
         )
     servo_mass = chosen.mass_kg * len(limits)
     total = float(sum(model.body_mass))

@@ -37,6 +37,7 @@ from planner.templates import (
 )
 from planner.user_schedule import command_schedule, load_schedule_file, parse_duty, parse_phases
 from tests.planner.robot_factory import small_quadruped, star_robot
+from tests.zoo.fixtures import ZOO
 
 
 @pytest.fixture(scope="module")
@@ -105,6 +106,14 @@ def test_held_joints_outside_the_legs_change_nothing_about_the_templates(tmp_pat
 def test_builtin_robots_keep_their_named_defaults() -> None:
     assert default_gait_for(robots.load("quad12")) == "trot"
     assert default_gait_for(robots.load("hex18")) == "tripod"
+
+
+@pytest.mark.parametrize("name", ["bittle8", "knee8"])
+def test_hip_and_knee_quadrupeds_walk_by_default(name: str) -> None:
+    # no hip roll: a trot's diagonal support has nothing holding the roll (templates docstring)
+    bot = robots.load(ZOO / name)
+    assert default_gait_for(bot) == "walk"
+    assert default_gait_for(robots.load(ZOO / "spotmicro")) == "trot"  # hip roll: trots
 
 
 # -- search without left/right roles ----------------------------------------------------------

@@ -333,3 +333,20 @@ def test_a_joint_carrying_several_legs_is_reported_not_guessed(tmp_path: Path) -
     (tmp_path / "waisted.xml").write_text(WAIST_MJCF)
     with pytest.raises(ScaffoldError, match=r"waist_yaw.*carry several limbs"):
         init_robot(tmp_path / "waisted.xml", tmp_path / "o", servo="XL430_W250")
+
+
+def test_joints_without_armature_get_the_servos_identified_rotor(tmp_path: Path) -> None:
+    """A URDF has no rotor inertia; init writes the servo's identified one (robots/servos.toml)
+    and says so; for a servo without a published figure it says what to add."""
+    knee8 = ZOO / "urdf" / "knee8.urdf"
+    result = init_robot(knee8, tmp_path / "k", servo="STS3215_7V4")
+    r = robots.load(tmp_path / "k")
+    model = r.mj_model()
+    for j in r.joint_names:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j)
+        assert model.dof_armature[model.jnt_dofadr[jid]] == pytest.approx(0.0284), j
+    assert any("identified 0.0284 kg·m²" in n for n in result.notes)
+    unknown = init_robot(knee8, tmp_path / "k12", servo="STS3215_12V")
+    model = robots.load(tmp_path / "k12").mj_model()
+    assert not model.dof_armature[6:].any()
+    assert any("no identified figure is known for STS3215_12V" in n for n in unknown.notes)

@@ -58,6 +58,8 @@ def test_unknown_model_names_the_known_ones() -> None:
         ('protocol = "can"', "protocol"),
         ("position_max_tick = 0", "position_max_tick"),
         ("color = 1", "color"),
+        ("armature_kg_m2 = 0.0", "armature_kg_m2"),
+        ("armature_kg_m2 = 50.0", "armature_kg_m2"),
     ],
 )
 def test_bad_catalogue_entries_name_the_field(patch: str, field: str) -> None:
@@ -83,3 +85,18 @@ def test_bad_catalogue_entries_name_the_field(patch: str, field: str) -> None:
     with pytest.raises(RobotConfigError) as info:
         parse_catalogue(text, "servos.toml")
     assert field in str(info.value) and "servos.toml" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("name", "armature_kg_m2"),
+    # Duclusaud & Passault 2025 (BAM), identified model m1 (robots/servos.toml)
+    [("STS3215_7V4", 0.0284), ("XL330_M288", 0.0018), ("MX_64_P2", 0.0120), ("XL_320", 0.0011)],
+)
+def test_identified_rotor_inertias(name: str, armature_kg_m2: float) -> None:
+    assert servo_model(name).armature_kg_m2 == pytest.approx(armature_kg_m2)
+
+
+def test_rotor_inertia_is_optional_and_unknown_where_unpublished() -> None:
+    # no identification of the 12 V STS3215 or of the XL430 is published: not guessed
+    assert servo_model("STS3215_12V").armature_kg_m2 is None
+    assert servo_model("XL430_W250").armature_kg_m2 is None
