@@ -226,8 +226,9 @@ class PlannerOptions:
       included (`planner.nlp.force_rate`): the load builds over several knots after touchdown
       and fades before lift-off instead of jumping to ≈ 2 body weights in one knot, which
       position servos cannot produce (measured in MuJoCo, docs/results/zoo_gaits.md,
-      "Session 24"). Default 5 (one body weight in 0.2·√(L/g): scaled by body weight and leg
-      length); None: no rows (the NLP before it).
+      "Session 24"); scaled by body weight and the leg's time unit, so one ρ asks the same of
+      dynamically similar robots (5: one body weight in 0.2·√(L/g)). Default None: no rows
+      (a different local optimum turned star5's entry, `planner.nlp.force_rate`).
     - `half_cycle_mirror`: the second half of the cycle is the first half mirrored under
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
       half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric

@@ -31,15 +31,17 @@ the dynamics allow; a position servo does not.
 Rows are linear in the forces (the period is a parameter), one per foot and knot; None turns
 them off (the NLP before the bound, bit for bit).
 
-The default ρ = 5 (one body weight in 0.2·√(L/g)) is from the measurements in the results file:
-on humanoid20's default template (N = 30) ρ = 4, 5, 6 and 8 walk all 20 cycles where the
-unbounded plan falls at 3.1 s; ρ = 10 falls at 3.3 s, ρ = 3 stops at the iteration cap and falls.
-5 lies inside that window. The other robots' template plans (built-in biped, quad12, hex18,
-spotmicro, bittle8, star5, phantomx18 at Fr ≈ 0.02) pass MuJoCo with it as without it; hex18,
-star5 and phantomx18 plan below ρ = 2.3 anyway (the bound is inactive), the biped (13 without
-the bound), quad12 (9.9), bittle8's walk (8.8) and spotmicro (5.7) are held to 5. The stage-wise
-NLP (`planner.nlp.stagewise`, FATROP) has no form of these rows (they tie two knots' controls)
-and refuses them; `planner.nlp.fatrop_solver` plans without them.
+Measured (results file): on humanoid20's default template (N = 30) ρ = 4, 5, 6 and 8 walk all
+20 cycles where the unbounded plan falls at 3.1 s; ρ = 10 falls at 3.3 s, ρ = 3 stops at the
+iteration cap and falls. With ρ = 5 the other robots' template plans (built-in biped, quad12,
+hex18, spotmicro, bittle8, star5, phantomx18 at Fr ≈ 0.02) passed MuJoCo as without it on the
+servo catalogue of 2026-12-02 06:40, but after star5's MJCF moved to the identified STS3215 rotor
+inertia its template with ρ = 5 (a bound it never reaches: 2.5 at most) converges to a
+different, 0.7 % cheaper optimum that turns +6.1° in its entry cycle, where the plan without the
+rows passes. So the default is off (None): no robot's plan changes unless asked
+(`gaitsmith plan --force-rate RHO`). The stage-wise NLP (`planner.nlp.stagewise`, FATROP) has
+no form of these rows (they tie two knots' controls) and refuses them;
+`planner.nlp.fatrop_solver` plans without them.
 """
 
 from __future__ import annotations
@@ -49,9 +51,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-#: default ρ [body weights per √(L/g)] of `PlannerOptions.normal_force_rate_weights_per_t0`:
-#: a foot may take one body weight in 0.2·√(L/g) (31 ms on humanoid20, 27 ms on quad12)
-NORMAL_FORCE_RATE_WEIGHTS_PER_T0: float | None = 5.0
+#: default of `PlannerOptions.normal_force_rate_weights_per_t0`: off (see the module docstring);
+#: `gaitsmith plan --force-rate 5` asks for ρ = 5 (one body weight in 0.2·√(L/g))
+NORMAL_FORCE_RATE_WEIGHTS_PER_T0: float | None = None
 
 
 def force_rate_rows(fz_weights: Any, inv_h_per_s: Any, t0_s: float) -> Any:

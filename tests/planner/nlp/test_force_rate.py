@@ -47,10 +47,10 @@ def test_a_one_knot_touchdown_spike_violates_the_bound() -> None:
     assert rate > 15
 
 
-def test_on_by_default_off_with_none_and_rows_have_labels() -> None:
+def test_off_by_default_and_rows_with_labels_when_asked() -> None:
     model, n = RobotModel(robots.load(BIPED)), 8
     sym = make_symbols(Layout(n, model.n_joints, model.n_feet, len(model.flat_feet)))
-    assert PlannerOptions().normal_force_rate_weights_per_t0 == 5.0
+    assert PlannerOptions().normal_force_rate_weights_per_t0 is None
     off = PlannerOptions(normal_force_rate_weights_per_t0=None)
     assert _force_rate_groups(model, sym, n, off, n / sym.period_s, 0.1) == []
     asked = PlannerOptions(normal_force_rate_weights_per_t0=4.0)
@@ -77,3 +77,19 @@ def test_a_planned_biped_walk_meets_the_rate_bound() -> None:
     h = result.schedule.period_s / 12
     rate = np.abs(np.roll(fz, -1, axis=0) - fz) / h * time_unit_s(bot.leg_length_m)
     assert rate.max() <= rho * (1 + 1e-4)
+
+
+@pytest.mark.parametrize("extra", [["--force-rate", "0"], ["--force-rate", "5", "--search"]],
+                         ids=["zero", "search"])
+def test_plan_refuses_a_force_rate_it_cannot_use(
+    extra: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`gaitsmith plan --force-rate RHO`: a positive ρ, template plans only; refused before
+    any work otherwise (one error line, exit 2, no gait file)."""
+    from gaitsmith.cli import main
+
+    out = tmp_path / "g.json"
+    assert main(["plan", "quad12", "--gait", "trot", "-o", str(out), *extra]) == 2
+    err = capsys.readouterr().err
+    assert "--force-rate" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
