@@ -111,6 +111,11 @@ def plan(
         False, "--mirror", help="the second half of the cycle is the first half mirrored "
         "left-right (straight gaits of symmetric bodies on half-cycle symmetric schedules: "
         "biped walk/run, trot, pace, tripod; N even)"),
+    force_rate: float | None = typer.Option(
+        None, "--force-rate", help="bound each foot's normal-force rate to this many body "
+        "weights per √(L/g) (`PlannerOptions.normal_force_rate_weights_per_t0`): the load "
+        "builds over several knots after touchdown and fades before lift-off; 5 keeps "
+        "humanoid20's template walk up (docs/results/zoo_gaits.md, session 24)"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
@@ -155,6 +160,9 @@ def plan(
                           "--yaw-rate) and no --search")
     if mirror and search:
         raise OptionError("--mirror: not with --search yet; plan the chosen gait with --mirror")
+    if force_rate is not None and (search or not (math.isfinite(force_rate) and force_rate > 0)):
+        raise OptionError("--force-rate: a positive number of body weights per √(L/g), not "
+                          "with --search yet")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -190,7 +198,8 @@ def plan(
     choice = commanded_gait(bot, gait, vy, yaw_rate,
                             PlannerOptions(mu=mu, print_level=5 if verbose else 0,
                                            servo_settings=servo_settings,
-                                           derivatives=solver, half_cycle_mirror=mirror))
+                                           derivatives=solver, half_cycle_mirror=mirror,
+                                           normal_force_rate_weights_per_t0=force_rate))
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)

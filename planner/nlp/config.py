@@ -32,6 +32,7 @@ from planner.nlp.contact_margin import (
     COP_SOLE_FRACTION,
     FLAT_MEAN_FOOTPRINT_LEG_LENGTHS,
 )
+from planner.nlp.force_rate import NORMAL_FORCE_RATE_WEIGHTS_PER_T0
 from planner.nlp.sideways_locked import SIDEWAYS_SLIP_LEG_LENGTHS
 from robots.servo_params import ServoSetting
 
@@ -220,6 +221,14 @@ class PlannerOptions:
       footprint" rows at this t when `mean_footprint_leg_lengths` is None (some biped plans
       limp without them, docs/results/biped_walk_robustness.md).
     All three are off by default (`planner.nlp.contact_margin` says why).
+    - `normal_force_rate_weights_per_t0`: ρ > 0 or None: every foot's normal force changes by
+      at most ρ body weights per leg time unit √(L/g) between neighbouring knots, swing knots
+      included (`planner.nlp.force_rate`): the load builds over several knots after touchdown
+      and fades before lift-off instead of jumping to ≈ 2 body weights in one knot, which
+      position servos cannot produce (measured in MuJoCo, docs/results/zoo_gaits.md,
+      "Session 24"); scaled by body weight and the leg's time unit, so one ρ asks the same of
+      dynamically similar robots (5: one body weight in 0.2·√(L/g)). Default None: no rows
+      (a different local optimum turned star5's entry, `planner.nlp.force_rate`).
     - `half_cycle_mirror`: the second half of the cycle is the first half mirrored under
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
       half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric
@@ -269,6 +278,7 @@ class PlannerOptions:
     cop_sole_fraction: float = COP_SOLE_FRACTION
     capture_sole_fraction: float | None = CAPTURE_SOLE_FRACTION
     flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
+    normal_force_rate_weights_per_t0: float | None = NORMAL_FORCE_RATE_WEIGHTS_PER_T0
     half_cycle_mirror: bool = False
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
@@ -303,6 +313,9 @@ class PlannerOptions:
             or 0 < self.capture_sole_fraction <= 1,
             "flat_mean_footprint_leg_lengths": self.flat_mean_footprint_leg_lengths is None
             or 0 < self.flat_mean_footprint_leg_lengths < 2,
+            "normal_force_rate_weights_per_t0": self.normal_force_rate_weights_per_t0 is None
+            or (math.isfinite(self.normal_force_rate_weights_per_t0)
+                and 0 < self.normal_force_rate_weights_per_t0 < 1e3),
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,

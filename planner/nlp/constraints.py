@@ -32,6 +32,7 @@ from planner.nlp.flat_foot import (
     spare_flat_foot_ankles,
 )
 from planner.nlp.foot_separation import foot_separation_labels, foot_separation_rows
+from planner.nlp.force_rate import force_rate_bounds, force_rate_labels, force_rate_rows
 from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.sideways_locked import lateral_slip_bounds_m
@@ -343,6 +344,7 @@ def build_groups(
             zeros(2),
             zeros(2),
         ),
+        *_force_rate_groups(model, sym, n, options, inv_h, t0),
         *flat_foot_groups(model, sym, n, options, stick, Group),
         *_static_margin_groups(model, sym, kq, n, options),
         *_mean_footprint_groups(model, sym, n, options),
@@ -353,6 +355,17 @@ def build_groups(
         groups.append(Group("foot separation", separation, separation_lb,
                             np.full(separation_lb.size, inf), length))
     return spare_flat_foot_ankles(model, groups, n)
+
+
+def _force_rate_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions,
+                       inv_h: Any, t0_s: float) -> list[Group]:
+    """Normal-force rate bound (`PlannerOptions.normal_force_rate_weights_per_t0`,
+    `planner.nlp.force_rate`): a foot's load changes by at most ρ body weights per √(L/g)."""
+    rho = options.normal_force_rate_weights_per_t0
+    if rho is None:
+        return []
+    lb, ub = force_rate_bounds(rho, model.n_feet, n)
+    return [Group("normal force rate", force_rate_rows(sym.forces[2::3, :], inv_h, t0_s), lb, ub)]
 
 
 def _mean_footprint_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions
@@ -539,6 +552,7 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         "half-cycle mirror": mirror_labels(model.robot, n_knots),
         **flat_foot_labels(model, n_knots),
         "foot separation": foot_separation_labels(model, n_knots),
+        "normal force rate": force_rate_labels(feet, n_knots),
     }
 
 

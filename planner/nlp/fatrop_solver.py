@@ -44,7 +44,8 @@ class FatropPlanner(GaitPlanner):
         options: PlannerOptions | None = None,
         fatrop_options: dict[str, Any] | None = None,
     ) -> None:
-        options = options or PlannerOptions()
+        # the stage-wise NLP has no normal-force rate rows (`planner.nlp.force_rate`)
+        options = options or PlannerOptions(normal_force_rate_weights_per_t0=None)
         if options.nondimensional:
             raise PlannerConfigError(
                 "the FATROP planner solves the NLP in SI units; nondimensional=True is not "

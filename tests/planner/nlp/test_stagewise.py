@@ -48,7 +48,7 @@ def test_stage_rows_are_the_planner_rows_at_any_point(robot_name: str, gait: str
     the rows it adds (gap-closing dynamics, wrap-around copies), which hold as equalities."""
     robot = robots.load(robot_name)
     model = RobotModel(robot)
-    options = PlannerOptions()
+    options = PlannerOptions(normal_force_rate_weights_per_t0=None)  # no stage-wise form
     layout = Layout(N_KNOTS, model.n_joints, model.n_feet)
     planner_nlp, lbg, ubg = _planner_nlp(model, layout, options)
     schedule = make_schedule(robot, gait)
@@ -92,6 +92,9 @@ def test_a_row_over_every_knot_is_refused() -> None:
     layout = Layout(N_KNOTS, model.n_joints, model.n_feet)
     with pytest.raises(PlannerConfigError, match="mean_footprint"):
         build_stagewise(model, N_KNOTS, options, layout)
+    rate = PlannerOptions(normal_force_rate_weights_per_t0=5.0)
+    with pytest.raises(PlannerConfigError, match="normal_force_rate"):
+        build_stagewise(model, N_KNOTS, rate, layout)
 
 
 @pytest.mark.slow
@@ -103,9 +106,11 @@ def test_fatrop_planner_keeps_ipopts_optimum() -> None:
 
     robot = robots.load("quad12")
     schedule = make_schedule(robot, "trot")
-    ref = GaitPlanner(robot, N_KNOTS).solve(schedule, 0.25, warm_start=False)
+    no_rate = PlannerOptions(normal_force_rate_weights_per_t0=None)  # no stage-wise form
+    ref = GaitPlanner(robot, N_KNOTS, no_rate).solve(schedule, 0.25, warm_start=False)
     assert ref.feasible
-    fatrop = FatropPlanner(robot, N_KNOTS, PlannerOptions(max_iter=3),
+    fatrop = FatropPlanner(robot, N_KNOTS, PlannerOptions(max_iter=3,
+                                                          normal_force_rate_weights_per_t0=None),
                            {"mu_init": 1e-6, "bound_push": 1e-8, "bound_frac": 1e-8})
     res = fatrop.solve(schedule, 0.25, warm_start=ref.warm_start)
     assert res.iterations <= 4  # FATROP counts the iteration it stops at
