@@ -215,6 +215,14 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "compiled-t2": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="compiled", knot_threads=2)
     ),
+    # docs/results/planner_speed_lifted.md: the rates (and the torques) eliminated instead of
+    # lifted (`planner.nlp.lifted`)
+    "elim-rates": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(lifted_rates="none")),
+    "elim-xy": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(lifted_rates="base_xy")),
+    "elim-all": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(lifted_rates="none", lifted_torques=False)
+    ),
+    "elim-tau": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(lifted_torques=False)),
 }
 
 

@@ -44,6 +44,8 @@ GRAVITY_M_S2 = 9.81
 DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 #: values of `PlannerOptions.ipopt_tuning` (`planner.nlp.spacetime.ipopt_options`)
 IPOPT_TUNINGS = ("tuned", "session21")
+#: values of `PlannerOptions.lifted_rates` (`planner.nlp.lifted`)
+LIFTED_RATES = ("all", "base_xy", "none")
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -246,6 +248,15 @@ class PlannerOptions:
       values. 1 (default): two threads cost 5–15 % more CPU and lost where measured without
       heavy oversubscription (quad12 trot 1.16× per solve); a search's worker processes
       already use the cores (docs/results/planner_speed_threads.md).
+    - `lifted_rates`: which base and joint rates and accelerations are decision variables tied
+      to the poses by the cyclic central differences (equality rows): "all" (default), "none"
+      (every rate is the differences themselves, `planner.nlp.lifted`) or "base_xy" (only the
+      base's horizontal rates ẋ, ẏ, ẍ, ÿ stay lifted, so a knot's rows still depend on at most
+      64 NLP variables on quad12: one batch of CasADi's forward directions). Eliminated
+      variables keep their slots, fixed at 0 (IPOPT drops fixed variables: a smaller KKT
+      system). `lifted_torques` False: the joint torques are the inverse dynamics' output
+      instead of variables tied to it. Same optimum; docs/results/planner_speed_lifted.md
+      measures what each costs.
     """
 
     mu: float = 0.5
@@ -278,6 +289,8 @@ class PlannerOptions:
     derivatives: str = "knot"
     ipopt_tuning: str = "tuned"
     knot_threads: int = 1
+    lifted_rates: str = "all"
+    lifted_torques: bool = True
 
     def __post_init__(self) -> None:
         checks = {
@@ -310,6 +323,8 @@ class PlannerOptions:
             "ipopt_tuning": self.ipopt_tuning in IPOPT_TUNINGS,
             "knot_threads": type(self.knot_threads) is int
             and 1 <= self.knot_threads <= MAX_KNOT_THREADS,
+            "lifted_rates": self.lifted_rates in LIFTED_RATES,
+            "lifted_torques": type(self.lifted_torques) is bool,
         }
         for name, ok in checks.items():
             if not ok:

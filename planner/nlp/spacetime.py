@@ -45,6 +45,7 @@ from planner.nlp.constraints import (
     row_scales,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
+from planner.nlp.lifted import eliminate_rates, lifted_values_function, with_lifted_values
 from planner.nlp.mirror import check_mirror
 from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import (
@@ -60,6 +61,7 @@ from planner.nlp.solver_cache import (
 )
 from planner.nlp.variables import (
     Layout,
+    eliminated_slots,
     initial_guess,
     make_symbols,
     parameter_vector,
@@ -229,7 +231,11 @@ class GaitPlanner:
             forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)
             self.knot_derivatives = with_knot_derivatives(plain, jac, hess, forward, second)
             knot = self.knot_derivatives.knot
-        kq = knot_quantities(self.model, sym, n_knots, knot, self.options.knot_threads)
+        sym = eliminate_rates(sym, n_knots, self.options)
+        kq = knot_quantities(
+            self.model, sym, n_knots, knot, self.options.knot_threads,
+            lifted_torques=self.options.lifted_torques,
+        )
         groups = build_groups(self.model, sym, kq, n_knots, self.options)
         terms = cost_terms(self.model, sym, kq, n_knots)
         objective = weighted_objective(terms, self.options.weights)
@@ -252,6 +258,11 @@ class GaitPlanner:
             "evaluate", [sym.x, sym.p], [g, kq.tau_nm, kq.qd, *terms.values()]
         )
         self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
+        #: eliminated rates / torques (`planner.nlp.lifted`): their slots and their values
+        self._eliminated = eliminated_slots(self.layout, self.options)
+        self._lifted_values = (
+            lifted_values_function(sym, kq) if self._eliminated.any() else None
+        )
         self._solver = self._make_solver()
         self._warm_solver: Any | None = None  # `_solver_for`
         if self.knot_derivatives is not None and plain is not None:
@@ -467,7 +478,7 @@ class GaitPlanner:
             max_violation=max_violation,
             binding=binding,
             message=message,
-            warm_start=WarmStart(x, lam_x, lam_g),
+            warm_start=WarmStart(self._filled(x, p), lam_x, lam_g),
             optimal=optimal,
             stats={
                 "return_status": status,
@@ -477,6 +488,14 @@ class GaitPlanner:
                 "iterations": _iteration_log(stats),
             },
         )
+
+    def _filled(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """`x` with the eliminated slots holding the values of their expressions (so a warm
+        start suits a planner with lifted variables too); `x` itself when nothing is."""
+        if self._lifted_values is None:
+            return x
+        values = np.asarray(self._lifted_values(x / self._x_scale, p)).ravel()
+        return with_lifted_values(self.layout, x, values, self._eliminated)
 
     # -- output ------------------------------------------------------------------------------
 

@@ -282,10 +282,32 @@ def variable_bounds(
     if not options.servo_goals:
         free[2 * layout.n_rates + layout.n_q :] = 0.0  # no goals: slopes fixed (IPOPT drops them)
     m_free = np.full(layout.n_m, inf)  # the contact wrench cone bounds them (planner.nlp.flat_foot)
-    return (
-        layout.pack(base_lo, q_lo, f_lo, -free, -m_free),
-        layout.pack(base_hi, q_hi, f_hi, free, m_free),
-    )
+    lo = layout.pack(base_lo, q_lo, f_lo, -free, -m_free)
+    hi = layout.pack(base_hi, q_hi, f_hi, free, m_free)
+    # eliminated rates / torques (`planner.nlp.lifted`): their slots are fixed at 0 too
+    fixed = eliminated_slots(layout, options)
+    lo[fixed] = hi[fixed] = 0.0
+    return lo, hi
+
+
+#: per `PlannerOptions.lifted_rates`: how many leading rows of the (6+J)-row rate and
+#: acceleration blocks stay lifted (the base's x, y come first), None: all of them
+LIFTED_LEADING_ROWS: dict[str, int | None] = {"all": None, "base_xy": 2, "none": 0}
+
+
+def eliminated_slots(layout: Layout, options: PlannerOptions) -> np.ndarray:
+    """Boolean mask over the decision vector: the slots of eliminated quantities (fixed at 0)."""
+    mask = np.zeros(layout.size, dtype=bool)
+    start = layout.n_base + layout.n_q + layout.n_f
+    kept = LIFTED_LEADING_ROWS[options.lifted_rates]
+    if kept is not None:
+        rows = np.zeros((2 * layout.n_knots, 6 + layout.n_joints), dtype=bool)
+        rows[:, kept:] = True  # knot-major: rate rows of every knot, then acceleration rows
+        mask[start : start + 2 * layout.n_rates] = rows.ravel()
+    start += 2 * layout.n_rates
+    if not options.lifted_torques:
+        mask[start : start + layout.n_q] = True
+    return mask
 
 
 def initial_guess(layout: Layout, model: RobotModel, schedule: ContactSchedule) -> np.ndarray:
