@@ -223,6 +223,11 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
         robot, n, PlannerOptions(lifted_rates="none", lifted_torques=False)
     ),
     "elim-tau": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(lifted_torques=False)),
+    # the constraint Jacobian assembled from one J per knot (`planner.nlp.assembled_jacobian`)
+    "knot-aj": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_jacobian="assembled")),
+    "elim-aj": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(lifted_rates="none", nlp_jacobian="assembled")
+    ),
 }
 
 

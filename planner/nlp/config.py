@@ -44,6 +44,8 @@ GRAVITY_M_S2 = 9.81
 DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 #: values of `PlannerOptions.ipopt_tuning` (`planner.nlp.spacetime.ipopt_options`)
 IPOPT_TUNINGS = ("tuned", "session21")
+#: values of `PlannerOptions.nlp_jacobian`
+NLP_JACOBIANS = ("ad", "assembled")
 #: values of `PlannerOptions.lifted_rates` (`planner.nlp.lifted`)
 LIFTED_RATES = ("all", "base_xy", "none")
 #: upper bound of `PlannerOptions.knot_threads`
@@ -257,6 +259,11 @@ class PlannerOptions:
       system). `lifted_torques` False: the joint torques are the inverse dynamics' output
       instead of variables tied to it. Same optimum; docs/results/planner_speed_lifted.md
       measures what each costs.
+    - `nlp_jacobian`: how IPOPT's constraint Jacobian is computed with `derivatives` "knot" or
+      "compiled": "ad" (default) — CasADi's AD of the NLP, which seeds the knots in batches of
+      64 forward directions (two evaluations of every knot's J when a knot's rows depend on
+      more than 64 variables); "assembled" — the chain rule written out with one J per knot
+      (`planner.nlp.assembled_jacobian`). Same Jacobian to rounding.
     """
 
     mu: float = 0.5
@@ -291,6 +298,7 @@ class PlannerOptions:
     knot_threads: int = 1
     lifted_rates: str = "all"
     lifted_torques: bool = True
+    nlp_jacobian: str = "ad"
 
     def __post_init__(self) -> None:
         checks = {
@@ -325,6 +333,7 @@ class PlannerOptions:
             and 1 <= self.knot_threads <= MAX_KNOT_THREADS,
             "lifted_rates": self.lifted_rates in LIFTED_RATES,
             "lifted_torques": type(self.lifted_torques) is bool,
+            "nlp_jacobian": self.nlp_jacobian in NLP_JACOBIANS,
         }
         for name, ok in checks.items():
             if not ok:

@@ -22,6 +22,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from planner.nlp.assembled_jacobian import KnotCall
 from planner.nlp.command import MotionSymbols
 from planner.nlp.config import PlannerOptions
 from planner.nlp.flat_foot import (
@@ -67,6 +68,8 @@ class KnotQuantities:
     qdd: Any  # J × N
     base_d: Any  # 6 × N base pose rates
     omega_world: Any  # 3 × N: base ω in the world minus the commanded turn (0, 0, W)
+    #: the knot map's call as these expressions use it (`planner.nlp.assembled_jacobian`)
+    knot_call: KnotCall | None = None
 
 
 def _shift(m: Any, k: int) -> Any:
@@ -146,10 +149,12 @@ def knot_quantities(
         # fewer (quad12: 64, one batch of forward directions for the NLP Jacobian instead of
         # 64 + 2, i.e. one evaluation of every knot's J instead of two)
         base = ca.vertcat(ca.MX.zeros(2, n_knots), sym.base[2:, :])
-    base_rows, tau, feet, body_z, w_knot = fn(
-        base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,
-        _motion(sym).vy_m_s, yaw_rate, *flat
+    arguments = (
+        base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s, _motion(sym).vy_m_s, yaw_rate,
+        *flat,
     )
+    outputs = tuple(fn(*arguments))
+    base_rows, tau, feet, body_z, w_knot = outputs
     if origin_base_xy:
         shift = ca.vertcat(sym.base[0:2, :], ca.MX.zeros(1, n_knots))
         feet = feet + ca.repmat(shift, model.n_feet, 1)
@@ -159,7 +164,9 @@ def knot_quantities(
         sym.base[3:6, :], bd[3:6, :], yaw_rate
     )
     tau_nm = sym.tau if lifted_torques else tau
-    return KnotQuantities(base_rows, tau_nm, tau, feet, body_z, qd, qdd, bd, w)
+    return KnotQuantities(
+        base_rows, tau_nm, tau, feet, body_z, qd, qdd, bd, w, KnotCall(arguments, outputs)
+    )
 
 
 def omega_function(model: RobotModel) -> ca.Function:

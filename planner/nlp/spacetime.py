@@ -35,6 +35,7 @@ import numpy as np
 
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp import diagnostics
+from planner.nlp.assembled_jacobian import assembled_jacobian
 from planner.nlp.command import check_command
 from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import (
@@ -258,6 +259,16 @@ class GaitPlanner:
             "evaluate", [sym.x, sym.p], [g, kq.tau_nm, kq.qd, *terms.values()]
         )
         self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
+        #: `PlannerOptions.nlp_jacobian` "assembled": IPOPT's jac_g (`_make_solver`)
+        self._jac_g: ca.Function | None = None
+        if self.options.nlp_jacobian == "assembled":
+            if self.knot_derivatives is None or kq.knot_call is None:
+                raise PlannerConfigError(
+                    'nlp_jacobian="assembled" needs derivatives "knot" or "compiled"'
+                )
+            self._jac_g = assembled_jacobian(
+                sym.x, sym.p, g_solver, kq.knot_call, self.knot_derivatives.jacobian, n_knots
+            )
         #: eliminated rates / torques (`planner.nlp.lifted`): their slots and their values
         self._eliminated = eliminated_slots(self.layout, self.options)
         self._lifted_values = (
@@ -268,7 +279,9 @@ class GaitPlanner:
         if self.knot_derivatives is not None and plain is not None:
             # the next build with this knot, N and options creates only the derivatives used
             used = used_directions(self._solver, plain.name())
-            if used != known and used[0]:  # none found: a map CasADi named otherwise
+            # none found: a map CasADi named otherwise (the assembled Jacobian uses no
+            # forward directions of the knot, only the Hessian's)
+            if used != known and (used[0] or (self._jac_g is not None and used[1])):
                 save_directions(directions, *used)
         self._last: WarmStart | None = None
         self.build_time_s = time.perf_counter() - t0
@@ -293,6 +306,8 @@ class GaitPlanner:
             "expand": self.options.derivatives == "expanded",
             "error_on_fail": False,
         }
+        if self._jac_g is not None:
+            opts["jac_g"] = self._jac_g
         return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)
 
     def _solver_for(self, warm: bool) -> Any:
