@@ -375,7 +375,9 @@ class GaitPlanner:
             x0 = initial_guess(self.layout, self.model, schedule)
             start = WarmStart(x0, np.zeros_like(x0), np.zeros_like(self._lbg))
         elif not WARM_START_DUALS:
-            start = WarmStart(start.x, np.zeros_like(start.lam_x), np.zeros_like(start.lam_g))
+            # this NLP's row count (a warm start may come from a planner with other rows, e.g.
+            # lifted rates: `planner.nlp.lifted`)
+            start = WarmStart(start.x, np.zeros_like(self._lbx), np.zeros_like(self._lbg))
         xs, gs = self._x_scale, self._g_scale
         with _sigint_watch() as interrupted:
             # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
