@@ -5,7 +5,8 @@
 Builds one planner per `planner_bench.PATHS` name (N = 30) and cold-solves the robot's
 template `reps` times at 0.25 m/s, the paths in turn. Prints the free variables (lbx < ubx:
 IPOPT removes fixed ones), constraint rows (equalities), the non-zeros of the constraint
-Jacobian and of the Lagrangian Hessian, and per solve: iterations, cost, wall time, CPU ms per
+Jacobian and of the Lagrangian Hessian, and per solve: iterations, cost, wall and process CPU
+time (the CPU time moves less with the load of a shared machine), CPU ms per
 iteration in the NLP functions (CasADi's ``t_proc_nlp_*``) and in the rest (wall time minus
 the functions' wall time: IPOPT, MUMPS, BLAS), and IPOPT's own wall timing of the whole KKT
 solve (factorisation and backsolves), the backsolves and the function evaluations
@@ -20,6 +21,7 @@ import re
 import statistics
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -57,7 +59,9 @@ def timed_solve(
         sys.stdout.flush()
         os.dup2(log.fileno(), 1)
         try:
+            cpu0 = time.process_time()
             result = planner.solve(schedule, 0.25, warm_start=False)
+            cpu_s = time.process_time() - cpu0
         finally:
             sys.stdout.flush()
             os.dup2(saved, 1)
@@ -76,11 +80,12 @@ def timed_solve(
     per_fn = " ".join(f"{f[4:]} {stats[f't_proc_{f}'] / stats[f'n_call_{f}'] * 1e3:.1f}"
                       for f in FUNCTIONS if stats[f"n_call_{f}"])
     line = (f"{result.iterations} it, cost {result.cost:.9g}, feasible {result.feasible}, "
-            f"{result.solve_time_s:.2f} s = {result.solve_time_s / it * 1e3:.0f} ms/it: "
+            f"{result.solve_time_s:.2f} s = {result.solve_time_s / it * 1e3:.0f} ms/it "
+            f"(process CPU {cpu_s:.2f} s = {cpu_s / it * 1e3:.0f} ms/it): "
             f"functions {fun_cpu / it * 1e3:.1f} CPU ms/it ({per_fn} ms/call), rest "
             f"{(result.solve_time_s - fun_wall) / it * 1e3:.1f} ms/it; IPOPT wall ms/it: "
             + ", ".join(f"{k} {v / it * 1e3:.1f}" for k, v in timers.items()))
-    return line, {"time": result.solve_time_s, "it": it, **timers}
+    return line, {"time": result.solve_time_s, "cpu": cpu_s, "it": it, **timers}
 
 
 def main() -> None:
@@ -105,7 +110,8 @@ def main() -> None:
     for name in names:
         t = statistics.median(r["time"] for r in rows[name])
         fac = statistics.median(r.get(TIMERS[0], float("nan")) / r["it"] for r in rows[name])
-        print(f"{name}: solve {t:.2f} s, {rows[name][0]['it']:.0f} it, "
+        cpu = statistics.median(r["cpu"] for r in rows[name])
+        print(f"{name}: solve {t:.2f} s (CPU {cpu:.2f} s), {rows[name][0]['it']:.0f} it, "
               f"KKT solve (PDSystemSolverTotal, wall) {fac * 1e3:.1f} ms/it")
 
 
