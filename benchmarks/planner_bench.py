@@ -190,6 +190,8 @@ def _spread(times: list[float], iters: list[int]) -> str:
 PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "expanded": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="expanded")),
     "knot": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="knot")),
+    # "knot" before the assembled constraint Jacobian (docs/results/planner_speed_lifted.md)
+    "knot-ad": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_jacobian="ad")),
     "compiled": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="compiled")),
     # EXPERIMENTAL: stage-wise FATROP (docs/results/planner_speed_fatrop.md)
     "fatrop": lambda robot, n: _fatrop_planner(robot, n),

@@ -261,11 +261,11 @@ class GaitPlanner:
         self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
         #: `PlannerOptions.nlp_jacobian` "assembled": IPOPT's jac_g (`_make_solver`)
         self._jac_g: ca.Function | None = None
-        if self.options.nlp_jacobian == "assembled":
-            if self.knot_derivatives is None or kq.knot_call is None:
-                raise PlannerConfigError(
-                    'nlp_jacobian="assembled" needs derivatives "knot" or "compiled"'
-                )
+        if (
+            self.options.nlp_jacobian == "assembled"
+            and self.knot_derivatives is not None
+            and kq.knot_call is not None
+        ):
             self._jac_g = assembled_jacobian(
                 sym.x, sym.p, g_solver, kq.knot_call, self.knot_derivatives.jacobian, n_knots
             )

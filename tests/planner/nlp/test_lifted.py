@@ -25,7 +25,7 @@ def test_assembled_jacobian_is_casadis_own(robot_name: str, lifted_rates: str) -
     """Same values and sparsity as CasADi's AD of the NLP, at a random point; the biped's flat
     feet use the knot's outputs nonlinearly, so ∂G/∂Y depends on Y there."""
     robot = robots.load(robot_name)
-    ad = GaitPlanner(robot, 8, PlannerOptions(lifted_rates=lifted_rates))
+    ad = GaitPlanner(robot, 8, PlannerOptions(lifted_rates=lifted_rates, nlp_jacobian="ad"))
     assembled = GaitPlanner(
         robot, 8, PlannerOptions(lifted_rates=lifted_rates, nlp_jacobian="assembled")
     )
@@ -93,6 +93,12 @@ def test_options_are_checked() -> None:
         PlannerOptions(lifted_torques=1)  # type: ignore[arg-type]
     with pytest.raises(PlannerConfigError, match="nlp_jacobian"):
         PlannerOptions(nlp_jacobian="exact")
-    with pytest.raises(PlannerConfigError, match="assembled"):
-        GaitPlanner(robots.load("quad12"), 8,
-                    PlannerOptions(derivatives="expanded", nlp_jacobian="assembled"))
+
+
+
+def test_assembled_jacobian_is_the_default_with_knot_derivatives_only() -> None:
+    robot = robots.load("quad12")
+    assert GaitPlanner(robot, 8)._jac_g is not None
+    assert GaitPlanner(robot, 8, PlannerOptions(nlp_jacobian="ad"))._jac_g is None
+    # the expanded NLP differentiates its own SX
+    assert GaitPlanner(robot, 8, PlannerOptions(derivatives="expanded"))._jac_g is None
