@@ -4,6 +4,7 @@ Jacobian from one knot J per knot (docs/results/planner_speed_lifted.md)."""
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -40,6 +41,30 @@ def test_assembled_jacobian_is_casadis_own(robot_name: str, lifted_rates: str) -
     np.testing.assert_array_equal(
         np.asarray(f_as(x, p)[0]).ravel(), np.asarray(f_ad(x, p)[0]).ravel()
     )
+
+
+def _called(function: ca.Function) -> list[str]:
+    return [
+        function.instruction_MX(k).which_function().name()
+        for k in range(function.n_instructions())
+        if function.instruction_id(k) == ca.OP_CALL
+    ]
+
+
+@pytest.mark.parametrize("robot_name", ["quad12", "hex18"])
+def test_assembled_jacobian_evaluates_every_knot_jacobian_once(robot_name: str) -> None:
+    """With the rates eliminated (quad12: 66 variables per knot) and on hex18 (88 inputs)
+    CasADi's AD evaluates J twice (fwd64 and one more batch); assembled: one map of J and no
+    forward derivative of the knot."""
+    robot = robots.load(robot_name)
+    for rates in ("all", "none"):
+        planner = GaitPlanner(robot, 8, PlannerOptions(lifted_rates=rates))
+        called = _called(planner._solver.get_function("nlp_jac_g"))
+        assert not [c for c in called if c.startswith("fwd")], called
+        assert [c for c in called if c.endswith("J_knot")] == ["map8_J_knot"], called
+    ad = GaitPlanner(robot, 8, PlannerOptions(lifted_rates="none", nlp_jacobian="ad"))
+    fwd = [c for c in _called(ad._solver.get_function("nlp_jac_g")) if c.startswith("fwd")]
+    assert len(fwd) == 2 and fwd[0].startswith("fwd64_"), fwd
 
 
 def test_eliminated_slots_are_fixed_and_dropped_rows() -> None:
