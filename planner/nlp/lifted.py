@@ -13,7 +13,6 @@ start carries the values the expressions take, so a warm start passes between bo
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -56,7 +55,3 @@ def with_lifted_values(
     out[mask] = full[mask]
     return out
 
-
-def describe(options: PlannerOptions) -> dict[str, Any]:
-    """What is lifted, for reports and benchmarks."""
-    return {"lifted_rates": options.lifted_rates, "lifted_torques": options.lifted_torques}

@@ -229,7 +229,10 @@ class GaitPlanner:
             )
             directions = directions_path(plain, n_knots, self.options)
             known = load_directions(directions)
-            forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)
+            # the assembled constraint Jacobian calls J itself, never the knot's forward
+            # derivatives (CasADi would generate any it asked for: exact, only slower)
+            assembled = self.options.nlp_jacobian == "assembled"
+            forward, second = known or (() if assembled else ALL_DIRECTIONS, ALL_DIRECTIONS)
             self.knot_derivatives = with_knot_derivatives(plain, jac, hess, forward, second)
             knot = self.knot_derivatives.knot
         sym = eliminate_rates(sym, n_knots, self.options)
