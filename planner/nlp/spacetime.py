@@ -15,7 +15,9 @@ IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the N
 hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
 "expanded" expands the whole NLP to SX (slow build); "compiled" is "knot" with J and H compiled
 to C once per robot (`planner.nlp.compiled_knot`; "knot" picks a compiled entry up). Same
-optimum; see docs/results/planner_speed.md and planner_speed_compiled.md.
+optimum; see docs/results/planner_speed.md and planner_speed_compiled.md. With "knot" and
+"compiled" IPOPT's constraint Jacobian is assembled from one knot Jacobian per knot
+(`PlannerOptions.nlp_jacobian`, `planner.nlp.assembled_jacobian`; planner_speed_lifted.md).
 """
 
 from __future__ import annotations

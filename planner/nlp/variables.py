@@ -13,6 +13,8 @@ Per knot k = 0…N−1 (phase k/N of one period, treadmill frame):
   evaluate and to factorise than the banded Hessian of the direct substitution;
 - lifted joint torques ``τ_k`` [N·m], tied to the inverse dynamics by an equality group, so the
   servo-envelope rows are linear (2 non-zeros each instead of a dense RNEA row);
+- (`PlannerOptions.lifted_rates` / `lifted_torques` can eliminate v, a and τ instead: their
+  slots stay in the vector, fixed at 0, and the NLP uses the expressions; `planner.nlp.lifted`)
 - lifted servo-goal spline slopes ``s_k`` [rad/s]: the knot slopes of the periodic cubic spline
   the player streams through the servo goals (`planner.nlp.servo_loop`), tied to the goals by the
   spline's cyclic tridiagonal equations; its speed anywhere in an interval is then a sparse row
