@@ -225,6 +225,7 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "elim-xy": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(lifted_rates="base_xy", nlp_jacobian="ad")
     ),
+    "elim-acc": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(lifted_rates="velocities")),
     "elim-all": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(lifted_rates="none", lifted_torques=False, nlp_jacobian="ad")
     ),

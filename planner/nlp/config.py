@@ -47,7 +47,7 @@ IPOPT_TUNINGS = ("tuned", "session21")
 #: values of `PlannerOptions.nlp_jacobian`
 NLP_JACOBIANS = ("ad", "assembled")
 #: values of `PlannerOptions.lifted_rates` (`planner.nlp.lifted`)
-LIFTED_RATES = ("all", "base_xy", "none")
+LIFTED_RATES = ("all", "base_xy", "velocities", "none")
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -252,7 +252,8 @@ class PlannerOptions:
       already use the cores (docs/results/planner_speed_threads.md).
     - `lifted_rates`: which base and joint rates and accelerations are decision variables tied
       to the poses by the cyclic central differences (equality rows): "all" (default), "none"
-      (every rate is the differences themselves, `planner.nlp.lifted`) or "base_xy" (only the
+      (every rate is the differences themselves, `planner.nlp.lifted`), "velocities" (the
+      accelerations are eliminated, the velocities lifted) or "base_xy" (only the
       base's horizontal rates ẋ, ẏ, ẍ, ÿ stay lifted, so a knot's rows still depend on at most
       64 NLP variables on quad12: one batch of CasADi's forward directions). Eliminated
       variables keep their slots, fixed at 0 (IPOPT drops fixed variables: a smaller KKT

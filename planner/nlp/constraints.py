@@ -286,6 +286,13 @@ def build_groups(
             zeros(4 * n),
             np.r_[np.full(2 * n, rate[0]), np.full(2 * n, rate[0] / t0)],
         )],
+        "velocities": [Group(
+            "velocity differences",
+            col(sym.vel - vel_fd),
+            zeros(n_rates),
+            zeros(n_rates),
+            fd_scale[:n_rates],
+        )],
         "none": [],
     }[options.lifted_rates]
     groups = [
@@ -543,6 +550,7 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         "finite differences": [
             f"{d}@knot {k}" for _ in range(2) for k in range(n_knots) for d in dofs
         ],
+        "velocity differences": [f"{d}@knot {k}" for k in range(n_knots) for d in dofs],
         "base xy differences": [
             f"{d}@knot {k}" for d2 in ("d/dt", "d2/dt2") for k in range(n_knots)
             for d in (f"{d2} x", f"{d2} y")

@@ -13,6 +13,7 @@ start carries the values the expressions take, so a warm start passes between bo
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -25,14 +26,19 @@ from planner.nlp.variables import LIFTED_LEADING_ROWS, Layout, Symbols
 def eliminate_rates(sym: Symbols, n_knots: int, options: PlannerOptions) -> Symbols:
     """`sym` with the eliminated rows of `vel` and `acc` (`PlannerOptions.lifted_rates`)
     replaced by the poses' central differences (unchanged with "all")."""
-    kept = LIFTED_LEADING_ROWS[options.lifted_rates]
-    if kept is None:
+    kept_vel, kept_acc = LIFTED_LEADING_ROWS[options.lifted_rates]
+    if kept_vel is None and kept_acc is None:
         return sym
-    vel, acc = finite_difference_rates(sym, n_knots)
-    if kept:
-        vel = ca.vertcat(sym.vel[:kept, :], vel[kept:, :])
-        acc = ca.vertcat(sym.acc[:kept, :], acc[kept:, :])
-    return dataclasses.replace(sym, vel=vel, acc=acc)
+    vel_fd, acc_fd = finite_difference_rates(sym, n_knots)
+
+    def mixed(lifted: Any, differences: Any, kept: int | None) -> Any:
+        if kept is None:
+            return lifted
+        return ca.vertcat(lifted[:kept, :], differences[kept:, :]) if kept else differences
+
+    return dataclasses.replace(
+        sym, vel=mixed(sym.vel, vel_fd, kept_vel), acc=mixed(sym.acc, acc_fd, kept_acc)
+    )
 
 
 def lifted_values_function(sym: Symbols, kq: KnotQuantities) -> ca.Function:

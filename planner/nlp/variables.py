@@ -292,20 +292,27 @@ def variable_bounds(
     return lo, hi
 
 
-#: per `PlannerOptions.lifted_rates`: how many leading rows of the (6+J)-row rate and
-#: acceleration blocks stay lifted (the base's x, y come first), None: all of them
-LIFTED_LEADING_ROWS: dict[str, int | None] = {"all": None, "base_xy": 2, "none": 0}
+#: per `PlannerOptions.lifted_rates`: how many leading rows of the (6+J)-row rate and of the
+#: acceleration blocks stay lifted (the base's x, y come first); None: all of them
+LIFTED_LEADING_ROWS: dict[str, tuple[int | None, int | None]] = {
+    "all": (None, None),
+    "base_xy": (2, 2),
+    "velocities": (None, 0),
+    "none": (0, 0),
+}
 
 
 def eliminated_slots(layout: Layout, options: PlannerOptions) -> np.ndarray:
     """Boolean mask over the decision vector: the slots of eliminated quantities (fixed at 0)."""
     mask = np.zeros(layout.size, dtype=bool)
     start = layout.n_base + layout.n_q + layout.n_f
-    kept = LIFTED_LEADING_ROWS[options.lifted_rates]
-    if kept is not None:
-        rows = np.zeros((2 * layout.n_knots, 6 + layout.n_joints), dtype=bool)
-        rows[:, kept:] = True  # knot-major: rate rows of every knot, then acceleration rows
-        mask[start : start + 2 * layout.n_rates] = rows.ravel()
+    n = layout.n_knots
+    # knot-major: the rate rows of every knot, then the acceleration rows of every knot
+    rows = np.zeros((2 * n, 6 + layout.n_joints), dtype=bool)
+    for block, kept in enumerate(LIFTED_LEADING_ROWS[options.lifted_rates]):
+        if kept is not None:
+            rows[block * n : (block + 1) * n, kept:] = True
+    mask[start : start + 2 * layout.n_rates] = rows.ravel()
     start += 2 * layout.n_rates
     if not options.lifted_torques:
         mask[start : start + layout.n_q] = True

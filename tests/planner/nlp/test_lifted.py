@@ -80,6 +80,12 @@ def test_eliminated_slots_are_fixed_and_dropped_rows() -> None:
     names = {name for name, _ in eliminated._slices}
     assert "finite differences" not in names and "inverse dynamics" not in names
     assert lifted._lbg.size - eliminated._lbg.size == 2 * (6 + nj) * n + nj * n
+    velocities = GaitPlanner(robot, 8, PlannerOptions(lifted_rates="velocities"))
+    mask_v = eliminated_slots(velocities.layout, velocities.options)
+    assert mask_v.sum() == (6 + nj) * n and mask_v[mask.nonzero()[0][(6 + nj) * n]]
+    assert not mask_v[mask.nonzero()[0][0]]  # the first rate slot stays lifted
+    assert dict(velocities._slices)["velocity differences"].stop - dict(velocities._slices)[
+        "velocity differences"].start == (6 + nj) * n
     xy = GaitPlanner(robot, 8, PlannerOptions(lifted_rates="base_xy"))
     assert eliminated_slots(xy.layout, xy.options).sum() == 2 * (4 + nj) * n
     assert dict(xy._slices)["base xy differences"].stop - dict(xy._slices)[
