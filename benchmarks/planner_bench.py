@@ -190,6 +190,8 @@ def _spread(times: list[float], iters: list[int]) -> str:
 PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "expanded": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="expanded")),
     "knot": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="knot")),
+    # "knot" before the assembled constraint Jacobian (docs/results/planner_speed_lifted.md)
+    "knot-ad": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_jacobian="ad")),
     "compiled": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="compiled")),
     # EXPERIMENTAL: stage-wise FATROP (docs/results/planner_speed_fatrop.md)
     "fatrop": lambda robot, n: _fatrop_planner(robot, n),
@@ -214,6 +216,24 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "knot-t2": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(knot_threads=2)),
     "compiled-t2": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="compiled", knot_threads=2)
+    ),
+    # docs/results/planner_speed_lifted.md: the rates (and the torques) eliminated instead of
+    # lifted (`planner.nlp.lifted`), with CasADi's AD constraint Jacobian as measured there
+    "elim-rates": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(lifted_rates="none", nlp_jacobian="ad")
+    ),
+    "elim-xy": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(lifted_rates="base_xy", nlp_jacobian="ad")
+    ),
+    "elim-acc": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(lifted_rates="velocities")),
+    "elim-all": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(lifted_rates="none", lifted_torques=False, nlp_jacobian="ad")
+    ),
+    # the constraint Jacobian assembled from one J per knot (`planner.nlp.assembled_jacobian`;
+    # "knot-aj" is the default "knot" since then, named for the comparisons in that file)
+    "knot-aj": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_jacobian="assembled")),
+    "elim-aj": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(lifted_rates="none", nlp_jacobian="assembled")
     ),
 }
 
@@ -270,6 +290,10 @@ def _build_paths(
     return planners
 
 
+def _cpu_ms_per_it(cpu_s: list[float], iterations: list[int]) -> float:
+    return sum(cpu_s) / max(1, sum(iterations)) * 1e3
+
+
 def compare(
     robot_name: str,
     gait: str,
@@ -307,11 +331,16 @@ def compare(
     unconverged = {p: 0 for p in paths[1:]}
     worst_unconverged = {p: 0.0 for p in paths[1:]}
     verdicts = 0
+    # process CPU time per solve: moves far less than wall time with a shared machine's load
+    cpu: dict[str, list[float]] = {p: [] for p in paths}
     for label, schedule in schedules:
         results: dict[str, PlanResult] = {}
+        cpu_s: dict[str, float] = {}
         for path in paths:
             try:
+                t0 = time.process_time()
                 res = planners[path].solve(schedule, speed, warm_start=False)
+                cpu_s[path] = time.process_time() - t0
             except PlannerConfigError:
                 break  # e.g. "stand" at a moving speed: not a plan for any path
             results[path] = res
@@ -321,6 +350,7 @@ def compare(
         for path, res in results.items():
             rows[path][0].append(res.solve_time_s)
             rows[path][1].append(res.iterations)
+            cpu[path].append(cpu_s[path])
         a = results[base_name]
         line = [f"{base_name} {a.cost:.6g} ({a.iterations} it, {a.solve_time_s:.2f} s, "
                 f"{'feasible' if a.feasible else a.status})"]
@@ -345,7 +375,10 @@ def compare(
         print(f"  {label}: " + " | ".join(line))
     print(f"  cold solves over {verdicts} schedules:")
     for path in paths:
-        print(f"    {path}: {_spread(*rows[path])}")
+        cpu_ms = _cpu_ms_per_it(cpu[path], rows[path][1])
+        cpu_med = statistics.median(cpu[path] or [float("nan")])
+        print(f"    {path}: {_spread(*rows[path])}; process CPU {cpu_ms:.1f} ms/it, "
+              f"median {cpu_med:.2f} s")
     for path in paths[1:]:
         if not rows[path][0]:
             continue
@@ -353,8 +386,12 @@ def compare(
         ratio_it = (sum(rows[path][0]) / max(1, sum(rows[path][1]))) / (
             sum(rows[base_name][0]) / max(1, sum(rows[base_name][1]))
         )
+        cpu_ratio = _cpu_ms_per_it(cpu[path], rows[path][1]) / _cpu_ms_per_it(
+            cpu[base_name], rows[base_name][1]
+        )
         print(
-            f"    {path}/{base_name}: median {ratio_med:.2f}, ms/it {ratio_it:.2f}; same optimum "
+            f"    {path}/{base_name}: median {ratio_med:.2f}, ms/it {ratio_it:.2f}, CPU ms/it "
+            f"{cpu_ratio:.2f}; same optimum "
             f"{same[path]}/{verdicts - unconverged[path]} converged (same verdict and cost "
             f"within {SAME_COST_RTOL:g} relative or lower; {lower[path]} lower), worst |rel| "
             f"{worst_rel[path]:.1e}; {unconverged[path]} stopped short of optimality on either "
@@ -364,15 +401,19 @@ def compare(
         warm_rng = np.random.default_rng(seed + 1)
         chain = [perturbed(base, warm_rng) for _ in range(n_warm)]
         warm: dict[str, tuple[list[float], list[int]]] = {}
+        warm_cpu: dict[str, float] = {}
         for path in paths:
             planner = planners[path]
             planner.solve(base, speed, warm_start=False)  # the chain starts from this optimum
+            t0 = time.process_time()
             chained = [planner.solve(s, speed) for s in chain]
+            warm_cpu[path] = time.process_time() - t0
             warm[path] = ([r.solve_time_s for r in chained], [r.iterations for r in chained])
         print(f"  warm chain of {n_warm} ({gait}, perturbed):")
         for path in paths:
             ratio = statistics.median(warm[path][0]) / statistics.median(warm[base_name][0])
-            print(f"    {path}: {_spread(*warm[path])}, /{base_name} median {ratio:.2f}")
+            print(f"    {path}: {_spread(*warm[path])}, /{base_name} median {ratio:.2f}; process "
+                  f"CPU {_cpu_ms_per_it([warm_cpu[path]], warm[path][1]):.1f} ms/it")
 
 
 def main() -> None:

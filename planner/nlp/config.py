@@ -45,6 +45,10 @@ GRAVITY_M_S2 = 9.81
 DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 #: values of `PlannerOptions.ipopt_tuning` (`planner.nlp.spacetime.ipopt_options`)
 IPOPT_TUNINGS = ("tuned", "session21")
+#: values of `PlannerOptions.nlp_jacobian`
+NLP_JACOBIANS = ("ad", "assembled")
+#: values of `PlannerOptions.lifted_rates` (`planner.nlp.lifted`)
+LIFTED_RATES = ("all", "base_xy", "velocities", "none")
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -255,6 +259,24 @@ class PlannerOptions:
       values. 1 (default): two threads cost 5–15 % more CPU and lost where measured without
       heavy oversubscription (quad12 trot 1.16× per solve); a search's worker processes
       already use the cores (docs/results/planner_speed_threads.md).
+    - `lifted_rates`: which base and joint rates and accelerations are decision variables tied
+      to the poses by the cyclic central differences (equality rows): "all" (default), "none"
+      (every rate is the differences themselves, `planner.nlp.lifted`), "velocities" (the
+      accelerations are eliminated, the velocities lifted) or "base_xy" (only the
+      base's horizontal rates ẋ, ẏ, ẍ, ÿ stay lifted, so a knot's rows still depend on at most
+      64 NLP variables on quad12: one batch of CasADi's forward directions). Eliminated
+      variables keep their slots, fixed at 0 (IPOPT drops fixed variables: a smaller KKT
+      system). `lifted_torques` False: the joint torques are the inverse dynamics' output
+      instead of variables tied to it. Same optimum; docs/results/planner_speed_lifted.md
+      measures what each costs.
+    - `nlp_jacobian`: how IPOPT's constraint Jacobian is computed with `derivatives` "knot" or
+      "compiled" ("expanded" always differentiates its SX): "assembled" (default) — the chain
+      rule written out with one J per knot (`planner.nlp.assembled_jacobian`); "ad" — CasADi's
+      AD of the NLP, which seeds the knots in batches of 64 forward directions (every knot's J
+      twice when a knot's rows depend on more than 64 variables: hex18). Same Jacobian to
+      rounding, the same iterates where measured; jac_g CPU per call quad12 15.0 → 11.0 ms,
+      compiled 9.2 → 3.5 ms, hex18 48 → 18 ms (docs/results/planner_speed_lifted.md). With
+      `knot_threads` > 1 the assembled Jacobian evaluates J serially.
     """
 
     mu: float = 0.5
@@ -288,6 +310,9 @@ class PlannerOptions:
     derivatives: str = "knot"
     ipopt_tuning: str = "tuned"
     knot_threads: int = 1
+    lifted_rates: str = "all"
+    lifted_torques: bool = True
+    nlp_jacobian: str = "assembled"
 
     def __post_init__(self) -> None:
         checks = {
@@ -323,6 +348,9 @@ class PlannerOptions:
             "ipopt_tuning": self.ipopt_tuning in IPOPT_TUNINGS,
             "knot_threads": type(self.knot_threads) is int
             and 1 <= self.knot_threads <= MAX_KNOT_THREADS,
+            "lifted_rates": self.lifted_rates in LIFTED_RATES,
+            "lifted_torques": type(self.lifted_torques) is bool,
+            "nlp_jacobian": self.nlp_jacobian in NLP_JACOBIANS,
         }
         for name, ok in checks.items():
             if not ok:

@@ -22,6 +22,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from planner.nlp.assembled_jacobian import KnotCall
 from planner.nlp.command import MotionSymbols
 from planner.nlp.config import PlannerOptions
 from planner.nlp.flat_foot import (
@@ -68,6 +69,8 @@ class KnotQuantities:
     qdd: Any  # J × N
     base_d: Any  # 6 × N base pose rates
     omega_world: Any  # 3 × N: base ω in the world minus the commanded turn (0, 0, W)
+    #: the knot map's call as these expressions use it (`planner.nlp.assembled_jacobian`)
+    knot_call: KnotCall | None = None
 
 
 def _shift(m: Any, k: int) -> Any:
@@ -123,6 +126,7 @@ def knot_quantities(
     threads: int = 1,
     omega_from_knot: bool = False,
     origin_base_xy: bool = True,
+    lifted_torques: bool = True,
 ) -> KnotQuantities:
     """The knot function mapped over the knots; `knot`: a `knot_function(model)` to use instead
     (e.g. one with precomputed derivatives, `planner.nlp.solver_cache`). `threads` > 1: the
@@ -131,7 +135,9 @@ def knot_quantities(
     ω from the knot's "w" output as before issue #16's objective-gradient change (same values;
     kept for benchmarks/planner_bench.py to measure against). `origin_base_xy` (default): the
     knot is evaluated with the base at x = y = 0 and its feet shifted by the base's x, y
-    afterwards (the same values to rounding; False: the base through the knot, as before)."""
+    afterwards (the same values to rounding; False: the base through the knot, as before).
+    `lifted_torques` False: the torques are the inverse dynamics' output itself
+    (`PlannerOptions.lifted_torques`), not the lifted variables."""
     bd, qd = sym.vel[:6, :], sym.vel[6:, :]
     bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
     fn = mapped_knots(knot if knot is not None else knot_function(model), n_knots, threads)
@@ -144,10 +150,12 @@ def knot_quantities(
         # fewer (quad12: 64, one batch of forward directions for the NLP Jacobian instead of
         # 64 + 2, i.e. one evaluation of every knot's J instead of two)
         base = ca.vertcat(ca.MX.zeros(2, n_knots), sym.base[2:, :])
-    base_rows, tau, feet, body_z, w_knot = fn(
-        base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s,
-        _motion(sym).vy_m_s, yaw_rate, *flat
+    arguments = (
+        base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s, _motion(sym).vy_m_s, yaw_rate,
+        *flat,
     )
+    outputs = tuple(fn(*arguments))
+    base_rows, tau, feet, body_z, w_knot = outputs
     if origin_base_xy:
         shift = ca.vertcat(sym.base[0:2, :], ca.MX.zeros(1, n_knots))
         feet = feet + ca.repmat(shift, model.n_feet, 1)
@@ -156,7 +164,10 @@ def knot_quantities(
     w = w_knot if omega_from_knot else omega_function(model).map(n_knots)(
         sym.base[3:6, :], bd[3:6, :], yaw_rate
     )
-    return KnotQuantities(base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w)
+    tau_nm = sym.tau if lifted_torques else tau
+    return KnotQuantities(
+        base_rows, tau_nm, tau, feet, body_z, qd, qdd, bd, w, KnotCall(arguments, outputs)
+    )
 
 
 def omega_function(model: RobotModel) -> ca.Function:
@@ -188,6 +199,22 @@ def _motion(sym: Symbols) -> MotionSymbols:
     if sym.motion is None:
         raise ValueError("the NLP symbols carry no velocity command block (make_symbols)")
     return sym.motion
+
+
+def finite_difference_rates(sym: Symbols, n_knots: int) -> tuple[Any, Any]:
+    """The cyclic central differences of the poses, (6+J) × N each: rates (the base's relative
+    to the command: world velocity − (vx, vy), yaw rate − W) and accelerations. Linear in the
+    poses; knot k's neighbours are compared in its command frame (`planner.nlp.command`)."""
+    motion = _motion(sym)
+    n, nj = n_knots, int(sym.q.shape[0])
+    pose = ca.vertcat(sym.base, sym.q)
+    # neighbours in the command frame of knot k (`planner.nlp.command`): only base x, y change
+    nxt, prv = _shift(pose, 1), _shift(pose, -1)
+    nxt = _in_frame(nxt, *motion.next_in_frame(nxt[0, :], nxt[1, :]))
+    prv = _in_frame(prv, *motion.previous_in_frame(prv[0, :], prv[1, :]))
+    command_rate = ca.repmat(ca.vertcat(motion.vx_m_s, motion.vy_m_s, ca.DM.zeros(4 + nj)), 1, n)
+    inv_h = n / sym.period_s
+    return (nxt - prv) * (0.5 * inv_h) - command_rate, (nxt - 2 * pose + prv) * (inv_h * inv_h)
 
 
 def _in_frame(rows: Any, x: Any, y: Any) -> Any:
@@ -230,13 +257,7 @@ def build_groups(
         return ca.vec(e)
 
     clearance = options.body_clearance_for(model.robot.leg_length_m)
-    pose = ca.vertcat(sym.base, sym.q)
-    # neighbours in the command frame of knot k (`planner.nlp.command`): only base x, y change
-    nxt, prv = _shift(pose, 1), _shift(pose, -1)
-    nxt = _in_frame(nxt, *motion.next_in_frame(nxt[0, :], nxt[1, :]))
-    prv = _in_frame(prv, *motion.previous_in_frame(prv[0, :], prv[1, :]))
-    # lifted base rates are relative to the command: world velocity − (vx, vy), yaw rate − W
-    command_rate = ca.repmat(ca.vertcat(motion.vx_m_s, motion.vy_m_s, ca.DM.zeros(4 + nj)), 1, n)
+    vel_fd, acc_fd = finite_difference_rates(sym, n)
     inv_h = n / sym.period_s
     n_rates = (6 + nj) * n
     # row scales (nondimensional NLP, see `planner.nlp.variables.variable_scale`): lengths in leg
@@ -249,28 +270,45 @@ def build_groups(
     lateral_lb, lateral_ub = lateral_slip_bounds_m(
         model.robot, n, options.sideways_slip_leg_lengths
     )
-    groups = [
-        # cyclic central differences tie the lifted rates to the poses (linear in x)
-        Group(
+    # cyclic central differences tie the lifted rates to the poses (linear in x); eliminated
+    # rates (`PlannerOptions.lifted_rates`) are those differences themselves: no rows
+    differences = {
+        "all": [Group(
             "finite differences",
-            ca.vertcat(
-                col(sym.vel - ((nxt - prv) * (0.5 * inv_h) - command_rate)),
-                col(sym.acc - (nxt - 2 * pose + prv) * (inv_h * inv_h)),
-            ),
+            ca.vertcat(col(sym.vel - vel_fd), col(sym.acc - acc_fd)),
             zeros(2 * n_rates),
             zeros(2 * n_rates),
             fd_scale,
-        ),
+        )],
+        "base_xy": [Group(
+            "base xy differences",
+            ca.vertcat(col(sym.vel[:2, :] - vel_fd[:2, :]), col(sym.acc[:2, :] - acc_fd[:2, :])),
+            zeros(4 * n),
+            zeros(4 * n),
+            np.r_[np.full(2 * n, rate[0]), np.full(2 * n, rate[0] / t0)],
+        )],
+        "velocities": [Group(
+            "velocity differences",
+            col(sym.vel - vel_fd),
+            zeros(n_rates),
+            zeros(n_rates),
+            fd_scale[:n_rates],
+        )],
+        "none": [],
+    }[options.lifted_rates]
+    groups = [
+        *differences,
         # W&P eqs 7-8: the floating base is unactuated — whole-body linear/angular momentum rate
         # equals gravity + contact forces (the six base rows of the inverse dynamics vanish).
         Group("dynamics", col(kq.base_rows), zeros(6 * n), zeros(6 * n)),
-        # joint torques by inverse dynamics of the floating-base tree (scaled by τ_stall)
-        Group(
+        # joint torques by inverse dynamics of the floating-base tree (scaled by τ_stall);
+        # without `lifted_torques` the torques are the inverse dynamics' and the group is absent
+        *([Group(
             "inverse dynamics",
             col((kq.tau_nm - kq.tau_rnea_nm) / ca.repmat(stall, 1, n)),
             zeros(nj * n),
             zeros(nj * n),
-        ),
+        )] if options.lifted_torques else []),
         # eq 2: stance foot-sphere centre at the sphere radius
         Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n), length),
         # eq 3: stance feet stay put in the world: knot k+1's foot, in the command frame of knot
@@ -524,6 +562,11 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
     return {
         "finite differences": [
             f"{d}@knot {k}" for _ in range(2) for k in range(n_knots) for d in dofs
+        ],
+        "velocity differences": [f"{d}@knot {k}" for k in range(n_knots) for d in dofs],
+        "base xy differences": [
+            f"{d}@knot {k}" for d2 in ("d/dt", "d2/dt2") for k in range(n_knots)
+            for d in (f"{d2} x", f"{d2} y")
         ],
         "dynamics": [
             f"{a}@knot {k}" for k in range(n_knots) for a in ("fx", "fy", "fz", "mx", "my", "mz")

@@ -15,7 +15,9 @@ IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the N
 hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
 "expanded" expands the whole NLP to SX (slow build); "compiled" is "knot" with J and H compiled
 to C once per robot (`planner.nlp.compiled_knot`; "knot" picks a compiled entry up). Same
-optimum; see docs/results/planner_speed.md and planner_speed_compiled.md.
+optimum; see docs/results/planner_speed.md and planner_speed_compiled.md. With "knot" and
+"compiled" IPOPT's constraint Jacobian is assembled from one knot Jacobian per knot
+(`PlannerOptions.nlp_jacobian`, `planner.nlp.assembled_jacobian`; planner_speed_lifted.md).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ import numpy as np
 
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp import diagnostics
+from planner.nlp.assembled_jacobian import assembled_jacobian
 from planner.nlp.command import check_command
 from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import (
@@ -45,6 +48,7 @@ from planner.nlp.constraints import (
     row_scales,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
+from planner.nlp.lifted import eliminate_rates, lifted_values_function, with_lifted_values
 from planner.nlp.mirror import check_mirror
 from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import (
@@ -60,6 +64,7 @@ from planner.nlp.solver_cache import (
 )
 from planner.nlp.variables import (
     Layout,
+    eliminated_slots,
     initial_guess,
     make_symbols,
     parameter_vector,
@@ -226,10 +231,17 @@ class GaitPlanner:
             )
             directions = directions_path(plain, n_knots, self.options)
             known = load_directions(directions)
-            forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)
+            # the assembled constraint Jacobian calls J itself, never the knot's forward
+            # derivatives (CasADi would generate any it asked for: exact, only slower)
+            assembled = self.options.nlp_jacobian == "assembled"
+            forward, second = known or (() if assembled else ALL_DIRECTIONS, ALL_DIRECTIONS)
             self.knot_derivatives = with_knot_derivatives(plain, jac, hess, forward, second)
             knot = self.knot_derivatives.knot
-        kq = knot_quantities(self.model, sym, n_knots, knot, self.options.knot_threads)
+        sym = eliminate_rates(sym, n_knots, self.options)
+        kq = knot_quantities(
+            self.model, sym, n_knots, knot, self.options.knot_threads,
+            lifted_torques=self.options.lifted_torques,
+        )
         groups = build_groups(self.model, sym, kq, n_knots, self.options)
         terms = cost_terms(self.model, sym, kq, n_knots)
         objective = weighted_objective(terms, self.options.weights)
@@ -252,12 +264,29 @@ class GaitPlanner:
             "evaluate", [sym.x, sym.p], [g, kq.tau_nm, kq.qd, *terms.values()]
         )
         self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
+        #: `PlannerOptions.nlp_jacobian` "assembled": IPOPT's jac_g (`_make_solver`)
+        self._jac_g: ca.Function | None = None
+        if (
+            self.options.nlp_jacobian == "assembled"
+            and self.knot_derivatives is not None
+            and kq.knot_call is not None
+        ):
+            self._jac_g = assembled_jacobian(
+                sym.x, sym.p, g_solver, kq.knot_call, self.knot_derivatives.jacobian, n_knots
+            )
+        #: eliminated rates / torques (`planner.nlp.lifted`): their slots and their values
+        self._eliminated = eliminated_slots(self.layout, self.options)
+        self._lifted_values = (
+            lifted_values_function(sym, kq) if self._eliminated.any() else None
+        )
         self._solver = self._make_solver()
         self._warm_solver: Any | None = None  # `_solver_for`
         if self.knot_derivatives is not None and plain is not None:
             # the next build with this knot, N and options creates only the derivatives used
             used = used_directions(self._solver, plain.name())
-            if used != known and used[0]:  # none found: a map CasADi named otherwise
+            # none found: a map CasADi named otherwise (the assembled Jacobian uses no
+            # forward directions of the knot, only the Hessian's)
+            if used != known and (used[0] or (self._jac_g is not None and used[1])):
                 save_directions(directions, *used)
         self._last: WarmStart | None = None
         self.build_time_s = time.perf_counter() - t0
@@ -282,6 +311,8 @@ class GaitPlanner:
             "expand": self.options.derivatives == "expanded",
             "error_on_fail": False,
         }
+        if self._jac_g is not None:
+            opts["jac_g"] = self._jac_g
         return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)
 
     def _solver_for(self, warm: bool) -> Any:
@@ -349,7 +380,9 @@ class GaitPlanner:
             x0 = initial_guess(self.layout, self.model, schedule)
             start = WarmStart(x0, np.zeros_like(x0), np.zeros_like(self._lbg))
         elif not WARM_START_DUALS:
-            start = WarmStart(start.x, np.zeros_like(start.lam_x), np.zeros_like(start.lam_g))
+            # this NLP's row count (a warm start may come from a planner with other rows, e.g.
+            # lifted rates: `planner.nlp.lifted`)
+            start = WarmStart(start.x, np.zeros_like(self._lbx), np.zeros_like(self._lbg))
         xs, gs = self._x_scale, self._g_scale
         with _sigint_watch() as interrupted:
             # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
@@ -467,7 +500,7 @@ class GaitPlanner:
             max_violation=max_violation,
             binding=binding,
             message=message,
-            warm_start=WarmStart(x, lam_x, lam_g),
+            warm_start=WarmStart(self._filled(x, p), lam_x, lam_g),
             optimal=optimal,
             stats={
                 "return_status": status,
@@ -477,6 +510,14 @@ class GaitPlanner:
                 "iterations": _iteration_log(stats),
             },
         )
+
+    def _filled(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """`x` with the eliminated slots holding the values of their expressions (so a warm
+        start suits a planner with lifted variables too); `x` itself when nothing is."""
+        if self._lifted_values is None:
+            return x
+        values = np.asarray(self._lifted_values(x / self._x_scale, p)).ravel()
+        return with_lifted_values(self.layout, x, values, self._eliminated)
 
     # -- output ------------------------------------------------------------------------------
 

@@ -273,7 +273,9 @@ def stage_functions(
     centre = _centre_symbols(wsym)
     kq1 = dataclasses.replace(
         kq,
-        **{f.name: getattr(kq, f.name)[:, 1] for f in dataclasses.fields(kq)},
+        **{f.name: getattr(kq, f.name)[:, 1] for f in dataclasses.fields(kq)
+           if f.name != "knot_call"},
+        knot_call=None,
     )
     terms = cost_terms(model, centre, kq1, 1)
     objective = weighted_objective(terms, options.weights) / n_knots

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import robots
+from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import knot_function, omega_function
 from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import with_knot_derivatives
@@ -84,7 +85,8 @@ def test_knot_rows_do_not_depend_on_the_base_x_y_and_its_feet_move_with_them(
 
 
 def test_quad12_nlp_jacobian_evaluates_every_knot_jacobian_once() -> None:
-    """66 → 64 knot inputs that are NLP variables: one batch of 64 forward directions."""
-    planner = GaitPlanner(robots.load("quad12"), 8)
+    """66 → 64 knot inputs that are NLP variables: one batch of 64 forward directions (CasADi's
+    AD Jacobian; the assembled one evaluates J once whatever the count: test_lifted.py)."""
+    planner = GaitPlanner(robots.load("quad12"), 8, PlannerOptions(nlp_jacobian="ad"))
     called = _called(planner._solver.get_function("nlp_jac_g"))
     assert [c for c in called if c.startswith("fwd")] == ["fwd64_map8_knot"]
