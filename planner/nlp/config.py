@@ -33,7 +33,7 @@ from planner.nlp.contact_margin import (
     FLAT_MEAN_FOOTPRINT_LEG_LENGTHS,
 )
 from planner.nlp.force_rate import NORMAL_FORCE_RATE_WEIGHTS_PER_T0
-from planner.nlp.handover import HANDOVER_TOUCHDOWN_WINDOW_CYCLES, HANDOVER_WINDOW_CYCLES
+from planner.nlp.handover import HANDOVER_WINDOW_CYCLES
 from planner.nlp.sideways_locked import SIDEWAYS_SLIP_LEG_LENGTHS
 from robots.servo_params import ServoSetting
 
@@ -239,9 +239,6 @@ class PlannerOptions:
       the trailing foot's normal load moved onto the landing foot stay within the servo
       envelope (`planner.nlp.handover`; MuJoCo's trailing servo foot lets go early, measured
       in docs/results/zoo_gaits.md "Session 24"). No rows on other foot counts. Default None.
-    - `handover_touchdown_window_cycles`: the same rows on a foot's first round(w·N) stance
-      knots after touchdown, its load moved onto the other (trailing) foot: the landing servo
-      foot takes its load late. Default None.
     - `half_cycle_mirror`: the second half of the cycle is the first half mirrored under
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
       half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric
@@ -311,7 +308,6 @@ class PlannerOptions:
     flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
     normal_force_rate_weights_per_t0: float | None = NORMAL_FORCE_RATE_WEIGHTS_PER_T0
     handover_window_cycles: float | None = HANDOVER_WINDOW_CYCLES
-    handover_touchdown_window_cycles: float | None = HANDOVER_TOUCHDOWN_WINDOW_CYCLES
     half_cycle_mirror: bool = False
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
@@ -355,9 +351,6 @@ class PlannerOptions:
             "handover_window_cycles": self.handover_window_cycles is None
             or (math.isfinite(self.handover_window_cycles)
                 and 0 < self.handover_window_cycles < 0.5),
-            "handover_touchdown_window_cycles": self.handover_touchdown_window_cycles is None
-            or (math.isfinite(self.handover_touchdown_window_cycles)
-                and 0 < self.handover_touchdown_window_cycles < 0.5),
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,

@@ -35,13 +35,11 @@ from planner.nlp.flat_foot import (
 from planner.nlp.foot_separation import foot_separation_labels, foot_separation_rows
 from planner.nlp.force_rate import force_rate_bounds, force_rate_labels, force_rate_rows
 from planner.nlp.handover import (
-    either,
     foot_height_jacobian,
     handover_labels,
     handover_pairs,
     handover_torques_nm,
     lift_off_window,
-    touchdown_window,
     window_knots,
 )
 from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
@@ -422,26 +420,21 @@ def _handover_groups(model: RobotModel, sym: Symbols, kq: KnotQuantities, n: int
     """Handover torque bound (`PlannerOptions.handover_window_cycles`, `planner.nlp.handover`):
     on a biped's last double-support knots before a lift-off, the landing leg's torques with the
     trailing foot's normal load moved onto it stay within the servo envelope."""
-    lift_w, touch_w = options.handover_window_cycles, options.handover_touchdown_window_cycles
+    window = options.handover_window_cycles
     pairs = handover_pairs(model)
-    if (lift_w is None and touch_w is None) or not pairs:
+    if window is None or not pairs:
         return []
-    # a's load moves onto b on a's last knots before lift-off and/or its first after touchdown
-    windows = [
-        *([lift_off_window(sym.contact, window_knots(lift_w, n))] if lift_w is not None else []),
-        *([touchdown_window(sym.contact, window_knots(touch_w, n))] if touch_w is not None
-          else []),
-    ]
-    moving = windows[0] if len(windows) == 1 else either(*windows)
+    m = window_knots(window, n)
     nj = model.n_joints
     weight_n = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2))
     dz = foot_height_jacobian(model).map(n)(sym.base[3:6, :], sym.q)  # F × (J·N)
     dz_dq = [ca.reshape(dz[i, :], nj, n) for i in range(model.n_feet)]
+    lifting = lift_off_window(sym.contact, m)
     fz = sym.forces[2::3, :]
     faces: list[list[Any]] = [[], [], [], []]
     for pair in pairs:
         rows = list(pair.joints)
-        active = ca.repmat(moving[pair.trailing, :] * sym.contact[pair.landing, :], len(rows), 1)
+        active = ca.repmat(lifting[pair.trailing, :] * sym.contact[pair.landing, :], len(rows), 1)
         tau = handover_torques_nm(kq.tau_nm, fz, dz_dq, weight_n, pair)
         tau_n = tau / ca.repmat(stall[rows] * options.torque_margin, 1, n)
         qd = qd_n[rows, :]

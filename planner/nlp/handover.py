@@ -27,11 +27,7 @@ where foot a is in stance and lifts off within the next m knots while foot b is 
 
 with w = `PlannerOptions.handover_window_cycles` (a fraction of the period; the rows are
 multiplied by this product of schedule parameters, so the NLP is still built once per robot
-and N). `PlannerOptions.handover_touchdown_window_cycles` adds the mirror-image load case at
-the other end of the double support: on foot a's first m stance knots after its touchdown,
-C_a,k · (1 − Π_{j=1..m} C_a,k−j) · C_b,k, a's planned load moved onto the trailing foot b
-(a landing servo foot also takes its load late: measured, the stance knee's sample peak sits
-at the other foot's touchdown, docs/results/zoo_gaits.md "Session 24b"). The simplification: the load case is not a dynamically consistent motion — the moved
+and N). The simplification: the load case is not a dynamically consistent motion — the moved
 force's moment about the centre of mass changes, and the base rows would not balance; it is the
 quasi-static load MuJoCo produces (the same total vertical force, all of it on the landing leg,
 at the planned posture), and the planned motion itself is unchanged. Tangential forces and the
@@ -59,8 +55,6 @@ from planner.nlp.model import RobotModel
 
 #: default of `PlannerOptions.handover_window_cycles`: off (no rows)
 HANDOVER_WINDOW_CYCLES: float | None = None
-#: default of `PlannerOptions.handover_touchdown_window_cycles`: off (no rows)
-HANDOVER_TOUCHDOWN_WINDOW_CYCLES: float | None = None
 
 
 @dataclass(frozen=True)
@@ -111,20 +105,6 @@ def lift_off_window(contact: Any, m: int) -> Any:
     for j in range(1, m + 1):
         ahead = ahead * ca.horzcat(contact[:, j % n:], contact[:, :j % n])
     return contact * (1 - ahead)
-
-
-def touchdown_window(contact: Any, m: int) -> Any:
-    """F × N: C_k·(1 − Π_{j=1..m} C_k−j) (cyclic): 1 on a foot's first m stance knots."""
-    n = int(contact.shape[1])
-    behind = 1
-    for j in range(1, m + 1):
-        behind = behind * ca.horzcat(contact[:, (n - j) % n:], contact[:, :(n - j) % n])
-    return contact * (1 - behind)
-
-
-def either(a: Any, b: Any) -> Any:
-    """1 − (1 − a)(1 − b): the union of two 0/1 windows."""
-    return 1 - (1 - a) * (1 - b)
 
 
 def handover_torques_nm(tau_nm: Any, fz_weights: Any, dz_dq: list[Any], weight_n: float,

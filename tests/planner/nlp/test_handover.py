@@ -19,7 +19,6 @@ from planner.nlp.handover import (
     handover_pairs,
     handover_torques_nm,
     lift_off_window,
-    touchdown_window,
     window_knots,
 )
 from planner.nlp.model import RobotModel
@@ -75,20 +74,11 @@ def test_lift_off_window_marks_the_last_stance_knots() -> None:
     assert window_knots(0.1, 30) == 3 and window_knots(0.001, 30) == 1
 
 
-def test_touchdown_window_marks_the_first_stance_knots() -> None:
-    c = np.array([[1, 1, 1, 1, 0, 0, 0, 1], [0, 1, 1, 1, 1, 1, 1, 1]], dtype=float)
-    got = np.asarray(ca.DM(touchdown_window(ca.DM(c), 2)))
-    np.testing.assert_array_equal(got, [[1, 0, 0, 0, 0, 0, 0, 1], [0, 1, 1, 0, 0, 0, 0, 0]])
-
-
 def test_option_off_by_default_and_validated() -> None:
     assert PlannerOptions().handover_window_cycles is None
-    assert PlannerOptions().handover_touchdown_window_cycles is None
     for bad in (0.0, -0.1, 0.5, math.inf, math.nan):
         with pytest.raises(PlannerConfigError, match="handover_window_cycles"):
             PlannerOptions(handover_window_cycles=bad)
-        with pytest.raises(PlannerConfigError, match="handover_touchdown_window_cycles"):
-            PlannerOptions(handover_touchdown_window_cycles=bad)
 
 
 @pytest.mark.parametrize("lifted_torques", [True, False])
@@ -98,7 +88,6 @@ def test_assembled_jacobian_with_the_handover_rows_is_casadis_own(lifted_torques
     robot = robots.load("biped")
     ad, assembled = (
         GaitPlanner(robot, 8, PlannerOptions(nlp_jacobian=path, handover_window_cycles=0.2,
-                                             handover_touchdown_window_cycles=0.2,
                                              lifted_torques=lifted_torques))
         for path in ("ad", "assembled")
     )
