@@ -45,9 +45,11 @@ exactly; a position servo does not.
 Measured (docs/results/zoo_gaits.md "Session 24b"), humanoid20 template at 0.215 m/s, N 30,
 w = 0.1 (3 knots: its whole double support): the rows bind (landing knee −0.77 of stall with
 the load moved, on the last double-support knot) and MuJoCo's landing knee at that instant
-follows them (−0.76), but the run's peak sample sits elsewhere — on the stance knee around the
-other foot's touchdown — so the verdict does not improve: 100 % of stall with ρ 5 (100 %
-without), 94 % with ρ 8 (85 % without); without the rate bound the template now stays up
+follows them (−0.76), but the run's peak sample sits elsewhere — with ρ 5 on the stance knee
+at the other foot's touchdown, with ρ 8 on the landing knee ≈ 100 ms into single support, where
+the plan now puts more load because IPOPT meets the rows by unloading the landing foot, not the
+trailing one — so the verdict does not improve: 100 % of stall with ρ 5 (100 % without), 94 %
+with ρ 8 (85 % without); without the rate bound the template now stays up
 (101 %) where it falls at 3.1 s. The same rows at the touchdown end (the landing foot's load on
 the trailing foot, 1 or 3 knots) made every plan fall; that variant was removed. So the default
 is off (None); the built-in biped's template passes with w = 0.1 as without.
