@@ -33,6 +33,7 @@ from planner.nlp.contact_margin import (
     FLAT_MEAN_FOOTPRINT_LEG_LENGTHS,
 )
 from planner.nlp.force_rate import NORMAL_FORCE_RATE_WEIGHTS_PER_T0
+from planner.nlp.handover import HANDOVER_WINDOW_CYCLES
 from planner.nlp.sideways_locked import SIDEWAYS_SLIP_LEG_LENGTHS
 from robots.servo_params import ServoSetting
 
@@ -233,6 +234,11 @@ class PlannerOptions:
       "Session 24"); scaled by body weight and the leg's time unit, so one ρ asks the same of
       dynamically similar robots (5: one body weight in 0.2·√(L/g)). Default None: no rows
       (a different local optimum turned star5's entry, `planner.nlp.force_rate`).
+    - `handover_window_cycles`: w in (0, 0.5) or None: on a two-footed robot's last
+      round(w·N) double-support knots before a lift-off, the landing leg's joint torques with
+      the trailing foot's normal load moved onto the landing foot stay within the servo
+      envelope (`planner.nlp.handover`; MuJoCo's trailing servo foot lets go early, measured
+      in docs/results/zoo_gaits.md "Session 24"). No rows on other foot counts. Default None.
     - `half_cycle_mirror`: the second half of the cycle is the first half mirrored under
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
       half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric
@@ -301,6 +307,7 @@ class PlannerOptions:
     capture_sole_fraction: float | None = CAPTURE_SOLE_FRACTION
     flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
     normal_force_rate_weights_per_t0: float | None = NORMAL_FORCE_RATE_WEIGHTS_PER_T0
+    handover_window_cycles: float | None = HANDOVER_WINDOW_CYCLES
     half_cycle_mirror: bool = False
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
@@ -341,6 +348,9 @@ class PlannerOptions:
             "normal_force_rate_weights_per_t0": self.normal_force_rate_weights_per_t0 is None
             or (math.isfinite(self.normal_force_rate_weights_per_t0)
                 and 0 < self.normal_force_rate_weights_per_t0 < 1e3),
+            "handover_window_cycles": self.handover_window_cycles is None
+            or (math.isfinite(self.handover_window_cycles)
+                and 0 < self.handover_window_cycles < 0.5),
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,

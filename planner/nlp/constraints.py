@@ -34,6 +34,14 @@ from planner.nlp.flat_foot import (
 )
 from planner.nlp.foot_separation import foot_separation_labels, foot_separation_rows
 from planner.nlp.force_rate import force_rate_bounds, force_rate_labels, force_rate_rows
+from planner.nlp.handover import (
+    foot_height_jacobian,
+    handover_labels,
+    handover_pairs,
+    handover_torques_nm,
+    lift_off_window,
+    window_knots,
+)
 from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.sideways_locked import lateral_slip_bounds_m
@@ -383,6 +391,7 @@ def build_groups(
             zeros(2),
         ),
         *_force_rate_groups(model, sym, n, options, inv_h, t0),
+        *_handover_groups(model, sym, kq, n, options, stall, qd_n),
         *flat_foot_groups(model, sym, n, options, stick, Group),
         *_static_margin_groups(model, sym, kq, n, options),
         *_mean_footprint_groups(model, sym, n, options),
@@ -404,6 +413,36 @@ def _force_rate_groups(model: RobotModel, sym: Symbols, n: int, options: Planner
         return []
     lb, ub = force_rate_bounds(rho, model.n_feet, n)
     return [Group("normal force rate", force_rate_rows(sym.forces[2::3, :], inv_h, t0_s), lb, ub)]
+
+
+def _handover_groups(model: RobotModel, sym: Symbols, kq: KnotQuantities, n: int,
+                     options: PlannerOptions, stall: Any, qd_n: Any) -> list[Group]:
+    """Handover torque bound (`PlannerOptions.handover_window_cycles`, `planner.nlp.handover`):
+    on a biped's last double-support knots before a lift-off, the landing leg's torques with the
+    trailing foot's normal load moved onto it stay within the servo envelope."""
+    window = options.handover_window_cycles
+    pairs = handover_pairs(model)
+    if window is None or not pairs:
+        return []
+    m = window_knots(window, n)
+    nj = model.n_joints
+    weight_n = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2))
+    dz = foot_height_jacobian(model).map(n)(sym.base[3:6, :], sym.q)  # F × (J·N)
+    dz_dq = [ca.reshape(dz[i, :], nj, n) for i in range(model.n_feet)]
+    lifting = lift_off_window(sym.contact, m)
+    fz = sym.forces[2::3, :]
+    faces: list[list[Any]] = [[], [], [], []]
+    for pair in pairs:
+        rows = list(pair.joints)
+        active = ca.repmat(lifting[pair.trailing, :] * sym.contact[pair.landing, :], len(rows), 1)
+        tau = handover_torques_nm(kq.tau_nm, fz, dz_dq, weight_n, pair)
+        tau_n = tau / ca.repmat(stall[rows] * options.torque_margin, 1, n)
+        qd = qd_n[rows, :]
+        for face, (st, sq) in zip(faces, ((1, 1), (1, -1), (-1, 1), (-1, -1)), strict=True):
+            face.append(ca.vec(active * (st * tau_n + sq * qd)))
+    expr = ca.vertcat(*[e for face in faces for e in face])
+    size = int(expr.shape[0])
+    return [Group("handover torque", expr, np.full(size, -np.inf), np.ones(size))]
 
 
 def _mean_footprint_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions
@@ -596,6 +635,7 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         **flat_foot_labels(model, n_knots),
         "foot separation": foot_separation_labels(model, n_knots),
         "normal force rate": force_rate_labels(feet, n_knots),
+        "handover torque": handover_labels(model, n_knots),
     }
 
 
