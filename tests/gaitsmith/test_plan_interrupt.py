@@ -15,6 +15,17 @@ from planner.nlp.spacetime import GaitPlanner
 from planner.templates import make_schedule
 
 
+@pytest.fixture
+def ctrl_c_reaches_python() -> Any:
+    """Python's own SIGINT handler for the test: a process started in the background by a
+    non-interactive shell inherits SIGINT ignored (`signal.getsignal` is SIG_IGN), so no Ctrl-C
+    would reach it and the test would measure the shell, not the planner."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.usefixtures("ctrl_c_reaches_python")
 def test_ctrl_c_inside_ipopt_raises_keyboard_interrupt() -> None:
     """CasADi catches the KeyboardInterrupt of a SIGINT and ends IPOPT with a failure status;
     the planner must turn that back into KeyboardInterrupt instead of an infeasible result."""
