@@ -140,9 +140,10 @@ def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_
     chosen = gait or default_gait(bot)
     if gait is not None or (vy_m_s == 0.0 and yaw_rate_rad_s == 0.0):
         return GaitChoice(chosen, None, options, "as asked" if gait else "default")
+    tips = tips_on_a_line(bot, chosen)
     # a hip-and-knee quadruped's default walk does not tip, but its legs cannot step sideways:
     # it turns and side-steps with the static walk as it did when its default was the trot
-    if not tips_on_a_line(bot, chosen) and not hip_and_knee_quadruped(bot):
+    if not tips and not hip_and_knee_quadruped(bot):
         return GaitChoice(chosen, None, options, "default (no long support-line phase)")
     static = next((name for name in templates_for(bot)
                    if always_on_polygon(bot, name, STATIC_DUTY)), None)
@@ -156,7 +157,7 @@ def commanded_gait(bot: robots.Robot, gait: str | None, vy_m_s: float, yaw_rate_
                 mean_footprint_leg_lengths=MEAN_FOOTPRINT_LEG_LENGTHS),
         f"static {static} (duty {STATIC_DUTY:g}, the template's swing time): "
         + (f"{chosen} stands on a support line, which open-loop servos cannot balance"
-           if tips_on_a_line(bot, chosen) else "legs without hip roll cannot step sideways")
+           if tips else "legs without hip roll cannot step sideways")
         + " while turning or side-stepping",
         swing_s / (1.0 - STATIC_DUTY),
     )
