@@ -39,7 +39,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from planner.errors import PlannerError
 from planner.nlp.config import PlannerOptions
@@ -123,6 +122,10 @@ def match_legs(source: Robot, target: Robot) -> LegMatch:
             f"cannot retarget {source.name} ({len(source.legs)} legs) to {target.name} "
             f"({len(target.legs)} legs): leg roles match only between bodies with as many legs"
         )
+    # scipy.optimize is imported here, not at module level: it is 0.6 s of every `gaitsmith`
+    # command's start-up (the CLI registers `retarget`), and only this function needs it
+    from scipy.optimize import linear_sum_assignment
+
     a, b = normalised_stance_xy(source), normalised_stance_xy(target)
     cost = ((a[:, None, :] - b[None, :, :]) ** 2).sum(axis=2)
     rows, cols = linear_sum_assignment(cost)
