@@ -13,9 +13,6 @@ generations of the coarse (12-knot) NLP, then the final 30-knot solve of the bes
 
 `--warm-starts cold,nearest,incumbent` runs each path with those search warm starts
 (`planner.search.gait_search.SEARCH_WARM_STARTS`; labelled ``knot+nearest`` etc.).
-`--final main,workers` runs each with the final full-resolution re-solves in this process one
-by one (``main``, labelled ``knot/final-main``; the behaviour before session 25) or on the
-executor's workers (``workers``, `search_gait(final_on_workers=True)`, the default).
 
 Every combination of `--derivatives` (`PlannerOptions.derivatives`: "expanded" = the whole NLP
 expanded to SX, "knot" = per-knot derivatives, today's default) and `--executors` runs in this
@@ -96,8 +93,7 @@ def _children_cpu_s() -> float:
 
 def run(robot_name: str, speed: float, generations: int, workers: int, seed: int,
         sim_accept: bool, derivatives: str, executor: str, knots: int,
-        warm_start: str = "cold", final: str = "workers", final_label: bool = False
-        ) -> SearchRun:
+        warm_start: str = "cold") -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call)."""
     robot = robots.load(robot_name)
@@ -105,13 +101,11 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     result = search_gait(
         robot, speed, n_knots=knots, options=PlannerOptions(derivatives=derivatives),
         max_generations=generations, seed=seed, executor=executor, workers=workers,
-        warm_start=warm_start, final_on_workers=final == "workers",
+        warm_start=warm_start,
         **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES),
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
-    if final_label:
-        label += f"/final-{final}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 
@@ -169,14 +163,11 @@ def main() -> None:
     ap.add_argument("--warm-starts", default="cold",
                     help=f"comma-separated search warm starts, run after each derivative path "
                          f"({', '.join(SEARCH_WARM_STARTS)})")
-    ap.add_argument("--final", default="workers",
-                    help="comma-separated places of the final re-solves: main, workers")
     ap.add_argument("--target", type=float, default=60.0, help="target wall time [s]")
     args = ap.parse_args()
     paths = _choices(args.derivatives, tuple(DERIVATIVE_PATHS), "--derivatives")
     executors = _choices(args.executors, get_args(ExecutorKind), "--executors")
     warm_starts = _choices(args.warm_starts, SEARCH_WARM_STARTS, "--warm-starts")
-    finals = _choices(args.final, ("main", "workers"), "--final")
     print(
         f"{args.robot} gait search at {args.speed} m/s, {args.generations} generations, "
         f"final N={args.knots}, sim acceptance {'on' if args.sim_accept else 'off'}, "
@@ -186,13 +177,11 @@ def main() -> None:
     runs: list[SearchRun] = []
     for derivatives in paths:
         for warm_start in warm_starts:
-            for final in finals:
-                for executor in executors:
-                    r = run(args.robot, args.speed, args.generations, args.workers, args.seed,
-                            args.sim_accept, derivatives, executor, args.knots, warm_start,
-                            final, len(finals) > 1)
-                    runs.append(r)
-                    print(report(r, args.target), flush=True)
+            for executor in executors:
+                r = run(args.robot, args.speed, args.generations, args.workers, args.seed,
+                        args.sim_accept, derivatives, executor, args.knots, warm_start)
+                runs.append(r)
+                print(report(r, args.target), flush=True)
     for executor in executors:
         same = [r for r in runs if r.executor == executor]
         for r in same[1:]:

@@ -46,7 +46,6 @@ cost so the difference stays visible).
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
@@ -58,7 +57,6 @@ import numpy as np
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
-from planner.search import executors as _executors
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
 from planner.search.executors import Executor, make_executor
 from planner.search.support import TippingCost
@@ -220,39 +218,6 @@ class TimingResult(LocalResult):
     status: str = ""
 
 
-@dataclass(frozen=True)
-class FinalSpec:
-    """What a worker needs to re-solve a candidate timing at the gait file's resolution: the
-    final NLP's knots and options and the final acceptance check's factory (None: no check)."""
-
-    n_knots: int
-    options: PlannerOptions
-    acceptance: Callable[[], GaitAcceptance] | None = None
-
-
-@dataclass(frozen=True, eq=False)
-class FinalSolve:
-    """One full-resolution re-solve of a candidate: the plan, the acceptance check's wall time
-    and verdict (None: the plan is infeasible or there is no check), and the wall time of
-    building the worker's final planner and check (0 after its first re-solve)."""
-
-    plan: PlanResult
-    check_s: float
-    ok: bool | None
-    build_s: float = 0.0
-
-
-def final_solve(planner: GaitPlanner, check: GaitAcceptance | None, schedule: ContactSchedule,
-                speed_m_s: float) -> FinalSolve:
-    """Cold full-resolution solve of `schedule`, then the acceptance check if it is feasible."""
-    solved = planner.solve(schedule, speed_m_s, warm_start=False)
-    if not solved.feasible:
-        return FinalSolve(solved, 0.0, None)
-    t_check = time.perf_counter()
-    ok = None if check is None else bool(check(planner.to_gait(solved, "search")).passed)
-    return FinalSolve(solved, time.perf_counter() - t_check, ok)
-
-
 @dataclass
 class TimingSolver:
     """The local solve g(x) of basin-CMA: one spacetime solve for the decoded timing.
@@ -271,26 +236,6 @@ class TimingSolver:
     warm_start: str = "cold"
     #: this worker's NLP-feasible solutions (normalised timing, cost, start point), newest last
     solved: list[tuple[np.ndarray, float, WarmStart]] = field(default_factory=list)
-    #: the full-resolution re-solve (`final_solve_on_worker`); None: this worker does not do it
-    final: FinalSpec | None = None
-    _final_planner: GaitPlanner | None = None
-    _final_check: GaitAcceptance | None = None
-
-    def final_solve(self, x: np.ndarray) -> FinalSolve:
-        """Re-solve timing `x` at `final.n_knots` (the planner and check built at the first
-        call) and check it, as `search_gait`'s final phase does in its own process."""
-        if self.final is None:
-            raise PlannerConfigError("this search worker was built without a final planner")
-        t0 = time.perf_counter()
-        if self._final_planner is None:
-            self._final_planner = GaitPlanner(self.planner.robot, self.final.n_knots,
-                                              self.final.options)
-            if self.final.acceptance is not None:
-                self._final_check = self.final.acceptance()
-        build_s = time.perf_counter() - t0
-        out = final_solve(self._final_planner, self._final_check, self.space.decode(x),
-                          self.speed_m_s)
-        return replace(out, build_s=build_s)
 
     def start_for(self, x: np.ndarray) -> WarmStart | None:
         """The point the solve of timing `x` starts from under `warm_start` (None: cold)."""
@@ -353,7 +298,6 @@ class TimingSolverFactory:
     tipping_weight: float = 0.0
     acceptance: Callable[[], GaitAcceptance] | None = None
     warm_start: str = "cold"
-    final: FinalSpec | None = None
 
     def __call__(self) -> TimingSolver:
         t0 = time.perf_counter()
@@ -362,16 +306,7 @@ class TimingSolverFactory:
         tipping = TippingCost.for_robot(robot, self.tipping_weight) if self.tipping_weight else None
         check = self.acceptance() if self.acceptance is not None else None
         return TimingSolver(planner, TimingSpace.for_robot(robot, self.symmetric), self.speed_m_s,
-                            tipping, check, time.perf_counter() - t0, self.warm_start,
-                            final=self.final)
-
-
-def final_solve_on_worker(x: np.ndarray) -> FinalSolve:
-    """Executor function (picklable by name): the calling worker's `TimingSolver.final_solve`."""
-    solver = _executors._WORKER_SOLVE
-    if not isinstance(solver, TimingSolver):
-        raise PlannerConfigError("final_solve_on_worker runs in a gait-search worker only")
-    return solver.final_solve(x)
+                            tipping, check, time.perf_counter() - t0, self.warm_start)
 
 
 class RecordingExecutor:
@@ -470,30 +405,6 @@ class GaitSearchResult:
         return self.best.cost + self.support_cost
 
 
-@dataclass
-class _FinalChooser:
-    """Takes the full-resolution re-solves in candidate order: the first feasible and accepted
-    (or unchecked) one wins; else the first feasible one, reported as not accepted; else the
-    first one."""
-
-    chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
-    solves: list[tuple[PlanResult, float, bool | None]] = field(default_factory=list)
-
-    def take(self, solved: Iterable[tuple[LocalResult, FinalSolve]]) -> bool:
-        """Record re-solves in order; True once a winner is found (later ones are dropped)."""
-        for searched, out in solved:
-            self.solves.append((out.plan, out.check_s, out.ok))
-            if not out.plan.feasible:
-                self.chosen = self.chosen or (out.plan, searched, None)
-                continue
-            if out.ok is not False:
-                self.chosen = (out.plan, searched, out.ok)
-                return True
-            if self.chosen is None or not self.chosen[0].feasible:
-                self.chosen = (out.plan, searched, False)
-        return False
-
-
 def search_gait(
     robot: Robot,
     speed_m_s: float,
@@ -519,7 +430,6 @@ def search_gait(
     progress: Callable[[SearchLogRow], None] | None = None,
     final_candidates: int = FINAL_CANDIDATES,
     warm_start: str = "cold",
-    final_on_workers: bool = True,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -529,10 +439,6 @@ def search_gait(
     full-resolution candidates — the final judge may be stricter than the coarse one;
     `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins.
     `warm_start`: how each worker starts a sample's solve (`SEARCH_WARM_STARTS`).
-    `final_on_workers`: a parallel executor's workers re-solve the final candidates, as many at
-    a time as there are workers, while this process builds the final planner (same candidates,
-    order and winner as re-solving them one by one here, which False does; a serial executor
-    always does that).
     """
     t0 = time.perf_counter()
     options = options or PlannerOptions()
@@ -558,15 +464,8 @@ def search_gait(
     tipping = TippingCost.for_robot(robot, tipping_weight)
     search_options = replace(options, max_iter=search_max_iter if options.max_iter is None
                              else min(options.max_iter, search_max_iter))
-    final_check = final_acceptance or acceptance
-    # parallel executors re-solve the final candidates on their workers, one per worker at a
-    # time (a serial executor would only build a second full-resolution planner)
-    parallel_final = final_on_workers and executor != "serial"
-    final_options = planner.options if planner is not None else options
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
-                                  search_options, tipping_weight, acceptance, warm_start,
-                                  FinalSpec(n_knots, final_options, final_check)
-                                  if parallel_final else None)
+                                  search_options, tipping_weight, acceptance, warm_start)
     log: list[SearchLogRow] = []
 
     def on_generation(rep: GenerationReport) -> None:
@@ -604,41 +503,30 @@ def search_gait(
                         max_generations=max_generations, restarts=restarts,
                         max_local_solves=max_local_solves, seed=seed, executor=pool,
                         callback=on_generation)
-        # 3. the cheapest timings, re-solved at full resolution; the first feasible (and
-        #    accepted) one in this order wins, else the first feasible one (not accepted)
-        t_final = time.perf_counter()
-        candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
-        built: list[GaitPlanner] = []
-        if parallel_final:
-            # the workers re-solve `width` candidates at a time while this process builds the
-            # planner that writes the gait file (`GaitSearchResult.planner`)
-            builder = threading.Thread(target=lambda: built.append(
-                planner or GaitPlanner(robot, n_knots, options)))
-            builder.start()
-            width = max(1, int(getattr(ex, "workers", 1)))
-            chooser = _FinalChooser()
-            for i in range(0, len(candidates), width):
-                batch = candidates[i:i + width]
-                outs = ex.map(final_solve_on_worker, [x for x, _ in batch])
-                if chooser.take(zip((r for _, r in batch), outs, strict=True)):
-                    break
-            t_join = time.perf_counter()
-            builder.join()
-            final_build_s = time.perf_counter() - t_join
-    if parallel_final:
-        if not built:  # the builder thread raised (its traceback is printed)
-            raise PlannerConfigError("building the final planner failed")
-        final = built[0]
-    else:
-        t_final = time.perf_counter()
-        final = planner or GaitPlanner(robot, n_knots, options)
-        final_build_s = 0.0 if planner is not None else time.perf_counter() - t_final
-        check = final_check() if final_check is not None else None
-        chooser = _FinalChooser()
-        for x, searched in candidates:
-            if chooser.take([(searched, final_solve(final, check, space.decode(x), speed_m_s))]):
-                break
-    chosen, final_solves = chooser.chosen, chooser.solves
+    # 3. the cheapest timings, re-solved at full resolution; the first feasible (and accepted)
+    #    one wins, else the first feasible one (reported as not accepted)
+    t_final = time.perf_counter()
+    final = planner or GaitPlanner(robot, n_knots, options)
+    final_build_s = 0.0 if planner is not None else time.perf_counter() - t_final
+    final_check = final_acceptance or acceptance
+    check = final_check() if final_check is not None else None
+    candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
+    chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
+    final_solves: list[tuple[PlanResult, float, bool | None]] = []
+    for x, searched in candidates:
+        solved = final.solve(space.decode(x), speed_m_s, warm_start=False)
+        if not solved.feasible:
+            final_solves.append((solved, 0.0, None))
+            chosen = chosen or (solved, searched, None)
+            continue
+        t_check = time.perf_counter()
+        ok = None if check is None else bool(check(final.to_gait(solved, "search")).passed)
+        final_solves.append((solved, time.perf_counter() - t_check, ok))
+        if ok is not False:
+            chosen = (solved, searched, ok)
+            break
+        if chosen is None or not chosen[0].feasible:
+            chosen = (solved, searched, False)
     assert chosen is not None
     best, won, accepted = chosen
     schedule = best.schedule
