@@ -20,13 +20,16 @@ one process, one after the other, so their ratios are measured under the same lo
 prints wall time (process pool start-up and every NLP build included), local solves, IPOPT
 iterations, samples accepted / rejected by MuJoCo / infeasible, the winner and its final
 verdict, and where the time went: the phases of the search in wall time, and the workers' NLP
-builds, solves and acceptance checks summed over workers (seconds of worker time).
+builds, solves and acceptance checks summed over workers (seconds of worker time); and the CPU
+time of the whole search, this process plus its worker processes (`getrusage`), which a shared
+machine's load moves far less than wall time.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import time
 from dataclasses import dataclass
 from typing import get_args
@@ -49,6 +52,9 @@ class SearchRun:
     executor: str
     wall_s: float
     result: GaitSearchResult
+    #: CPU seconds of this process and of the worker processes that ended during the search
+    cpu_s: float = 0.0
+    worker_cpu_s: float = 0.0
 
     @property
     def solves(self) -> int:
@@ -80,20 +86,27 @@ class SearchRun:
         return {True: "MuJoCo pass", False: "MuJoCo FAIL", None: "not simulated"}[accepted]
 
 
+def _children_cpu_s() -> float:
+    use = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return use.ru_utime + use.ru_stime
+
+
 def run(robot_name: str, speed: float, generations: int, workers: int, seed: int,
         sim_accept: bool, derivatives: str, executor: str, knots: int,
         warm_start: str = "cold") -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call)."""
     robot = robots.load(robot_name)
-    t0 = time.perf_counter()
+    t0, c0, w0 = time.perf_counter(), time.process_time(), _children_cpu_s()
     result = search_gait(
         robot, speed, n_knots=knots, options=PlannerOptions(derivatives=derivatives),
         max_generations=generations, seed=seed, executor=executor, workers=workers,
-        warm_start=warm_start, **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES),
+        warm_start=warm_start,
+        **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES),
     )
+    wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
-    return SearchRun(label, executor, time.perf_counter() - t0, result)
+    return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 
 def report(r: SearchRun, target_s: float) -> str:
@@ -107,6 +120,9 @@ def report(r: SearchRun, target_s: float) -> str:
         f"  {r.derivatives:8s} {r.executor:8s} {r.wall_s:7.1f} s  {r.solves:4d} solves  "
         f"{r.iterations:5d} iterations  {r.solves / r.wall_s:5.2f} solves/s  "
         f"{'OK' if r.wall_s <= target_s else 'over'} the {target_s:g} s target",
+        f"           CPU {r.cpu_s + r.worker_cpu_s:.1f} s (this process {r.cpu_s:.1f} s, workers "
+        f"{r.worker_cpu_s:.1f} s); {res.cma.n_generations} generations "
+        f"({res.cma.stop_reason})",
         f"           samples: {r.count('accepted')} accepted, {r.count('rejected')} rejected in "
         f"MuJoCo, {r.count('infeasible')} infeasible; winner {res.label} (search cost "
         f"{res.search_cost:.5g}, best template {res.best_template} {res.best_template_cost:.5g}), "
@@ -171,10 +187,11 @@ def main() -> None:
         for r in same[1:]:
             base = same[0]
             rel = (r.result.best.cost - base.result.best.cost) / abs(base.result.best.cost)
+            cpu = (r.cpu_s + r.worker_cpu_s) / (base.cpu_s + base.worker_cpu_s)
             print(f"  {executor}: {r.derivatives}/{base.derivatives} wall "
-                  f"{r.wall_s / base.wall_s:.2f}, solves {r.solves}/{base.solves}, iterations "
-                  f"{r.iterations}/{base.iterations}, winner {r.result.label}/{base.result.label}, "
-                  f"final cost rel {rel:+.1e}")
+                  f"{r.wall_s / base.wall_s:.2f}, CPU {cpu:.2f}, solves {r.solves}/{base.solves}, "
+                  f"iterations {r.iterations}/{base.iterations}, winner "
+                  f"{r.result.label}/{base.result.label}, final cost rel {rel:+.1e}")
     for derivatives in dict.fromkeys(r.derivatives for r in runs):
         by = {r.executor: r for r in runs if r.derivatives == derivatives}
         if "serial" in by and "process" in by:

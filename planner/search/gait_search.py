@@ -214,6 +214,8 @@ class TimingResult(LocalResult):
     solve_s: float = 0.0
     accept_s: float = 0.0
     build_s: float = 0.0
+    #: IPOPT's return status of the solve ("" if it did not run)
+    status: str = ""
 
 
 @dataclass
@@ -277,11 +279,11 @@ class TimingSolver:
             if not verdict.passed:
                 return TimingResult(x, cost, False, evals,
                                     REJECTED_VIOLATION * (1.0 + verdict.badness), True,
-                                    solve_s, accept_s, build_s)
+                                    solve_s, accept_s, build_s, result.status)
             return TimingResult(x, cost, True, evals, result.max_violation, True,
-                                solve_s, accept_s, build_s)
+                                solve_s, accept_s, build_s, result.status)
         return TimingResult(x, cost, result.feasible, evals, result.max_violation, result.feasible,
-                            solve_s, 0.0, build_s)
+                            solve_s, 0.0, build_s, result.status)
 
 
 @dataclass(frozen=True)

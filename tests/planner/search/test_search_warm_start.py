@@ -27,6 +27,7 @@ class _Result:
     warm_start: WarmStart
     iterations: int = 3
     max_violation: float = 0.0
+    status: str = "Solve_Succeeded"
 
 
 @dataclass
