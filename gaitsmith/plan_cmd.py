@@ -53,10 +53,17 @@ from gaitsmith.search_options import (
 )
 from gaitsmith.validation_record import validation_record
 from planner.errors import InfeasibleGaitError, PlannerConfigError
-from planner.nlp.config import DEFAULT_FROUDE, DERIVATIVE_PATHS, PlannerOptions, default_speed_m_s
+from planner.nlp.config import (
+    DEFAULT_FROUDE,
+    DERIVATIVE_PATHS,
+    CostWeights,
+    PlannerOptions,
+    default_speed_m_s,
+)
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
+from robots.ramp import ENTRY_CYCLES_KEY
 from robots.servo_params import ServoSetting
 from robots.voltage import robot_at_voltage, voltage_margin
 
@@ -116,6 +123,15 @@ def plan(
         "weights per √(L/g) (`PlannerOptions.normal_force_rate_weights_per_t0`): the load "
         "builds over several knots after touchdown and fades before lift-off; 5 keeps "
         "humanoid20's template walk up (docs/results/zoo_gaits.md, session 24)"),
+    bounce_weight: float | None = typer.Option(
+        None, "--bounce-weight", help="weight of the body's vertical and sideways speed in the "
+        "objective (`CostWeights.bounce_s2_m2`, W&P eq 15; default 10): higher keeps the body "
+        "height flatter, so less load at each touchdown; 30 with --force-rate 10 and "
+        "--entry-cycles 3 walks humanoid20's template (docs/results/zoo_gaits.md, session 25)"),
+    entry_cycles: int | None = typer.Option(
+        None, "--entry-cycles", help="start the gait with at least this many cycles of entry "
+        "blend (written into the gait file, so the player and --simulate both use it; "
+        "`robots.ramp`)"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
@@ -163,6 +179,12 @@ def plan(
     if force_rate is not None and (search or not (math.isfinite(force_rate) and force_rate > 0)):
         raise OptionError("--force-rate: a positive number of body weights per √(L/g), not "
                           "with --search yet")
+    if bounce_weight is not None and (search or not (math.isfinite(bounce_weight)
+                                                     and bounce_weight >= 0)):
+        raise OptionError("--bounce-weight: a finite number ≥ 0, not with --search yet")
+    if entry_cycles is not None and (search or not 1 <= entry_cycles <= MAX_ENTRY_CYCLES):
+        raise OptionError(f"--entry-cycles: a whole number of cycles from 1 to "
+                          f"{MAX_ENTRY_CYCLES}, not with --search yet")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -176,6 +198,8 @@ def plan(
     check_supply_v("--supply-v", supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
     supply_meta: dict[str, Any] | None = None if supply_v is None else {"supply_v": supply_v}
+    if entry_cycles is not None:
+        supply_meta = {**(supply_meta or {}), ENTRY_CYCLES_KEY: entry_cycles}
     servo_settings = None
     if servo_params_path is not None:
         if search:
@@ -199,7 +223,9 @@ def plan(
                             PlannerOptions(mu=mu, print_level=5 if verbose else 0,
                                            servo_settings=servo_settings,
                                            derivatives=solver, half_cycle_mirror=mirror,
-                                           normal_force_rate_weights_per_t0=force_rate))
+                                           normal_force_rate_weights_per_t0=force_rate,
+                                           weights=CostWeights() if bounce_weight is None else
+                                           CostWeights(bounce_s2_m2=bounce_weight)))
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)
@@ -248,6 +274,9 @@ def plan(
     _write(gait_obj, bot, output, simulate, cycles, servo_settings)
     if knife_edge:
         _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles)
+
+
+MAX_ENTRY_CYCLES = 20  # --entry-cycles: longer is a slow start, not a blend
 
 
 def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.ContactSchedule,

@@ -61,6 +61,11 @@ PLAN_MISTAKES = [
     (["--search", "--tipping-weight", "-1"], "--tipping-weight must be"),
     (["--search", "--executor", "gpu"], "--executor must be serial, process or ray"),
     (["--search", "--cycles", "1"], "--cycles must be"),  # --sim-accept is on by default
+    (["--entry-cycles", "0"], "--entry-cycles: a whole number of cycles from 1 to 20"),
+    (["--search", "--entry-cycles", "3"], "--entry-cycles: a whole number"),
+    (["--bounce-weight", "-1"], "--bounce-weight: a finite number ≥ 0"),
+    (["--bounce-weight", "nan"], "--bounce-weight: a finite number ≥ 0"),
+    (["--search", "--bounce-weight", "30"], "--bounce-weight: a finite number ≥ 0, not with"),
 ]
 
 
