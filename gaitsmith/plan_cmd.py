@@ -176,15 +176,13 @@ def plan(
                           "--yaw-rate) and no --search")
     if mirror and search:
         raise OptionError("--mirror: not with --search yet; plan the chosen gait with --mirror")
-    if force_rate is not None and (search or not (math.isfinite(force_rate) and force_rate > 0)):
-        raise OptionError("--force-rate: a positive number of body weights per √(L/g), not "
-                          "with --search yet")
-    if bounce_weight is not None and (search or not (math.isfinite(bounce_weight)
-                                                     and bounce_weight >= 0)):
-        raise OptionError("--bounce-weight: a finite number ≥ 0, not with --search yet")
-    if entry_cycles is not None and (search or not 1 <= entry_cycles <= MAX_ENTRY_CYCLES):
+    if force_rate is not None and not (math.isfinite(force_rate) and force_rate > 0):
+        raise OptionError("--force-rate: a positive number of body weights per √(L/g)")
+    if bounce_weight is not None and not (math.isfinite(bounce_weight) and bounce_weight >= 0):
+        raise OptionError("--bounce-weight: a finite number ≥ 0")
+    if entry_cycles is not None and not 1 <= entry_cycles <= MAX_ENTRY_CYCLES:
         raise OptionError(f"--entry-cycles: a whole number of cycles from 1 to "
-                          f"{MAX_ENTRY_CYCLES}, not with --search yet")
+                          f"{MAX_ENTRY_CYCLES}")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -209,9 +207,12 @@ def plan(
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
+    weights = CostWeights() if bounce_weight is None else CostWeights(bounce_s2_m2=bounce_weight)
     if search:
-        _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v,
-                     solver=solver)
+        _plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
+                     PlannerOptions(mu=mu, derivatives=solver, weights=weights,
+                                    normal_force_rate_weights_per_t0=force_rate),
+                     entry_cycles or 1)
         return
     custom = phases is not None or schedule_file is not None
     standing = _standing(speed, vy, yaw_rate, duty, phases, schedule_file)
@@ -224,8 +225,7 @@ def plan(
                                            servo_settings=servo_settings,
                                            derivatives=solver, half_cycle_mirror=mirror,
                                            normal_force_rate_weights_per_t0=force_rate,
-                                           weights=CostWeights() if bounce_weight is None else
-                                           CostWeights(bounce_s2_m2=bounce_weight)))
+                                           weights=weights))
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)
@@ -405,8 +405,8 @@ class SearchSettings:
 
 
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
-                 mu: float, st: SearchSettings, simulate: bool, cycles: int | None,
-                 supply_v: float | None = None, solver: str = "knot") -> None:
+                 st: SearchSettings, simulate: bool, cycles: int | None,
+                 supply_v: float | None, options: PlannerOptions, entry_cycles: int) -> None:
     from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
@@ -428,12 +428,11 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         )
 
     result = search_gait(
-        bot, speed, n_knots=knots, options=PlannerOptions(mu=mu, derivatives=solver),
-        symmetric=st.symmetric,
+        bot, speed, n_knots=knots, options=options, symmetric=st.symmetric,
         max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
-        **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES),
+        **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles),
     )
     for name, cost in result.template_costs.items():
         console.print(f"  template {name:18s} cost {cost:.5g}")
@@ -472,6 +471,8 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
     if supply_v is not None:
         meta["supply_v"] = supply_v
         console.print(voltage_margin(bot, best.joint_torques_nm, supply_v).summary())
+    if entry_cycles > 1:
+        meta[ENTRY_CYCLES_KEY] = entry_cycles
     gait_obj = result.planner.to_gait(best, result.label, extra_metadata=meta)
     log_path = output.with_suffix(".search.csv")
     write_search_log(result, log_path)

@@ -154,3 +154,15 @@ def test_a_gait_file_can_ask_for_a_longer_entry(hex_tripod: Gait) -> None:
     for bad in (0, 2.5, True, "3"):
         with pytest.raises(ValueError, match="entry_blend_cycles"):
             blend_cycles(replace(hex_tripod, planner={ENTRY_CYCLES_KEY: bad}), 5.0)
+
+
+def test_acceptance_judges_with_the_requested_entry(hex_tripod: Gait) -> None:
+    """`sim.acceptance.with_entry_cycles`: the search's MuJoCo checks judge each gait with the
+    entry blend the written file will ask for (`plan --search --entry-cycles K`); 1 leaves it."""
+    from sim.acceptance import SimAcceptance, with_entry_cycles
+
+    assert with_entry_cycles(hex_tripod, 1) is hex_tripod
+    asked = with_entry_cycles(hex_tripod, 3)
+    assert requested_cycles(asked) == 3 and asked.planner[ENTRY_CYCLES_KEY] == 3
+    assert ENTRY_CYCLES_KEY not in hex_tripod.planner  # the original is unchanged
+    assert SimAcceptance("hex18", entry_cycles=3).entry_cycles == 3
