@@ -454,6 +454,9 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
     if result.accepted is False:
         console.print("[yellow]no searched candidate passed the MuJoCo acceptance check; "
                       "writing the cheapest feasible one[/]")
+    if result.fallback_template is not None:
+        console.print(f"[yellow]no searched timing passed the MuJoCo acceptance; the template "
+                      f"{result.fallback_template} re-solved at {knots} knots did: writing it[/]")
     meta: dict[str, object] = {"search": {
         "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
@@ -465,7 +468,8 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         "search_feasible": result.search_feasible,
         "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
         "tipping_amplification": result.tipping_amplification,
-        "sim_accepted": result.accepted, "cost_of_transport": result.cost_of_transport,
+        "sim_accepted": result.accepted, "fallback_template": result.fallback_template,
+        "cost_of_transport": result.cost_of_transport,
         "froude": result.froude,
     }}
     if supply_v is not None:
