@@ -53,10 +53,17 @@ from gaitsmith.search_options import (
 )
 from gaitsmith.validation_record import validation_record
 from planner.errors import InfeasibleGaitError, PlannerConfigError
-from planner.nlp.config import DEFAULT_FROUDE, DERIVATIVE_PATHS, PlannerOptions, default_speed_m_s
+from planner.nlp.config import (
+    DEFAULT_FROUDE,
+    DERIVATIVE_PATHS,
+    CostWeights,
+    PlannerOptions,
+    default_speed_m_s,
+)
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
+from robots.ramp import ENTRY_CYCLES_KEY
 from robots.servo_params import ServoSetting
 from robots.voltage import robot_at_voltage, voltage_margin
 
@@ -116,6 +123,15 @@ def plan(
         "weights per √(L/g) (`PlannerOptions.normal_force_rate_weights_per_t0`): the load "
         "builds over several knots after touchdown and fades before lift-off; 5 keeps "
         "humanoid20's template walk up (docs/results/zoo_gaits.md, session 24)"),
+    bounce_weight: float | None = typer.Option(
+        None, "--bounce-weight", help="weight of the body's vertical and sideways speed in the "
+        "objective (`CostWeights.bounce_s2_m2`, W&P eq 15; default 10): higher keeps the body "
+        "height flatter, so less load at each touchdown; 30 with --force-rate 10 and "
+        "--entry-cycles 3 walks humanoid20's template (docs/results/zoo_gaits.md, session 25)"),
+    entry_cycles: int | None = typer.Option(
+        None, "--entry-cycles", help="start the gait with at least this many cycles of entry "
+        "blend (written into the gait file, so the player and --simulate both use it; "
+        "`robots.ramp`)"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
@@ -160,9 +176,13 @@ def plan(
                           "--yaw-rate) and no --search")
     if mirror and search:
         raise OptionError("--mirror: not with --search yet; plan the chosen gait with --mirror")
-    if force_rate is not None and (search or not (math.isfinite(force_rate) and force_rate > 0)):
-        raise OptionError("--force-rate: a positive number of body weights per √(L/g), not "
-                          "with --search yet")
+    if force_rate is not None and not (math.isfinite(force_rate) and force_rate > 0):
+        raise OptionError("--force-rate: a positive number of body weights per √(L/g)")
+    if bounce_weight is not None and not (math.isfinite(bounce_weight) and bounce_weight >= 0):
+        raise OptionError("--bounce-weight: a finite number ≥ 0")
+    if entry_cycles is not None and not 1 <= entry_cycles <= MAX_ENTRY_CYCLES:
+        raise OptionError(f"--entry-cycles: a whole number of cycles from 1 to "
+                          f"{MAX_ENTRY_CYCLES}")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -176,6 +196,8 @@ def plan(
     check_supply_v("--supply-v", supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
     supply_meta: dict[str, Any] | None = None if supply_v is None else {"supply_v": supply_v}
+    if entry_cycles is not None:
+        supply_meta = {**(supply_meta or {}), ENTRY_CYCLES_KEY: entry_cycles}
     servo_settings = None
     if servo_params_path is not None:
         if search:
@@ -185,9 +207,12 @@ def plan(
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
+    weights = CostWeights() if bounce_weight is None else CostWeights(bounce_s2_m2=bounce_weight)
     if search:
-        _plan_search(bot, gait, speed, output, knots, mu, settings, simulate, cycles, supply_v,
-                     solver=solver)
+        _plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
+                     PlannerOptions(mu=mu, derivatives=solver, weights=weights,
+                                    normal_force_rate_weights_per_t0=force_rate),
+                     entry_cycles or 1)
         return
     custom = phases is not None or schedule_file is not None
     standing = _standing(speed, vy, yaw_rate, duty, phases, schedule_file)
@@ -199,7 +224,8 @@ def plan(
                             PlannerOptions(mu=mu, print_level=5 if verbose else 0,
                                            servo_settings=servo_settings,
                                            derivatives=solver, half_cycle_mirror=mirror,
-                                           normal_force_rate_weights_per_t0=force_rate))
+                                           normal_force_rate_weights_per_t0=force_rate,
+                                           weights=weights))
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)
@@ -248,6 +274,9 @@ def plan(
     _write(gait_obj, bot, output, simulate, cycles, servo_settings)
     if knife_edge:
         _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles)
+
+
+MAX_ENTRY_CYCLES = 20  # --entry-cycles: longer is a slow start, not a blend
 
 
 def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.ContactSchedule,
@@ -376,8 +405,8 @@ class SearchSettings:
 
 
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
-                 mu: float, st: SearchSettings, simulate: bool, cycles: int | None,
-                 supply_v: float | None = None, solver: str = "knot") -> None:
+                 st: SearchSettings, simulate: bool, cycles: int | None,
+                 supply_v: float | None, options: PlannerOptions, entry_cycles: int) -> None:
     from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
@@ -399,12 +428,11 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         )
 
     result = search_gait(
-        bot, speed, n_knots=knots, options=PlannerOptions(mu=mu, derivatives=solver),
-        symmetric=st.symmetric,
+        bot, speed, n_knots=knots, options=options, symmetric=st.symmetric,
         max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
-        **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES),
+        **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles),
     )
     for name, cost in result.template_costs.items():
         console.print(f"  template {name:18s} cost {cost:.5g}")
@@ -426,6 +454,9 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
     if result.accepted is False:
         console.print("[yellow]no searched candidate passed the MuJoCo acceptance check; "
                       "writing the cheapest feasible one[/]")
+    if result.fallback_template is not None:
+        console.print(f"[yellow]no searched timing passed the MuJoCo acceptance; the template "
+                      f"{result.fallback_template} re-solved at {knots} knots did: writing it[/]")
     meta: dict[str, object] = {"search": {
         "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
@@ -437,12 +468,15 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         "search_feasible": result.search_feasible,
         "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
         "tipping_amplification": result.tipping_amplification,
-        "sim_accepted": result.accepted, "cost_of_transport": result.cost_of_transport,
+        "sim_accepted": result.accepted, "fallback_template": result.fallback_template,
+        "cost_of_transport": result.cost_of_transport,
         "froude": result.froude,
     }}
     if supply_v is not None:
         meta["supply_v"] = supply_v
         console.print(voltage_margin(bot, best.joint_torques_nm, supply_v).summary())
+    if entry_cycles > 1:
+        meta[ENTRY_CYCLES_KEY] = entry_cycles
     gait_obj = result.planner.to_gait(best, result.label, extra_metadata=meta)
     log_path = output.with_suffix(".search.csv")
     write_search_log(result, log_path)

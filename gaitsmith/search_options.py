@@ -60,7 +60,8 @@ def check_search_options(executor: str, generations: int, popsize: int | None,
     check_number("--tipping-weight", tipping_weight, 0.0, MAX_TIPPING_WEIGHT)
 
 
-def sim_acceptance(robot: robots.Robot, enabled: bool, final_cycles: int) -> dict[str, Any]:
+def sim_acceptance(robot: robots.Robot, enabled: bool, final_cycles: int,
+                   entry_cycles: int = 1) -> dict[str, Any]:
     """`search_gait` keyword arguments for MuJoCo acceptance: samples are judged with the search
     criteria, the full-resolution candidates with the default ones over `final_cycles` — the
     cycles of the command's own `--simulate` validation, so that a gait that passed acceptance
@@ -71,5 +72,5 @@ def sim_acceptance(robot: robots.Robot, enabled: bool, final_cycles: int) -> dic
     from sim.validate import PassCriteria
 
     root = str(robot.root_dir)
-    return {"acceptance": SimAcceptance(root),
-            "final_acceptance": SimAcceptance(root, final_cycles, PassCriteria())}
+    return {"acceptance": SimAcceptance(root, entry_cycles=entry_cycles),
+            "final_acceptance": SimAcceptance(root, final_cycles, PassCriteria(), entry_cycles)}

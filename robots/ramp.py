@@ -45,6 +45,15 @@ The exit uses the same k (it decelerates the same way). A blend that starts each
 touchdown phase (mirror legs then see the same weight at the same point of their strides) was
 measured and is worse: the biped turned 28–34° during the entry, so it is not used.
 
+A gait file may also ask for a longer blend: ``planner["entry_blend_cycles"]`` = K (written by
+`gaitsmith plan --entry-cycles K`) makes k at least K, so the player and the simulator start it
+the same way it was validated. A walking biped's one-cycle blend pitches the body back (the
+strides reach full length before the body is up to speed) and the transient lasts several
+cycles: humanoid20's template walk (docs/results/zoo_gaits.md, "Session 25") turns 11-13° in
+that cycle and its knees peak at 0.83-0.85 of stall in cycles 2-4, against 0.75-0.76 in the
+steady cycles; with K = 3 it walks straight. It is the gait's choice, not a rule: K = 3 makes
+some of the built-in biped's walks fall (docs/results/biped_walk_robustness.md, item 7).
+
 The mean pose is also where a run may rest between ramp and gait ("the stand", issue #14):
 `gait_entry(..., hold_s=H)` holds it for H seconds before the blend. `gait_exit` is the same
 blend run backwards, how a run that completes normally ends (instead of a joint-space ramp from
@@ -75,6 +84,7 @@ DEFAULT_MIN_BLEND_CYCLES = 1
 RUN_ENTRY_ACCEL_G = 0.03  # a run's mean forward acceleration over its blend ≤ this · g
 STANDARD_GRAVITY_M_S2 = 9.80665
 FLIGHT_SAMPLES = 1000  # phases at which a schedule is checked for a flight phase
+ENTRY_CYCLES_KEY = "entry_blend_cycles"  # gait.planner: the fewest entry blend cycles it asks
 
 
 def min_jerk(u: float | np.ndarray) -> np.ndarray:
@@ -184,7 +194,17 @@ def blend_cycles(
         raise ValueError("max_speed_rad_s must be positive")
     # wall-clock blend term: time_scale · 1.875 · A / (k · T) ≤ cap
     needed = np.max(MIN_JERK_PEAK_SPEED * time_scale * amplitude / (gait.period_s * speed))
-    return max(int(min_cycles), math.ceil(float(needed) - 1e-9), run_speed_up_cycles(gait))
+    return max(int(min_cycles), math.ceil(float(needed) - 1e-9), run_speed_up_cycles(gait),
+               requested_cycles(gait))
+
+
+def requested_cycles(gait: Gait) -> int:
+    """The blend length the gait file asks for (``planner["entry_blend_cycles"]``; 1 if none)."""
+    value = gait.planner.get(ENTRY_CYCLES_KEY, 1)
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"gait file: planner.{ENTRY_CYCLES_KEY} must be a positive integer, "
+                         f"got {value!r}")
+    return value
 
 
 def has_flight(gait: Gait) -> bool:

@@ -13,14 +13,17 @@ goal spline asks for more torque than the same timing planned at 30 knots (quad1
 0.3 m/s: peak 86 % of stall at 12 knots, ≤ 80 % at 30 knots, every other criterion met at both);
 the 80 % margin is judged where it matters, on the final gait. Its "badness" is the number of
 failed criteria, so a gait that only misses the speed tolerance ranks ahead of one that falls.
+`entry_cycles` K > 1: every gait is judged started with at least K cycles of entry blend, as the
+gait file the search writes asks (`gaitsmith plan --search --entry-cycles K`, `robots.ramp`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from robots import Gait, Robot
 from robots import load as load_robot
+from robots.ramp import ENTRY_CYCLES_KEY
 from sim.validate import PassCriteria, validate
 
 #: Cycles per acceptance run: 2 warm-up + 6 judged keeps a check ≈ 0.1 s at ~80× real time.
@@ -43,8 +46,10 @@ class GaitCheck:
     robot: Robot
     cycles: int = DEFAULT_ACCEPTANCE_CYCLES
     criteria: PassCriteria = SEARCH_CRITERIA
+    entry_cycles: int = 1
 
     def __call__(self, gait: Gait) -> GaitVerdict:
+        gait = with_entry_cycles(gait, self.entry_cycles)
         result = validate(gait, self.robot, self.cycles, criteria=self.criteria,
                           keep_trajectory=False)
         failed = sum(1 for _, ok, _ in result.checks if not ok)
@@ -59,9 +64,18 @@ class SimAcceptance:
     robot_dir: str
     cycles: int = DEFAULT_ACCEPTANCE_CYCLES
     criteria: PassCriteria = SEARCH_CRITERIA
+    entry_cycles: int = 1
 
     def __call__(self) -> GaitCheck:
-        return GaitCheck(load_robot(self.robot_dir), self.cycles, self.criteria)
+        return GaitCheck(load_robot(self.robot_dir), self.cycles, self.criteria,
+                         self.entry_cycles)
+
+
+def with_entry_cycles(gait: Gait, cycles: int) -> Gait:
+    """`gait` asking for at least `cycles` entry blend cycles (unchanged for 1)."""
+    if cycles <= 1:
+        return gait
+    return replace(gait, planner={**gait.planner, ENTRY_CYCLES_KEY: int(cycles)})
 
 
 __all__ = [
@@ -70,4 +84,5 @@ __all__ = [
     "GaitCheck",
     "GaitVerdict",
     "SimAcceptance",
+    "with_entry_cycles",
 ]

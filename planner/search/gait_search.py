@@ -36,7 +36,11 @@ IPOPT capped at `search_max_iter`; a sample stopped by the cap counts as feasibl
 point it stopped at meets every constraint — `planner.nlp.diagnostics.judge` — and its cost is then
 an upper bound of its local optimum), then re-solves up to `FINAL_CANDIDATES` of the best
 timings at the full `n_knots` for the gait file, judged by `final_acceptance`; the first that
-is feasible and accepted wins.
+is feasible and accepted wins. If none is accepted, the templates the search was seeded with
+are re-solved at `n_knots` and judged the same way (cheapest first), so the search never
+returns a gait that fails where its own starting template passes: the coarse acceptance can
+reject a timing that walks at full resolution (humanoid20's biped_walk template is rejected at
+12 knots and passes at 30; docs/results/zoo_gaits.md, "Session 25").
 The 12-knot NLP builds in 2.8 s instead of 8.5 s and solves in about half the time of the
 30-knot one; it ranked quad12's four symmetric templates in the same order as the 30-knot NLP at
 0.15 and at 0.3 m/s, though its costs are lower (the final cost is reported next to the search
@@ -390,6 +394,9 @@ class GaitSearchResult:
     #: wall time [s] of the search's phases: "final_build" (the final planner, 0 if passed in),
     #: "seed" (executor start, worker builds, template solves), "cma", "final" (re-solves + checks)
     phase_s: dict[str, float] = field(default_factory=dict)
+    #: the template that won after no searched timing passed the final acceptance (None: a
+    #: searched timing, or the normal ranking, won)
+    fallback_template: str | None = None
 
     @property
     def froude(self) -> float:
@@ -527,6 +534,25 @@ def search_gait(
             break
         if chosen is None or not chosen[0].feasible:
             chosen = (solved, searched, False)
+    fallback: str | None = None
+    if check is not None and (chosen is None or chosen[2] is not True):
+        # nothing searched passed: the templates the search started from, at full resolution
+        tried = [x for x, _ in candidates]
+        for name in sorted(template_costs, key=lambda n: template_costs[n]):
+            x = dict(named_x)[name]
+            if any(np.allclose(x, y) for y in tried):
+                continue
+            solved = final.solve(space.decode(x), speed_m_s, warm_start=False)
+            if not solved.feasible:
+                final_solves.append((solved, 0.0, None))
+                continue
+            t_check = time.perf_counter()
+            ok = bool(check(final.to_gait(solved, "search")).passed)
+            final_solves.append((solved, time.perf_counter() - t_check, ok))
+            if ok:
+                chosen = (solved, seed_results[name], True)
+                fallback = name
+                break
     assert chosen is not None
     best, won, accepted = chosen
     schedule = best.schedule
@@ -538,7 +564,7 @@ def search_gait(
         log=tuple(log), cma=cma, elapsed_s=time.perf_counter() - t0,
         cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
         accepted=accepted, planner=final, symmetric=symmetric, samples=tuple(pool.records),
-        final_solves=tuple(final_solves),
+        final_solves=tuple(final_solves), fallback_template=fallback,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": time.perf_counter() - t_final - final_build_s},
     )

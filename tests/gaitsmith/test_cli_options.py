@@ -61,6 +61,12 @@ PLAN_MISTAKES = [
     (["--search", "--tipping-weight", "-1"], "--tipping-weight must be"),
     (["--search", "--executor", "gpu"], "--executor must be serial, process or ray"),
     (["--search", "--cycles", "1"], "--cycles must be"),  # --sim-accept is on by default
+    (["--entry-cycles", "0"], "--entry-cycles: a whole number of cycles from 1 to 20"),
+    (["--search", "--entry-cycles", "21"], "--entry-cycles: a whole number"),
+    (["--bounce-weight", "-1"], "--bounce-weight: a finite number ≥ 0"),
+    (["--bounce-weight", "nan"], "--bounce-weight: a finite number ≥ 0"),
+    (["--search", "--bounce-weight", "inf"], "--bounce-weight: a finite number ≥ 0"),
+    (["--force-rate", "0"], "--force-rate: a positive number of body weights"),
 ]
 
 
@@ -221,3 +227,24 @@ def test_sweep_write_failure_after_the_sweep_is_one_line(
     out = tmp_path / "s"
     assert main(["sweep", "quad12", "--speeds", "0.1", "--no-sim-accept", "-o", str(out)]) == 2
     assert "cannot write the sweep: Read-only file system" in _error_line(capsys)
+
+
+def test_plan_search_takes_the_template_options(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--force-rate, --bounce-weight and --entry-cycles reach the search: its NLP options and
+    both MuJoCo acceptance checks (which judge every gait with the longer entry blend)."""
+    seen: dict[str, Any] = {}
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.update(kwargs)
+        raise ExpensiveWorkStarted
+
+    monkeypatch.setattr(planner.search.gait_search, "search_gait", record)
+    with pytest.raises(ExpensiveWorkStarted):
+        main(["plan", "quad12", "--speed", "0.2", "--search", "--force-rate", "10",
+              "--bounce-weight", "30", "--entry-cycles", "3", "-o", str(tmp_path / "g.json")])
+    options = seen["options"]
+    assert options.normal_force_rate_weights_per_t0 == 10
+    assert options.weights.bounce_s2_m2 == 30
+    assert seen["acceptance"].entry_cycles == 3 and seen["final_acceptance"].entry_cycles == 3

@@ -10,6 +10,7 @@ import pytest
 
 from robots.gait import Gait, Velocity
 from robots.ramp import (
+    ENTRY_CYCLES_KEY,
     MIN_JERK_PEAK_SPEED,
     RUN_ENTRY_ACCEL_G,
     STANDARD_GRAVITY_M_S2,
@@ -23,6 +24,7 @@ from robots.ramp import (
     min_jerk,
     ramp_duration_s,
     ramp_to,
+    requested_cycles,
     run_speed_up_cycles,
 )
 from robots.robot import Robot
@@ -135,3 +137,32 @@ def test_a_run_blends_in_over_enough_cycles_to_reach_its_speed(hex_tripod: Gait)
     # the same schedule without flight (duty 0.5: one tripod lands as the other lifts) or at rest
     assert not has_flight(_as_run(hex_tripod, 0.5, 0.5))
     assert run_speed_up_cycles(_as_run(hex_tripod, 0.4, 0.0)) == 1
+
+
+def test_a_gait_file_can_ask_for_a_longer_entry(hex_tripod: Gait) -> None:
+    """`plan --entry-cycles K` writes planner["entry_blend_cycles"] = K: the entry and the exit
+    blend over at least K cycles (player and simulator alike); a shorter request changes
+    nothing, a malformed one is refused."""
+    walk_k = blend_cycles(hex_tripod, 5.0)
+    assert requested_cycles(hex_tripod) == 1
+    asks = replace(hex_tripod, planner={**hex_tripod.planner, ENTRY_CYCLES_KEY: walk_k + 2})
+    assert requested_cycles(asks) == walk_k + 2 and blend_cycles(asks, 5.0) == walk_k + 2
+    assert gait_entry(asks, gait_mean_pose(asks), 5.0).cycles == walk_k + 2
+    assert gait_exit(asks, 0.0, 5.0).cycles == walk_k + 2
+    short = replace(hex_tripod, planner={**hex_tripod.planner, ENTRY_CYCLES_KEY: 1})
+    assert blend_cycles(short, 5.0) == walk_k
+    for bad in (0, 2.5, True, "3"):
+        with pytest.raises(ValueError, match="entry_blend_cycles"):
+            blend_cycles(replace(hex_tripod, planner={ENTRY_CYCLES_KEY: bad}), 5.0)
+
+
+def test_acceptance_judges_with_the_requested_entry(hex_tripod: Gait) -> None:
+    """`sim.acceptance.with_entry_cycles`: the search's MuJoCo checks judge each gait with the
+    entry blend the written file will ask for (`plan --search --entry-cycles K`); 1 leaves it."""
+    from sim.acceptance import SimAcceptance, with_entry_cycles
+
+    assert with_entry_cycles(hex_tripod, 1) is hex_tripod
+    asked = with_entry_cycles(hex_tripod, 3)
+    assert requested_cycles(asked) == 3 and asked.planner[ENTRY_CYCLES_KEY] == 3
+    assert ENTRY_CYCLES_KEY not in hex_tripod.planner  # the original is unchanged
+    assert SimAcceptance("hex18", entry_cycles=3).entry_cycles == 3

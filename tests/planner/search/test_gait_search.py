@@ -197,3 +197,36 @@ def test_search_beats_or_matches_the_best_template_and_logs(
     assert "speed_m_s" in to_csv([row]) and result.label in to_markdown([row])
     paths = write_sweep([row, row], tmp_path / "sweep", robot)
     assert all(p.stat().st_size > 0 for p in paths.values())
+
+
+def test_a_template_that_passes_at_full_resolution_is_the_fallback(
+    small_quad_planner: GaitPlanner,
+) -> None:
+    """When no searched timing passes the final acceptance, the seeding templates are re-solved
+    at full resolution and judged too: the coarse acceptance may reject a template that walks
+    at `n_knots` (humanoid20, docs/results/zoo_gaits.md "Session 25"). Here the check passes
+    only the full-resolution pace, so the search must return it, accepted."""
+    robot = small_quad_planner.robot
+    pace = make_schedule(robot, "pace")
+
+    def relative(phases: tuple[float, ...]) -> np.ndarray:  # gait files start at any knot
+        return (np.asarray(phases) - phases[0]) % 1.0
+
+    def only_full_pace(gait: Gait) -> _Verdict:
+        ok = (gait.n_knots == small_quad_planner.n_knots
+              and np.allclose(relative(gait.schedule.touchdown_phase),
+                              relative(pace.touchdown_phase))
+              and np.allclose(gait.schedule.duty_factor, pace.duty_factor)
+              and math.isclose(gait.period_s, pace.period_s))
+        return _Verdict(ok, 0.0 if ok else 1.0)
+
+    result = search_gait(robot, 0.2, n_knots=20, max_generations=1, popsize=4, seed=1,
+                         planner=small_quad_planner, final_candidates=1,
+                         acceptance=lambda: only_full_pace)
+    assert result.accepted is True and result.best.feasible
+    assert np.allclose(relative(result.best.schedule.touchdown_phase),
+                       relative(pace.touchdown_phase))
+    assert math.isclose(result.best.schedule.period_s, pace.period_s)
+    assert len(result.final_solves) >= 2  # the searched candidate failed, then the templates
+    assert result.fallback_template == "pace"
+    assert result.final_solves[-1][0] is result.best and result.final_solves[-1][2] is True
