@@ -63,7 +63,7 @@ from planner.nlp.config import (
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
-from robots.ramp import ENTRY_CYCLES_KEY
+from robots.gait import ENTRY_CYCLES_KEY, MAX_ENTRY_CYCLES
 from robots.servo_params import ServoSetting
 from robots.voltage import robot_at_voltage, voltage_margin
 
@@ -274,9 +274,6 @@ def plan(
     _write(gait_obj, bot, output, simulate, cycles, servo_settings)
     if knife_edge:
         _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles)
-
-
-MAX_ENTRY_CYCLES = 20  # --entry-cycles: longer is a slow start, not a blend
 
 
 def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.ContactSchedule,

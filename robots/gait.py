@@ -60,6 +60,10 @@ MAX_FEET = 64
 MAX_NAME_CHARS = 256
 MAX_INT_DIGITS = 30  # JSON integers longer than this are refused before float conversion
 MAX_METADATA_DEPTH = 32  # nesting of the planner / validation objects
+#: planner["entry_blend_cycles"]: the fewest cycles of entry blend the gait asks the player and
+#: the simulator for (`robots.ramp`; `gaitsmith plan --entry-cycles`)
+ENTRY_CYCLES_KEY = "entry_blend_cycles"
+MAX_ENTRY_CYCLES = 20  # a longer entry is a slow start, not a blend
 MAX_PERIOD_S = 60.0
 MAX_SPEED_M_S = 50.0
 MAX_YAW_RATE_RAD_S = 50.0
@@ -483,6 +487,7 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
             None if d.get(key) is None else _matrix(file, key, d[key], shape, _ARRAY_BOUNDS[key])
         )
     planner = _json_obj(file, "planner", d.get("planner", {}), nullable=False)
+    _check_entry_cycles(file, planner or {})
     validation = _json_obj(file, "validation", d.get("validation"), nullable=True)
     robot_dir, robot_dir_rel = _robot_dir(file, d.get("robot_dir"))
     return Gait(
@@ -500,6 +505,17 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
         robot_dir_relative=robot_dir_rel,
         **optional,
     )
+
+
+def _check_entry_cycles(file: str, planner: dict[str, Any]) -> None:
+    """planner.entry_blend_cycles, if present: a whole number of cycles, 1..MAX_ENTRY_CYCLES."""
+    if ENTRY_CYCLES_KEY not in planner:
+        return
+    v = planner[ENTRY_CYCLES_KEY]
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_ENTRY_CYCLES:
+        raise GaitFileError(file, f"planner.{ENTRY_CYCLES_KEY}",
+                            f"must be a whole number of cycles from 1 to {MAX_ENTRY_CYCLES}, "
+                            f"got {v!r:.40}")
 
 
 def _list(file: str, where: str, v: Any, length: int) -> list[Any]:

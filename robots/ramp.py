@@ -71,12 +71,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from robots.gait import Gait
+from robots.gait import ENTRY_CYCLES_KEY, MAX_ENTRY_CYCLES, Gait
 
 MIN_JERK_PEAK_SPEED = 1.875  # max over u of ds/du for the quintic above
 DEFAULT_RAMP_S = 1.0
@@ -84,7 +82,6 @@ DEFAULT_MIN_BLEND_CYCLES = 1
 RUN_ENTRY_ACCEL_G = 0.03  # a run's mean forward acceleration over its blend ≤ this · g
 STANDARD_GRAVITY_M_S2 = 9.80665
 FLIGHT_SAMPLES = 1000  # phases at which a schedule is checked for a flight phase
-ENTRY_CYCLES_KEY = "entry_blend_cycles"  # gait.planner: the fewest entry blend cycles it asks
 
 
 def min_jerk(u: float | np.ndarray) -> np.ndarray:
@@ -200,10 +197,10 @@ def blend_cycles(
 
 def requested_cycles(gait: Gait) -> int:
     """The blend length the gait file asks for (``planner["entry_blend_cycles"]``; 1 if none)."""
-    value = gait.planner.get(ENTRY_CYCLES_KEY, 1)
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise ValueError(f"gait file: planner.{ENTRY_CYCLES_KEY} must be a positive integer, "
-                         f"got {value!r}")
+    value = gait.planner.get(ENTRY_CYCLES_KEY, 1)  # a file's value was checked on loading
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_ENTRY_CYCLES:
+        raise ValueError(f"planner.{ENTRY_CYCLES_KEY} must be a whole number of cycles from 1 "
+                         f"to {MAX_ENTRY_CYCLES}, got {value!r:.40}")
     return value
 
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 
 from robots import Gait, Robot
 from robots import load as load_robot
-from robots.ramp import ENTRY_CYCLES_KEY
+from robots.gait import ENTRY_CYCLES_KEY
 from sim.validate import PassCriteria, validate
 
 #: Cycles per acceptance run: 2 warm-up + 6 judged keeps a check ≈ 0.1 s at ~80× real time.

@@ -109,6 +109,18 @@ def test_deep_metadata_is_refused(doc: dict) -> None:
         _loads("[" * 100_000 + "]" * 100_000)
 
 
+@pytest.mark.parametrize("bad", ["3", 0, 21, 10**9, 2.5, True, None])
+def test_a_bad_entry_blend_request_is_refused_by_name(doc: dict, bad: object) -> None:
+    """planner.entry_blend_cycles (written by `plan --entry-cycles`) is checked on loading: a
+    huge one would have the player allocate the blend's samples (1e9 cycles: 349 GiB)."""
+    d = json.loads(json.dumps(doc))
+    d["planner"] = {gaitfile.ENTRY_CYCLES_KEY: bad}
+    with pytest.raises(GaitFileError, match=r"planner\.entry_blend_cycles: must be a whole number"):
+        _loads(d)
+    d["planner"] = {gaitfile.ENTRY_CYCLES_KEY: gaitfile.MAX_ENTRY_CYCLES}
+    assert _loads(d).planner[gaitfile.ENTRY_CYCLES_KEY] == gaitfile.MAX_ENTRY_CYCLES
+
+
 def test_old_gait_files_without_robot_dir_still_load(doc: dict) -> None:
     assert "robot_dir" not in doc  # built-in robots store no folder
     g = _loads(doc)

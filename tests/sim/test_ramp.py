@@ -151,7 +151,7 @@ def test_a_gait_file_can_ask_for_a_longer_entry(hex_tripod: Gait) -> None:
     assert gait_exit(asks, 0.0, 5.0).cycles == walk_k + 2
     short = replace(hex_tripod, planner={**hex_tripod.planner, ENTRY_CYCLES_KEY: 1})
     assert blend_cycles(short, 5.0) == walk_k
-    for bad in (0, 2.5, True, "3"):
+    for bad in (0, 21, 2.5, True, "3"):
         with pytest.raises(ValueError, match="entry_blend_cycles"):
             blend_cycles(replace(hex_tripod, planner={ENTRY_CYCLES_KEY: bad}), 5.0)
 
