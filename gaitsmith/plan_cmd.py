@@ -116,6 +116,12 @@ def plan(
         "weights per √(L/g) (`PlannerOptions.normal_force_rate_weights_per_t0`): the load "
         "builds over several knots after touchdown and fades before lift-off; 5 keeps "
         "humanoid20's template walk up (docs/results/zoo_gaits.md, session 24)"),
+    rotor_reserve: float | None = typer.Option(
+        None, "--rotor-reserve", help="keep the servo envelope also for the knot torque with "
+        "the rotor's share (armature × joint acceleration) taken 1 + RHO times "
+        "(`PlannerOptions.rotor_reserve`): a reserve for heavy servo rotors; 0.1-0.15 took "
+        "spotmicro's walk with the identified STS3215 rotor from 84 % to 78-79 % peak torque "
+        "(docs/results/heavy_rotor.md)"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
@@ -163,6 +169,9 @@ def plan(
     if force_rate is not None and (search or not (math.isfinite(force_rate) and force_rate > 0)):
         raise OptionError("--force-rate: a positive number of body weights per √(L/g), not "
                           "with --search yet")
+    if rotor_reserve is not None and (search or not (math.isfinite(rotor_reserve)
+                                                     and 0 < rotor_reserve <= 2)):
+        raise OptionError("--rotor-reserve: a number in (0, 2], not with --search yet")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -199,7 +208,8 @@ def plan(
                             PlannerOptions(mu=mu, print_level=5 if verbose else 0,
                                            servo_settings=servo_settings,
                                            derivatives=solver, half_cycle_mirror=mirror,
-                                           normal_force_rate_weights_per_t0=force_rate))
+                                           normal_force_rate_weights_per_t0=force_rate,
+                                           rotor_reserve=rotor_reserve))
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)

@@ -308,6 +308,7 @@ class PlannerOptions:
     flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
     normal_force_rate_weights_per_t0: float | None = NORMAL_FORCE_RATE_WEIGHTS_PER_T0
     handover_window_cycles: float | None = HANDOVER_WINDOW_CYCLES
+    rotor_reserve: float | None = None
     half_cycle_mirror: bool = False
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
@@ -351,6 +352,8 @@ class PlannerOptions:
             "handover_window_cycles": self.handover_window_cycles is None
             or (math.isfinite(self.handover_window_cycles)
                 and 0 < self.handover_window_cycles < 0.5),
+            "rotor_reserve": self.rotor_reserve is None
+            or (math.isfinite(self.rotor_reserve) and 0 <= self.rotor_reserve <= 2),
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,
