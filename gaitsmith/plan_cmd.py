@@ -122,6 +122,10 @@ def plan(
         "(`PlannerOptions.rotor_reserve`): a reserve for heavy servo rotors; 0.1-0.15 took "
         "spotmicro's walk with the identified STS3215 rotor from 84 % to 78-79 % peak torque "
         "(docs/results/heavy_rotor.md)"),
+    swing_clearance: float | None = typer.Option(
+        None, "--swing-clearance", help="swing clearance [m]: each swing foot's bottom stays "
+        "above h·sin(π·swing progress) (`PlannerOptions.swing_clearance_m`; default 0.14 × "
+        "the leg length)"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
@@ -172,6 +176,9 @@ def plan(
     if rotor_reserve is not None and (search or not (math.isfinite(rotor_reserve)
                                                      and 0 < rotor_reserve <= 2)):
         raise OptionError("--rotor-reserve: a number in (0, 2], not with --search yet")
+    if swing_clearance is not None and (search or not (math.isfinite(swing_clearance)
+                                                       and 0 < swing_clearance < 1)):
+        raise OptionError("--swing-clearance: metres in (0, 1), not with --search yet")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -209,7 +216,8 @@ def plan(
                                            servo_settings=servo_settings,
                                            derivatives=solver, half_cycle_mirror=mirror,
                                            normal_force_rate_weights_per_t0=force_rate,
-                                           rotor_reserve=rotor_reserve))
+                                           rotor_reserve=rotor_reserve,
+                                           swing_clearance_m=swing_clearance))
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)
