@@ -132,6 +132,16 @@ def plan(
         None, "--entry-cycles", help="start the gait with at least this many cycles of entry "
         "blend (written into the gait file, so the player and --simulate both use it; "
         "`robots.ramp`)"),
+    rotor_reserve: float | None = typer.Option(
+        None, "--rotor-reserve", help="keep the servo envelope also for the knot torque with "
+        "the rotor's share (armature × joint acceleration) taken 1 + RHO times "
+        "(`PlannerOptions.rotor_reserve`): a reserve for heavy servo rotors; 0.1-0.15 took "
+        "spotmicro's walk with the identified STS3215 rotor from 84 % to 78-79 % peak torque "
+        "(docs/results/heavy_rotor.md)"),
+    swing_clearance: float | None = typer.Option(
+        None, "--swing-clearance", help="swing clearance [m]: each swing foot's bottom stays "
+        "above h·sin(π·swing progress) (`PlannerOptions.swing_clearance_m`; default 0.14 × "
+        "the leg length)"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
@@ -183,6 +193,12 @@ def plan(
     if entry_cycles is not None and not 1 <= entry_cycles <= MAX_ENTRY_CYCLES:
         raise OptionError(f"--entry-cycles: a whole number of cycles from 1 to "
                           f"{MAX_ENTRY_CYCLES}")
+    if rotor_reserve is not None and (search or not (math.isfinite(rotor_reserve)
+                                                     and 0 < rotor_reserve <= 2)):
+        raise OptionError("--rotor-reserve: a number in (0, 2], not with --search yet")
+    if swing_clearance is not None and (search or not (math.isfinite(swing_clearance)
+                                                       and 0 < swing_clearance < 1)):
+        raise OptionError("--swing-clearance: metres in (0, 1), not with --search yet")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -225,7 +241,9 @@ def plan(
                                            servo_settings=servo_settings,
                                            derivatives=solver, half_cycle_mirror=mirror,
                                            normal_force_rate_weights_per_t0=force_rate,
-                                           weights=weights))
+                                           weights=weights,
+                                           rotor_reserve=rotor_reserve,
+                                           swing_clearance_m=swing_clearance))
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)

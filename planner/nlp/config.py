@@ -239,6 +239,14 @@ class PlannerOptions:
       the trailing foot's normal load moved onto the landing foot stay within the servo
       envelope (`planner.nlp.handover`; MuJoCo's trailing servo foot lets go early, measured
       in docs/results/zoo_gaits.md "Session 24"). No rows on other foot counts. Default None.
+    - `rotor_reserve`: ρ ≥ 0 or None: the torque envelope also holds for τ + ρ·I_a·q̈, the knot
+      torque with the servo rotor's share (MJCF armature × joint acceleration) taken 1 + ρ
+      times (`planner.nlp.constraints`, group "rotor reserve"): with a heavy rotor the plan's
+      swing ends sit on the envelope with 0.65–0.85 of stall spent on the rotor, and MuJoCo's
+      servo adds ≈ 0.04 on average and ≈ ±0.06 from cycle to cycle there
+      (docs/results/heavy_rotor.md). 0.1–0.15 took spotmicro's walk with the identified STS3215
+      rotor from 84 % to 78–79 % peak torque; plans already on their envelope become
+      infeasible. Default None: no rows.
     - `half_cycle_mirror`: the second half of the cycle is the first half mirrored under
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
       half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric
@@ -308,6 +316,7 @@ class PlannerOptions:
     flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
     normal_force_rate_weights_per_t0: float | None = NORMAL_FORCE_RATE_WEIGHTS_PER_T0
     handover_window_cycles: float | None = HANDOVER_WINDOW_CYCLES
+    rotor_reserve: float | None = None
     half_cycle_mirror: bool = False
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
@@ -351,6 +360,8 @@ class PlannerOptions:
             "handover_window_cycles": self.handover_window_cycles is None
             or (math.isfinite(self.handover_window_cycles)
                 and 0 < self.handover_window_cycles < 0.5),
+            "rotor_reserve": self.rotor_reserve is None
+            or (math.isfinite(self.rotor_reserve) and 0 <= self.rotor_reserve <= 2),
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,

@@ -390,6 +390,7 @@ def build_groups(
             zeros(2),
             zeros(2),
         ),
+        *_rotor_reserve_groups(model, kq, n, options, stall, qd_n),
         *_force_rate_groups(model, sym, n, options, inv_h, t0),
         *_handover_groups(model, sym, kq, n, options, stall, qd_n),
         *flat_foot_groups(model, sym, n, options, stick, Group),
@@ -402,6 +403,24 @@ def build_groups(
         groups.append(Group("foot separation", separation, separation_lb,
                             np.full(separation_lb.size, inf), length))
     return spare_flat_foot_ankles(model, groups, n)
+
+
+def _rotor_reserve_groups(model: RobotModel, kq: KnotQuantities, n: int,
+                          options: PlannerOptions, stall: Any, qd_n: Any) -> list[Group]:
+    """Rotor reserve (`PlannerOptions.rotor_reserve`): the torque–speed envelope also holds for
+    τ + ρ·I_a·q̈, the knot torque with the rotor's share (armature × joint acceleration) taken
+    1 + ρ times, so joints whose torque is mostly the rotor's keep a reserve for the tracking
+    error the servo loop adds to it in MuJoCo (docs/results/heavy_rotor.md)."""
+    rho = options.rotor_reserve
+    arm = np.asarray(model.armature[6:], dtype=float)
+    if rho is None or not np.any(arm > 0):
+        return []
+    tau = kq.tau_nm + rho * ca.diag(ca.DM(arm)) @ kq.qdd
+    tau_n = tau / ca.repmat(stall * options.torque_margin, 1, n)
+    expr = ca.vertcat(ca.vec(tau_n + qd_n), ca.vec(tau_n - qd_n), ca.vec(-tau_n + qd_n),
+                      ca.vec(-tau_n - qd_n))
+    size = int(expr.shape[0])
+    return [Group("rotor reserve", expr, np.full(size, -np.inf), np.ones(size))]
 
 
 def _force_rate_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions,
@@ -626,6 +645,7 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
             for j in joints
         ],
         "torque envelope": per_joint * 4,
+        "rotor reserve": per_joint * 4,
         "body clearance": [
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)
         ],

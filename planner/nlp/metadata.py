@@ -129,6 +129,7 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
         "joint_limit_margin_fraction": o.joint_limit_margin_fraction,
         "nondimensional": o.nondimensional,
         "sideways_slip_leg_lengths": o.sideways_slip_leg_lengths,
+        **({} if o.rotor_reserve is None else {"rotor_reserve": o.rotor_reserve}),
         **joint_angle_semantics(planner, result),
         "versions": package_versions(),
     }

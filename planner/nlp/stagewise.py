@@ -207,6 +207,10 @@ def stage_functions(
             "the stage-wise NLP does not support handover_window_cycles yet (its rows read the "
             "schedule of the next knots); use the IPOPT planner"
         )
+    if options.rotor_reserve is not None:
+        raise PlannerConfigError(
+            "the stage-wise NLP does not support rotor_reserve yet; use the IPOPT planner"
+        )
     nj, nf = model.n_joints, model.n_feet
     sl = StageLayout(6 + nj, nj, nf, len(model.flat_feet), options.servo_goals)
     xs, us = ca.MX.sym("x", sl.nx), ca.MX.sym("u", sl.nu)
