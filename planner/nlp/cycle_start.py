@@ -23,6 +23,14 @@ The planned cycle is periodic, so its start is free: `start_knot` picks the knot
 feet in stance and, among those, the most even vertical load (closest to the static share m·g/n
 on every stance foot); `rotate` re-indexes a plan so that knot becomes phase 0 (touchdown phases
 shift by −k/N, every per-knot array rolls by k). Nothing else about the gait changes.
+
+Loads within `LOAD_TIE` (a fraction of the total load) of the evenest count as a tie, and a tie
+goes to the lowest knot, i.e. the earliest in the schedule the plan was solved on. A
+mirror-symmetric plan (a biped walk, a trot) has two such knots half a cycle apart whose loads
+differ only by rounding (1e-13): without the tolerance, rounding picked the start, so a change
+of the NLP's arithmetic that left the plan the same to 1e-12 made the written gait lead with the
+other leg. For the built-in biped at 0.2 m/s that flipped the MuJoCo run from "stays up" to
+"falls at 12.24 s" (docs/results/biped_walk_robustness.md §Session 26).
 """
 
 from __future__ import annotations
@@ -34,9 +42,13 @@ import numpy as np
 from planner.nlp.spacetime import PlanResult
 from robots import ContactSchedule
 
+#: loads whose imbalance is within this fraction of the total load of the evenest count as equal
+LOAD_TIE = 1e-6
+
 
 def start_knot(schedule: ContactSchedule, forces_n: np.ndarray) -> int:
-    """The knot to start from: most stance feet, then the most even vertical load.
+    """The knot to start from: most stance feet, then the most even vertical load (within
+    `LOAD_TIE`), then the lowest index.
 
     `forces_n` is N × F × 3 (world frame), N the number of knots.
     """
@@ -48,8 +60,9 @@ def start_knot(schedule: ContactSchedule, forces_n: np.ndarray) -> int:
     share = total / np.maximum(n_stance, 1)
     imbalance = np.nanmax(np.abs(fz - share[:, None]), axis=1, initial=0.0) / np.maximum(
         np.abs(total), 1e-9)
-    order = np.lexsort((imbalance, -n_stance))  # last key is primary
-    return int(order[0])
+    full = n_stance == n_stance.max()
+    best = float(np.min(imbalance[full]))
+    return int(np.flatnonzero(full & (imbalance <= best + LOAD_TIE))[0])
 
 
 def rotate_schedule(schedule: ContactSchedule, k: int, n_knots: int) -> ContactSchedule:
@@ -90,4 +103,4 @@ def start_from_rest_like_knot(result: PlanResult) -> PlanResult:
     return rotate(result, start_knot(result.schedule, result.contact_forces_n))
 
 
-__all__ = ["rotate", "rotate_schedule", "start_from_rest_like_knot", "start_knot"]
+__all__ = ["LOAD_TIE", "rotate", "rotate_schedule", "start_from_rest_like_knot", "start_knot"]

@@ -6,9 +6,16 @@ import numpy as np
 import pytest
 
 import robots
-from planner.nlp.cycle_start import rotate, rotate_schedule, start_from_rest_like_knot, start_knot
+from planner.nlp.cycle_start import (
+    LOAD_TIE,
+    rotate,
+    rotate_schedule,
+    start_from_rest_like_knot,
+    start_knot,
+)
 from planner.nlp.spacetime import GaitPlanner
 from planner.templates import make_schedule, templates_for
+from robots import ContactSchedule
 
 
 @pytest.fixture(scope="module")
@@ -58,3 +65,32 @@ def test_start_knot_has_most_feet_down_and_the_evenest_load(walk_result) -> None
     assert imbalance(k) == pytest.approx(min(imbalance(i) for i in full))
     started = start_from_rest_like_knot(walk_result)
     assert started.schedule.contact_matrix(forces.shape[0])[0].sum() == contact[k].sum()
+
+
+@pytest.mark.parametrize("noise", [1e-13, -1e-13, 0.0])
+def test_start_knot_breaks_a_mirror_tie_by_index_not_by_rounding(noise: float) -> None:
+    # A two-foot walk (duty 0.6, N = 10): double support at knots 0 and 5 (mirror images), each
+    # with the same 40/60 load split. Rounding-level differences must not pick the start.
+    sched = ContactSchedule(1.0, ("left", "right"), (0.0, 0.5), (0.6, 0.6))
+    n = 10
+    contact = sched.contact_matrix(n)
+    doubles = [i for i in range(n) if contact[i].all()]
+    forces = np.zeros((n, 2, 3))
+    forces[:, :, 2] = np.where(contact, 15.0, 0.0)
+    first, second = doubles
+    forces[first, :, 2] = (6.0, 9.0)
+    forces[second, :, 2] = (9.0 + noise, 6.0)
+    assert start_knot(sched, forces) == first
+
+
+def test_start_knot_prefers_a_evener_load_beyond_the_tie_over_the_lower_index() -> None:
+    sched = ContactSchedule(1.0, ("left", "right"), (0.0, 0.5), (0.6, 0.6))
+    n = 10
+    contact = sched.contact_matrix(n)
+    forces = np.zeros((n, 2, 3))
+    forces[:, :, 2] = np.where(contact, 15.0, 0.0)
+    first, second = [i for i in range(n) if contact[i].all()]
+    forces[first, :, 2] = (7.5 - 3e-4, 7.5 + 3e-4)  # imbalance 2.0e-5 of the load
+    forces[second, :, 2] = (7.5 - 1e-4, 7.5 + 1e-4)  # 0.67e-5: evener by more than LOAD_TIE
+    assert LOAD_TIE < 1.3e-5
+    assert start_knot(sched, forces) == second
