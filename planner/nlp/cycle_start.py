@@ -30,7 +30,7 @@ mirror-symmetric plan (a biped walk, a trot) has two such knots half a cycle apa
 differ only by rounding (1e-13): without the tolerance, rounding picked the start, so a change
 of the NLP's arithmetic that left the plan the same to 1e-12 made the written gait lead with the
 other leg. For the built-in biped at 0.2 m/s that flipped the MuJoCo run from "stays up" to
-"falls at 12.24 s" (docs/results/biped_walk_robustness.md §Session 26).
+"falls at 12.24 s" (docs/results/biped_walk_robustness.md §Session 25).
 """
 
 from __future__ import annotations
