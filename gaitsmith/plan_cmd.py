@@ -193,12 +193,12 @@ def plan(
     if entry_cycles is not None and not 1 <= entry_cycles <= MAX_ENTRY_CYCLES:
         raise OptionError(f"--entry-cycles: a whole number of cycles from 1 to "
                           f"{MAX_ENTRY_CYCLES}")
-    if rotor_reserve is not None and (search or not (math.isfinite(rotor_reserve)
-                                                     and 0 < rotor_reserve <= 2)):
-        raise OptionError("--rotor-reserve: a number in (0, 2], not with --search yet")
-    if swing_clearance is not None and (search or not (math.isfinite(swing_clearance)
-                                                       and 0 < swing_clearance < 1)):
-        raise OptionError("--swing-clearance: metres in (0, 1), not with --search yet")
+    if rotor_reserve is not None and not (math.isfinite(rotor_reserve)
+                                          and 0 < rotor_reserve <= 2):
+        raise OptionError("--rotor-reserve: a number in (0, 2]")
+    if swing_clearance is not None and not (math.isfinite(swing_clearance)
+                                            and 0 < swing_clearance < 1):
+        raise OptionError("--swing-clearance: metres in (0, 1)")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -227,7 +227,9 @@ def plan(
     if search:
         _plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
                      PlannerOptions(mu=mu, derivatives=solver, weights=weights,
-                                    normal_force_rate_weights_per_t0=force_rate),
+                                    normal_force_rate_weights_per_t0=force_rate,
+                                    rotor_reserve=rotor_reserve,
+                                    swing_clearance_m=swing_clearance),
                      entry_cycles or 1)
         return
     custom = phases is not None or schedule_file is not None

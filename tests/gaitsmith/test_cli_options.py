@@ -232,8 +232,9 @@ def test_sweep_write_failure_after_the_sweep_is_one_line(
 def test_plan_search_takes_the_template_options(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """--force-rate, --bounce-weight and --entry-cycles reach the search: its NLP options and
-    both MuJoCo acceptance checks (which judge every gait with the longer entry blend)."""
+    """--force-rate, --bounce-weight, --rotor-reserve, --swing-clearance and --entry-cycles
+    reach the search: its NLP options and both MuJoCo acceptance checks (which judge every gait
+    with the longer entry blend)."""
     seen: dict[str, Any] = {}
 
     def record(*args: Any, **kwargs: Any) -> Any:
@@ -243,8 +244,10 @@ def test_plan_search_takes_the_template_options(
     monkeypatch.setattr(planner.search.gait_search, "search_gait", record)
     with pytest.raises(ExpensiveWorkStarted):
         main(["plan", "quad12", "--speed", "0.2", "--search", "--force-rate", "10",
-              "--bounce-weight", "30", "--entry-cycles", "3", "-o", str(tmp_path / "g.json")])
+              "--bounce-weight", "30", "--rotor-reserve", "0.15", "--swing-clearance", "0.018",
+              "--entry-cycles", "3", "-o", str(tmp_path / "g.json")])
     options = seen["options"]
     assert options.normal_force_rate_weights_per_t0 == 10
     assert options.weights.bounce_s2_m2 == 30
+    assert options.rotor_reserve == 0.15 and options.swing_clearance_m == 0.018
     assert seen["acceptance"].entry_cycles == 3 and seen["final_acceptance"].entry_cycles == 3

@@ -87,16 +87,16 @@ def test_assembled_jacobian_with_the_rows_is_casadis_own() -> None:
 
 
 @pytest.mark.parametrize(
-    "extra", [["--rotor-reserve", "0"], ["--rotor-reserve", "0.1", "--search"],
-              ["--swing-clearance", "0"], ["--swing-clearance", "0.02", "--search"]],
-    ids=["zero", "search", "clearance-zero", "clearance-search"],
+    "extra", [["--rotor-reserve", "0"], ["--rotor-reserve", "2.5", "--search"],
+              ["--swing-clearance", "0"], ["--swing-clearance", "1", "--search"]],
+    ids=["zero", "search-too-big", "clearance-zero", "clearance-search-too-big"],
 )
 def test_plan_refuses_a_rotor_reserve_it_cannot_use(
     extra: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """`gaitsmith plan --rotor-reserve RHO` (ρ in (0, 2]) and `--swing-clearance M` (metres in
-    (0, 1)): template plans only; refused before any work otherwise (one error line, exit 2,
-    no gait file)."""
+    (0, 1)), with or without --search: anything else is refused before any work (one error
+    line, exit 2, no gait file)."""
     from gaitsmith.cli import main
 
     out = tmp_path / "g.json"

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import math
 import pickle
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -153,6 +154,71 @@ def test_recording_executor_ranks_distinct_feasible_samples() -> None:
 def test_factory_is_picklable_for_process_and_ray_workers() -> None:
     f = TimingSolverFactory(str(robots.load("quad12").root_dir), 20, 0.2, True)
     assert pickle.loads(pickle.dumps(f)) == f
+
+
+class _PlannerBuilt(Exception):
+    """Raised by the stub final planner: the search got as far as building it."""
+
+
+def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`rotor_reserve` and `swing_clearance_m` reach every NLP of the search: the workers'
+    coarse planners (through the picklable factory the process/Ray workers get) and the final
+    full-resolution planner (which writes the gait file's metadata); `max_iter` is the only
+    option the search changes for its coarse NLP."""
+    import planner.search.gait_search as gs
+    from planner.nlp.config import PlannerOptions
+
+    options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
+    factories: list[TimingSolverFactory] = []
+    built: list[tuple[int, PlannerOptions]] = []
+
+    class FakeExecutor:
+        def __init__(self, factory: TimingSolverFactory) -> None:
+            factories.append(pickle.loads(pickle.dumps(factory)))  # what a worker receives
+
+        def __enter__(self) -> FakeExecutor:
+            return self
+
+        def __exit__(self, *exc: object) -> None:
+            return None
+
+        def local_solve(self, x: np.ndarray) -> TimingResult:
+            return TimingResult(x, float(np.sum(x)), True, 0, 0.0, True)
+
+        def map(self, fn: Any, xs: Any) -> list[Any]:
+            return [fn(x) for x in xs]
+
+    def stub_planner(robot: Any, n_knots: int, opts: PlannerOptions) -> GaitPlanner:
+        built.append((n_knots, opts))
+        raise _PlannerBuilt
+
+    monkeypatch.setattr(gs, "make_executor", lambda kind, factory, **kw: FakeExecutor(factory))
+    monkeypatch.setattr(gs, "GaitPlanner", stub_planner)
+    with pytest.raises(_PlannerBuilt):
+        search_gait(robots.load("quad12"), 0.2, n_knots=20, options=options, max_generations=1,
+                    popsize=2, search_knots=12, search_max_iter=50)
+    (factory,) = factories
+    assert factory.n_knots == 12
+    assert factory.options == replace(options, max_iter=50)
+    assert built == [(20, options)]
+
+
+def test_the_coarse_search_nlp_has_the_rotor_reserve_rows() -> None:
+    """A worker's planner built by the factory (the search's 12-knot NLP, assembled Jacobian)
+    has the 4·J·N rotor-reserve rows and the given swing clearance."""
+    from planner.nlp.config import PlannerOptions
+
+    robot = robots.load("quad12")
+    options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
+    solver = TimingSolverFactory(str(robot.root_dir), 12, 0.2, True, options)()
+    sizes = {name: sl.stop - sl.start for name, sl in solver.planner._slices}
+    assert sizes["rotor reserve"] == 4 * len(robot.joints) * 12
+    assert solver.planner.options.nlp_jacobian == "assembled"
+    assert solver.planner.swing_clearance_m == 0.018
+    plain = TimingSolverFactory(str(robot.root_dir), 12, 0.2, True)()
+    assert "rotor reserve" not in dict(plain.planner._slices)
 
 
 def test_search_beats_or_matches_the_best_template_and_logs(
