@@ -61,7 +61,7 @@ from planner.nlp.config import (
     default_speed_m_s,
 )
 from planner.nlp.spacetime import GaitPlanner, PlanResult
-from planner.templates import TEMPLATES
+from planner.templates import TEMPLATES, default_gait_for
 from planner.user_schedule import command_schedule
 from robots.gait import ENTRY_CYCLES_KEY, MAX_ENTRY_CYCLES
 from robots.servo_params import ServoSetting
@@ -225,12 +225,19 @@ def plan(
         supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
     weights = CostWeights() if bounce_weight is None else CostWeights(bounce_s2_m2=bounce_weight)
     if search:
+        user_seed = None
+        if any(v is not None for v in (period, duty, phases, schedule_file)):
+            # the user's own schedule seeds the search beside the templates (never ignored)
+            user_seed, _ = command_schedule(bot, gait or default_gait_for(bot), phases=phases,
+                                            duty=duty, schedule_file=schedule_file,
+                                            period_s=period)
+            gait = None  # it is the base of the user's schedule, not ignored
         _plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
                      PlannerOptions(mu=mu, derivatives=solver, weights=weights,
                                     normal_force_rate_weights_per_t0=force_rate,
                                     rotor_reserve=rotor_reserve,
                                     swing_clearance_m=swing_clearance),
-                     entry_cycles or 1)
+                     entry_cycles or 1, user_seed)
         return
     custom = phases is not None or schedule_file is not None
     standing = _standing(speed, vy, yaw_rate, duty, phases, schedule_file)
@@ -405,6 +412,9 @@ def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: boo
     console.print(f"wrote [bold]{output}[/]")
 
 
+USER_SEED = "your schedule"  # the name the user's --period/--duty/--phases/--schedule seed has
+
+
 @dataclass(frozen=True)
 class SearchSettings:
     """The `--search` options, as given on the command line."""
@@ -423,11 +433,16 @@ class SearchSettings:
 
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
                  st: SearchSettings, simulate: bool, cycles: int | None,
-                 supply_v: float | None, options: PlannerOptions, entry_cycles: int) -> None:
+                 supply_v: float | None, options: PlannerOptions, entry_cycles: int,
+                 user_seed: robots.ContactSchedule | None = None) -> None:
     from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
         console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")
+    if user_seed is not None:
+        console.print(f"  seeding also with your schedule (period {user_seed.period_s:.3f} s, "
+                      f"duty {'/'.join(f'{d:.2f}' for d in user_seed.duty_factor)}): "
+                      f"\"{USER_SEED}\"")
     console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "
                   f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
                   f"samples scored at {st.search_knots} knots"
@@ -449,6 +464,7 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
+        seed_schedules=None if user_seed is None else {USER_SEED: user_seed},
         **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles),
     )
     for name, cost in result.template_costs.items():

@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Protocol
@@ -77,6 +77,9 @@ from robots import load as load_robot
 #: Period bounds in units of √(L/g) (dynamic similarity, Murphy et al. 2008 / Alexander).
 PERIOD_BOUNDS_SQRT_L_G = (2.0, 9.0)
 DUTY_BOUNDS = (0.35, 0.9)
+#: a seed schedule's period outside the box grows the box to this factor beyond it, so CMA can
+#: move both ways from the user's start
+SEED_PERIOD_ROOM = 1.25
 #: Weight of the support term (cost units per unit of open-loop error amplification). A
 #: template trot at quad12's default period (two 0.19 s line phases, amplification 2.1) pays
 #: 0.11, about half the spacetime cost of a trot at 0.25 m/s.
@@ -188,6 +191,28 @@ class TimingSpace:
                     return None
         s = list(self.searched)
         return np.r_[schedule.period_s, rel[s[1:]], du[s]].astype(float)
+
+
+def _encoded_seeds(space: TimingSpace,
+                   schedules: Mapping[str, ContactSchedule]) -> dict[str, np.ndarray]:
+    """The seed schedules as timing vectors; refuses one the search cannot represent."""
+    out: dict[str, np.ndarray] = {}
+    for name, schedule in schedules.items():
+        if tuple(schedule.feet) != tuple(space.feet):
+            raise PlannerConfigError(f"seed schedule {name!r}: feet {schedule.feet} are not the "
+                                     f"robot's {space.feet}")
+        duties = schedule.duty_factor
+        if not all(DUTY_BOUNDS[0] <= d <= DUTY_BOUNDS[1] for d in duties):
+            raise PlannerConfigError(
+                f"seed schedule {name!r}: the search's duty factors lie in "
+                f"[{DUTY_BOUNDS[0]}, {DUTY_BOUNDS[1]}], got {', '.join(f'{d:g}' for d in duties)}")
+        x = space.encode(schedule)
+        if x is None:
+            raise PlannerConfigError(
+                f"seed schedule {name!r}: its mirror-image legs do not run half a period apart "
+                "with equal duty factors, as the symmetric search needs; use --no-symmetric")
+        out[name] = x
+    return out
 
 
 def searchable_templates(robot: Robot) -> list[str]:
@@ -302,6 +327,8 @@ class TimingSolverFactory:
     tipping_weight: float = 0.0
     acceptance: Callable[[], GaitAcceptance] | None = None
     warm_start: str = "cold"
+    #: the search's period box when a seed schedule widened it (None: the robot's default box)
+    period_bounds_s: tuple[float, float] | None = None
 
     def __call__(self) -> TimingSolver:
         t0 = time.perf_counter()
@@ -309,8 +336,11 @@ class TimingSolverFactory:
         planner = GaitPlanner(robot, self.n_knots, self.options)
         tipping = TippingCost.for_robot(robot, self.tipping_weight) if self.tipping_weight else None
         check = self.acceptance() if self.acceptance is not None else None
-        return TimingSolver(planner, TimingSpace.for_robot(robot, self.symmetric), self.speed_m_s,
-                            tipping, check, time.perf_counter() - t0, self.warm_start)
+        space = TimingSpace.for_robot(robot, self.symmetric)
+        if self.period_bounds_s is not None:
+            space = replace(space, period_bounds_s=self.period_bounds_s)
+        return TimingSolver(planner, space, self.speed_m_s, tipping, check,
+                            time.perf_counter() - t0, self.warm_start)
 
 
 class RecordingExecutor:
@@ -437,6 +467,7 @@ def search_gait(
     progress: Callable[[SearchLogRow], None] | None = None,
     final_candidates: int = FINAL_CANDIDATES,
     warm_start: str = "cold",
+    seed_schedules: Mapping[str, ContactSchedule] | None = None,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -446,6 +477,10 @@ def search_gait(
     full-resolution candidates — the final judge may be stricter than the coarse one;
     `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins.
     `warm_start`: how each worker starts a sample's solve (`SEARCH_WARM_STARTS`).
+    `seed_schedules`: more named seeds beside the templates (e.g. the user's own schedule,
+    `gaitsmith plan --search --period/--duty/--phases/--schedule`): CMA starts from the first of
+    them instead of the cheapest template, they join the templates in the fallback, and the
+    period box grows to hold their periods with `SEED_PERIOD_ROOM` to spare.
     """
     t0 = time.perf_counter()
     options = options or PlannerOptions()
@@ -468,11 +503,18 @@ def search_gait(
         # wave/ripple of a 5-leg star): search every foot's timing instead
         space = TimingSpace.for_robot(robot, False)
     symmetric = space.symmetric
+    seeds = _encoded_seeds(space, seed_schedules or {})
+    if seeds:
+        periods = [float(x[0]) for x in seeds.values()]
+        lo_s, hi_s = space.period_bounds_s
+        space = replace(space, period_bounds_s=(min(lo_s, min(periods) / SEED_PERIOD_ROOM),
+                                                max(hi_s, max(periods) * SEED_PERIOD_ROOM)))
     tipping = TippingCost.for_robot(robot, tipping_weight)
     search_options = replace(options, max_iter=search_max_iter if options.max_iter is None
                              else min(options.max_iter, search_max_iter))
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
-                                  search_options, tipping_weight, acceptance, warm_start)
+                                  search_options, tipping_weight, acceptance, warm_start,
+                                  space.period_bounds_s if seeds else None)
     log: list[SearchLogRow] = []
 
     def on_generation(rep: GenerationReport) -> None:
@@ -494,7 +536,7 @@ def search_gait(
                                   (), (), "seeding with the templates"))
         named = [(name, space.encode(make_schedule(robot, name)))
                  for name in searchable_templates(robot)]
-        named_x = [(name, x) for name, x in named if x is not None]
+        named_x = [(name, x) for name, x in named if x is not None] + list(seeds.items())
         if not named_x:
             raise PlannerConfigError(f"no template of {robot.name} fits the search encoding")
         seeded = pool.map(ex.local_solve, [x for _, x in named_x])
@@ -502,7 +544,9 @@ def search_gait(
         template_costs = {name: (r.cost if r.feasible else math.inf)
                           for name, r in seed_results.items()}
         best_template = min(template_costs, key=lambda n: template_costs[n])
-        x0 = dict(named_x)[best_template]
+        # CMA starts from the user's own schedule when one is given (their intent), else from
+        # the cheapest template
+        x0 = next(iter(seeds.values())) if seeds else dict(named_x)[best_template]
         t_cma = time.perf_counter()
         # 2. basin-CMA over the timings (projection = coarse spacetime solve)
         cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),

@@ -251,3 +251,27 @@ def test_plan_search_takes_the_template_options(
     assert options.weights.bounce_s2_m2 == 30
     assert options.rotor_reserve == 0.15 and options.swing_clearance_m == 0.018
     assert seen["acceptance"].entry_cycles == 3 and seen["final_acceptance"].entry_cycles == 3
+
+
+def test_plan_search_seeds_from_the_users_schedule(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--period/--duty (and --phases/--schedule) with --search are no longer silently ignored:
+    the schedule they make seeds the search beside the templates."""
+    seen: dict[str, Any] = {}
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.update(kwargs)
+        raise ExpensiveWorkStarted
+
+    monkeypatch.setattr(planner.search.gait_search, "search_gait", record)
+    out = str(tmp_path / "g.json")
+    with pytest.raises(ExpensiveWorkStarted):
+        main(["plan", "quad12", "--speed", "0.2", "--search", "--period", "1.3", "--duty", "0.6",
+              "-o", out])
+    (schedule,) = seen["seed_schedules"].values()
+    assert schedule.period_s == 1.3 and schedule.duty_factor == (0.6,) * 4
+    seen.clear()
+    with pytest.raises(ExpensiveWorkStarted):
+        main(["plan", "quad12", "--speed", "0.2", "--search", "-o", out])
+    assert seen["seed_schedules"] is None

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import robots
+from planner.errors import PlannerConfigError
 from planner.nlp.spacetime import GaitPlanner
 from planner.search.basin_cma import LocalResult
 from planner.search.executors import SerialExecutor
@@ -296,3 +297,33 @@ def test_a_template_that_passes_at_full_resolution_is_the_fallback(
     assert len(result.final_solves) >= 2  # the searched candidate failed, then the templates
     assert result.fallback_template == "pace"
     assert result.final_solves[-1][0] is result.best and result.final_solves[-1][2] is True
+
+
+def test_seed_schedules_are_encoded_and_widen_the_period_box() -> None:
+    """A user's schedule seeds the search: encoded in the robot's timing space, the period box
+    grows to hold its period (in the workers too), and one the search cannot represent is
+    refused by name (duty outside the search's bounds, mirror legs not half a period apart)."""
+    from planner.search.gait_search import (
+        DUTY_BOUNDS,
+        TimingSolverFactory,
+        TimingSpace,
+        _encoded_seeds,
+    )
+
+    robot = robots.load("quad12")
+    space = TimingSpace.for_robot(robot, True)
+    slow = make_schedule(robot, "walk", period_s=2.0 * space.period_bounds_s[1])
+    x = _encoded_seeds(space, {"mine": slow})["mine"]
+    assert x[0] == pytest.approx(slow.period_s)
+    wide = replace(space, period_bounds_s=(space.period_bounds_s[0], 1.25 * slow.period_s))
+    assert wide.decode(x).period_s == pytest.approx(slow.period_s)  # not clipped to the old box
+    assert space.decode(x).period_s == pytest.approx(space.period_bounds_s[1])
+    factory = TimingSolverFactory(str(robot.root_dir), 12, 0.2, True,
+                                  period_bounds_s=wide.period_bounds_s)
+    assert factory().space.period_bounds_s == wide.period_bounds_s
+    too_long = replace(slow, duty_factor=(DUTY_BOUNDS[1] + 0.05,) * 4)
+    with pytest.raises(PlannerConfigError, match="duty factors lie in"):
+        _encoded_seeds(space, {"mine": too_long})
+    limp = replace(slow, touchdown_phase=(0.0, 0.3, 0.5, 0.8))
+    with pytest.raises(PlannerConfigError, match="half a period apart"):
+        _encoded_seeds(space, {"mine": limp})
