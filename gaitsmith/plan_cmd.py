@@ -34,6 +34,7 @@ from gaitsmith.options import (
     MAX_PERIOD_S,
     check_cycles,
     check_friction,
+    check_integer,
     check_knots,
     check_number,
     check_output_file,
@@ -186,19 +187,14 @@ def plan(
                           "--yaw-rate) and no --search")
     if mirror and search:
         raise OptionError("--mirror: not with --search yet; plan the chosen gait with --mirror")
-    if force_rate is not None and not (math.isfinite(force_rate) and force_rate > 0):
-        raise OptionError("--force-rate: a positive number of body weights per √(L/g)")
-    if bounce_weight is not None and not (math.isfinite(bounce_weight) and bounce_weight >= 0):
-        raise OptionError("--bounce-weight: a finite number ≥ 0")
-    if entry_cycles is not None and not 1 <= entry_cycles <= MAX_ENTRY_CYCLES:
-        raise OptionError(f"--entry-cycles: a whole number of cycles from 1 to "
-                          f"{MAX_ENTRY_CYCLES}")
-    if rotor_reserve is not None and not (math.isfinite(rotor_reserve)
-                                          and 0 < rotor_reserve <= 2):
-        raise OptionError("--rotor-reserve: a number in (0, 2]")
-    if swing_clearance is not None and not (math.isfinite(swing_clearance)
-                                            and 0 < swing_clearance < 1):
-        raise OptionError("--swing-clearance: metres in (0, 1)")
+    # the NLP-shaping options (each None unless given): ranges the planner accepts
+    check_number("--force-rate", force_rate, 0.0, MAX_FORCE_RATE, lo_open=True,
+                 unit="body weights per √(L/g)")
+    check_number("--bounce-weight", bounce_weight, 0.0, MAX_COST_WEIGHT)
+    check_integer("--entry-cycles", entry_cycles, 1, MAX_ENTRY_CYCLES)
+    check_number("--rotor-reserve", rotor_reserve, 0.0, 2.0, lo_open=True)
+    check_number("--swing-clearance", swing_clearance, 0.0, 1.0, lo_open=True, hi_open=True,
+                 unit="m")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -412,6 +408,8 @@ def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: boo
     console.print(f"wrote [bold]{output}[/]")
 
 
+MAX_FORCE_RATE = 100.0  # --force-rate: body weights per √(L/g); 3-10 are the useful values
+MAX_COST_WEIGHT = 1e6  # --bounce-weight: the objective's default weights are 1e-5-10
 USER_SEED = "your schedule"  # the name the user's --period/--duty/--phases/--schedule seed has
 
 

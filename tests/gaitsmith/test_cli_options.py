@@ -61,12 +61,15 @@ PLAN_MISTAKES = [
     (["--search", "--tipping-weight", "-1"], "--tipping-weight must be"),
     (["--search", "--executor", "gpu"], "--executor must be serial, process or ray"),
     (["--search", "--cycles", "1"], "--cycles must be"),  # --sim-accept is on by default
-    (["--entry-cycles", "0"], "--entry-cycles: a whole number of cycles from 1 to 20"),
-    (["--search", "--entry-cycles", "21"], "--entry-cycles: a whole number"),
-    (["--bounce-weight", "-1"], "--bounce-weight: a finite number ≥ 0"),
-    (["--bounce-weight", "nan"], "--bounce-weight: a finite number ≥ 0"),
-    (["--search", "--bounce-weight", "inf"], "--bounce-weight: a finite number ≥ 0"),
-    (["--force-rate", "0"], "--force-rate: a positive number of body weights"),
+    (["--entry-cycles", "0"], "--entry-cycles must be an integer in [1, 20], got 0"),
+    (["--search", "--entry-cycles", "21"], "--entry-cycles must be an integer in [1, 20]"),
+    (["--bounce-weight", "-1"], "--bounce-weight must be a number in [0, 1e+06], got -1"),
+    (["--bounce-weight", "nan"], "--bounce-weight must be a number in [0, 1e+06], got nan"),
+    (["--search", "--bounce-weight", "inf"], "--bounce-weight must be a number in [0, 1e+06]"),
+    (["--force-rate", "0"], "--force-rate must be a number in (0, 100] body weights"),
+    (["--force-rate", "1e9"], "--force-rate must be a number in (0, 100] body weights"),
+    (["--rotor-reserve", "2.5"], "--rotor-reserve must be a number in (0, 2], got 2.5"),
+    (["--swing-clearance", "1"], "--swing-clearance must be a number in (0, 1) m, got 1"),
 ]
 
 
