@@ -507,12 +507,18 @@ def from_dict(d: Any, file: str = "<gait>") -> Gait:
     )
 
 
+def valid_entry_cycles(value: Any) -> bool:
+    """A planner.entry_blend_cycles value: a whole number (not a bool) in 1..MAX_ENTRY_CYCLES."""
+    return (not isinstance(value, bool) and isinstance(value, int)
+            and 1 <= value <= MAX_ENTRY_CYCLES)
+
+
 def _check_entry_cycles(file: str, planner: dict[str, Any]) -> None:
     """planner.entry_blend_cycles, if present: a whole number of cycles, 1..MAX_ENTRY_CYCLES."""
     if ENTRY_CYCLES_KEY not in planner:
         return
     v = planner[ENTRY_CYCLES_KEY]
-    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_ENTRY_CYCLES:
+    if not valid_entry_cycles(v):
         raise GaitFileError(file, f"planner.{ENTRY_CYCLES_KEY}",
                             f"must be a whole number of cycles from 1 to {MAX_ENTRY_CYCLES}, "
                             f"got {v!r:.40}")

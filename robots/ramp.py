@@ -74,7 +74,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from robots.gait import ENTRY_CYCLES_KEY, MAX_ENTRY_CYCLES, Gait
+from robots.gait import ENTRY_CYCLES_KEY, MAX_ENTRY_CYCLES, Gait, valid_entry_cycles
 
 MIN_JERK_PEAK_SPEED = 1.875  # max over u of ds/du for the quintic above
 DEFAULT_RAMP_S = 1.0
@@ -198,7 +198,7 @@ def blend_cycles(
 def requested_cycles(gait: Gait) -> int:
     """The blend length the gait file asks for (``planner["entry_blend_cycles"]``; 1 if none)."""
     value = gait.planner.get(ENTRY_CYCLES_KEY, 1)  # a file's value was checked on loading
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_ENTRY_CYCLES:
+    if not valid_entry_cycles(value):
         raise ValueError(f"planner.{ENTRY_CYCLES_KEY} must be a whole number of cycles from 1 "
                          f"to {MAX_ENTRY_CYCLES}, got {value!r:.40}")
     return value

@@ -377,9 +377,7 @@ def build_groups(
         # torque–speed envelope |τ| ≤ margin·τ_stall·(1 − |q̇|/ω₀), the four faces of the diamond
         Group(
             "torque envelope",
-            ca.vertcat(
-                col(tau_n + qd_n), col(tau_n - qd_n), col(-tau_n + qd_n), col(-tau_n - qd_n)
-            ),
+            envelope_faces(tau_n, qd_n),
             np.full(4 * nj * n, -inf),
             np.ones(4 * nj * n),
         ),
@@ -405,6 +403,13 @@ def build_groups(
     return spare_flat_foot_ankles(model, groups, n)
 
 
+def envelope_faces(tau_n: Any, qd_n: Any) -> Any:
+    """The four faces of the torque–speed diamond |τ/τ_s| + |q̇/ω₀| ≤ 1, each ≤ 1 (τ and q̇
+    already divided by the margined stall torque and the no-load speed; J × N each)."""
+    return ca.vertcat(ca.vec(tau_n + qd_n), ca.vec(tau_n - qd_n), ca.vec(-tau_n + qd_n),
+                      ca.vec(-tau_n - qd_n))
+
+
 def _rotor_reserve_groups(model: RobotModel, kq: KnotQuantities, n: int,
                           options: PlannerOptions, stall: Any, qd_n: Any) -> list[Group]:
     """Rotor reserve (`PlannerOptions.rotor_reserve`): the torque–speed envelope also holds for
@@ -417,8 +422,7 @@ def _rotor_reserve_groups(model: RobotModel, kq: KnotQuantities, n: int,
         return []
     tau = kq.tau_nm + rho * ca.diag(ca.DM(arm)) @ kq.qdd
     tau_n = tau / ca.repmat(stall * options.torque_margin, 1, n)
-    expr = ca.vertcat(ca.vec(tau_n + qd_n), ca.vec(tau_n - qd_n), ca.vec(-tau_n + qd_n),
-                      ca.vec(-tau_n - qd_n))
+    expr = envelope_faces(tau_n, qd_n)
     size = int(expr.shape[0])
     return [Group("rotor reserve", expr, np.full(size, -np.inf), np.ones(size))]
 

@@ -544,9 +544,10 @@ def search_gait(
         template_costs = {name: (r.cost if r.feasible else math.inf)
                           for name, r in seed_results.items()}
         best_template = min(template_costs, key=lambda n: template_costs[n])
+        seed_x = dict(named_x)
         # CMA starts from the user's own schedule when one is given (their intent), else from
         # the cheapest template
-        x0 = next(iter(seeds.values())) if seeds else dict(named_x)[best_template]
+        x0 = next(iter(seeds.values())) if seeds else seed_x[best_template]
         t_cma = time.perf_counter()
         # 2. basin-CMA over the timings (projection = coarse spacetime solve)
         cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),
@@ -583,7 +584,7 @@ def search_gait(
         # nothing searched passed: the templates the search started from, at full resolution
         tried = [x for x, _ in candidates]
         for name in sorted(template_costs, key=lambda n: template_costs[n]):
-            x = dict(named_x)[name]
+            x = seed_x[name]
             if any(np.allclose(x, y) for y in tried):
                 continue
             solved = final.solve(space.decode(x), speed_m_s, warm_start=False)
