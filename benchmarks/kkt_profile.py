@@ -1,6 +1,6 @@
 """Size of the NLP IPOPT sees and where an iteration's time goes, solver paths side by side.
 
-    python benchmarks/kkt_profile.py quad12 trot knot,elim-rates,elim-all 2
+    python benchmarks/kkt_profile.py quad12 trot knot,knot-ad,expanded 2
 
 Builds one planner per `planner_bench.PATHS` name (N = 30) and cold-solves the robot's
 template `reps` times at 0.25 m/s, the paths in turn. Prints the free variables (lbx < ubx:

@@ -1,6 +1,6 @@
 """CPU and wall time per call of each NLP function IPOPT evaluates, solver paths side by side.
 
-    python benchmarks/nlp_function_times.py quad12 trot knot-w,knot,knot-t2 3
+    python benchmarks/nlp_function_times.py quad12 trot knot,knot-t2 3
 
 Builds one planner per `planner_bench.PATHS` name (N = 30) and cold-solves the robot's template
 `reps` times, the paths in turn, at 0.25 m/s. Per solve and as medians it prints, for

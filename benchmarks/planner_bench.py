@@ -32,7 +32,6 @@ is counted apart, with its cost difference, and not called the same optimum.
 from __future__ import annotations
 
 import argparse
-import functools
 import os
 import statistics
 import tempfile
@@ -203,56 +202,16 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "knot-tuned": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="knot", ipopt_tuning="tuned")
     ),
-    # docs/results/planner_speed_threads.md: "knot" as this session found it (ω from the knot's
-    # own output, so grad_f evaluated the knot Jacobian; base x, y through the knot, so the NLP
-    # Jacobian took 66 directions, 64 + 2), "knot" before only the second change, and the knot
-    # functions and their derivatives on 2 threads
-    "knot-w": lambda robot, n: _variant_planner(
-        robot, n, PlannerOptions(), omega_from_knot=True, origin_base_xy=False
-    ),
-    "knot-xy": lambda robot, n: _variant_planner(
-        robot, n, PlannerOptions(), origin_base_xy=False
-    ),
+    # docs/results/planner_speed_threads.md: the knot functions and their derivatives on 2
+    # threads (the "knot-w"/"knot-xy" variants measured there are the default since)
     "knot-t2": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(knot_threads=2)),
     "compiled-t2": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="compiled", knot_threads=2)
     ),
-    # docs/results/planner_speed_lifted.md: the rates (and the torques) eliminated instead of
-    # lifted (`planner.nlp.lifted`), with CasADi's AD constraint Jacobian as measured there
-    "elim-rates": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(lifted_rates="none", nlp_jacobian="ad")
-    ),
-    "elim-xy": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(lifted_rates="base_xy", nlp_jacobian="ad")
-    ),
-    "elim-acc": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(lifted_rates="velocities")),
-    "elim-all": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(lifted_rates="none", lifted_torques=False, nlp_jacobian="ad")
-    ),
     # the constraint Jacobian assembled from one J per knot (`planner.nlp.assembled_jacobian`;
     # "knot-aj" is the default "knot" since then, named for the comparisons in that file)
     "knot-aj": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_jacobian="assembled")),
-    "elim-aj": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(lifted_rates="none", nlp_jacobian="assembled")
-    ),
 }
-
-
-def _variant_planner(
-    robot: robots.Robot, n_knots: int, options: PlannerOptions, **knot_quantities: bool
-) -> GaitPlanner:
-    """A planner whose NLP is built by `knot_quantities(**knot_quantities)` (the NLP before this
-    session's changes: `omega_from_knot`, `origin_base_xy`). It shares the direction-count file
-    of "knot" (same options) but needs other directions, so it builds them all and leaves the
-    file alone."""
-    saved = spacetime.knot_quantities, spacetime.load_directions, spacetime.save_directions
-    spacetime.knot_quantities = functools.partial(saved[0], **knot_quantities)  # type: ignore[assignment,arg-type]
-    spacetime.load_directions = lambda path: None  # type: ignore[assignment]
-    spacetime.save_directions = lambda path, forward, second: None  # type: ignore[assignment]
-    try:
-        return GaitPlanner(robot, n_knots, options)
-    finally:
-        spacetime.knot_quantities, spacetime.load_directions, spacetime.save_directions = saved  # type: ignore[assignment]
 
 
 def _fatrop_planner(robot: robots.Robot, n_knots: int) -> GaitPlanner:

@@ -33,7 +33,6 @@ from planner.nlp.contact_margin import (
     FLAT_MEAN_FOOTPRINT_LEG_LENGTHS,
 )
 from planner.nlp.force_rate import NORMAL_FORCE_RATE_WEIGHTS_PER_T0
-from planner.nlp.handover import HANDOVER_WINDOW_CYCLES
 from planner.nlp.sideways_locked import SIDEWAYS_SLIP_LEG_LENGTHS
 from robots.servo_params import ServoSetting
 
@@ -48,8 +47,6 @@ DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 IPOPT_TUNINGS = ("tuned", "session21")
 #: values of `PlannerOptions.nlp_jacobian`
 NLP_JACOBIANS = ("ad", "assembled")
-#: values of `PlannerOptions.lifted_rates` (`planner.nlp.lifted`)
-LIFTED_RATES = ("all", "base_xy", "velocities", "none")
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -234,11 +231,6 @@ class PlannerOptions:
       "Session 24"); scaled by body weight and the leg's time unit, so one ρ asks the same of
       dynamically similar robots (5: one body weight in 0.2·√(L/g)). Default None: no rows
       (a different local optimum turned star5's entry, `planner.nlp.force_rate`).
-    - `handover_window_cycles`: w in (0, 0.5) or None: on a two-footed robot's last
-      round(w·N) double-support knots before a lift-off, the landing leg's joint torques with
-      the trailing foot's normal load moved onto the landing foot stay within the servo
-      envelope (`planner.nlp.handover`; MuJoCo's trailing servo foot lets go early, measured
-      in docs/results/zoo_gaits.md "Session 24"). No rows on other foot counts. Default None.
     - `rotor_reserve`: ρ ≥ 0 or None: the torque envelope also holds for τ + ρ·I_a·q̈, the knot
       torque with the servo rotor's share (MJCF armature × joint acceleration) taken 1 + ρ
       times (`planner.nlp.constraints`, group "rotor reserve"): with a heavy rotor the plan's
@@ -273,16 +265,6 @@ class PlannerOptions:
       values. 1 (default): two threads cost 5–15 % more CPU and lost where measured without
       heavy oversubscription (quad12 trot 1.16× per solve); a search's worker processes
       already use the cores (docs/results/planner_speed_threads.md).
-    - `lifted_rates`: which base and joint rates and accelerations are decision variables tied
-      to the poses by the cyclic central differences (equality rows): "all" (default), "none"
-      (every rate is the differences themselves, `planner.nlp.lifted`), "velocities" (the
-      accelerations are eliminated, the velocities lifted) or "base_xy" (only the
-      base's horizontal rates ẋ, ẏ, ẍ, ÿ stay lifted, so a knot's rows still depend on at most
-      64 NLP variables on quad12: one batch of CasADi's forward directions). Eliminated
-      variables keep their slots, fixed at 0 (IPOPT drops fixed variables: a smaller KKT
-      system). `lifted_torques` False: the joint torques are the inverse dynamics' output
-      instead of variables tied to it. Same optimum; docs/results/planner_speed_lifted.md
-      measures what each costs.
     - `nlp_jacobian`: how IPOPT's constraint Jacobian is computed with `derivatives` "knot" or
       "compiled" ("expanded" always differentiates its SX): "assembled" (default) — the chain
       rule written out with one J per knot (`planner.nlp.assembled_jacobian`); "ad" — CasADi's
@@ -315,7 +297,6 @@ class PlannerOptions:
     capture_sole_fraction: float | None = CAPTURE_SOLE_FRACTION
     flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
     normal_force_rate_weights_per_t0: float | None = NORMAL_FORCE_RATE_WEIGHTS_PER_T0
-    handover_window_cycles: float | None = HANDOVER_WINDOW_CYCLES
     rotor_reserve: float | None = None
     half_cycle_mirror: bool = False
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
@@ -326,8 +307,6 @@ class PlannerOptions:
     derivatives: str = "knot"
     ipopt_tuning: str = "tuned"
     knot_threads: int = 1
-    lifted_rates: str = "all"
-    lifted_torques: bool = True
     nlp_jacobian: str = "assembled"
 
     def __post_init__(self) -> None:
@@ -357,9 +336,6 @@ class PlannerOptions:
             "normal_force_rate_weights_per_t0": self.normal_force_rate_weights_per_t0 is None
             or (math.isfinite(self.normal_force_rate_weights_per_t0)
                 and 0 < self.normal_force_rate_weights_per_t0 < 1e3),
-            "handover_window_cycles": self.handover_window_cycles is None
-            or (math.isfinite(self.handover_window_cycles)
-                and 0 < self.handover_window_cycles < 0.5),
             "rotor_reserve": self.rotor_reserve is None
             or (math.isfinite(self.rotor_reserve) and 0 <= self.rotor_reserve <= 2),
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
@@ -369,8 +345,6 @@ class PlannerOptions:
             "ipopt_tuning": self.ipopt_tuning in IPOPT_TUNINGS,
             "knot_threads": type(self.knot_threads) is int
             and 1 <= self.knot_threads <= MAX_KNOT_THREADS,
-            "lifted_rates": self.lifted_rates in LIFTED_RATES,
-            "lifted_torques": type(self.lifted_torques) is bool,
             "nlp_jacobian": self.nlp_jacobian in NLP_JACOBIANS,
         }
         for name, ok in checks.items():

@@ -34,14 +34,6 @@ from planner.nlp.flat_foot import (
 )
 from planner.nlp.foot_separation import foot_separation_labels, foot_separation_rows
 from planner.nlp.force_rate import force_rate_bounds, force_rate_labels, force_rate_rows
-from planner.nlp.handover import (
-    foot_height_jacobian,
-    handover_labels,
-    handover_pairs,
-    handover_torques_nm,
-    lift_off_window,
-    window_knots,
-)
 from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.sideways_locked import lateral_slip_bounds_m
@@ -132,49 +124,36 @@ def knot_quantities(
     n_knots: int,
     knot: ca.Function | None = None,
     threads: int = 1,
-    omega_from_knot: bool = False,
-    origin_base_xy: bool = True,
-    lifted_torques: bool = True,
 ) -> KnotQuantities:
     """The knot function mapped over the knots; `knot`: a `knot_function(model)` to use instead
     (e.g. one with precomputed derivatives, `planner.nlp.solver_cache`). `threads` > 1: the
     knots are split into that many chunks evaluated on parallel threads (CasADi's "thread"
-    map; its derivatives are threaded maps of the knot's derivatives too). `omega_from_knot`:
-    ω from the knot's "w" output as before issue #16's objective-gradient change (same values;
-    kept for benchmarks/planner_bench.py to measure against). `origin_base_xy` (default): the
-    knot is evaluated with the base at x = y = 0 and its feet shifted by the base's x, y
-    afterwards (the same values to rounding; False: the base through the knot, as before).
-    `lifted_torques` False: the torques are the inverse dynamics' output itself
-    (`PlannerOptions.lifted_torques`), not the lifted variables."""
+    map; its derivatives are threaded maps of the knot's derivatives too). The knot is
+    evaluated with the base at x = y = 0 and its feet shifted by the base's x, y afterwards
+    (the same values to rounding as the base through the knot, tested)."""
     bd, qd = sym.vel[:6, :], sym.vel[6:, :]
     bdd, qdd = sym.acc[:6, :], sym.acc[6:, :]
     fn = mapped_knots(knot if knot is not None else knot_function(model), n_knots, threads)
     flat = [sym.moments] if model.flat_feet else []
     yaw_rate = _motion(sym).yaw_rate_rad_s
-    base = sym.base
-    if origin_base_xy:
-        # the knot's rows do not depend on the base's x, y (translation invariance, tested) and
-        # its feet move with them: evaluated at x = y = 0 the knot has 2 NLP-variable inputs
-        # fewer (quad12: 64, one batch of forward directions for the NLP Jacobian instead of
-        # 64 + 2, i.e. one evaluation of every knot's J instead of two)
-        base = ca.vertcat(ca.MX.zeros(2, n_knots), sym.base[2:, :])
+    # the knot's rows do not depend on the base's x, y (translation invariance, tested) and
+    # its feet move with them: evaluated at x = y = 0 the knot has 2 NLP-variable inputs
+    # fewer (quad12: 64, one batch of forward directions for the NLP Jacobian instead of
+    # 64 + 2, i.e. one evaluation of every knot's J instead of two)
+    base = ca.vertcat(ca.MX.zeros(2, n_knots), sym.base[2:, :])
     arguments = (
         base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s, _motion(sym).vy_m_s, yaw_rate,
         *flat,
     )
     outputs = tuple(fn(*arguments))
-    base_rows, tau, feet, body_z, w_knot = outputs
-    if origin_base_xy:
-        shift = ca.vertcat(sym.base[0:2, :], ca.MX.zeros(1, n_knots))
-        feet = feet + ca.repmat(shift, model.n_feet, 1)
+    base_rows, tau, feet, body_z, _ = outputs
+    shift = ca.vertcat(sym.base[0:2, :], ca.MX.zeros(1, n_knots))
+    feet = feet + ca.repmat(shift, model.n_feet, 1)
     # ω from its own small function, not the knot's "w" output: the objective's gradient then
     # differentiates a few dozen instructions instead of the knot's whole Jacobian
-    w = w_knot if omega_from_knot else omega_function(model).map(n_knots)(
-        sym.base[3:6, :], bd[3:6, :], yaw_rate
-    )
-    tau_nm = sym.tau if lifted_torques else tau
+    w = omega_function(model).map(n_knots)(sym.base[3:6, :], bd[3:6, :], yaw_rate)
     return KnotQuantities(
-        base_rows, tau_nm, tau, feet, body_z, qd, qdd, bd, w, KnotCall(arguments, outputs)
+        base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w, KnotCall(arguments, outputs)
     )
 
 
@@ -278,45 +257,26 @@ def build_groups(
     lateral_lb, lateral_ub = lateral_slip_bounds_m(
         model.robot, n, options.sideways_slip_leg_lengths
     )
-    # cyclic central differences tie the lifted rates to the poses (linear in x); eliminated
-    # rates (`PlannerOptions.lifted_rates`) are those differences themselves: no rows
-    differences = {
-        "all": [Group(
-            "finite differences",
-            ca.vertcat(col(sym.vel - vel_fd), col(sym.acc - acc_fd)),
-            zeros(2 * n_rates),
-            zeros(2 * n_rates),
-            fd_scale,
-        )],
-        "base_xy": [Group(
-            "base xy differences",
-            ca.vertcat(col(sym.vel[:2, :] - vel_fd[:2, :]), col(sym.acc[:2, :] - acc_fd[:2, :])),
-            zeros(4 * n),
-            zeros(4 * n),
-            np.r_[np.full(2 * n, rate[0]), np.full(2 * n, rate[0] / t0)],
-        )],
-        "velocities": [Group(
-            "velocity differences",
-            col(sym.vel - vel_fd),
-            zeros(n_rates),
-            zeros(n_rates),
-            fd_scale[:n_rates],
-        )],
-        "none": [],
-    }[options.lifted_rates]
+    # cyclic central differences tie the lifted rates to the poses (linear in x)
+    differences = Group(
+        "finite differences",
+        ca.vertcat(col(sym.vel - vel_fd), col(sym.acc - acc_fd)),
+        zeros(2 * n_rates),
+        zeros(2 * n_rates),
+        fd_scale,
+    )
     groups = [
-        *differences,
+        differences,
         # W&P eqs 7-8: the floating base is unactuated — whole-body linear/angular momentum rate
         # equals gravity + contact forces (the six base rows of the inverse dynamics vanish).
         Group("dynamics", col(kq.base_rows), zeros(6 * n), zeros(6 * n)),
-        # joint torques by inverse dynamics of the floating-base tree (scaled by τ_stall);
-        # without `lifted_torques` the torques are the inverse dynamics' and the group is absent
-        *([Group(
+        # joint torques by inverse dynamics of the floating-base tree (scaled by τ_stall)
+        Group(
             "inverse dynamics",
             col((kq.tau_nm - kq.tau_rnea_nm) / ca.repmat(stall, 1, n)),
             zeros(nj * n),
             zeros(nj * n),
-        )] if options.lifted_torques else []),
+        ),
         # eq 2: stance foot-sphere centre at the sphere radius
         Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n), length),
         # eq 3: stance feet stay put in the world: knot k+1's foot, in the command frame of knot
@@ -390,7 +350,6 @@ def build_groups(
         ),
         *_rotor_reserve_groups(model, kq, n, options, stall, qd_n),
         *_force_rate_groups(model, sym, n, options, inv_h, t0),
-        *_handover_groups(model, sym, kq, n, options, stall, qd_n),
         *flat_foot_groups(model, sym, n, options, stick, Group),
         *_static_margin_groups(model, sym, kq, n, options),
         *_mean_footprint_groups(model, sym, n, options),
@@ -436,36 +395,6 @@ def _force_rate_groups(model: RobotModel, sym: Symbols, n: int, options: Planner
         return []
     lb, ub = force_rate_bounds(rho, model.n_feet, n)
     return [Group("normal force rate", force_rate_rows(sym.forces[2::3, :], inv_h, t0_s), lb, ub)]
-
-
-def _handover_groups(model: RobotModel, sym: Symbols, kq: KnotQuantities, n: int,
-                     options: PlannerOptions, stall: Any, qd_n: Any) -> list[Group]:
-    """Handover torque bound (`PlannerOptions.handover_window_cycles`, `planner.nlp.handover`):
-    on a biped's last double-support knots before a lift-off, the landing leg's torques with the
-    trailing foot's normal load moved onto it stay within the servo envelope."""
-    window = options.handover_window_cycles
-    pairs = handover_pairs(model)
-    if window is None or not pairs:
-        return []
-    m = window_knots(window, n)
-    nj = model.n_joints
-    weight_n = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2))
-    dz = foot_height_jacobian(model).map(n)(sym.base[3:6, :], sym.q)  # F × (J·N)
-    dz_dq = [ca.reshape(dz[i, :], nj, n) for i in range(model.n_feet)]
-    lifting = lift_off_window(sym.contact, m)
-    fz = sym.forces[2::3, :]
-    faces: list[list[Any]] = [[], [], [], []]
-    for pair in pairs:
-        rows = list(pair.joints)
-        active = ca.repmat(lifting[pair.trailing, :] * sym.contact[pair.landing, :], len(rows), 1)
-        tau = handover_torques_nm(kq.tau_nm, fz, dz_dq, weight_n, pair)
-        tau_n = tau / ca.repmat(stall[rows] * options.torque_margin, 1, n)
-        qd = qd_n[rows, :]
-        for face, (st, sq) in zip(faces, ((1, 1), (1, -1), (-1, 1), (-1, -1)), strict=True):
-            face.append(ca.vec(active * (st * tau_n + sq * qd)))
-    expr = ca.vertcat(*[e for face in faces for e in face])
-    size = int(expr.shape[0])
-    return [Group("handover torque", expr, np.full(size, -np.inf), np.ones(size))]
 
 
 def _mean_footprint_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions
@@ -659,7 +588,6 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         **flat_foot_labels(model, n_knots),
         "foot separation": foot_separation_labels(model, n_knots),
         "normal force rate": force_rate_labels(feet, n_knots),
-        "handover torque": handover_labels(model, n_knots),
     }
 
 

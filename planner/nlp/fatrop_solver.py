@@ -54,11 +54,9 @@ class FatropPlanner(GaitPlanner):
         self._fatrop_options = {**FATROP_DEFAULTS, **(fatrop_options or {})}
         self.stagewise: StagewiseNLP | None = None
         # the base class builds the planner's MX NLP (its rows judge every result); "expanded"
-        # keeps it from building IPOPT's knot derivatives, which FATROP does not use; the
-        # stage-wise NLP lifts every rate and torque, so the judging NLP does too
+        # keeps it from building IPOPT's knot derivatives, which FATROP does not use
         super().__init__(robot, n_knots, dataclasses.replace(
-            options, derivatives="expanded", lifted_rates="all", lifted_torques=True,
-            nlp_jacobian="ad",
+            options, derivatives="expanded", nlp_jacobian="ad",
         ))
 
     def _make_solver(self, warm: bool = False) -> Any:

@@ -48,7 +48,6 @@ from planner.nlp.constraints import (
     row_scales,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
-from planner.nlp.lifted import eliminate_rates, lifted_values_function, with_lifted_values
 from planner.nlp.mirror import check_mirror
 from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import (
@@ -64,7 +63,6 @@ from planner.nlp.solver_cache import (
 )
 from planner.nlp.variables import (
     Layout,
-    eliminated_slots,
     initial_guess,
     make_symbols,
     parameter_vector,
@@ -237,11 +235,7 @@ class GaitPlanner:
             forward, second = known or (() if assembled else ALL_DIRECTIONS, ALL_DIRECTIONS)
             self.knot_derivatives = with_knot_derivatives(plain, jac, hess, forward, second)
             knot = self.knot_derivatives.knot
-        sym = eliminate_rates(sym, n_knots, self.options)
-        kq = knot_quantities(
-            self.model, sym, n_knots, knot, self.options.knot_threads,
-            lifted_torques=self.options.lifted_torques,
-        )
+        kq = knot_quantities(self.model, sym, n_knots, knot, self.options.knot_threads)
         groups = build_groups(self.model, sym, kq, n_knots, self.options)
         terms = cost_terms(self.model, sym, kq, n_knots)
         objective = weighted_objective(terms, self.options.weights)
@@ -274,11 +268,6 @@ class GaitPlanner:
             self._jac_g = assembled_jacobian(
                 sym.x, sym.p, g_solver, kq.knot_call, self.knot_derivatives.jacobian, n_knots
             )
-        #: eliminated rates / torques (`planner.nlp.lifted`): their slots and their values
-        self._eliminated = eliminated_slots(self.layout, self.options)
-        self._lifted_values = (
-            lifted_values_function(sym, kq) if self._eliminated.any() else None
-        )
         self._solver = self._make_solver()
         self._warm_solver: Any | None = None  # `_solver_for`
         if self.knot_derivatives is not None and plain is not None:
@@ -380,8 +369,7 @@ class GaitPlanner:
             x0 = initial_guess(self.layout, self.model, schedule)
             start = WarmStart(x0, np.zeros_like(x0), np.zeros_like(self._lbg))
         elif not WARM_START_DUALS:
-            # this NLP's row count (a warm start may come from a planner with other rows, e.g.
-            # lifted rates: `planner.nlp.lifted`)
+            # this NLP's row count (a warm start may come from a planner with other rows)
             start = WarmStart(start.x, np.zeros_like(self._lbx), np.zeros_like(self._lbg))
         xs, gs = self._x_scale, self._g_scale
         with _sigint_watch() as interrupted:
@@ -500,7 +488,7 @@ class GaitPlanner:
             max_violation=max_violation,
             binding=binding,
             message=message,
-            warm_start=WarmStart(self._filled(x, p), lam_x, lam_g),
+            warm_start=WarmStart(x, lam_x, lam_g),
             optimal=optimal,
             stats={
                 "return_status": status,
@@ -510,14 +498,6 @@ class GaitPlanner:
                 "iterations": _iteration_log(stats),
             },
         )
-
-    def _filled(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """`x` with the eliminated slots holding the values of their expressions (so a warm
-        start suits a planner with lifted variables too); `x` itself when nothing is."""
-        if self._lifted_values is None:
-            return x
-        values = np.asarray(self._lifted_values(x / self._x_scale, p)).ravel()
-        return with_lifted_values(self.layout, x, values, self._eliminated)
 
     # -- output ------------------------------------------------------------------------------
 

@@ -202,11 +202,6 @@ def stage_functions(
             "the stage-wise NLP does not support normal_force_rate_weights_per_t0 yet (a row "
             "on two neighbouring knots' forces); use the IPOPT planner"
         )
-    if options.handover_window_cycles is not None:
-        raise PlannerConfigError(
-            "the stage-wise NLP does not support handover_window_cycles yet (its rows read the "
-            "schedule of the next knots); use the IPOPT planner"
-        )
     if options.rotor_reserve is not None:
         raise PlannerConfigError(
             "the stage-wise NLP does not support rotor_reserve yet; use the IPOPT planner"

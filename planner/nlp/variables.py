@@ -13,8 +13,6 @@ Per knot k = 0…N−1 (phase k/N of one period, treadmill frame):
   evaluate and to factorise than the banded Hessian of the direct substitution;
 - lifted joint torques ``τ_k`` [N·m], tied to the inverse dynamics by an equality group, so the
   servo-envelope rows are linear (2 non-zeros each instead of a dense RNEA row);
-- (`PlannerOptions.lifted_rates` / `lifted_torques` can eliminate v, a and τ instead: their
-  slots stay in the vector, fixed at 0, and the NLP uses the expressions; `planner.nlp.lifted`)
 - lifted servo-goal spline slopes ``s_k`` [rad/s]: the knot slopes of the periodic cubic spline
   the player streams through the servo goals (`planner.nlp.servo_loop`), tied to the goals by the
   spline's cyclic tridiagonal equations; its speed anywhere in an interval is then a sparse row
@@ -286,37 +284,7 @@ def variable_bounds(
     m_free = np.full(layout.n_m, inf)  # the contact wrench cone bounds them (planner.nlp.flat_foot)
     lo = layout.pack(base_lo, q_lo, f_lo, -free, -m_free)
     hi = layout.pack(base_hi, q_hi, f_hi, free, m_free)
-    # eliminated rates / torques (`planner.nlp.lifted`): their slots are fixed at 0 too
-    fixed = eliminated_slots(layout, options)
-    lo[fixed] = hi[fixed] = 0.0
     return lo, hi
-
-
-#: per `PlannerOptions.lifted_rates`: how many leading rows of the (6+J)-row rate and of the
-#: acceleration blocks stay lifted (the base's x, y come first); None: all of them
-LIFTED_LEADING_ROWS: dict[str, tuple[int | None, int | None]] = {
-    "all": (None, None),
-    "base_xy": (2, 2),
-    "velocities": (None, 0),
-    "none": (0, 0),
-}
-
-
-def eliminated_slots(layout: Layout, options: PlannerOptions) -> np.ndarray:
-    """Boolean mask over the decision vector: the slots of eliminated quantities (fixed at 0)."""
-    mask = np.zeros(layout.size, dtype=bool)
-    start = layout.n_base + layout.n_q + layout.n_f
-    n = layout.n_knots
-    # knot-major: the rate rows of every knot, then the acceleration rows of every knot
-    rows = np.zeros((2 * n, 6 + layout.n_joints), dtype=bool)
-    for block, kept in enumerate(LIFTED_LEADING_ROWS[options.lifted_rates]):
-        if kept is not None:
-            rows[block * n : (block + 1) * n, kept:] = True
-    mask[start : start + 2 * layout.n_rates] = rows.ravel()
-    start += 2 * layout.n_rates
-    if not options.lifted_torques:
-        mask[start : start + layout.n_q] = True
-    return mask
 
 
 def initial_guess(layout: Layout, model: RobotModel, schedule: ContactSchedule) -> np.ndarray:
