@@ -25,10 +25,12 @@ from types import FrameType  # noqa: E402 (after the latch)
 
 import typer  # noqa: E402 (after the latch)
 from rich.console import Console  # noqa: E402 (after the latch)
+from rich.markup import escape  # noqa: E402 (after the latch)
 from rich.table import Table  # noqa: E402 (after the latch)
 
 from hardware.bus.servo_bus import BusConfig, ServoBus  # noqa: E402 (after the latch)
 from hardware.errors import HardwareError  # noqa: E402 (after the latch)
+from robots.cli_usage import run_app  # noqa: E402 (after the latch)
 
 app = typer.Typer(
     name="gaitsmith-play",
@@ -213,10 +215,20 @@ from hardware.play.identify import register as _register_identify  # noqa: E402
 _register_identify(app)
 
 
-def main() -> None:
-    """Console-script entry point."""
+def _print_error(message: str) -> None:
+    """One line on stderr (no wrapping, no rich markup taken from the message)."""
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
+
+
+def _print_interrupted() -> None:
+    err_console.print("[yellow]interrupted[/]")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run `gaitsmith-play` (`robots.cli_usage.run_app`): a usage mistake is one line on stderr
+    and exit code 2, as with `gaitsmith`; the commands report their own hardware errors."""
     try:
-        app()
+        return run_app(app, argv, (), _print_error, _print_interrupted)
     finally:
         if _LATCHED:  # the run is over (torque off): a late signal must not turn the exit code
             for s in STOP_SIGNALS:  # into "killed" as Python restores default handlers at exit
@@ -224,4 +236,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

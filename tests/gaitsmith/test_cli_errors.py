@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from gaitsmith.cli import main, usage_error_type
+from gaitsmith.cli import main
+from robots.cli_usage import usage_error_type
 
 
 def _one_error_line(err: str) -> str:

@@ -7,11 +7,12 @@ import subprocess
 import sys
 import time
 
+import pytest
 from typer.testing import CliRunner
 
 import hardware
 from hardware.bus.virtual import PtyServer, VirtualServoBus
-from hardware.cli import app
+from hardware.cli import app, main
 
 runner = CliRunner()
 
@@ -61,6 +62,26 @@ def test_scan_unopenable_port_is_a_clear_error() -> None:
     assert result.exit_code == 1
     assert "cannot open" in result.output
     assert "Traceback" not in result.output
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["run", "--bogus"], "--bogus"),
+        (["run", "gait.json"], "--robot"),
+        (["scan", "--protocol", "nope"], "--protocol"),
+        (["nosuchcommand"], "nosuchcommand"),
+    ],
+)
+def test_usage_errors_are_one_line_and_exit_2(
+    argv: list[str], expected: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`gaitsmith-play`'s usage mistakes: one line on stderr naming the option, exit code 2 (as
+    `gaitsmith`), not click's boxed usage panel."""
+    assert main(argv) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), lines
+    assert expected in lines[0] and "--help" in lines[0]
 
 
 def test_scan_lists_virtual_servos_on_a_pty(make_vbus: object) -> None:
