@@ -1,0 +1,171 @@
+"""Issue #14's must-show, as the user types it: every robot's template plan with no gait and no
+flags (and optionally `--search`) at one Froude number, judged in MuJoCo, one table.
+
+    python benchmarks/zoo_must_show.py                      # templates, Fr 0.02, every robot
+    python benchmarks/zoo_must_show.py --search             # + `--search`, 4 generations, 1 worker
+    python benchmarks/zoo_must_show.py --robots knee8,biped --froude 0.03 -- --period 1.3
+
+Each row runs the real command line in a subprocess (`python -m gaitsmith.cli plan ROBOT
+--speed V -o FILE --simulate [extra flags after --]`), V = √(Fr·g·L) with L the robot's leg
+length, and reads the verdict, achieved speed, peak torque and heading from the written gait
+file's `validation` block (what `--simulate` records). A command that writes no file (no
+feasible gait, an error) is a FAIL row with the command's last output line. Prints a markdown
+table (robot, legs, how, gait, duty/period, speed commanded/achieved, peak τ/stall, heading,
+verdict, wall and CPU seconds) and writes it with the commands to `--out` (default
+zoo_must_show.md in the working directory). Wall times depend on the machine's load; the CPU
+seconds (children's user + system) less so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import robots
+
+ROOT = Path(__file__).resolve().parent.parent
+ZOO = ROOT / "tests" / "zoo"
+#: every robot of the zoo and the built-ins, as a user names them on the command line
+ROBOTS = (
+    "tests/zoo/spotmicro", "tests/zoo/bittle8", "tests/zoo/star5", "tests/zoo/phantomx18",
+    "tests/zoo/humanoid20", "tests/zoo/knee8", "quad12", "hex18", "biped",
+)
+GRAVITY_M_S2 = 9.81
+SEARCH_FLAGS = ("--search", "--generations", "4", "--workers", "1")
+
+
+@dataclass(frozen=True)
+class Row:
+    robot: str
+    legs: int
+    how: str
+    gait: str
+    timing: str
+    speed_cmd_m_s: float
+    speed_m_s: float | None
+    peak_torque: float | None
+    heading_deg: float | None
+    verdict: str
+    wall_s: float
+    cpu_s: float
+
+    def markdown(self) -> str:
+        def num(v: float | None, fmt: str) -> str:
+            return "–" if v is None else format(v, fmt)
+
+        return (f"| {self.robot} | {self.legs} | {self.how} | {self.gait} | {self.timing} | "
+                f"{self.speed_cmd_m_s:.3f} / {num(self.speed_m_s, '.3f')} | "
+                f"{num(None if self.peak_torque is None else 100 * self.peak_torque, '.0f')} % | "
+                f"{num(self.heading_deg, '+.1f')}° | {self.verdict} | {self.wall_s:.0f} s | "
+                f"{self.cpu_s:.0f} s |")
+
+
+HEADER = ("| robot | legs | how | gait | duty / period | speed cmd / achieved [m/s] "
+          "| peak τ / stall | heading | MuJoCo | wall | CPU |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|")
+
+
+def froude_speed_m_s(bot: robots.Robot, froude: float) -> float:
+    """v = √(Fr·g·L), rounded to the millimetre per second the command line prints."""
+    return round(math.sqrt(froude * GRAVITY_M_S2 * bot.leg_length_m), 3)
+
+
+def _children_cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _metric(metrics: dict[str, Any], name: str) -> float | None:
+    value = metrics.get(name)
+    return float(value) if isinstance(value, (int, float)) else None
+
+
+def _degrees(rad: float | None) -> float | None:
+    return None if rad is None else math.degrees(rad)
+
+
+def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path) -> Row:
+    """One command, one row (see the module docstring)."""
+    bot = robots.load(str(ROOT / robot) if (ROOT / robot).is_dir() else robot)
+    speed = froude_speed_m_s(bot, froude)
+    out = tmp / f"{bot.name}{'_search' if search else ''}.json"
+    out.unlink(missing_ok=True)
+    cmd = [sys.executable, "-m", "gaitsmith.cli", "plan", robot, "--speed", f"{speed:g}",
+           "-o", str(out), "--simulate", *(SEARCH_FLAGS if search else ()), *extra]
+    cpu0, t0 = _children_cpu_s(), time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False, cwd=ROOT,
+                          env={**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")})
+    wall, cpu = time.perf_counter() - t0, _children_cpu_s() - cpu0
+    how = ("--search" if search else "template") + (f" {' '.join(extra)}" if extra else "")
+    if not out.exists():
+        last = (proc.stderr.strip() or proc.stdout.strip() or "no output").splitlines()[-1]
+        return Row(bot.name, len(bot.legs), how, "–", "–", speed, None, None, None,
+                   f"**FAIL**: {last[:160]}", wall, cpu)
+    data = json.loads(out.read_text(encoding="utf-8"))
+    validation = data.get("validation") or {}
+    metrics = validation.get("metrics") or {}
+    duty = (data.get("schedule") or {}).get("duty_factor") or []
+    period = data.get("period_s")
+    timing = (f"{min(duty):.2f}–{max(duty):.2f} / {period:.2f} s"
+              if duty and isinstance(period, (int, float)) else "–")
+    passed = bool(validation.get("passed"))
+    reasons = "; ".join(str(r) for r in validation.get("reasons") or [])
+    verdict = "**PASS**" if passed else f"**FAIL**: {reasons[:160] or 'not simulated'}"
+    return Row(
+        bot.name, len(bot.legs), how, str(data.get("gait_label") or "?"), timing,
+        speed,
+        _metric(metrics, "achieved_speed_m_s"),
+        _metric(metrics, "peak_torque_fraction"),
+        _degrees(_metric(metrics, "heading_error_rad")),
+        verdict, wall, cpu,
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    args_in = list(sys.argv[1:] if argv is None else argv)
+    extra: list[str] = []
+    if "--" in args_in:
+        cut = args_in.index("--")
+        args_in, extra = args_in[:cut], args_in[cut + 1:]
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", default=",".join(ROBOTS),
+                        help="comma-separated robots (built-in names or folders)")
+    parser.add_argument("--froude", type=float, default=0.02)
+    parser.add_argument("--search", action="store_true", help="also run each robot's --search")
+    parser.add_argument("--out", type=Path, default=Path("zoo_must_show.md"))
+    args = parser.parse_args(args_in)
+    if not (math.isfinite(args.froude) and 0 < args.froude <= 1):
+        parser.error(f"--froude must lie in (0, 1], got {args.froude}")
+    names = [r for r in args.robots.split(",") if r]
+    rows: list[Row] = []
+    started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    print(HEADER, flush=True)
+    with tempfile.TemporaryDirectory(prefix="zoo_must_show_") as tmp:
+        for robot in names:
+            for search in (False, True) if args.search else (False,):
+                row = run_row(robot, args.froude, search, extra, Path(tmp))
+                rows.append(row)
+                print(row.markdown(), flush=True)
+    load = os.getloadavg()[0]
+    text = (f"Run {started} (load at the end {load:.1f}), Fr {args.froude:g}, "
+            f"extra flags: {' '.join(extra) or 'none'}\n\n"
+            f"    python benchmarks/zoo_must_show.py {' '.join(sys.argv[1:])}\n\n"
+            + HEADER + "\n" + "\n".join(r.markdown() for r in rows) + "\n")
+    args.out.write_text(text, encoding="utf-8")
+    failed = sum("PASS" not in r.verdict for r in rows)
+    print(f"{len(rows) - failed} of {len(rows)} pass; table in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
