@@ -52,6 +52,7 @@ from gaitsmith.search_options import (
     tipping_weight_option,
     workers_option,
 )
+from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, stance_shaped
 from gaitsmith.validation_record import validation_record
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp.config import (
@@ -123,16 +124,18 @@ def plan(
         None, "--force-rate", help="bound each foot's normal-force rate to this many body "
         "weights per √(L/g) (`PlannerOptions.normal_force_rate_weights_per_t0`): the load "
         "builds over several knots after touchdown and fades before lift-off; 5 keeps "
-        "humanoid20's template walk up (docs/results/zoo_gaits.md, session 24)"),
+        "humanoid20's template walk up (docs/results/zoo_gaits.md, session 24); 0: no "
+        "bound; default: none, or 10 on a compliant stance (`planner.compliant_stance`)"),
     bounce_weight: float | None = typer.Option(
         None, "--bounce-weight", help="weight of the body's vertical and sideways speed in the "
-        "objective (`CostWeights.bounce_s2_m2`, W&P eq 15; default 10): higher keeps the body "
-        "height flatter, so less load at each touchdown; 30 with --force-rate 10 and "
-        "--entry-cycles 3 walks humanoid20's template (docs/results/zoo_gaits.md, session 25)"),
+        "objective (`CostWeights.bounce_s2_m2`, W&P eq 15; default 10, K × 10 on a compliant "
+        "stance, `planner.compliant_stance`): higher keeps the body height flatter, so less "
+        "load at each touchdown (docs/results/zoo_gaits.md, session 25)"),
     entry_cycles: int | None = typer.Option(
         None, "--entry-cycles", help="start the gait with at least this many cycles of entry "
         "blend (written into the gait file, so the player and --simulate both use it; "
-        "`robots.ramp`)"),
+        "`robots.ramp`); default 1, or ⌈1/(1 − m·g·h/kp)⌉ on a compliant stance "
+        "(`planner.compliant_stance`)"),
     rotor_reserve: float | None = typer.Option(
         None, "--rotor-reserve", help="keep the servo envelope also for the knot torque with "
         "the rotor's share (armature × joint acceleration) taken 1 + RHO times "
@@ -188,8 +191,8 @@ def plan(
     if mirror and search:
         raise OptionError("--mirror: not with --search yet; plan the chosen gait with --mirror")
     # the NLP-shaping options (each None unless given): ranges the planner accepts
-    check_number("--force-rate", force_rate, 0.0, MAX_FORCE_RATE, lo_open=True,
-                 unit="body weights per √(L/g)")
+    check_number("--force-rate", force_rate, 0.0, MAX_FORCE_RATE,
+                 unit="body weights per √(L/g)")  # 0: no rows (overrides the stance rule)
     check_number("--bounce-weight", bounce_weight, 0.0, MAX_COST_WEIGHT)
     check_integer("--entry-cycles", entry_cycles, 1, MAX_ENTRY_CYCLES)
     check_number("--rotor-reserve", rotor_reserve, 0.0, 2.0, lo_open=True)
@@ -208,8 +211,6 @@ def plan(
     check_supply_v("--supply-v", supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
     supply_meta: dict[str, Any] | None = None if supply_v is None else {"supply_v": supply_v}
-    if entry_cycles is not None:
-        supply_meta = {**(supply_meta or {}), ENTRY_CYCLES_KEY: entry_cycles}
     servo_settings = None
     if servo_params_path is not None:
         if search:
@@ -219,6 +220,16 @@ def plan(
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
+    if search or not _standing(speed, vy, yaw_rate, duty, phases, schedule_file):
+        # a stepping gait: the stance-compliance rule fills the options the user left out
+        shaped = stance_shaped(bot, servo_settings, force_rate, bounce_weight, entry_cycles)
+        force_rate, bounce_weight, entry_cycles = shaped.force_rate, shaped.bounce, shaped.entry
+        if shaped.metadata:
+            supply_meta = {**(supply_meta or {}), STANCE_COMPLIANCE_KEY: shaped.metadata}
+    if force_rate == 0.0:
+        force_rate = None  # --force-rate 0: no rate rows
+    if entry_cycles is not None and entry_cycles > 1:
+        supply_meta = {**(supply_meta or {}), ENTRY_CYCLES_KEY: entry_cycles}
     weights = CostWeights() if bounce_weight is None else CostWeights(bounce_s2_m2=bounce_weight)
     if search:
         user_seed = None
@@ -233,7 +244,7 @@ def plan(
                                     normal_force_rate_weights_per_t0=force_rate,
                                     rotor_reserve=rotor_reserve,
                                     swing_clearance_m=swing_clearance),
-                     entry_cycles or 1, user_seed)
+                     entry_cycles or 1, user_seed, supply_meta)
         return
     custom = phases is not None or schedule_file is not None
     standing = _standing(speed, vy, yaw_rate, duty, phases, schedule_file)
@@ -432,7 +443,8 @@ class SearchSettings:
 def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
                  st: SearchSettings, simulate: bool, cycles: int | None,
                  supply_v: float | None, options: PlannerOptions, entry_cycles: int,
-                 user_seed: robots.ContactSchedule | None = None) -> None:
+                 user_seed: robots.ContactSchedule | None = None,
+                 extra_meta: dict[str, Any] | None = None) -> None:
     from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
@@ -503,11 +515,10 @@ def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path
         "cost_of_transport": result.cost_of_transport,
         "froude": result.froude,
     }}
+    meta.update(extra_meta or {})
     if supply_v is not None:
         meta["supply_v"] = supply_v
         console.print(voltage_margin(bot, best.joint_torques_nm, supply_v).summary())
-    if entry_cycles > 1:
-        meta[ENTRY_CYCLES_KEY] = entry_cycles
     gait_obj = result.planner.to_gait(best, result.label, extra_metadata=meta)
     log_path = output.with_suffix(".search.csv")
     write_search_log(result, log_path)

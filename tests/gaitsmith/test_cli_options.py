@@ -66,8 +66,8 @@ PLAN_MISTAKES = [
     (["--bounce-weight", "-1"], "--bounce-weight must be a number in [0, 1e+06], got -1"),
     (["--bounce-weight", "nan"], "--bounce-weight must be a number in [0, 1e+06], got nan"),
     (["--search", "--bounce-weight", "inf"], "--bounce-weight must be a number in [0, 1e+06]"),
-    (["--force-rate", "0"], "--force-rate must be a number in (0, 100] body weights"),
-    (["--force-rate", "1e9"], "--force-rate must be a number in (0, 100] body weights"),
+    (["--force-rate", "-1"], "--force-rate must be a number in [0, 100] body weights"),
+    (["--force-rate", "1e9"], "--force-rate must be a number in [0, 100] body weights"),
     (["--rotor-reserve", "2.5"], "--rotor-reserve must be a number in (0, 2], got 2.5"),
     (["--swing-clearance", "1"], "--swing-clearance must be a number in (0, 1) m, got 1"),
 ]

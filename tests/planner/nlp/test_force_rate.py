@@ -79,14 +79,15 @@ def test_a_planned_biped_walk_meets_the_rate_bound() -> None:
     assert rate.max() <= rho * (1 + 1e-4)
 
 
-@pytest.mark.parametrize("extra", [["--force-rate", "0"], ["--force-rate", "-1", "--search"]],
-                         ids=["zero", "search"])
+@pytest.mark.parametrize("extra", [["--force-rate", "-1"], ["--force-rate", "-1", "--search"]],
+                         ids=["negative", "search"])
 def test_plan_refuses_a_force_rate_it_cannot_use(
     extra: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """`gaitsmith plan --force-rate RHO`: a positive ρ (templates and, since session 25,
-    `--search`: tests/gaitsmith/test_cli_options.py); refused before any work otherwise (one
-    error line, exit 2, no gait file)."""
+    """`gaitsmith plan --force-rate RHO`: a positive ρ, or 0 for no rows (since session 26: it
+    overrides the stance-compliance rule; templates and, since session 25, `--search`:
+    tests/gaitsmith/test_cli_options.py); refused before any work otherwise (one error line,
+    exit 2, no gait file)."""
     from gaitsmith.cli import main
 
     out = tmp_path / "g.json"
