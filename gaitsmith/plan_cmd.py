@@ -52,13 +52,12 @@ from gaitsmith.search_options import (
     tipping_weight_option,
     workers_option,
 )
-from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, stance_shaped
+from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, StanceShaped, stance_shaped
 from gaitsmith.validation_record import validation_record
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp.config import (
     DEFAULT_FROUDE,
     DERIVATIVE_PATHS,
-    CostWeights,
     PlannerOptions,
     default_speed_m_s,
 )
@@ -220,17 +219,15 @@ def plan(
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
-    if search or not _standing(speed, vy, yaw_rate, duty, phases, schedule_file):
-        # a stepping gait: the stance-compliance rule fills the options the user left out
-        shaped = stance_shaped(bot, servo_settings, force_rate, bounce_weight, entry_cycles)
-        force_rate, bounce_weight, entry_cycles = shaped.force_rate, shaped.bounce, shaped.entry
-        if shaped.metadata:
-            supply_meta = {**(supply_meta or {}), STANCE_COMPLIANCE_KEY: shaped.metadata}
-    if force_rate == 0.0:
-        force_rate = None  # --force-rate 0: no rate rows
+    # a stepping gait: the stance-compliance rule fills the options the user left out
+    shaped = (stance_shaped(bot, servo_settings, force_rate, bounce_weight, entry_cycles)
+              if search or not _standing(speed, vy, yaw_rate, duty, phases, schedule_file)
+              else StanceShaped(force_rate, bounce_weight, entry_cycles, {}))
+    if shaped.metadata:
+        supply_meta = {**(supply_meta or {}), STANCE_COMPLIANCE_KEY: shaped.metadata}
+    force_rate, weights, entry_cycles = shaped.rate_bound, shaped.weights, shaped.entry
     if entry_cycles is not None and entry_cycles > 1:
         supply_meta = {**(supply_meta or {}), ENTRY_CYCLES_KEY: entry_cycles}
-    weights = CostWeights() if bounce_weight is None else CostWeights(bounce_s2_m2=bounce_weight)
     if search:
         user_seed = None
         if any(v is not None for v in (period, duty, phases, schedule_file)):

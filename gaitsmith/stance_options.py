@@ -10,6 +10,7 @@ from typing import Any
 
 from gaitsmith.console import console
 from planner.compliant_stance import compliant_stance_defaults
+from planner.nlp.config import CostWeights
 from robots import Robot
 from robots.servo_params import ServoSetting
 
@@ -26,6 +27,17 @@ class StanceShaped:
     bounce: float | None
     entry: int | None
     metadata: dict[str, Any]
+
+    @property
+    def weights(self) -> CostWeights:
+        """The objective's weights with the bounce weight, if any, set."""
+        return CostWeights() if self.bounce is None else CostWeights(bounce_s2_m2=self.bounce)
+
+    @property
+    def rate_bound(self) -> float | None:
+        """`PlannerOptions.normal_force_rate_weights_per_t0` (0 from `--force-rate 0`: None,
+        no rows)."""
+        return None if self.force_rate == 0.0 else self.force_rate
 
 
 def stance_shaped(robot: Robot, settings: tuple[ServoSetting, ...] | None,

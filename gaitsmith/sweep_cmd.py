@@ -27,6 +27,7 @@ from gaitsmith.search_options import (
     tipping_weight_option,
     workers_option,
 )
+from gaitsmith.stance_options import stance_shaped
 from planner.nlp.config import PlannerOptions, default_speeds_m_s
 from planner.search.gait_search import GaitSearchResult, SearchLogRow
 from planner.search.speed_sweep import (
@@ -94,12 +95,17 @@ def sweep(
                           f"{row.gait_label} {row.period_s:.3f} s", highlight=False)
 
     console.print(f"gait-from-speed sweep for [bold]{bot.name}[/] over {values} m/s")
-    rows = sweep_speeds(bot, values, n_knots=knots, options=PlannerOptions(mu=mu),
+    # the stance-compliance rule, as `plan` applies it (`gaitsmith.stance_options`)
+    shaped = stance_shaped(bot, None, None, None, None)
+    options = PlannerOptions(mu=mu, normal_force_rate_weights_per_t0=shaped.rate_bound,
+                             weights=shaped.weights)
+    entry = shaped.entry or 1
+    rows = sweep_speeds(bot, values, n_knots=knots, options=options,
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
                         seed=seed, executor=executor, workers=workers,
                         search_knots=search_knots, tipping_weight=tipping_weight,
-                        **sim_acceptance(bot, sim_accept, cycles),
-                        validator=_sim_validator(cycles) if simulate else None,
+                        **sim_acceptance(bot, sim_accept, cycles, entry),
+                        validator=_sim_validator(cycles, entry) if simulate else None,
                         on_row=on_row, progress=progress)
     try:
         paths = write_sweep(rows, output, bot)
@@ -180,13 +186,15 @@ class SweepClock:
         return max(per_speed * left - running, 0.0)
 
 
-def _sim_validator(cycles: int) -> Validator:
+def _sim_validator(cycles: int, entry_cycles: int = 1) -> Validator:
+    """Each speed's gait in MuJoCo, started with at least `entry_cycles` entry blend cycles."""
     def validate_result(result: GaitSearchResult) -> SimOutcome:
         import numpy as np
 
+        from sim.acceptance import with_entry_cycles
         from sim.validate import validate  # lazy: MuJoCo rollouts only on request
 
-        gait = result.planner.to_gait(result.best, result.label)
+        gait = with_entry_cycles(result.planner.to_gait(result.best, result.label), entry_cycles)
         v = validate(gait, result.robot, cycles)
         traj = v.trajectory
         assert traj is not None  # keep_trajectory=True

@@ -106,3 +106,31 @@ def test_the_gait_file_records_the_rule(tmp_path: Any) -> None:
     assert gait.planner["entry_blend_cycles"] == 3
     assert gait.planner["weights"]["bounce_s2_m2"] == 30.0
     assert gait.planner["stance_compliance"]["used"]["normal_force_rate_weights_per_t0"] == 10.0
+
+
+@pytest.mark.parametrize(("robot", "compliant"), [(H20, True), ("biped", False)])
+def test_sweep_applies_the_rule_like_plan(monkeypatch: pytest.MonkeyPatch, tmp_path: Any,
+                                          robot: str, compliant: bool) -> None:
+    """`gaitsmith sweep` plans and judges with the same rule as `plan`: the rule's force rate
+    and bounce weight in the options, its entry cycles in the MuJoCo acceptance."""
+    from gaitsmith import sweep_cmd
+
+    seen: dict[str, Any] = {}
+
+    def record(*a: Any, **kw: Any) -> Any:
+        seen.update(kw)
+        raise Started
+
+    monkeypatch.setattr(sweep_cmd, "sweep_speeds", record)
+    with pytest.raises(Started):
+        main(["sweep", robot, "--speeds", "0.1", "-o", str(tmp_path / "out")])
+    options = seen["options"]
+    if compliant:
+        assert options.normal_force_rate_weights_per_t0 == 10.0
+        assert options.weights.bounce_s2_m2 == 3 * CostWeights().bounce_s2_m2
+        assert seen["acceptance"].entry_cycles == 3
+        assert seen["final_acceptance"].entry_cycles == 3
+    else:
+        assert options.normal_force_rate_weights_per_t0 is None
+        assert options.weights == CostWeights()
+        assert seen["acceptance"].entry_cycles == 1
