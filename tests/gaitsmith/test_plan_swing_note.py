@@ -18,7 +18,7 @@ def _note(name: str, gait: str, speed: float, **timing: float) -> str:
 
 def test_knee8_default_walk_gets_the_note() -> None:
     text = _note("tests/zoo/knee8", "walk", 0.182)
-    assert "swing slack 0.61 on" in text and "--duty" in text
+    assert "swing slack 0.61 < 1 on fl_hip" in text and "--duty" in text
 
 
 def test_no_note_when_the_swing_fits() -> None:
