@@ -278,6 +278,7 @@ def plan(
             f"stepping in place: each foot's cycle mean within "
             f"{in_place.mean_footprint_leg_lengths:g} L of its stance position{shift}, swing "
             f"clearance {in_place.swing_clearance_for(bot.leg_length_m) * 1000:.1f} mm")
+    _note_swing_slack(bot, schedule, speed, options)
     command = f"{speed:.3f} m/s" + (
         f", vy {vy:+.3f} m/s, yaw rate {yaw_rate:+.3f} rad/s" if vy or yaw_rate else "")
     console.print(
@@ -305,6 +306,26 @@ def plan(
     _write(gait_obj, bot, output, simulate, cycles, servo_settings)
     if knife_edge:
         _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles)
+
+
+def _note_swing_slack(bot: robots.Robot, schedule: robots.ContactSchedule, speed: float,
+                      options: PlannerOptions) -> None:
+    """Say so when the schedule's swing is faster than the servos' fastest swing of its stride
+    (`planner.swing_slack`: slack < 1; knee8's default walk with its heavy rotors: 0.61). An
+    estimate (quad12's trot passes at 0.4 m/s with 0.99): the plan is made as asked; the note
+    says why it may be infeasible or on its servo envelope, and which knobs give the swing
+    time."""
+    from planner.swing_slack import swing_slack
+
+    slack = swing_slack(bot, schedule, speed, options)
+    if slack.ratio >= 1.0:
+        return
+    console.print(
+        f"[yellow]swing slack {slack.ratio:.2f} < 1 on {slack.joint}: the swing ("
+        f"{slack.excursion_rad:.2f} rad in {slack.swing_s * 1000:.0f} ms) is faster than the "
+        f"servo envelope's fastest swing of that stride ({slack.fastest_swing_s * 1000:.0f} ms), "
+        "so expect no feasible gait or a plan on its envelope; a lower --duty or a longer "
+        "--period gives the swing more time (docs/results/heavy_rotor.md)[/]")
 
 
 def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.ContactSchedule,
