@@ -223,6 +223,9 @@ class GaitPlanner:
         #: here: CasADi's derivative cache holds weak references) and what the disk cache did
         self.knot_derivatives: KnotDerivatives | None = None
         self.derivative_cache: CacheOutcome | None = None
+        #: with "knot"/"compiled": an earlier build with this knot, N and options recorded the
+        #: derivative directions its solver used, so only those were created ("second command")
+        self.directions_cached: bool | None = None
         knot, plain = None, None
         if self.options.derivatives in ("knot", "compiled"):
             plain = knot_function(self.model)
@@ -231,6 +234,7 @@ class GaitPlanner:
             )
             directions = directions_path(plain, n_knots, self.options)
             known = load_directions(directions)
+            self.directions_cached = known is not None
             # the assembled constraint Jacobian calls J itself, never the knot's forward
             # derivatives (CasADi would generate any it asked for: exact, only slower)
             assembled = self.options.nlp_jacobian == "assembled"
