@@ -46,6 +46,7 @@ from planner.nlp.constraints import (
     knot_function,
     knot_quantities,
     row_scales,
+    stacked_knot,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
 from planner.nlp.lifted import eliminate_rates, lifted_values_function, with_lifted_values
@@ -239,7 +240,11 @@ class GaitPlanner:
             # derivatives (CasADi would generate any it asked for: exact, only slower)
             assembled = self.options.nlp_jacobian == "assembled"
             forward, second = known or (() if assembled else ALL_DIRECTIONS, ALL_DIRECTIONS)
-            self.knot_derivatives = with_knot_derivatives(plain, jac, hess, forward, second)
+            # J and H, the cache keys and the derivative names are the plain knot's; the NLP
+            # calls its stacked form (`stacked_knot`: the same u and y, a faster build)
+            self.knot_derivatives = with_knot_derivatives(
+                stacked_knot(plain), jac, hess, forward, second
+            )
             knot = self.knot_derivatives.knot
         sym = eliminate_rates(sym, n_knots, self.options)
         kq = knot_quantities(
