@@ -18,8 +18,8 @@ asked: ``PlannerOptions(derivatives="compiled")`` (``gaitsmith plan --solver com
 ``gaitsmith cache build ROBOT``; after that the default ``derivatives="knot"`` finds the library
 in the disk cache and uses it.
 
-Disk cache (beside the SX entry, ``$GAITSMITH_CACHE`` or ``~/.cache/gaitsmith/``):
-``knot-<key>.so`` and its manifest ``knot-<key>.json``. The key is the SX entry's key
+Disk cache (beside the direction counts, ``$GAITSMITH_CACHE`` or ``~/.cache/gaitsmith/``):
+``knot-<key>.so`` and its manifest ``knot-<key>.json``. The key is the knot's key
 (`solver_cache.knot_cache_key`: the robot's model, casadi and gaitsmith versions) plus the
 compiler's path and ``--version`` line and the flags. The library is written to a temporary
 name and moved into place atomically, the manifest (its SHA-256, sizes, function names) after
@@ -95,7 +95,8 @@ def warn(message: str) -> None:
 
 
 def compiled_key(sx_key: str, compiler: Compiler) -> str:
-    """Hex key of the compiled entry: the SX entry's key, `COMPILED_FORMAT` and the compiler."""
+    """Hex key of the compiled entry: the knot's key (`solver_cache.knot_cache_key`),
+    `COMPILED_FORMAT` and the compiler."""
     digest = hashlib.sha256()
     for part in (COMPILED_FORMAT, sx_key, compiler.path, compiler.version, *compiler.flags):
         digest.update(part.encode() + b"\0")

@@ -118,6 +118,28 @@ def knot_function(model: RobotModel) -> ca.Function:
     )
 
 
+def knot_output_rows(model: RobotModel) -> tuple[int, ...]:
+    """Rows of `knot_function`'s outputs, in order (base_rows, tau, feet, body_z, w)."""
+    n_origins = int(model.fk.size_out(1)[1])  # body_z: the height of every origin `fk` gives
+    return (6, model.n_joints, 3 * model.n_feet, n_origins, 3)
+
+
+def stacked_knot(knot: ca.Function) -> ca.Function:
+    """`knot` (dense column inputs and outputs) with its inputs stacked into one column u and its
+    outputs into one column y: the same SX operations, so the same values.
+
+    CasADi 3.8 checks which outputs of a call can be non-zero whenever its MX AD creates a call
+    node (``Function::activity``), at a cost of (inputs × input non-zeros): with the knot's 10–11
+    inputs (its forward and adjoint derivatives take three times as many) that was 44 % of
+    IPOPT's construction for humanoid20 (docs/results/planner_speed_startup.md, session 26)."""
+    sx_in = knot.sx_in()
+    for i, v in enumerate([*sx_in, *knot.sx_out()]):
+        if not v.sparsity().is_dense() or v.shape[1] != 1:
+            raise ValueError(f"knot function {knot.name()}: argument {i} is not a dense column")
+    u = ca.vertcat(*sx_in)
+    return ca.Function(knot.name(), [u], [ca.vertcat(*knot.call(sx_in))], ["u"], ["y"])
+
+
 def knot_quantities(
     model: RobotModel,
     sym: Symbols,
@@ -125,8 +147,10 @@ def knot_quantities(
     knot: ca.Function | None = None,
     threads: int = 1,
 ) -> KnotQuantities:
-    """The knot function mapped over the knots; `knot`: a `knot_function(model)` to use instead
-    (e.g. one with precomputed derivatives, `planner.nlp.solver_cache`). `threads` > 1: the
+    """The knot function mapped over the knots; `knot`: a `knot_function(model)` or its
+    `stacked_knot` to use instead (e.g. one with precomputed derivatives,
+    `planner.nlp.solver_cache`); a stacked one is called with its arguments stacked and its
+    output split (the same values). `threads` > 1: the
     knots are split into that many chunks evaluated on parallel threads (CasADi's "thread"
     map; its derivatives are threaded maps of the knot's derivatives too). The knot is
     evaluated with the base at x = y = 0 and its feet shifted by the base's x, y afterwards
@@ -145,7 +169,13 @@ def knot_quantities(
         base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s, _motion(sym).vy_m_s, yaw_rate,
         *flat,
     )
-    outputs = tuple(fn(*arguments))
+    if fn.n_in() == 1 and len(arguments) > 1:  # a `stacked_knot`
+        u = ca.vertcat(*[a if int(a.shape[1]) == n_knots else ca.repmat(a, 1, n_knots)
+                         for a in arguments])
+        offsets = np.cumsum((0, *knot_output_rows(model))).tolist()
+        outputs = tuple(ca.vertsplit(fn(u), offsets))
+    else:
+        outputs = tuple(fn(*arguments))
     base_rows, tau, feet, body_z, _ = outputs
     shift = ca.vertcat(sym.base[0:2, :], ca.MX.zeros(1, n_knots))
     feet = feet + ca.repmat(shift, model.n_feet, 1)

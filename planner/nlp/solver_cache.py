@@ -21,13 +21,16 @@ cache CasADi looks them up in (`casadi.Function` option ``cache``), for every n 
 `MAX_DIRECTIONS` (CasADi's MX AD batches at most 64 directions). J and H are SX functions of
 one knot, built once per robot whatever N is.
 
-Building H is most of what is left of the build (≈ 5 s for quad12 on a loaded 2-core machine), so
-`cached_jacobian_and_hessian` keeps J and H on disk (``$GAITSMITH_CACHE`` or
-``~/.cache/gaitsmith/``), keyed by `knot_cache_key`: the knot function's own serialised form
-(which is the robot's model: masses, inertias, kinematics, feet — and nothing else enters J or
-H, so neither N nor the planner options do) and the casadi and gaitsmith versions. Entries are
-written atomically with a checksum; an unreadable, corrupt or mismatching entry is rebuilt and
-replaced, never trusted.
+J and H are built in the process that plans (`jacobian_and_hessian`: 0.25 s for quad12, 0.7 s for
+humanoid20 on a quiet 2-core machine). Until session 26 they were also kept on disk as serialised
+SX, but reading that entry back took 1.2–1.6× as long as building them again
+(docs/results/planner_speed_startup.md), so only what does pay is cached
+(``$GAITSMITH_CACHE`` or ``~/.cache/gaitsmith/``): the direction counts a solver of this knot, N
+and options used (`directions_path`, a small JSON file) and the compiled library of J and H if one
+was built (`planner.nlp.compiled_knot`). Both are keyed by `knot_cache_key`: the knot function's
+own serialised form (which is the robot's model: masses, inertias, kinematics, feet — and nothing
+else enters J or H) and the casadi and gaitsmith versions; an unreadable, corrupt or mismatching
+entry is rebuilt and replaced, never trusted.
 """
 
 from __future__ import annotations
@@ -239,13 +242,12 @@ def used_directions(solver: ca.Function, knot_name: str) -> tuple[tuple[int, ...
     return tuple(sorted(forward)), tuple(sorted(second))
 
 
-#: bump when the cached entry's layout changes
+#: part of every cache key (the compiled library's, the direction counts'): bump to orphan them
 CACHE_FORMAT = "knot-derivatives-1"
 #: bump when the NLP's use of the knot changes the direction counts its solver asks for (a
 #: stale file only costs speed: CasADi generates a missing count itself); 2: the objective's ω
 #: and the base x, y outside the knot (docs/results/planner_speed_threads.md)
 DIRECTIONS_FORMAT = 2
-_MAGIC = b"gaitsmith-knot-derivatives\n"
 
 
 def cache_dir() -> Path:
@@ -283,79 +285,21 @@ def knot_cache_key(knot: ca.Function) -> str:
     return digest.hexdigest()[:32]
 
 
-def cache_path(knot: ca.Function, directory: Path | None = None) -> Path:
-    return (directory or cache_dir()) / f"knot-{knot_cache_key(knot)}.casadi"
-
-
-def _encode(jacobian: ca.Function, hessian: ca.Function) -> bytes:
-    writer = ca.StringSerializer()
-    writer.pack([jacobian, hessian])
-    payload = writer.encode().encode("latin-1")
-    return _MAGIC + hashlib.sha256(payload).hexdigest().encode() + b"\n" + payload
-
-
-def _decode(data: bytes, knot: ca.Function) -> tuple[ca.Function, ca.Function] | None:
-    """J and H from a cache file's bytes, None if it is not an intact entry for `knot`."""
-    if not data.startswith(_MAGIC):
-        return None
-    checksum, _, payload = data[len(_MAGIC) :].partition(b"\n")
-    if hashlib.sha256(payload).hexdigest().encode() != checksum:
-        return None
-    try:
-        functions = ca.StringDeserializer(payload.decode("latin-1")).unpack()
-    except (RuntimeError, UnicodeDecodeError):
-        return None
-    if not (isinstance(functions, list) and len(functions) == 2):
-        return None
-    jacobian, hessian = functions
-    n_u = sum(knot.sparsity_in(i).numel() for i in range(knot.n_in()))
-    n_y = sum(knot.sparsity_out(i).numel() for i in range(knot.n_out()))
-    if not (
-        isinstance(jacobian, ca.Function)
-        and isinstance(hessian, ca.Function)
-        and jacobian.size_in(0) == (n_u, 1)
-        and jacobian.size_out(0) == (n_y, n_u)
-        and hessian.size_in(1) == (n_y, 1)
-        and hessian.size_out(0) == (n_u, n_u)
-    ):
-        return None
-    return jacobian, hessian
-
-
 @dataclass(frozen=True)
 class CacheOutcome:
-    """What `cached_jacobian_and_hessian` did: "hit", "built" (no entry), "rebuilt" (a corrupt
-    or mismatching entry was replaced) or "uncached" (the folder is not writable); `compiled`:
-    J and H are the compiled library at `path` (`planner.nlp.compiled_knot`), else SX."""
+    """Where a planner's J and H came from: "built" (SX, built in this process; `path` None),
+    or the compiled library at `path` (`planner.nlp.compiled_knot`; `compiled` True): "hit"
+    (loaded), "built" (compiled now) or "rebuilt" (a corrupt or foreign entry replaced)."""
 
-    path: Path
+    path: Path | None
     status: str
     compiled: bool = False
 
 
-def cached_jacobian_and_hessian(
-    knot: ca.Function, directory: Path | None = None
-) -> tuple[ca.Function, ca.Function, CacheOutcome]:
-    """J and H of one knot from the disk cache, built and stored on a miss (module docstring)."""
-    path = cache_path(knot, directory)
-    status = "built"
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        data = None
-    except OSError:
-        data, status = None, "rebuilt"
-    if data is not None:
-        loaded = _decode(data, knot)
-        if loaded is not None:
-            return (*loaded, CacheOutcome(path, "hit"))
-        status = "rebuilt"
-    jacobian, hessian = jacobian_and_hessian(knot)
-    try:
-        atomic_write_bytes(path, _encode(jacobian, hessian))
-    except OutputWriteError:
-        status = "uncached"  # a read-only home: plan anyway, just without the cache
-    return jacobian, hessian, CacheOutcome(path, status)
+def built_jacobian_and_hessian(knot: ca.Function) -> tuple[ca.Function, ca.Function, CacheOutcome]:
+    """J and H of one knot built now (`jacobian_and_hessian`): faster than reading them back
+    from a serialised copy (module docstring)."""
+    return (*jacobian_and_hessian(knot), CacheOutcome(None, "built"))
 
 
 def directions_path(
@@ -410,7 +354,7 @@ def compiled_jacobian_and_hessian(
     compiler: compiled_knot.Compiler | None = None,
 ) -> tuple[ca.Function, ca.Function, CacheOutcome]:
     """The compiled J and H of one knot (`planner.nlp.compiled_knot`): loaded from the cache, or
-    compiled now (minutes) from the SX entry if missing or not intact. `compiler`: default the
+    compiled now (minutes) from J and H built now if missing or not intact. `compiler`: default the
     one `compiled_knot.find_compiler` finds with the default flags. Raises `CompileError` (no
     compiler, the compiler failed) or `OutputWriteError` (cache folder not writable)."""
     compiler = compiler or compiled_knot.find_compiler()
@@ -423,7 +367,7 @@ def compiled_jacobian_and_hessian(
     if loaded is not None:
         return (*loaded, CacheOutcome(entry.library, "hit", compiled=True))
     status = "rebuilt" if entry.library.exists() or entry.manifest.exists() else "built"
-    jacobian, hessian, _ = cached_jacobian_and_hessian(knot, directory)
+    jacobian, hessian = jacobian_and_hessian(knot)
     jacobian, hessian = compiled_knot.compile_jacobian_and_hessian(
         entry, jacobian, hessian, compiler
     )
@@ -436,10 +380,10 @@ def knot_jacobian_and_hessian(
     """J and H of one knot for the planner path `derivatives` (`PlannerOptions.derivatives`):
 
     - "knot": the compiled entry (`planner.nlp.compiled_knot`) if the cache holds one for the C
-      compiler found and the default flags, else the SX entry (`cached_jacobian_and_hessian`);
+      compiler found and the default flags, else J and H built now (`built_jacobian_and_hessian`);
       never compiles.
     - "compiled": the compiled entry, compiled now (minutes) if missing or not intact; with no C
-      compiler or a failed compile, a one-line warning and the SX entry.
+      compiler or a failed compile, a one-line warning and J and H built now.
     """
     compiler = compiled_knot.find_compiler()
     if compiler is not None and derivatives != "compiled":
@@ -452,4 +396,4 @@ def knot_jacobian_and_hessian(
             return compiled_jacobian_and_hessian(knot, directory, compiler)
         except (compiled_knot.CompileError, OutputWriteError) as exc:
             compiled_knot.warn(f"{exc}; planning with the uncompiled knot derivatives")
-    return cached_jacobian_and_hessian(knot, directory)
+    return built_jacobian_and_hessian(knot)

@@ -46,6 +46,7 @@ from planner.nlp.constraints import (
     knot_function,
     knot_quantities,
     row_scales,
+    stacked_knot,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
 from planner.nlp.mirror import check_mirror
@@ -221,6 +222,9 @@ class GaitPlanner:
         #: here: CasADi's derivative cache holds weak references) and what the disk cache did
         self.knot_derivatives: KnotDerivatives | None = None
         self.derivative_cache: CacheOutcome | None = None
+        #: with "knot"/"compiled": an earlier build with this knot, N and options recorded the
+        #: derivative directions its solver used, so only those were created ("second command")
+        self.directions_cached: bool | None = None
         knot, plain = None, None
         if self.options.derivatives in ("knot", "compiled"):
             plain = knot_function(self.model)
@@ -229,11 +233,16 @@ class GaitPlanner:
             )
             directions = directions_path(plain, n_knots, self.options)
             known = load_directions(directions)
+            self.directions_cached = known is not None
             # the assembled constraint Jacobian calls J itself, never the knot's forward
             # derivatives (CasADi would generate any it asked for: exact, only slower)
             assembled = self.options.nlp_jacobian == "assembled"
             forward, second = known or (() if assembled else ALL_DIRECTIONS, ALL_DIRECTIONS)
-            self.knot_derivatives = with_knot_derivatives(plain, jac, hess, forward, second)
+            # J and H, the cache keys and the derivative names are the plain knot's; the NLP
+            # calls its stacked form (`stacked_knot`: the same u and y, a faster build)
+            self.knot_derivatives = with_knot_derivatives(
+                stacked_knot(plain), jac, hess, forward, second
+            )
             knot = self.knot_derivatives.knot
         kq = knot_quantities(self.model, sym, n_knots, knot, self.options.knot_threads)
         groups = build_groups(self.model, sym, kq, n_knots, self.options)

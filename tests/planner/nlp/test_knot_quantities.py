@@ -10,11 +10,19 @@ import pytest
 
 import robots
 from planner.nlp.config import PlannerOptions
-from planner.nlp.constraints import knot_function, omega_function
+from planner.nlp.constraints import (
+    knot_function,
+    knot_output_rows,
+    knot_quantities,
+    omega_function,
+    stacked_knot,
+)
 from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import with_knot_derivatives
 from planner.nlp.spacetime import GaitPlanner
+from planner.nlp.variables import Layout, make_symbols
 from tests.planner.nlp.toy_knot import toy_knot
+from tests.zoo.fixtures import ZOO
 
 
 def _called(function: ca.Function) -> list[str]:
@@ -90,3 +98,32 @@ def test_quad12_nlp_jacobian_evaluates_every_knot_jacobian_once() -> None:
     planner = GaitPlanner(robots.load("quad12"), 8, PlannerOptions(nlp_jacobian="ad"))
     called = _called(planner._solver.get_function("nlp_jac_g"))
     assert [c for c in called if c.startswith("fwd")] == ["fwd64_map8_knot"]
+
+
+@pytest.mark.parametrize("robot_name", ["quad12", "hex18", "humanoid20"])
+def test_stacked_knot_is_the_knot_and_the_nlp_sees_the_same_quantities(robot_name: str) -> None:
+    """`stacked_knot` (one input, one output: a faster IPOPT construction, session 26) gives the
+    plain knot's outputs bit for bit, and `knot_quantities` the same NLP quantities with it."""
+    robot = robots.load(ZOO / robot_name if robot_name == "humanoid20" else robot_name)
+    model = RobotModel(robot)
+    plain = knot_function(model)
+    stacked = stacked_knot(plain)
+    rows = knot_output_rows(model)
+    assert rows == tuple(plain.size1_out(i) for i in range(plain.n_out()))
+    assert stacked.n_in() == stacked.n_out() == 1 and stacked.size1_out(0) == sum(rows)
+    rng = np.random.default_rng(5)
+    args = [rng.normal(size=plain.size_in(i)) for i in range(plain.n_in())]
+    want = np.concatenate([np.asarray(y).ravel() for y in plain(*args)])
+    got = np.asarray(stacked(np.concatenate([a.ravel() for a in args]))).ravel()
+    np.testing.assert_array_equal(got, want)
+    n = 8
+    layout = Layout(n, model.n_joints, model.n_feet, len(model.flat_feet))
+    sym = make_symbols(layout)
+    quantities = []
+    for knot in (plain, stacked):
+        kq = knot_quantities(model, sym, n, knot)
+        values = [kq.base_rows, kq.tau_rnea_nm, kq.feet_m, kq.body_z_m, kq.omega_world]
+        quantities.append(ca.Function("q", [sym.x, sym.p], values))
+    x, p = rng.normal(size=sym.x.shape), rng.normal(size=sym.p.shape)
+    for a, b in zip(quantities[0](x, p), quantities[1](x, p), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
