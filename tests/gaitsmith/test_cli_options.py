@@ -19,6 +19,7 @@ from gaitsmith.gait_choice import check_gait_fits, default_gait
 from gaitsmith.sweep_cmd import SweepClock, format_duration
 from planner.errors import TemplateError
 from robots import files
+from tests.gaitsmith.capture import captured_kwargs
 
 
 class ExpensiveWorkStarted(Exception):
@@ -238,17 +239,11 @@ def test_plan_search_takes_the_template_options(
     """--force-rate, --bounce-weight, --rotor-reserve, --swing-clearance and --entry-cycles
     reach the search: its NLP options and both MuJoCo acceptance checks (which judge every gait
     with the longer entry blend)."""
-    seen: dict[str, Any] = {}
-
-    def record(*args: Any, **kwargs: Any) -> Any:
-        seen.update(kwargs)
-        raise ExpensiveWorkStarted
-
-    monkeypatch.setattr(planner.search.gait_search, "search_gait", record)
-    with pytest.raises(ExpensiveWorkStarted):
-        main(["plan", "quad12", "--speed", "0.2", "--search", "--force-rate", "10",
-              "--bounce-weight", "30", "--rotor-reserve", "0.15", "--swing-clearance", "0.018",
-              "--entry-cycles", "3", "-o", str(tmp_path / "g.json")])
+    seen = captured_kwargs(
+        monkeypatch, planner.search.gait_search, "search_gait",
+        ["plan", "quad12", "--speed", "0.2", "--search", "--force-rate", "10",
+         "--bounce-weight", "30", "--rotor-reserve", "0.15", "--swing-clearance", "0.018",
+         "--entry-cycles", "3", "-o", str(tmp_path / "g.json")])
     options = seen["options"]
     assert options.normal_force_rate_weights_per_t0 == 10
     assert options.weights.bounce_s2_m2 == 30

@@ -14,39 +14,19 @@ from gaitsmith import plan_cmd
 from gaitsmith.cli import main
 from gaitsmith.stance_options import stance_shaped
 from planner.nlp.config import CostWeights
+from tests.gaitsmith.capture import captured_kwargs
 from tests.zoo.fixtures import ZOO
 
 H20 = str(ZOO / "humanoid20")
 
 
-class Started(Exception):
-    """Raised by the stand-ins of the NLP build and the search."""
-
-
 def _template_options(monkeypatch: pytest.MonkeyPatch, args: list[str]) -> Any:
-    seen: dict[str, Any] = {}
-
-    def factory(*a: Any, **kw: Any) -> Any:
-        seen.update(kw)
-        raise Started
-
-    monkeypatch.setattr(plan_cmd, "GaitPlanner", factory)
-    with pytest.raises(Started):
-        main(["plan", *args])
-    return seen["options"]
+    return captured_kwargs(monkeypatch, plan_cmd, "GaitPlanner", ["plan", *args])["options"]
 
 
 def _search_kwargs(monkeypatch: pytest.MonkeyPatch, args: list[str]) -> dict[str, Any]:
-    seen: dict[str, Any] = {}
-
-    def record(*a: Any, **kw: Any) -> Any:
-        seen.update(kw)
-        raise Started
-
-    monkeypatch.setattr(planner.search.gait_search, "search_gait", record)
-    with pytest.raises(Started):
-        main(["plan", *args, "--search"])
-    return seen
+    return captured_kwargs(monkeypatch, planner.search.gait_search, "search_gait",
+                           ["plan", *args, "--search"])
 
 
 def test_template_on_a_compliant_stance_gets_the_rule(monkeypatch: pytest.MonkeyPatch,
@@ -115,15 +95,8 @@ def test_sweep_applies_the_rule_like_plan(monkeypatch: pytest.MonkeyPatch, tmp_p
     and bounce weight in the options, its entry cycles in the MuJoCo acceptance."""
     from gaitsmith import sweep_cmd
 
-    seen: dict[str, Any] = {}
-
-    def record(*a: Any, **kw: Any) -> Any:
-        seen.update(kw)
-        raise Started
-
-    monkeypatch.setattr(sweep_cmd, "sweep_speeds", record)
-    with pytest.raises(Started):
-        main(["sweep", robot, "--speeds", "0.1", "-o", str(tmp_path / "out")])
+    seen = captured_kwargs(monkeypatch, sweep_cmd, "sweep_speeds",
+                           ["sweep", robot, "--speeds", "0.1", "-o", str(tmp_path / "out")])
     options = seen["options"]
     if compliant:
         assert options.normal_force_rate_weights_per_t0 == 10.0
