@@ -193,6 +193,14 @@ class TimingSpace:
         return np.r_[schedule.period_s, rel[s[1:]], du[s]].astype(float)
 
 
+def identical_schedules(a: ContactSchedule, b: ContactSchedule, tol: float = 1e-9) -> bool:
+    """The same feet, period, touchdown phases (mod 1, no global shift) and duty factors."""
+    phase = (np.asarray(a.touchdown_phase) - np.asarray(b.touchdown_phase) + 0.5) % 1.0 - 0.5
+    return (tuple(a.feet) == tuple(b.feet) and abs(a.period_s - b.period_s) <= tol
+            and bool(np.all(np.abs(phase) <= tol))
+            and bool(np.allclose(a.duty_factor, b.duty_factor, rtol=0.0, atol=tol)))
+
+
 def _encoded_seeds(space: TimingSpace,
                    schedules: Mapping[str, ContactSchedule]) -> dict[str, np.ndarray]:
     """The seed schedules as timing vectors; refuses one the search cannot represent."""
@@ -545,6 +553,13 @@ def search_gait(
                           for name, r in seed_results.items()}
         best_template = min(template_costs, key=lambda n: template_costs[n])
         seed_x = dict(named_x)
+        # each seed as `gaitsmith plan` would plan it (for the fallback): its encoding starts
+        # the first foot at phase 0, a phase-rotated copy whose knots fall elsewhere in the
+        # cycle, so IPOPT can end on another local optimum (bittle8's walk at 0.13 m/s: the
+        # template passes MuJoCo, its rotated copy turns −7.4°)
+        own = {name: make_schedule(robot, name) for name in searchable_templates(robot)}
+        seed_schedule = {name: (seed_schedules or {}).get(name) or own[name]
+                         for name, _ in named_x}
         # CMA starts from the user's own schedule when one is given (their intent), else from
         # the cheapest template
         x0 = next(iter(seeds.values())) if seeds else seed_x[best_template]
@@ -581,13 +596,14 @@ def search_gait(
             chosen = (solved, searched, False)
     fallback: str | None = None
     if check is not None and (chosen is None or chosen[2] is not True):
-        # nothing searched passed: the templates the search started from, at full resolution
-        tried = [x for x, _ in candidates]
+        # nothing searched passed: the templates the search started from, at full resolution,
+        # as the template command plans them (not their phase-rotated encodings)
+        tried = [space.decode(x) for x, _ in candidates]
         for name in sorted(template_costs, key=lambda n: template_costs[n]):
-            x = seed_x[name]
-            if any(np.allclose(x, y) for y in tried):
+            own_schedule = seed_schedule[name]
+            if any(identical_schedules(own_schedule, t) for t in tried):
                 continue
-            solved = final.solve(space.decode(x), speed_m_s, warm_start=False)
+            solved = final.solve(own_schedule, speed_m_s, warm_start=False)
             if not solved.feasible:
                 final_solves.append((solved, 0.0, None))
                 continue

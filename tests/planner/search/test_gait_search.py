@@ -13,7 +13,7 @@ import pytest
 
 import robots
 from planner.errors import PlannerConfigError
-from planner.nlp.spacetime import GaitPlanner
+from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
 from planner.search.executors import SerialExecutor
 from planner.search.gait_search import (
@@ -25,6 +25,7 @@ from planner.search.gait_search import (
     TimingSolverFactory,
     TimingSpace,
     cost_of_transport,
+    identical_schedules,
     search_gait,
     searchable_templates,
     write_search_log,
@@ -32,7 +33,7 @@ from planner.search.gait_search import (
 from planner.search.speed_sweep import row_from, to_csv, to_markdown, write_sweep
 from planner.search.support import TippingCost
 from planner.templates import make_schedule, templates_for
-from robots import Gait
+from robots import ContactSchedule, Gait
 
 
 @pytest.mark.parametrize("name", ["quad12", "hex18"])
@@ -297,6 +298,58 @@ def test_a_template_that_passes_at_full_resolution_is_the_fallback(
     assert len(result.final_solves) >= 2  # the searched candidate failed, then the templates
     assert result.fallback_template == "pace"
     assert result.final_solves[-1][0] is result.best and result.final_solves[-1][2] is True
+
+
+def test_the_fallback_plans_the_template_as_the_template_command_does(
+    small_quad_planner: GaitPlanner,
+) -> None:
+    """The search encodes a timing with its first foot at phase 0, so the walk template
+    (LF at 0.25) is searched as a phase-rotated copy whose knots fall elsewhere in the cycle —
+    another NLP, which can end on another local optimum (bittle8's walk at 0.13 m/s: the
+    template passes MuJoCo, the rotated copy turns −7.4°). The fallback must re-solve the
+    template's own schedule, the one `gaitsmith plan` would write."""
+    robot = small_quad_planner.robot
+    walk = make_schedule(robot, "walk")
+    space = TimingSpace.for_robot(robot)
+    x = space.encode(walk)
+    assert x is not None
+    encoded = space.decode(x)
+    assert not identical_schedules(encoded, walk)  # the premise: the encoding rotates it
+
+    seen: list[ContactSchedule] = []  # the final planner's solves, in order
+    solve = small_quad_planner.solve
+
+    def recording_solve(schedule: ContactSchedule, *args: Any, **kwargs: Any) -> PlanResult:
+        seen.append(schedule)
+        return solve(schedule, *args, **kwargs)
+
+    def only_the_own_walk(gait: Gait) -> _Verdict:  # judges the schedule just solved
+        ok = (gait.n_knots == small_quad_planner.n_knots and bool(seen)
+              and identical_schedules(seen[-1], walk))
+        return _Verdict(ok, 0.0 if ok else 1.0)
+
+    small_quad_planner.solve = recording_solve  # type: ignore[method-assign]
+    try:
+        result = search_gait(robot, 0.15, n_knots=20, max_generations=1, popsize=4, seed=1,
+                             planner=small_quad_planner, final_candidates=1,
+                             acceptance=lambda: only_the_own_walk)
+    finally:
+        del small_quad_planner.solve
+    assert result.fallback_template == "walk" and result.accepted is True
+    assert identical_schedules(result.best.schedule, walk)
+    assert not any(identical_schedules(s, encoded) for s in seen[1:])
+
+
+def test_identical_schedules_tells_a_phase_rotation_apart() -> None:
+    robot = robots.load("quad12")
+    walk = make_schedule(robot, "walk")
+    assert identical_schedules(walk, walk)
+    shifted = replace(walk, touchdown_phase=tuple((p + 0.25) % 1.0
+                                                  for p in walk.touchdown_phase))
+    assert not identical_schedules(walk, shifted)
+    wrapped = replace(walk, touchdown_phase=tuple(1 - 1e-12 if p == 0 else p
+                                                  for p in walk.touchdown_phase))
+    assert identical_schedules(walk, wrapped)
 
 
 def test_seed_schedules_are_encoded_and_widen_the_period_box() -> None:
