@@ -3,6 +3,7 @@ and basin-CMA stall stops evaluated on the recording exactly.
 
     python benchmarks/search_budget.py [--robot quad12] [--speed 0.25] [--seed 0]
                                        [--generations 6] [--workers 2] [--no-sim-accept]
+                                       [--save REC.pkl]
 
 Runs `search_gait` as `gaitsmith plan ROBOT --speed V --search` does (process executor, MuJoCo
 acceptance with the command line's settings) and prints:
@@ -18,6 +19,10 @@ acceptance with the command line's settings) and prints:
   (seeded CMA, cold IPOPT solves with `OMP_NUM_THREADS=1`), so a search stopped after generation
   k *is* the recorded one truncated there, and its final phase re-solves the cheapest accepted
   samples of the truncated record (`RecordingExecutor.best_feasible`).
+
+`--save` pickles the recording for `benchmarks/search_skip.py` (a timing-only rejection
+predictor replayed exactly on it). The search uses the options `gaitsmith plan ROBOT --search`
+uses with no flags (the stance-compliance rule and its entry cycles).
 
 Measured in docs/results/planner_speed_search.md §4 (session 25): the stall stop saved 40–44 % of
 the iterations where the templates win, and lost a 30 % cheaper trot at quad12 0.35 m/s that the
@@ -43,7 +48,6 @@ from gaitsmith.plan_cmd import DEFAULT_CYCLES
 from gaitsmith.search_options import sim_acceptance
 from gaitsmith.stance_options import stance_shaped
 from planner.nlp.config import CostWeights, PlannerOptions
-from planner.nlp.iteration_abort import StallAbort
 from planner.search.basin_cma import LocalResult
 from planner.search.gait_search import FINAL_CANDIDATES, search_gait
 
@@ -93,10 +97,6 @@ def main() -> None:
     ap.add_argument("--generations", type=int, default=6)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--no-sim-accept", action="store_true")
-    ap.add_argument("--skip-amplification", type=float, default=None,
-                    help="skip the solves of timings with a larger tipping amplification")
-    ap.add_argument("--abort", action="store_true",
-                    help="stop coarse solves whose violation stalls (StallAbort defaults)")
     ap.add_argument("--save", help="pickle the recorded search (samples, results, winner) here")
     args = ap.parse_args()
     robot = robots.load(args.robot)
@@ -112,8 +112,6 @@ def main() -> None:
     w0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     res = search_gait(robot, args.speed, max_generations=args.generations, seed=args.seed,
                       executor="process", workers=args.workers, options=options,
-                      skip_amplification=args.skip_amplification,
-                      iteration_abort=StallAbort() if args.abort else None,
                       **sim_acceptance(robot, not args.no_sim_accept, DEFAULT_CYCLES,
                                        shaped.entry or 1))
     w1 = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -60,7 +60,6 @@ import numpy as np
 
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
-from planner.nlp.iteration_abort import StallAbort
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
 from planner.search.executors import Executor, make_executor
@@ -266,10 +265,6 @@ class TimingSolver:
     warm_start: str = "cold"
     #: this worker's NLP-feasible solutions (normalised timing, cost, start point), newest last
     solved: list[tuple[np.ndarray, float, WarmStart]] = field(default_factory=list)
-    #: skip the solve of a timing whose open-loop tipping amplification exceeds this (None:
-    #: never); it is ranked last, like a sample the planner cannot build (measurement only)
-    skip_amplification: float | None = None
-    skip_tipping: TippingCost | None = None
 
     def start_for(self, x: np.ndarray) -> WarmStart | None:
         """The point the solve of timing `x` starts from under `warm_start` (None: cold)."""
@@ -289,10 +284,6 @@ class TimingSolver:
         x = np.clip(np.asarray(x, dtype=float), *self.space.bounds())
         schedule = self.space.decode(x)
         t0 = time.perf_counter()
-        if (self.skip_amplification is not None and self.skip_tipping is not None
-                and self.skip_tipping.amplification(schedule) > self.skip_amplification):
-            return TimingResult(x, math.inf, False, 0, math.inf, build_s=build_s,
-                                status="skipped")
         start = self.start_for(x)
         try:
             # cold by default: on a new contact timing a warm start saved few iterations if
@@ -338,24 +329,18 @@ class TimingSolverFactory:
     warm_start: str = "cold"
     #: the search's period box when a seed schedule widened it (None: the robot's default box)
     period_bounds_s: tuple[float, float] | None = None
-    skip_amplification: float | None = None
-    iteration_abort: StallAbort | None = None
 
     def __call__(self) -> TimingSolver:
         t0 = time.perf_counter()
         robot = load_robot(self.robot_dir)
         planner = GaitPlanner(robot, self.n_knots, self.options)
-        if self.iteration_abort is not None:
-            planner.set_iteration_abort(self.iteration_abort)
         tipping = TippingCost.for_robot(robot, self.tipping_weight) if self.tipping_weight else None
         check = self.acceptance() if self.acceptance is not None else None
         space = TimingSpace.for_robot(robot, self.symmetric)
         if self.period_bounds_s is not None:
             space = replace(space, period_bounds_s=self.period_bounds_s)
         return TimingSolver(planner, space, self.speed_m_s, tipping, check,
-                            time.perf_counter() - t0, self.warm_start,
-                            skip_amplification=self.skip_amplification,
-                            skip_tipping=TippingCost.for_robot(robot, 1.0))
+                            time.perf_counter() - t0, self.warm_start)
 
 
 class RecordingExecutor:
@@ -483,8 +468,6 @@ def search_gait(
     final_candidates: int = FINAL_CANDIDATES,
     warm_start: str = "cold",
     seed_schedules: Mapping[str, ContactSchedule] | None = None,
-    skip_amplification: float | None = None,
-    iteration_abort: StallAbort | None = None,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -531,8 +514,7 @@ def search_gait(
                              else min(options.max_iter, search_max_iter))
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
                                   search_options, tipping_weight, acceptance, warm_start,
-                                  space.period_bounds_s if seeds else None,
-                                  skip_amplification, iteration_abort)
+                                  space.period_bounds_s if seeds else None)
     log: list[SearchLogRow] = []
 
     def on_generation(rep: GenerationReport) -> None:
