@@ -3,6 +3,7 @@ and basin-CMA stall stops evaluated on the recording exactly.
 
     python benchmarks/search_budget.py [--robot quad12] [--speed 0.25] [--seed 0]
                                        [--generations 6] [--workers 2] [--no-sim-accept]
+                                       [--save REC.pkl]
 
 Runs `search_gait` as `gaitsmith plan ROBOT --speed V --search` does (process executor, MuJoCo
 acceptance with the command line's settings) and prints:
@@ -19,6 +20,10 @@ acceptance with the command line's settings) and prints:
   k *is* the recorded one truncated there, and its final phase re-solves the cheapest accepted
   samples of the truncated record (`RecordingExecutor.best_feasible`).
 
+`--save` pickles the recording for `benchmarks/search_skip.py` (a timing-only rejection
+predictor replayed exactly on it). The search uses the options `gaitsmith plan ROBOT --search`
+uses with no flags (the stance-compliance rule and its entry cycles).
+
 Measured in docs/results/planner_speed_search.md §4 (session 25): the stall stop saved 40–44 % of
 the iterations where the templates win, and lost a 30 % cheaper trot at quad12 0.35 m/s that the
 search finds in its last generation.
@@ -29,6 +34,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import pickle
 import resource
 import time
 from collections.abc import Sequence
@@ -40,6 +46,8 @@ import numpy as np
 import robots
 from gaitsmith.plan_cmd import DEFAULT_CYCLES
 from gaitsmith.search_options import sim_acceptance
+from gaitsmith.stance_options import stance_shaped
+from planner.nlp.config import CostWeights, PlannerOptions
 from planner.search.basin_cma import LocalResult
 from planner.search.gait_search import FINAL_CANDIDATES, search_gait
 
@@ -89,16 +97,23 @@ def main() -> None:
     ap.add_argument("--generations", type=int, default=6)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--no-sim-accept", action="store_true")
+    ap.add_argument("--save", help="pickle the recorded search (samples, results, winner) here")
     args = ap.parse_args()
     robot = robots.load(args.robot)
+    # the options `gaitsmith plan ROBOT --search` uses with no flags (stance-compliance rule)
+    shaped = stance_shaped(robot, None, None, None, None)
+    options = PlannerOptions(
+        weights=CostWeights() if shaped.bounce is None else CostWeights(bounce_s2_m2=shaped.bounce),
+        normal_force_rate_weights_per_t0=shaped.force_rate or None)
     print(f"{args.robot} at {args.speed} m/s, seed {args.seed}, {args.generations} generations, "
           f"load average {os.getloadavg()[0]:.2f}, "
           f"{time.strftime('%Y-%m-%d %H:%M:%S', time.gmtime())} UTC", flush=True)
     t0, c0 = time.perf_counter(), time.process_time()
     w0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     res = search_gait(robot, args.speed, max_generations=args.generations, seed=args.seed,
-                      executor="process", workers=args.workers,
-                      **sim_acceptance(robot, not args.no_sim_accept, DEFAULT_CYCLES))
+                      executor="process", workers=args.workers, options=options,
+                      **sim_acceptance(robot, not args.no_sim_accept, DEFAULT_CYCLES,
+                                       shaped.entry or 1))
     w1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = time.process_time() - c0 + (w1.ru_utime + w1.ru_stime) - (w0.ru_utime + w0.ru_stime)
     records: list[Record] = list(res.samples)
@@ -117,6 +132,14 @@ def main() -> None:
               f"({sum(i for _, i in sel) / max(sum(its), 1):4.0%}), "
               f"{sum(float(getattr(r, 'solve_s', 0.0)) for r, _ in sel):6.1f} worker-s solving, "
               f"{capped} at the iteration cap")
+    if args.save:
+        with open(args.save, "wb") as fh:
+            pickle.dump({"robot": args.robot, "speed": args.speed, "seed": args.seed,
+                         "records": records, "n_templates": n_templates, "lam": lam,
+                         "generations": generations, "symmetric": res.symmetric,
+                         "winner": (res.label, round(res.search_cost, 6),
+                                    round(float(res.best.cost), 6), res.accepted),
+                         "n_final": len(res.final_solves), "cpu_s": cpu}, fh)
     incumbent = min(res.template_costs.values())
     bests: list[float] = []
     run_best = incumbent
