@@ -7,6 +7,11 @@ side-step and walk backwards.
 `--search` runs basin-CMA over the contact timings (starting from the templates) and writes the
 best gait plus a search log next to it; `--simulate` validates the gait in MuJoCo and writes the
 verdict into the file's `validation` block.
+
+This module holds the command and its template path; where each option goes and what both paths
+build from them (checks, `PlannerOptions`, gait-file metadata): `gaitsmith.plan_options`; the
+`--search` path: `gaitsmith.plan_search`; `--simulate` and the written file:
+`gaitsmith.plan_output`.
 """
 
 from __future__ import annotations
