@@ -7,14 +7,16 @@ side-step and walk backwards.
 `--search` runs basin-CMA over the contact timings (starting from the templates) and writes the
 best gait plus a search log next to it; `--simulate` validates the gait in MuJoCo and writes the
 verdict into the file's `validation` block.
+
+This module holds the command and its template path; where each option goes and what both paths
+build from them (checks, `PlannerOptions`, gait-file metadata): `gaitsmith.plan_options`; the
+`--search` path: `gaitsmith.plan_search`; `--simulate` and the written file:
+`gaitsmith.plan_output`.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import typer
@@ -30,46 +32,35 @@ from gaitsmith.gait_choice import (
     default_speed_note,
     in_place_choice,
 )
-from gaitsmith.options import (
-    MAX_PERIOD_S,
-    check_cycles,
-    check_friction,
-    check_integer,
-    check_knots,
-    check_number,
-    check_output_file,
-    check_speed,
-    check_supply_v,
-    check_velocity,
-    check_yaw_rate,
+from gaitsmith.options import check_output_file, check_supply_v, check_yaw_rate
+from gaitsmith.plan_options import (
+    check_command,
+    check_nlp_options,
+    check_options,
+    gait_metadata,
+    planner_options,
+    refuse_with_search,
+    search_planner_options,
+    standing,
 )
+from gaitsmith.plan_output import DEFAULT_CYCLES, STAND_S, simulated_cycles, write_gait
+from gaitsmith.plan_search import SearchSettings, plan_search, user_seed
 from gaitsmith.search_options import (
-    check_search_options,
     executor_option,
     search_knots_option,
     sim_accept_option,
-    sim_acceptance,
     tipping_weight_option,
     workers_option,
 )
-from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, StanceShaped, stance_shaped
-from gaitsmith.validation_record import validation_record
+from gaitsmith.stance_options import StanceShaped, stance_shaped
 from planner.errors import InfeasibleGaitError, PlannerConfigError
-from planner.nlp.config import (
-    DEFAULT_FROUDE,
-    DERIVATIVE_PATHS,
-    PlannerOptions,
-    default_speed_m_s,
-)
+from planner.nlp.config import DEFAULT_FROUDE, PlannerOptions, default_speed_m_s
 from planner.nlp.spacetime import GaitPlanner, PlanResult
-from planner.templates import TEMPLATES, default_gait_for
+from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
-from robots.gait import ENTRY_CYCLES_KEY, MAX_ENTRY_CYCLES
-from robots.servo_params import ServoSetting
 from robots.voltage import robot_at_voltage, voltage_margin
 
-DEFAULT_CYCLES = 20  # simulated cycles of a stepping gait (--simulate)
-STAND_S = 10.0  # simulated seconds of a stand (issue #14: "standing 10 s in MuJoCo")
+_write = write_gait  # its name here before it moved to gaitsmith.plan_output (tests use it)
 
 
 def plan(
@@ -180,27 +171,18 @@ def plan(
     ),
 ) -> None:
     """Plan one efficient cyclic gait (W&P 2009 spacetime optimisation) and write the gait file."""
+    # where each option goes (template path, --search, refused with --search): OPTION_ROUTES
+    given = dict(locals())  # the parsed options by parameter name
     settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
                               address, search_knots, tipping_weight, sim_accept)
-    _check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
-    _check_command(speed, vy, yaw_rate, search)
-    if knife_edge and (search or not simulate or vy or yaw_rate):
+    check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
+    check_command(speed, vy, yaw_rate)
+    refuse_with_search(search, given)  # --vy, --yaw-rate, --knife-edge, --mirror, ...
+    if knife_edge and (not simulate or vy or yaw_rate):
         raise OptionError("--knife-edge: needs --simulate, a straight command (no --vy, "
                           "--yaw-rate) and no --search")
-    if mirror and search:
-        raise OptionError("--mirror: not with --search yet; plan the chosen gait with --mirror")
-    # the NLP-shaping options (each None unless given): ranges the planner accepts
-    check_number("--force-rate", force_rate, 0.0, MAX_FORCE_RATE,
-                 unit="body weights per √(L/g)")  # 0: no rows (overrides the stance rule)
-    check_number("--bounce-weight", bounce_weight, 0.0, MAX_COST_WEIGHT)
-    check_integer("--entry-cycles", entry_cycles, 1, MAX_ENTRY_CYCLES)
-    check_number("--rotor-reserve", rotor_reserve, 0.0, 2.0, lo_open=True)
-    check_number("--swing-clearance", swing_clearance, 0.0, 1.0, lo_open=True, hi_open=True,
-                 unit="m")
-    if mirror and knots % 2:
-        raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
-    if solver not in DERIVATIVE_PATHS:
-        raise OptionError(f"--solver {solver!r}: use one of {', '.join(DERIVATIVE_PATHS)}")
+    check_nlp_options(force_rate, bounce_weight, entry_cycles, rotor_reserve, swing_clearance,
+                      solver, mirror, knots)
     check_output_file("--output", output)
     bot = robots.load(robot)
     if speed is None:
@@ -209,54 +191,30 @@ def plan(
     check_yaw_rate("--yaw-rate", yaw_rate, bot)
     check_supply_v("--supply-v", supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
-    supply_meta: dict[str, Any] | None = None if supply_v is None else {"supply_v": supply_v}
     servo_settings = None
     if servo_params_path is not None:
-        if search:
-            raise OptionError("--servo-params: not with --search yet; plan the chosen gait "
-                              "without --search to use the identified servos")
         from robots import servo_params
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
-        supply_meta = {**(supply_meta or {}), "servo_params": str(servo_params_path)}
     # a stepping gait: the stance-compliance rule fills the options the user left out
+    stand = standing(speed, vy, yaw_rate, duty, phases, schedule_file)
     shaped = (stance_shaped(bot, servo_settings, force_rate, bounce_weight, entry_cycles)
-              if search or not _standing(speed, vy, yaw_rate, duty, phases, schedule_file)
+              if search or not stand
               else StanceShaped(force_rate, bounce_weight, entry_cycles, {}))
-    if shaped.metadata:
-        supply_meta = {**(supply_meta or {}), STANCE_COMPLIANCE_KEY: shaped.metadata}
-    force_rate, weights, entry_cycles = shaped.rate_bound, shaped.weights, shaped.entry
-    if entry_cycles is not None and entry_cycles > 1:
-        supply_meta = {**(supply_meta or {}), ENTRY_CYCLES_KEY: entry_cycles}
+    options = planner_options(mu, solver, shaped, rotor_reserve, swing_clearance,
+                              verbose=verbose, servo_settings=servo_settings, mirror=mirror)
+    meta = gait_metadata(supply_v, servo_params_path, shaped)
     if search:
-        user_seed = None
-        if any(v is not None for v in (period, duty, phases, schedule_file)):
-            # the user's own schedule seeds the search beside the templates (never ignored)
-            user_seed, _ = command_schedule(bot, gait or default_gait_for(bot), phases=phases,
-                                            duty=duty, schedule_file=schedule_file,
-                                            period_s=period)
-            gait = None  # it is the base of the user's schedule, not ignored
-        _plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
-                     PlannerOptions(mu=mu, derivatives=solver, weights=weights,
-                                    normal_force_rate_weights_per_t0=force_rate,
-                                    rotor_reserve=rotor_reserve,
-                                    swing_clearance_m=swing_clearance),
-                     entry_cycles or 1, user_seed, supply_meta)
+        gait, seed_schedule = user_seed(bot, gait, period, duty, phases, schedule_file)
+        plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
+                    search_planner_options(options), shaped.entry or 1, seed_schedule, meta)
         return
     custom = phases is not None or schedule_file is not None
-    standing = _standing(speed, vy, yaw_rate, duty, phases, schedule_file)
-    if gait is None and (custom or standing):
+    if gait is None and (custom or stand):
         # --phases/--schedule replace the template (as explicit a choice as --gait); a zero
         # command with no stepping schedule plans the stand
-        gait = default_gait(bot, standing=standing)
-    choice = commanded_gait(bot, gait, vy, yaw_rate,
-                            PlannerOptions(mu=mu, print_level=5 if verbose else 0,
-                                           servo_settings=servo_settings,
-                                           derivatives=solver, half_cycle_mirror=mirror,
-                                           normal_force_rate_weights_per_t0=force_rate,
-                                           weights=weights,
-                                           rotor_reserve=rotor_reserve,
-                                           swing_clearance_m=swing_clearance))
+        gait = default_gait(bot, standing=stand)
+    choice = commanded_gait(bot, gait, vy, yaw_rate, options)
     gait, options = choice.gait, choice.options
     if not custom:
         check_gait_fits(bot, gait)
@@ -302,8 +260,8 @@ def plan(
             f"{bot.name} {gait} at {command}: {result.message}; no gait file written",
             result.binding,
         )
-    gait_obj = planner.to_gait(result, gait, extra_metadata=supply_meta)
-    _write(gait_obj, bot, output, simulate, cycles, servo_settings)
+    gait_obj = planner.to_gait(result, gait, extra_metadata=meta)
+    write_gait(gait_obj, bot, output, simulate, cycles, servo_settings)
     if knife_edge:
         _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles)
 
@@ -358,190 +316,6 @@ def _check_mirror(bot: robots.Robot, schedule: robots.ContactSchedule, knots: in
         check_mirror(bot, schedule, knots, vy, yaw_rate)
     except PlannerConfigError as exc:
         raise OptionError(str(exc)) from None
-
-
-def _standing(vx: float, vy: float, yaw_rate: float, duty: str | None, phases: str | None,
-              schedule_file: Path | None) -> bool:
-    """A zero command with no stepping schedule asked for: plan the `stand` template."""
-    stepping = duty is not None or phases is not None or schedule_file is not None
-    return vx == 0.0 and vy == 0.0 and yaw_rate == 0.0 and not stepping
-
-
-def _check_command(vx: float | None, vy: float, yaw_rate: float, search: bool) -> None:
-    """--vx/--vy finite and bounded (any sign), --yaw-rate finite (its bound needs the robot);
-    the search plans forward gaits only (its cost of transport and Froude number)."""
-    if vx is not None:
-        check_velocity("--vx/--speed", vx)
-    check_velocity("--vy", vy)
-    check_number("--yaw-rate", yaw_rate, -1e3, 1e3, unit="rad/s")
-    if search and (vy or yaw_rate):
-        raise OptionError("--search plans forward gaits only: drop --vy/--yaw-rate, or plan a "
-                          "template without --search")
-
-
-def _check_options(speed: float | None, knots: int, period: float | None, duty: str | None,
-                   mu: float, search: bool, st: SearchSettings, simulate: bool,
-                   cycles: int | None) -> None:
-    """Every option in range before the robot is loaded and the NLP built (one-line errors)."""
-    if search and speed is not None:  # the search needs CoT and Froude > 0
-        check_speed("--vx/--speed", speed, allow_zero=False)
-    check_knots("--knots", knots)
-    check_number("--period", period, 0.0, MAX_PERIOD_S, lo_open=True, unit="s")
-    if duty is not None and "," not in duty:  # a list is checked per leg once the robot is loaded
-        try:
-            single: float | None = float(duty)
-        except ValueError:
-            single = None  # not a number: planner.user_schedule names it
-        check_number("--duty", single, 0.0, 1.0, lo_open=True, hi_open=True)
-    check_friction("--mu", mu)
-    if search:
-        check_search_options(st.executor, st.generations, st.popsize, st.workers,
-                             st.search_knots, st.tipping_weight)
-    if cycles is not None and (simulate or (search and st.sim_accept)):
-        check_cycles("--cycles", cycles)
-
-
-def is_stand(gait_obj: robots.Gait) -> bool:
-    """Every foot down all cycle (duty factor 1): a stand, judged over a duration."""
-    return all(d >= 1.0 - 1e-9 for d in gait_obj.schedule.duty_factor)
-
-
-def simulated_cycles(gait_obj: robots.Gait, cycles: int | None) -> tuple[int, str]:
-    """Cycles to simulate and how to say it: `--cycles`, else `DEFAULT_CYCLES`, or for a stand
-    (which has no steps to count) the whole cycles that last at least `STAND_S`."""
-    from sim.validate import PassCriteria  # lazy: MuJoCo only on request
-
-    if is_stand(gait_obj):
-        n = cycles or max(math.ceil(STAND_S / gait_obj.period_s - 1e-9),
-                          PassCriteria().warmup_cycles + 1)
-        return n, f"standing {n * gait_obj.period_s:.1f} s"
-    n = cycles or DEFAULT_CYCLES
-    return n, f"{n} cycles"
-
-
-def _write(gait_obj: robots.Gait, bot: robots.Robot, output: Path, simulate: bool,
-           cycles: int | None, servo_settings: tuple[ServoSetting, ...] | None = None) -> None:
-    if simulate:
-        from sim.validate import validate  # lazy: MuJoCo only on request
-
-        n_cycles, what = simulated_cycles(gait_obj, cycles)
-        with console.status(f"validating in MuJoCo ({what})…"):
-            result = validate(gait_obj, bot, n_cycles, servo_settings=servo_settings)
-        v, thermal = validation_record(result, gait_obj, bot)
-        assert thermal is not None  # validate keeps the trajectory by default
-        gait_obj = gait_obj.with_validation(v)
-        verdict = "[bold green]PASS[/]" if result.passed else "[bold red]FAIL[/]"
-        console.print(f"simulation verdict ({what}): {verdict} " + "; ".join(result.reasons))
-        console.print(f"heating: {thermal.summary()}")
-    robots.gait.save(gait_obj, output)
-    console.print(f"wrote [bold]{output}[/]")
-
-
-MAX_FORCE_RATE = 100.0  # --force-rate: body weights per √(L/g); 3-10 are the useful values
-MAX_COST_WEIGHT = 1e6  # --bounce-weight: the objective's default weights are 1e-5-10
-USER_SEED = "your schedule"  # the name the user's --period/--duty/--phases/--schedule seed has
-
-
-@dataclass(frozen=True)
-class SearchSettings:
-    """The `--search` options, as given on the command line."""
-
-    generations: int
-    popsize: int | None
-    seed: int
-    symmetric: bool
-    executor: str
-    workers: int | None
-    address: str | None
-    search_knots: int
-    tipping_weight: float
-    sim_accept: bool
-
-
-def _plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
-                 st: SearchSettings, simulate: bool, cycles: int | None,
-                 supply_v: float | None, options: PlannerOptions, entry_cycles: int,
-                 user_seed: robots.ContactSchedule | None = None,
-                 extra_meta: dict[str, Any] | None = None) -> None:
-    from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
-
-    if gait is not None:
-        console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")
-    if user_seed is not None:
-        console.print(f"  seeding also with your schedule (period {user_seed.period_s:.3f} s, "
-                      f"duty {'/'.join(f'{d:.2f}' for d in user_seed.duty_factor)}): "
-                      f"\"{USER_SEED}\"")
-    console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "
-                  f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
-                  f"samples scored at {st.search_knots} knots"
-                  + (", MuJoCo acceptance" if st.sim_accept else "") + ")")
-
-    def progress(row: SearchLogRow) -> None:
-        if row.generation < 0:
-            console.print("  seeding with the gait templates…")
-            return
-        console.print(
-            f"  gen {row.generation:3d}  best cost {row.best_cost:.5g}  feasible "
-            f"{row.n_feasible}  solves {row.n_local_solves:4d}  {row.elapsed_s:6.1f} s  mean: "
-            f"{row.gait_label}, period {row.period_s:.3f} s, duty "
-            + "/".join(f"{d:.2f}" for d in row.duty_factor)
-        )
-
-    result = search_gait(
-        bot, speed, n_knots=knots, options=options, symmetric=st.symmetric,
-        max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
-        workers=st.workers, address=st.address, search_knots=st.search_knots,
-        tipping_weight=st.tipping_weight, progress=progress,
-        seed_schedules=None if user_seed is None else {USER_SEED: user_seed},
-        **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles),
-    )
-    for name, cost in result.template_costs.items():
-        console.print(f"  template {name:18s} cost {cost:.5g}")
-    best = result.best
-    if not best.feasible:
-        raise InfeasibleGaitError(
-            f"{bot.name} at {speed} m/s: no feasible gait found; {best.message}; "
-            "no gait file written", best.binding)
-    console.print(
-        f"best gait: [bold]{result.label}[/], search cost {result.search_cost:.5g} (best "
-        f"template {result.best_template}: {result.best_template_cost:.5g}; both at "
-        f"{result.search_knots} knots incl. the tipping term), final cost at {knots} knots "
-        f"{best.cost:.5g} + tipping {result.support_cost:.4g}, period "
-        f"{best.schedule.period_s:.3f} s, duty "
-        + "/".join(f"{d:.2f}" for d in best.schedule.duty_factor)
-        + f", cost of transport {result.cost_of_transport:.3f}, Froude {result.froude:.3f}, "
-        f"{result.cma.n_local_solves} local solves in {result.elapsed_s:.1f} s"
-    )
-    if result.accepted is False:
-        console.print("[yellow]no searched candidate passed the MuJoCo acceptance check; "
-                      "writing the cheapest feasible one[/]")
-    if result.fallback_template is not None:
-        console.print(f"[yellow]no searched timing passed the MuJoCo acceptance; the template "
-                      f"{result.fallback_template} re-solved at {knots} knots did: writing it[/]")
-    meta: dict[str, object] = {"search": {
-        "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
-        "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
-        "seed": st.seed, "symmetric": st.symmetric,
-        "template_costs": {  # JSON has no inf: null = infeasible or rejected
-            name: cost if math.isfinite(cost) else None
-            for name, cost in result.template_costs.items()},
-        "best_template": result.best_template, "search_cost": result.search_cost,
-        "search_feasible": result.search_feasible,
-        "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
-        "tipping_amplification": result.tipping_amplification,
-        "sim_accepted": result.accepted, "fallback_template": result.fallback_template,
-        "cost_of_transport": result.cost_of_transport,
-        "froude": result.froude,
-    }}
-    meta.update(extra_meta or {})
-    if supply_v is not None:
-        meta["supply_v"] = supply_v
-        console.print(voltage_margin(bot, best.joint_torques_nm, supply_v).summary())
-    gait_obj = result.planner.to_gait(best, result.label, extra_metadata=meta)
-    log_path = output.with_suffix(".search.csv")
-    write_search_log(result, log_path)
-    console.print(f"search log: {log_path}")
-    _write(gait_obj, bot, output, simulate, cycles)
 
 
 def _print_progress(result: PlanResult) -> None:

@@ -1,0 +1,138 @@
+"""`gaitsmith plan ROBOT --search`: basin-CMA over the contact timings (W&P 2009 §4.1.1),
+seeded with the templates and the user's own schedule, then the best gait and its search log
+written next to each other (`planner.search.gait_search`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import robots
+from gaitsmith.console import console
+from gaitsmith.plan_output import DEFAULT_CYCLES, write_gait
+from gaitsmith.search_options import sim_acceptance
+from planner.errors import InfeasibleGaitError
+from planner.nlp.config import PlannerOptions
+from planner.templates import default_gait_for
+from planner.user_schedule import command_schedule
+from robots.voltage import voltage_margin
+
+USER_SEED = "your schedule"  # the name the user's --period/--duty/--phases/--schedule seed has
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """The `--search` options, as given on the command line."""
+
+    generations: int
+    popsize: int | None
+    seed: int
+    symmetric: bool
+    executor: str
+    workers: int | None
+    address: str | None
+    search_knots: int
+    tipping_weight: float
+    sim_accept: bool
+
+
+def user_seed(bot: robots.Robot, gait: str | None, period: float | None, duty: str | None,
+              phases: str | None, schedule_file: Path | None,
+              ) -> tuple[str | None, robots.ContactSchedule | None]:
+    """`--gait` and the user's own schedule seed, if any: --period/--duty/--phases/--schedule
+    with --search seed it beside the templates (never ignored), built on --gait, which is then
+    used up (None)."""
+    if all(v is None for v in (period, duty, phases, schedule_file)):
+        return gait, None
+    schedule, _ = command_schedule(bot, gait or default_gait_for(bot), phases=phases, duty=duty,
+                                   schedule_file=schedule_file, period_s=period)
+    return None, schedule
+
+
+def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path, knots: int,
+                st: SearchSettings, simulate: bool, cycles: int | None,
+                supply_v: float | None, options: PlannerOptions, entry_cycles: int,
+                seed_schedule: robots.ContactSchedule | None = None,
+                extra_meta: dict[str, Any] | None = None) -> None:
+    """Search, print its progress and result, write the best gait (with `extra_meta` and the
+    search's own record) and the search log."""
+    from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
+
+    if gait is not None:
+        console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")
+    if seed_schedule is not None:
+        console.print(f"  seeding also with your schedule (period {seed_schedule.period_s:.3f} "
+                      f"s, duty {'/'.join(f'{d:.2f}' for d in seed_schedule.duty_factor)}): "
+                      f"\"{USER_SEED}\"")
+    console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "
+                  f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
+                  f"samples scored at {st.search_knots} knots"
+                  + (", MuJoCo acceptance" if st.sim_accept else "") + ")")
+
+    def progress(row: SearchLogRow) -> None:
+        if row.generation < 0:
+            console.print("  seeding with the gait templates…")
+            return
+        console.print(
+            f"  gen {row.generation:3d}  best cost {row.best_cost:.5g}  feasible "
+            f"{row.n_feasible}  solves {row.n_local_solves:4d}  {row.elapsed_s:6.1f} s  mean: "
+            f"{row.gait_label}, period {row.period_s:.3f} s, duty "
+            + "/".join(f"{d:.2f}" for d in row.duty_factor)
+        )
+
+    result = search_gait(
+        bot, speed, n_knots=knots, options=options, symmetric=st.symmetric,
+        max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
+        workers=st.workers, address=st.address, search_knots=st.search_knots,
+        tipping_weight=st.tipping_weight, progress=progress,
+        seed_schedules=None if seed_schedule is None else {USER_SEED: seed_schedule},
+        **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles),
+    )
+    for name, cost in result.template_costs.items():
+        console.print(f"  template {name:18s} cost {cost:.5g}")
+    best = result.best
+    if not best.feasible:
+        raise InfeasibleGaitError(
+            f"{bot.name} at {speed} m/s: no feasible gait found; {best.message}; "
+            "no gait file written", best.binding)
+    console.print(
+        f"best gait: [bold]{result.label}[/], search cost {result.search_cost:.5g} (best "
+        f"template {result.best_template}: {result.best_template_cost:.5g}; both at "
+        f"{result.search_knots} knots incl. the tipping term), final cost at {knots} knots "
+        f"{best.cost:.5g} + tipping {result.support_cost:.4g}, period "
+        f"{best.schedule.period_s:.3f} s, duty "
+        + "/".join(f"{d:.2f}" for d in best.schedule.duty_factor)
+        + f", cost of transport {result.cost_of_transport:.3f}, Froude {result.froude:.3f}, "
+        f"{result.cma.n_local_solves} local solves in {result.elapsed_s:.1f} s"
+    )
+    if result.accepted is False:
+        console.print("[yellow]no searched candidate passed the MuJoCo acceptance check; "
+                      "writing the cheapest feasible one[/]")
+    if result.fallback_template is not None:
+        console.print(f"[yellow]no searched timing passed the MuJoCo acceptance; the template "
+                      f"{result.fallback_template} re-solved at {knots} knots did: writing it[/]")
+    meta: dict[str, object] = {"search": {
+        "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
+        "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
+        "seed": st.seed, "symmetric": st.symmetric,
+        "template_costs": {  # JSON has no inf: null = infeasible or rejected
+            name: cost if math.isfinite(cost) else None
+            for name, cost in result.template_costs.items()},
+        "best_template": result.best_template, "search_cost": result.search_cost,
+        "search_feasible": result.search_feasible,
+        "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
+        "tipping_amplification": result.tipping_amplification,
+        "sim_accepted": result.accepted, "fallback_template": result.fallback_template,
+        "cost_of_transport": result.cost_of_transport,
+        "froude": result.froude,
+    }}
+    meta.update(extra_meta or {})  # supply_v, servo_params, entry cycles, stance compliance
+    if supply_v is not None:
+        console.print(voltage_margin(bot, best.joint_torques_nm, supply_v).summary())
+    gait_obj = result.planner.to_gait(best, result.label, extra_metadata=meta)
+    log_path = output.with_suffix(".search.csv")
+    write_search_log(result, log_path)
+    console.print(f"search log: {log_path}")
+    write_gait(gait_obj, bot, output, simulate, cycles)
