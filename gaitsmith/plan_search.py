@@ -116,7 +116,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
     meta: dict[str, object] = {"search": {
         "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
-        "seed": st.seed, "symmetric": st.symmetric,
+        "seed": st.seed, "symmetric": result.symmetric,  # as searched (a star has no pairs)
         "template_costs": {  # JSON has no inf: null = infeasible or rejected
             name: cost if math.isfinite(cost) else None
             for name, cost in result.template_costs.items()},

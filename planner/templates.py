@@ -211,7 +211,7 @@ def _generic(robot: Robot) -> list[RobotTemplate]:
             "one foot after the other around the body (azimuth order)"))
     if n >= 5:
         out.append(RobotTemplate(
-            "ripple", tuple(round(2 * rank[f] / n, 12) % 1.0 for f in range(n)),
+            "ripple", tuple(round((2 * rank[f] / n) % 1.0, 12) for f in range(n)),
             max(0.5, 1.0 - 2.1 / n), 7.5,
             "two waves half a cycle apart: every second foot around the body"))
     out.append(RobotTemplate("pronk", (0.0,) * n, 0.4, 3.0, "all feet together, with flight"))

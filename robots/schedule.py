@@ -13,6 +13,9 @@ import numpy as np
 
 from robots.errors import RobotsError
 
+#: phase distance within which a touchdown or lift-off counts as sitting on a knot
+KNOT_TOL = 1e-9
+
 
 class ScheduleError(RobotsError, ValueError):
     """A contact schedule with bad timing values."""
@@ -60,8 +63,11 @@ class ContactSchedule:
         """Boolean (n_knots × n_feet): foot f in stance at knot k (phase k/n_knots)."""
         phase = np.arange(n_knots)[:, None] / n_knots
         td = np.asarray(self.touchdown_phase)[None, :]
-        # a small epsilon keeps knots that sit exactly on a lift-off boundary deterministic
-        return ((phase - td) % 1.0) < np.asarray(self.duty_factor)[None, :] - 1e-9
+        # boundaries within KNOT_TOL of a knot count as on it, on both sides: a knot on a
+        # touchdown is in stance, a knot on a lift-off is not, whichever way the phases rounded
+        # (a touchdown at 0.6000000000000001 still holds knot 18 of 30; without the shift it
+        # lost it, and that foot stood one knot shorter than the others)
+        return ((phase - td + KNOT_TOL) % 1.0) < np.asarray(self.duty_factor)[None, :]
 
     def with_period(self, period_s: float) -> ContactSchedule:
         return ContactSchedule(period_s, self.feet, self.touchdown_phase, self.duty_factor)

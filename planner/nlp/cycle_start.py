@@ -41,6 +41,7 @@ import numpy as np
 
 from planner.nlp.spacetime import PlanResult
 from robots import ContactSchedule
+from robots.schedule import KNOT_TOL
 
 #: loads whose imbalance is within this fraction of the total load of the evenest count as equal
 LOAD_TIE = 1e-6
@@ -70,9 +71,17 @@ def rotate_schedule(schedule: ContactSchedule, k: int, n_knots: int) -> ContactS
 
     Phases are shifted in knot units, (p·N − k) mod N, so a touchdown that sat on a knot still
     sits exactly on the same knot (a float shift of −k/N can land a hair before it and lose it).
+    A touchdown within `KNOT_TOL` of a knot is snapped onto it first: a hair below knot k
+    (0.19999999999999996·30 = 5.999999999999999, k = 6) otherwise wrapped to phase 1.0, which
+    `ContactSchedule` refuses, and writing the gait failed.
     """
-    phases = tuple(float(((p * n_knots - k) % n_knots) / n_knots)
-                   for p in schedule.touchdown_phase)
+    def shifted(p: float) -> float:
+        m = p * n_knots
+        if abs(m - round(m)) <= KNOT_TOL * n_knots:
+            m = float(round(m))
+        return float(((m - k) % n_knots) / n_knots) % 1.0
+
+    phases = tuple(shifted(p) for p in schedule.touchdown_phase)
     return ContactSchedule(schedule.period_s, schedule.feet, phases, schedule.duty_factor)
 
 

@@ -21,6 +21,7 @@ def test_plan_search_writes_the_gait_and_its_log(tmp_path: Path) -> None:
     gait = json.loads(out.read_text())
     search = gait["planner"]["search"]
     assert search["search_knots"] == 12 and search["sim_accepted"] is True  # --sim-accept default
+    assert search["symmetric"] is True  # quad12 has left/right pairs: the space searched
     assert gait["validation"]["passed"] is True  # --simulate: the written gait walks
     finite = [c for c in search["template_costs"].values() if c is not None]  # null: rejected
     assert finite and search["search_cost"] <= min(finite) + 1e-9

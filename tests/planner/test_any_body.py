@@ -76,6 +76,26 @@ def test_five_legs_get_azimuth_templates_and_a_default(star5: robots.Robot) -> N
         assert label_gait(make_schedule(star5, gait), star5) == gait
 
 
+@pytest.mark.parametrize("n_knots", [10, 20, 30, 40, 60])  # fifths of a cycle on knots
+def test_azimuth_templates_stand_every_foot_equally_long_on_knots(
+        star5: robots.Robot, n_knots: int) -> None:
+    """Equal duty factors give every foot the same number of stance knots, and the search's
+    encoding (phases relative to the first foot) gives the same contact pattern up to a roll.
+    The ripple's 2·3/5 mod 1 was 0.6000000000000001: at 30 knots that foot lost its touchdown
+    knot (17 stance knots, the others 18), so the template planned a different NLP than the
+    search re-solving the same timing (docs/results/zoo_gaits.md, Session 26: star5's search)."""
+    space = TimingSpace.for_robot(star5, False)
+    for name in ("wave", "ripple", "pronk"):
+        sched = make_schedule(star5, name)
+        contact = sched.contact_matrix(n_knots)
+        assert len(set(contact.sum(axis=0).tolist())) == 1, name
+        x = space.encode(sched)
+        assert x is not None
+        decoded = space.decode(x).contact_matrix(n_knots)
+        assert any(np.array_equal(np.roll(contact, -k, axis=0), decoded)
+                   for k in range(n_knots)), name
+
+
 def test_other_leg_counts_never_have_an_empty_template_list(tmp_path: Path) -> None:
     star3 = robots.load(star_robot(tmp_path / "s3", 3, name="star3"))
     assert templates_for(star3) == ["wave", "pronk", "stand"]

@@ -37,6 +37,25 @@ def test_rotation_keeps_every_template_contact_pattern(name: str) -> None:
             np.testing.assert_array_equal(after.contact_matrix(n), np.roll(before, -k, axis=0))
 
 
+@pytest.mark.parametrize("ulps", [-1, 0, 1])
+def test_rotation_of_phases_a_hair_off_a_knot(ulps: int) -> None:
+    """The search decodes star5's ripple to phases like 0.19999999999999996: rotating by the
+    knot just above (6 of 30) wrapped it to 1.0, which ContactSchedule refuses."""
+    n = 30
+    def hair(p: float) -> float:  # `ulps` representable doubles away from p
+        for _ in range(abs(ulps)):
+            p = float(np.nextafter(p, np.sign(ulps) * np.inf))
+        return p
+
+    sched = ContactSchedule(0.6, ("a", "b", "c"), (0.0, hair(0.2), hair(0.8)),
+                            (0.58, 0.58, 0.58))
+    before = sched.contact_matrix(n)
+    for k in range(n):
+        after = rotate_schedule(sched, k, n)
+        assert all(0.0 <= p < 1.0 for p in after.touchdown_phase)
+        np.testing.assert_array_equal(after.contact_matrix(n), np.roll(before, -k, axis=0))
+
+
 def test_rotate_rolls_arrays_and_shifts_phases(walk_result) -> None:  # type: ignore[no-untyped-def]
     n = walk_result.joint_angles_rad.shape[0]
     k = 7
