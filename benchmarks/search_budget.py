@@ -49,7 +49,7 @@ from gaitsmith.search_options import sim_acceptance
 from gaitsmith.stance_options import stance_shaped
 from planner.nlp.config import CostWeights, PlannerOptions
 from planner.search.basin_cma import LocalResult
-from planner.search.gait_search import FINAL_CANDIDATES, search_gait
+from planner.search.gait_search import FINAL_CANDIDATES, final_candidates_of, search_gait
 
 Record = tuple[np.ndarray, LocalResult]
 
@@ -63,16 +63,7 @@ def outcome(r: LocalResult) -> str:
 
 def candidates(records: Sequence[Record], k: int = FINAL_CANDIDATES) -> list[tuple[float, bool]]:
     """(search cost, accepted) of the final phase's candidates, as `best_feasible` picks them."""
-    usable = sorted((r for r in records if math.isfinite(r[1].cost)
-                     and outcome(r[1]) != "infeasible"),
-                    key=lambda r: (0 if r[1].feasible else 1, r[1].cost))
-    picked: list[Record] = []
-    for x, res in usable:
-        if all(not np.allclose(x, y) for y, _ in picked):
-            picked.append((x, res))
-        if len(picked) == k:
-            break
-    return [(round(res.cost, 6), res.feasible) for _, res in picked]
+    return [(round(res.cost, 6), res.feasible) for _, res in final_candidates_of(records, k)]
 
 
 def stall_stop(generation_bests: Sequence[float], incumbent: float, patience: int) -> int:

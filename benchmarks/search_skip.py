@@ -32,6 +32,7 @@ from planner.search.gait_search import (
     FINAL_CANDIDATES,
     REJECTED_VIOLATION,
     TimingSpace,
+    final_candidates_of,
 )
 from planner.search.support import TippingCost
 
@@ -59,16 +60,8 @@ def key(r: LocalResult, skipped: bool, mode: str) -> tuple[int, float, float]:
 
 def candidates(records: Sequence[tuple[np.ndarray, LocalResult]], skip: Sequence[bool],
                k: int = FINAL_CANDIDATES) -> list[tuple[float, bool]]:
-    usable = sorted((rec for rec, s in zip(records, skip, strict=True) if not s
-                     and math.isfinite(rec[1].cost) and outcome(rec[1]) != "infeasible"),
-                    key=lambda rec: (0 if rec[1].feasible else 1, rec[1].cost))
-    picked: list[tuple[np.ndarray, LocalResult]] = []
-    for x, res in usable:
-        if all(not np.allclose(x, y) for y, _ in picked):
-            picked.append((x, res))
-        if len(picked) == k:
-            break
-    return [(round(res.cost, 6), res.feasible) for _, res in picked]
+    kept = [rec for rec, s in zip(records, skip, strict=True) if not s]
+    return [(round(res.cost, 6), res.feasible) for _, res in final_candidates_of(kept, k)]
 
 
 def main() -> None:

@@ -366,22 +366,28 @@ class RecordingExecutor:
         return out
 
     def best_feasible(self, k: int) -> list[tuple[np.ndarray, LocalResult]]:
-        """Up to k distinct samples to re-solve at full resolution, best first: the feasible
-        ones by cost, then those whose plan solved but whose gait failed acceptance (at the
-        coarse resolution of the search; they may pass at the final one), by cost."""
+        """`final_candidates_of` the samples evaluated so far."""
+        return final_candidates_of(self.records, k)
 
-        def rank(record: tuple[np.ndarray, LocalResult]) -> tuple[int, float]:
-            return (0 if record[1].feasible else 1, record[1].cost)
 
-        usable = sorted((r for r in self.records if math.isfinite(r[1].cost) and (
-            r[1].feasible or getattr(r[1], "plan_feasible", False))), key=rank)
-        picked: list[tuple[np.ndarray, LocalResult]] = []
-        for x, res in usable:
-            if all(not np.allclose(x, y) for y, _ in picked):
-                picked.append((x, res))
-            if len(picked) == k:
-                break
-        return picked
+def final_candidates_of(records: Iterable[tuple[np.ndarray, LocalResult]], k: int
+                        ) -> list[tuple[np.ndarray, LocalResult]]:
+    """Up to k distinct samples to re-solve at full resolution, best first: the feasible ones
+    by cost, then those whose plan solved but whose gait failed acceptance (at the coarse
+    resolution of the search; they may pass at the final one), by cost."""
+
+    def rank(record: tuple[np.ndarray, LocalResult]) -> tuple[int, float]:
+        return (0 if record[1].feasible else 1, record[1].cost)
+
+    usable = sorted((r for r in records if math.isfinite(r[1].cost) and (
+        r[1].feasible or getattr(r[1], "plan_feasible", False))), key=rank)
+    picked: list[tuple[np.ndarray, LocalResult]] = []
+    for x, res in usable:
+        if all(not np.allclose(x, y) for y, _ in picked):
+            picked.append((x, res))
+        if len(picked) == k:
+            break
+    return picked
 
 
 @dataclass(frozen=True)
