@@ -40,6 +40,8 @@ from robots.servo_params import ServoSetting
 SWING_CLEARANCE_LEG_LENGTHS = 0.14
 BODY_CLEARANCE_LEG_LENGTHS = 0.17
 DEFAULT_FROUDE = 0.035
+#: `PlannerOptions.unmirrored_mean_footprint_leg_lengths` (docstring of `PlannerOptions`)
+UNMIRRORED_MEAN_FOOTPRINT_LEG_LENGTHS: float | None = 0.05
 GRAVITY_M_S2 = 9.81
 #: values of `PlannerOptions.derivatives`
 DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
@@ -223,6 +225,18 @@ class PlannerOptions:
       footprint" rows at this t when `mean_footprint_leg_lengths` is None (some biped plans
       limp without them, docs/results/biped_walk_robustness.md).
     All three are off by default (`planner.nlp.contact_margin` says why).
+    - `unmirrored_mean_footprint_leg_lengths`: None or t/L (default 0.05, the commanded gaits'
+      `gaitsmith.gait_choice.MEAN_FOOTPRINT_LEG_LENGTHS`): a robot whose stance feet are not
+      all in mirror pairs — a foot on the sagittal plane (an odd leg count) or no mirror
+      image at all (`planner.nlp.constraints.footprint_unheld_by_symmetry`) — gets the "mean
+      footprint" rows at this t when `mean_footprint_leg_lengths` is None. Its gaits cannot
+      be half-cycle mirror symmetric, so nothing but the weak posture term holds the yaw of
+      the mean footprint about the body, and the entry ramp to the gait's mean pose
+      (`robots.ramp`) turns the standing robot by that yaw: star5's ripple at 0.117 m/s had
+      its mean footprint turned −7.5° and MuJoCo measured +7.4° of body yaw during the 1 s
+      ramp, before the first step (heading +8.3°, FAIL); with the rows, +0.19° and +1.1°
+      (PASS; docs/results/zoo_gaits.md, "Session 26: star5's first-cycle turn"). Robots
+      with only mirror pairs get no rows (their default plans' mean footprints turned 0.00°).
     - `normal_force_rate_weights_per_t0`: ρ > 0 or None: every foot's normal force changes by
       at most ρ body weights per leg time unit √(L/g) between neighbouring knots, swing knots
       included (`planner.nlp.force_rate`): the load builds over several knots after touchdown
@@ -296,6 +310,7 @@ class PlannerOptions:
     cop_sole_fraction: float = COP_SOLE_FRACTION
     capture_sole_fraction: float | None = CAPTURE_SOLE_FRACTION
     flat_mean_footprint_leg_lengths: float | None = FLAT_MEAN_FOOTPRINT_LEG_LENGTHS
+    unmirrored_mean_footprint_leg_lengths: float | None = UNMIRRORED_MEAN_FOOTPRINT_LEG_LENGTHS
     normal_force_rate_weights_per_t0: float | None = NORMAL_FORCE_RATE_WEIGHTS_PER_T0
     rotor_reserve: float | None = None
     half_cycle_mirror: bool = False
@@ -333,6 +348,9 @@ class PlannerOptions:
             or 0 < self.capture_sole_fraction <= 1,
             "flat_mean_footprint_leg_lengths": self.flat_mean_footprint_leg_lengths is None
             or 0 < self.flat_mean_footprint_leg_lengths < 2,
+            "unmirrored_mean_footprint_leg_lengths":
+            self.unmirrored_mean_footprint_leg_lengths is None
+            or 0 < self.unmirrored_mean_footprint_leg_lengths < 2,
             "normal_force_rate_weights_per_t0": self.normal_force_rate_weights_per_t0 is None
             or (math.isfinite(self.normal_force_rate_weights_per_t0)
                 and 0 < self.normal_force_rate_weights_per_t0 < 1e3),

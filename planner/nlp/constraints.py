@@ -38,6 +38,7 @@ from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.sideways_locked import lateral_slip_bounds_m
 from planner.nlp.variables import Symbols, time_unit_s
+from robots.robot import Robot
 
 GOAL_SPEED_SAMPLES_PER_KNOT = 8  # as the player's pre-flight (hardware.play.preflight)
 GOAL_SPEED_INSIDE = 0.98  # the slope is quadratic between samples: measured overshoot ≈ 0.6 %
@@ -427,18 +428,35 @@ def _force_rate_groups(model: RobotModel, sym: Symbols, n: int, options: Planner
     return [Group("normal force rate", force_rate_rows(sym.forces[2::3, :], inv_h, t0_s), lb, ub)]
 
 
+def footprint_unheld_by_symmetry(robot: Robot) -> bool:
+    """Is some stance foot not in a mirror pair (on the sagittal plane, or no mirror image at
+    all, `planner.templates.mirror_permutation`)? Then no gait of the robot is half-cycle
+    mirror symmetric (a midline foot would be its own image half a cycle later), and nothing
+    holds its mean footprint's yaw about the body
+    (`PlannerOptions.unmirrored_mean_footprint_leg_lengths`)."""
+    from planner.templates import mirror_permutation
+
+    perm = mirror_permutation(robot)
+    return perm is None or any(g == f for f, g in enumerate(perm))
+
+
 def _mean_footprint_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions
                            ) -> list[Group]:
     """Mean footprint (`PlannerOptions.mean_footprint_leg_lengths`): the cycle mean of each
     foot's x, y in the base frame — the forward kinematics of the joints alone, base at the
     origin and level — within ±t of its nominal stance position
     (`planner.templates.stance_foot_positions_m`) shifted by `mean_footprint_offset_m`."""
-    if options.mean_footprint_leg_lengths is None:
+    t = options.mean_footprint_leg_lengths
+    if t is None and footprint_unheld_by_symmetry(model.robot) and not (
+        model.flat_feet and options.flat_mean_footprint_leg_lengths is not None
+    ):  # the rule on the body (`PlannerOptions.unmirrored_mean_footprint_leg_lengths`)
+        t = options.unmirrored_mean_footprint_leg_lengths
+    if t is None:
         return []
     from planner.templates import stance_foot_positions_m
 
     nominal = stance_foot_positions_m(model.robot)
-    tol_m = options.mean_footprint_leg_lengths * model.robot.leg_length_m
+    tol_m = t * model.robot.leg_length_m
     feet, _, _ = model.fk.map(n)(ca.DM.zeros(3, n), ca.DM.zeros(3, n), sym.q)
     nf = model.n_feet
     # 3 × (N·F), knot-major: the mean over knots of foot f is the mean of columns f, f+F, …
