@@ -343,7 +343,8 @@ def gait_family(label: str) -> str:
     return label.removeprefix("biped_")
 
 
-def _circular(d: np.ndarray) -> np.ndarray:
+def circular_difference(d: np.ndarray) -> np.ndarray:
+    """Phase differences wrapped into [−0.5, 0.5)."""
     return (d + 0.5) % 1.0 - 0.5
 
 
@@ -351,7 +352,8 @@ def schedule_distance(schedule: ContactSchedule, template: ContactSchedule) -> f
     """Distance between two schedules of the same feet: RMS circular phase difference after the
     best global phase shift, plus the mean absolute duty-factor difference."""
     a, b = np.asarray(schedule.touchdown_phase), np.asarray(template.touchdown_phase)
-    best = min(float(np.sqrt(np.mean(_circular(a - b - s) ** 2))) for s in _circular(a - b))
+    best = min(float(np.sqrt(np.mean(circular_difference(a - b - s) ** 2)))
+               for s in circular_difference(a - b))
     return best + float(
         np.mean(np.abs(np.asarray(schedule.duty_factor) - np.asarray(template.duty_factor)))
     )

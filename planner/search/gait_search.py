@@ -65,6 +65,7 @@ from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResu
 from planner.search.executors import Executor, make_executor
 from planner.search.support import TippingCost
 from planner.templates import (
+    circular_difference,
     label_gait,
     make_schedule,
     mirror_permutation,
@@ -195,7 +196,7 @@ class TimingSpace:
 
 def identical_schedules(a: ContactSchedule, b: ContactSchedule, tol: float = 1e-9) -> bool:
     """The same feet, period, touchdown phases (mod 1, no global shift) and duty factors."""
-    phase = (np.asarray(a.touchdown_phase) - np.asarray(b.touchdown_phase) + 0.5) % 1.0 - 0.5
+    phase = circular_difference(np.asarray(a.touchdown_phase) - np.asarray(b.touchdown_phase))
     return (tuple(a.feet) == tuple(b.feet) and abs(a.period_s - b.period_s) <= tol
             and bool(np.all(np.abs(phase) <= tol))
             and bool(np.allclose(a.duty_factor, b.duty_factor, rtol=0.0, atol=tol)))
@@ -511,8 +512,12 @@ def search_gait(
     if not 0 < sigma_fraction <= 1:
         raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
     space = TimingSpace.for_robot(robot, symmetric)
-    if space.symmetric and all(space.encode(make_schedule(robot, name)) is None
-                               for name in searchable_templates(robot)):
+    # each template as `gaitsmith plan` would plan it: the seeds, and the fallback's schedules
+    # (a template's encoding starts the first foot at phase 0, a phase-rotated copy whose knots
+    # fall elsewhere in the cycle, so IPOPT can end on another local optimum — bittle8's walk
+    # at 0.13 m/s: the template passes MuJoCo, its rotated copy turns −7.4°)
+    own = {name: make_schedule(robot, name) for name in searchable_templates(robot)}
+    if space.symmetric and all(space.encode(schedule) is None for schedule in own.values()):
         # mirror pairs exist but no template runs them half a period apart (e.g. the azimuth
         # wave/ripple of a 5-leg star): search every foot's timing instead
         space = TimingSpace.for_robot(robot, False)
@@ -548,8 +553,7 @@ def search_gait(
         if progress is not None:
             progress(SearchLogRow(-1, math.inf, math.inf, 0, 0, time.perf_counter() - t0, 0.0,
                                   (), (), "seeding with the templates"))
-        named = [(name, space.encode(make_schedule(robot, name)))
-                 for name in searchable_templates(robot)]
+        named = [(name, space.encode(schedule)) for name, schedule in own.items()]
         named_x = [(name, x) for name, x in named if x is not None] + list(seeds.items())
         if not named_x:
             raise PlannerConfigError(f"no template of {robot.name} fits the search encoding")
@@ -559,11 +563,6 @@ def search_gait(
                           for name, r in seed_results.items()}
         best_template = min(template_costs, key=lambda n: template_costs[n])
         seed_x = dict(named_x)
-        # each seed as `gaitsmith plan` would plan it (for the fallback): its encoding starts
-        # the first foot at phase 0, a phase-rotated copy whose knots fall elsewhere in the
-        # cycle, so IPOPT can end on another local optimum (bittle8's walk at 0.13 m/s: the
-        # template passes MuJoCo, its rotated copy turns −7.4°)
-        own = {name: make_schedule(robot, name) for name in searchable_templates(robot)}
         seed_schedule = {name: (seed_schedules or {}).get(name) or own[name]
                          for name, _ in named_x}
         # CMA starts from the user's own schedule when one is given (their intent), else from
