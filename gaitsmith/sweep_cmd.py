@@ -18,6 +18,7 @@ from gaitsmith.options import (
     check_output_dir,
     check_speed,
 )
+from gaitsmith.plan_options import planner_options, search_planner_options
 from gaitsmith.search_options import (
     check_search_options,
     executor_option,
@@ -97,8 +98,8 @@ def sweep(
     console.print(f"gait-from-speed sweep for [bold]{bot.name}[/] over {values} m/s")
     # the stance-compliance rule, as `plan` applies it (`gaitsmith.stance_options`)
     shaped = stance_shaped(bot, None, None, None, None)
-    options = PlannerOptions(mu=mu, normal_force_rate_weights_per_t0=shaped.rate_bound,
-                             weights=shaped.weights)
+    options = search_planner_options(planner_options(mu, PlannerOptions.derivatives, shaped,
+                                                     rotor_reserve=None, swing_clearance=None))
     entry = shaped.entry or 1
     rows = sweep_speeds(bot, values, n_knots=knots, options=options,
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
