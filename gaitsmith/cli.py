@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import os
 import sys
 from collections.abc import Iterator, Mapping
 from typing import Any
@@ -103,6 +104,9 @@ def _no_group_options() -> None:
 
 
 defer_gl_backend()  # mujoco's EGL/OpenGL import waits until something renders (≈ 0.05 s)
+# headless rendering by default, for this process and its children, as when importing every
+# subcommand's module set it (`gaitsmith.simulate_cmd`, `gaitsmith.drive_sim_cmd`)
+os.environ.setdefault("MUJOCO_GL", "egl")
 _install_option_coercion()  # plain option values without pydantic (≈ 0.1 s per command)
 
 app = typer.Typer(

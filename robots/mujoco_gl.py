@@ -6,9 +6,9 @@
 (called by `gaitsmith.cli` before anything imports mujoco) makes the first ``import mujoco`` see
 ``MUJOCO_GL=disable`` — the value mujoco itself offers for "no rendering" — and restores the
 variable right after; `load_gl_backend` (called by `sim.render` before it creates a
-`mujoco.Renderer`) then imports the backend that ``MUJOCO_GL`` names, as mujoco's import would
-have. Nothing changes where mujoco was imported before `defer_gl_backend`, or where no
-`defer_gl_backend` was called.
+`mujoco.Renderer`) then imports the backend that ``MUJOCO_GL`` named at that first import,
+as mujoco's import would have. Nothing changes where mujoco was imported before
+`defer_gl_backend`, or where no `defer_gl_backend` was called.
 """
 
 from __future__ import annotations
@@ -25,8 +25,10 @@ from typing import Any
 _VARIABLE = "MUJOCO_GL"
 _DISABLED = "disable"
 
-#: whether mujoco was imported with its GL backend left out (`load_gl_backend` has work to do)
-_deferred = {"mujoco": False}
+#: whether mujoco was imported with its GL backend left out (`load_gl_backend` has work to do),
+#: and the ``MUJOCO_GL`` it would have seen then (None: unset)
+_deferred: dict[str, bool] = {"mujoco": False}
+_seen: dict[str, str | None] = {_VARIABLE: None}
 
 
 class _Loader(importlib.abc.Loader):
@@ -41,14 +43,12 @@ class _Loader(importlib.abc.Loader):
 
     def exec_module(self, module: ModuleType) -> None:
         chosen = os.environ.get(_VARIABLE)
-        os.environ[_VARIABLE] = _DISABLED
+        _seen[_VARIABLE] = chosen
+        _set_variable(_DISABLED)
         try:
             self._loader.exec_module(module)
         finally:
-            if chosen is None:
-                os.environ.pop(_VARIABLE, None)
-            else:
-                os.environ[_VARIABLE] = chosen
+            _set_variable(chosen)
         _deferred["mujoco"] = True
 
     def __getattr__(self, name: str) -> Any:  # resource readers etc.: mujoco's loader's
@@ -71,6 +71,13 @@ class _Finder(importlib.abc.MetaPathFinder):
         return spec
 
 
+def _set_variable(value: str | None) -> None:
+    if value is None:
+        os.environ.pop(_VARIABLE, None)
+    else:
+        os.environ[_VARIABLE] = value
+
+
 def defer_gl_backend() -> None:
     """Make the first ``import mujoco`` leave the GL backend out (no effect if mujoco is
     imported already, or the variable disables rendering anyway)."""
@@ -80,7 +87,8 @@ def defer_gl_backend() -> None:
 
 
 def load_gl_backend() -> None:
-    """Import the GL backend that ``MUJOCO_GL`` names now, if `defer_gl_backend` left it out."""
+    """Import the GL backend that ``MUJOCO_GL`` named when mujoco was imported, if
+    `defer_gl_backend` left it out: what mujoco's import would have imported then."""
     if not _deferred["mujoco"]:
         return
     from mujoco.rendering.classic import gl_context
@@ -88,7 +96,12 @@ def load_gl_backend() -> None:
     if getattr(gl_context, "_MUJOCO_GL", None) != _DISABLED:
         _deferred["mujoco"] = False
         return
-    importlib.reload(gl_context)  # mujoco's own choice, from the variable as it is now
+    now = os.environ.get(_VARIABLE)
+    _set_variable(_seen[_VARIABLE])
+    try:
+        importlib.reload(gl_context)  # mujoco's own choice, from the variable as it was
+    finally:
+        _set_variable(now)
     _deferred["mujoco"] = False
     context = getattr(gl_context, "GLContext", None)
     if context is not None:
