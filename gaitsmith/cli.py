@@ -1,7 +1,9 @@
 """`gaitsmith`: plan gaits, simulate them, inspect robots.
 
-Each subcommand lives in its own module and registers itself here; `main` turns the packages'
-typed errors into one clear line and exit code 2 — never a traceback.
+Each subcommand lives in its own module (`register(app)` adds it); `_COMMANDS` names them, and a
+command's module is imported only when that command runs or `--help` lists it, so a command
+does not pay for the others' imports (issue #16). `main` turns the packages' typed errors into
+one clear line and exit code 2 — never a traceback.
 """
 
 from __future__ import annotations

@@ -43,3 +43,21 @@ def test_the_gaitsmith_cli_defers_it() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=120, env=env)
     assert out.stdout.strip() == "False False"
+
+
+def test_sim_render_loads_the_deferred_backend_before_rendering() -> None:
+    """`sim.render` (videos) loads the backend itself before creating a renderer."""
+    code = (
+        "import sys\n"
+        "from robots.mujoco_gl import defer_gl_backend\n"
+        "defer_gl_backend()\n"
+        "import mujoco\n"
+        "from sim.render import _ensure_offscreen_gl\n"
+        "before = 'mujoco.egl' in sys.modules\n"
+        "_ensure_offscreen_gl()\n"
+        "print(before, 'mujoco.egl' in sys.modules, mujoco.GLContext.__module__)\n"
+    )
+    env = {**os.environ, "MUJOCO_GL": "egl"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120, env=env)
+    assert out.stdout.strip() == "False True mujoco.egl"
