@@ -9,7 +9,7 @@ import typer
 import robots
 from gaitsmith.errors import OptionError
 from gaitsmith.options import check_integer, check_knots, check_number
-from planner.search.gait_search import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
+from planner.search.defaults import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
 
 EXECUTORS = ("serial", "process", "ray")
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from robots.errors import OutputWriteError
 from robots.files import atomic_path
+from robots.mujoco_gl import load_gl_backend
 from sim.errors import RenderError
 from sim.model import SimModel
 from sim.rollout import Trajectory
@@ -29,6 +30,7 @@ VIDEO_SUFFIXES = (".mp4", ".gif")
 
 def _ensure_offscreen_gl() -> None:
     """Make mujoco.Renderer use a headless context when no display is available."""
+    load_gl_backend()  # if `gaitsmith.cli` imported mujoco without it (`robots.mujoco_gl`)
     from mujoco.rendering.classic import gl_context
 
     chosen = getattr(gl_context, "_MUJOCO_GL", "")

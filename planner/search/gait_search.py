@@ -61,6 +61,7 @@ import numpy as np
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
+from planner.search import defaults
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
 from planner.search.executors import Executor, make_executor
 from planner.search.support import TippingCost
@@ -81,12 +82,9 @@ DUTY_BOUNDS = (0.35, 0.9)
 #: a seed schedule's period outside the box grows the box to this factor beyond it, so CMA can
 #: move both ways from the user's start
 SEED_PERIOD_ROOM = 1.25
-#: Weight of the support term (cost units per unit of open-loop error amplification). A
-#: template trot at quad12's default period (two 0.19 s line phases, amplification 2.1) pays
-#: 0.11, about half the spacetime cost of a trot at 0.25 m/s.
-DEFAULT_TIPPING_WEIGHT = 0.05
-#: Coarse NLP of the search (see the module docstring) and the final solves it hands on.
-DEFAULT_SEARCH_KNOTS = 12
+#: the support term's weight and the coarse NLP's knots (`planner.search.defaults`)
+DEFAULT_TIPPING_WEIGHT = defaults.DEFAULT_TIPPING_WEIGHT
+DEFAULT_SEARCH_KNOTS = defaults.DEFAULT_SEARCH_KNOTS
 DEFAULT_SEARCH_MAX_ITER = 60
 FINAL_CANDIDATES = 4
 #: Initial CMA spread as a fraction of each box width: W&P §5 cover the box (⅓). A narrower start

@@ -1,0 +1,11 @@
+"""The search's defaults that command-line options show (`planner.search.gait_search` uses them):
+a module of its own so that declaring the options does not import the search (issue #16)."""
+
+from __future__ import annotations
+
+#: Weight of the support term (cost units per unit of open-loop error amplification). A
+#: template trot at quad12's default period (two 0.19 s line phases, amplification 2.1) pays
+#: 0.11, about half the spacetime cost of a trot at 0.25 m/s.
+DEFAULT_TIPPING_WEIGHT = 0.05
+#: Coarse NLP of the search (see `planner.search.gait_search`) and the final solves it hands on.
+DEFAULT_SEARCH_KNOTS = 12

@@ -1,0 +1,42 @@
+"""`gaitsmith.cli` imports a subcommand's module only when that command is looked up; `--help`
+lists every command as the eager registration did."""
+
+from __future__ import annotations
+
+import importlib
+import subprocess
+import sys
+
+import typer
+import typer.main
+
+from gaitsmith import cli
+
+
+def test_the_command_table_is_what_the_modules_register() -> None:
+    """`_COMMANDS` names each module's command in the order typer lists a group's commands
+    (commands, then `add_typer` groups, each in registration order)."""
+    eager = typer.Typer()
+    for _, module in cli._COMMANDS:
+        importlib.import_module(module).register(eager)
+    names = [info.name for info in eager.registered_commands]
+    names += [info.name for info in eager.registered_groups]
+    assert names == [name for name, _ in cli._COMMANDS]
+
+
+def test_every_command_is_found_and_help_lists_them() -> None:
+    group = typer.main.get_command(cli.app)
+    assert isinstance(group, typer.core.TyperGroup)
+    assert list(group.commands) == [name for name, _ in cli._COMMANDS]
+    for name, _ in cli._COMMANDS:
+        command = group.get_command(None, name)  # type: ignore[arg-type]
+        assert command is not None and command.name == name
+    assert group.get_command(None, "plon") is None  # type: ignore[arg-type]
+
+
+def test_importing_the_cli_imports_no_subcommand() -> None:
+    code = ("import sys, gaitsmith.cli\n"
+            "print(sorted(m for m in sys.modules if m.endswith('_cmd')))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120)
+    assert out.stdout.strip() == "[]"
