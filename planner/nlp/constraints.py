@@ -16,6 +16,7 @@ scaled by C), so the NLP is built once per (robot, N).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,6 +38,7 @@ from planner.nlp.force_rate import force_rate_bounds, force_rate_labels, force_r
 from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.sideways_locked import lateral_slip_bounds_m
+from planner.nlp.solver_cache import same_function
 from planner.nlp.variables import Symbols, time_unit_s
 from robots.robot import Robot
 
@@ -241,9 +243,16 @@ def _in_frame(rows: Any, x: Any, y: Any) -> Any:
 
 
 def build_groups(
-    model: RobotModel, sym: Symbols, kq: KnotQuantities, n_knots: int, options: PlannerOptions
+    model: RobotModel,
+    sym: Symbols,
+    kq: KnotQuantities,
+    n_knots: int,
+    options: PlannerOptions,
+    derived: Callable[[ca.Function], ca.Function] = same_function,
 ) -> list[Group]:
-    """All constraint groups, in the order they appear in g."""
+    """All constraint groups, in the order they appear in g. `derived`: what the NLP calls in
+    place of a per-knot SX function other than the knot (the flat feet's, the soles'), e.g. one
+    carrying its own derivatives (`planner.nlp.solver_cache.DerivedFunctions`)."""
     n, nf = n_knots, model.n_feet
     r = contact_offsets(model, n)  # foot radius; 0 for a flat foot's sole centre
     c = sym.contact
@@ -381,12 +390,12 @@ def build_groups(
         ),
         *_rotor_reserve_groups(model, kq, n, options, stall, qd_n),
         *_force_rate_groups(model, sym, n, options, inv_h, t0),
-        *flat_foot_groups(model, sym, n, options, stick, Group),
+        *flat_foot_groups(model, sym, n, options, stick, Group, derived),
         *_static_margin_groups(model, sym, kq, n, options),
         *_mean_footprint_groups(model, sym, n, options),
         *_mirror_groups(model, sym, n, options),
     ]
-    separation, separation_lb = foot_separation_rows(model, sym, kq.feet_m)
+    separation, separation_lb = foot_separation_rows(model, sym, kq.feet_m, derived)
     if separation_lb.size:  # neighbouring feet do not cross (`planner.nlp.foot_separation`)
         groups.append(Group("foot separation", separation, separation_lb,
                             np.full(separation_lb.size, inf), length))

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import casadi as ca
@@ -53,6 +54,7 @@ from planner.nlp.capture_margin import N_CAPTURE_ROWS, capture_margin_labels, ca
 from planner.nlp.config import PlannerOptions
 from planner.nlp.contact_margin import shrunk_half_extents
 from planner.nlp.model import RobotModel
+from planner.nlp.solver_cache import same_function
 
 N_CWC_ROWS = 16
 N_CORNERS = 4
@@ -215,6 +217,7 @@ def flat_foot_groups(
     options: PlannerOptions,
     stick: Any,
     group: Any,
+    derived: Callable[[ca.Function], ca.Function] = same_function,
 ) -> list[Any]:
     """The flat feet's constraint groups (empty without flat feet). `stick` (F × N) marks the
     knot pairs k, k+1 a foot holds still ("stance no-slip"); `group` is `constraints.Group`."""
@@ -222,7 +225,7 @@ def flat_foot_groups(
         return []
     n, nff = n_knots, n_flat(model)
     mu = options.mu / math.sqrt(2.0)
-    fn = _knot_function(model, mu, options.cop_sole_fraction).map(n)
+    fn = derived(_knot_function(model, mu, options.cop_sole_fraction)).map(n)
     normal, heading, corner_z, cone, centre = fn(sym.base, sym.q, sym.forces, sym.moments)
     flat = list(model.flat_feet)
     c = sym.contact[flat, :]

@@ -23,12 +23,14 @@ or a narrow robot's side-by-side feet); feet a body length apart cannot meet and
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from planner.nlp.model import RobotModel
+from planner.nlp.solver_cache import same_function
 
 #: clearance between the feet's extents, in leg lengths (5 mm for the built-in biped)
 FOOT_GAP_LEG_LENGTHS = 0.02
@@ -75,7 +77,12 @@ def _extent(leg: Any, rot: np.ndarray | None, u: np.ndarray, radius_m: float) ->
 _ABS_EPS = 1e-2
 
 
-def foot_separation_rows(model: RobotModel, sym: Any, feet_m: Any) -> tuple[Any, np.ndarray]:
+def foot_separation_rows(
+    model: RobotModel,
+    sym: Any,
+    feet_m: Any,
+    derived: Callable[[ca.Function], ca.Function] = same_function,
+) -> tuple[Any, np.ndarray]:
     """(rows P·N: separation − minimum [m], pair by pair for each knot; lower bounds 0)."""
     pairs = foot_pairs(model)
     if not pairs:
@@ -83,7 +90,7 @@ def foot_separation_rows(model: RobotModel, sym: Any, feet_m: Any) -> tuple[Any,
     n = feet_m.shape[1]
     base = sym.base
     cos_y, sin_y = ca.cos(base[5, :]), ca.sin(base[5, :])
-    rots = model.soles.map(n)(base[:3, :], base[3:, :], sym.q) if model.flat_feet else None
+    rots = derived(model.soles).map(n)(base[:3, :], base[3:, :], sym.q) if model.flat_feet else None
     flat_index = {f: k for k, f in enumerate(model.flat_feet)}
 
     def heading_frame(x: Any, y: Any) -> tuple[Any, Any]:

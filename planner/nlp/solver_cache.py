@@ -129,7 +129,10 @@ def with_knot_derivatives(
         out, row = [], 0
         for sp in sps:
             block = matrix[row : row + sp.numel(), :]
-            out.append(ca.reshape(block, sp.size1(), sp.size2() * n_dir))
+            block = ca.reshape(block, sp.size1(), sp.size2() * n_dir)
+            # CasADi expects dense derivatives of dense arguments; J or H can leave rows of
+            # them structurally zero (the flat foot's knot ignores the other legs' joints)
+            out.append(block if block.sparsity().is_dense() else ca.densify(block))
             row += sp.numel()
         return out
 
@@ -397,3 +400,43 @@ def knot_jacobian_and_hessian(
         except (compiled_knot.CompileError, OutputWriteError) as exc:
             compiled_knot.warn(f"{exc}; planning with the uncompiled knot derivatives")
     return built_jacobian_and_hessian(knot)
+
+
+def same_function(fn: ca.Function) -> ca.Function:
+    """`fn` itself: the NLP's per-knot functions without derivatives of their own."""
+    return fn
+
+
+class DerivedFunctions:
+    """The knot's treatment for the NLP's other per-knot SX functions (issue #16, session 26b).
+
+    Called with such a function (the flat feet's ``flat_knot``, the soles' rotations ``soles``:
+    `planner.nlp.constraints.build_groups`' `derived`), it returns the copy `with_knot_derivatives`
+    makes of it, so IPOPT's Hessian evaluates their H·Δu + Jᵀ·Δλ instead of the SX sweeps CasADi
+    generates (humanoid20: ``fwd39_adj1_flat_knot`` 173K instructions against 8.6K + 7.2K for
+    H and J). Their direction counts are kept like the knot's (`directions_path` of each
+    function, N and options; every count up to `MAX_DIRECTIONS` until one is recorded).
+    Mutable: it holds what it made (CasADi's derivative cache holds weak references) until
+    `save_used` records the counts the solver used.
+    """
+
+    def __init__(self, n_knots: int, options: object, directory: Path | None = None) -> None:
+        self._n_knots = n_knots
+        self._options = options
+        self._directory = directory
+        self.made: list[tuple[str, KnotDerivatives, Path, tuple[tuple[int, ...], ...] | None]] = []
+
+    def __call__(self, fn: ca.Function) -> ca.Function:
+        path = directions_path(fn, self._n_knots, self._options, self._directory)
+        known = load_directions(path)
+        forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)
+        made = with_knot_derivatives(fn, forward=forward, second=second)
+        self.made.append((fn.name(), made, path, known))
+        return made.knot
+
+    def save_used(self, solver: ca.Function) -> None:
+        """Record the direction counts `solver` used of each function made (if new)."""
+        for name, _, path, known in self.made:
+            used = used_directions(solver, name)
+            if used != known and (used[0] or used[1]):
+                save_directions(path, *used)

@@ -54,6 +54,7 @@ from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import (
     ALL_DIRECTIONS,
     CacheOutcome,
+    DerivedFunctions,
     KnotDerivatives,
     directions_path,
     knot_jacobian_and_hessian,
@@ -245,7 +246,14 @@ class GaitPlanner:
             )
             knot = self.knot_derivatives.knot
         kq = knot_quantities(self.model, sym, n_knots, knot, self.options.knot_threads)
-        groups = build_groups(self.model, sym, kq, n_knots, self.options)
+        #: with "knot"/"compiled": the flat feet's and soles' per-knot functions get the knot's
+        #: derivative treatment too (`DerivedFunctions`; kept alive here with the solver)
+        self.derived: DerivedFunctions | None = None
+        if self.knot_derivatives is not None:
+            self.derived = DerivedFunctions(n_knots, self.options)
+            groups = build_groups(self.model, sym, kq, n_knots, self.options, self.derived)
+        else:
+            groups = build_groups(self.model, sym, kq, n_knots, self.options)
         terms = cost_terms(self.model, sym, kq, n_knots)
         objective = weighted_objective(terms, self.options.weights)
         g = ca.vertcat(*[grp.expr for grp in groups])
@@ -286,6 +294,8 @@ class GaitPlanner:
             # forward directions of the knot, only the Hessian's)
             if used != known and (used[0] or (self._jac_g is not None and used[1])):
                 save_directions(directions, *used)
+        if self.derived is not None:
+            self.derived.save_used(self._solver)
         self._last: WarmStart | None = None
         self.build_time_s = time.perf_counter() - t0
 

@@ -55,8 +55,14 @@ def test_sole_centre_velocity_is_the_jacobian_velocity_of_the_sole_centre() -> N
 
 @pytest.mark.slow
 def test_biped_stands_and_walks_in_mujoco_from_its_plans() -> None:
-    """Plans with N = 12: the stand and a walk (0.1 m/s, the biped_walk template's timing) pass
-    every simulator check over at least 10 s.
+    """Plans at the planner's default N (30): the stand and a walk (0.1 m/s, the biped_walk
+    template's timing) pass every simulator check over at least 10 s.
+
+    Not N = 12: there IPOPT lands, by round-off, on either the mirror-symmetric walk or a cheaper
+    "limping" optimum (the legs' mean hip pitch 24° apart) that turns and falls in MuJoCo — at
+    0.1 m/s with one Hessian's operation order, at 0.101 m/s with the other; at N = 30 every
+    speed 0.09–0.11 m/s and N = 26, 34 give the symmetric walk, which passes
+    (docs/results/planner_speed_startup.md, session 27). The limp check below names that case.
 
     The walk was a 1 s, duty-0.75 cycle at 0.05 m/s, checked loosely, until the planner kept the
     feet apart (`planner.nlp.foot_separation`): that plan crossed the feet under the body (the
@@ -67,7 +73,7 @@ def test_biped_stands_and_walks_in_mujoco_from_its_plans() -> None:
     from sim.validate import validate
 
     robot = robots.load(BIPED)
-    planner = GaitPlanner(robot, n_knots=12)
+    planner = GaitPlanner(robot)
     feet = robot.foot_names
     cases = {
         "stand": (ContactSchedule(1.0, feet, (0.0, 0.0), (1.0, 1.0)), 0.0),
@@ -76,6 +82,10 @@ def test_biped_stands_and_walks_in_mujoco_from_its_plans() -> None:
     for label, (schedule, speed) in cases.items():
         result = planner.solve(schedule, speed, warm_start=False)
         assert result.feasible, result.message
+        mean_deg = np.degrees(result.joint_angles_rad.mean(axis=0))
+        hips = [robot.joint_names.index(f"{side}_hip_pitch") for side in "lr"]
+        limp_deg = float(mean_deg[hips[0]] - mean_deg[hips[1]])
+        assert abs(limp_deg) < 1.0, (label, f"limping plan: mean hip pitch l − r {limp_deg:.1f}°")
         cycles = max(10, math.ceil(10.0 / schedule.period_s))  # ≥ 10 s of gait
         out = validate(planner.to_gait(result, label), robot, cycles=cycles)
         metrics = out.metrics
