@@ -29,7 +29,10 @@ lands first, γ < 1/2 times less for each knot later (`next_touchdown_weights`).
 point must lie at least m on the side where the next foot lands. Feet landing on the same knot
 on both sides of the line (a trot's diagonal pair) give S = 0: no row in force, since neither
 side is the safe one. Knots with other stance counts have no row in force (their factor is 0),
-so one build serves every schedule, as the static-margin rows do. Robots with fewer than three
+so one build serves every schedule, as the static-margin rows do; the rows not in force for
+the schedule being solved are freed (bounds ±inf) for that solve (`rows_in_force`), since a
+row that is identically 0 ≥ 0 is a degenerate active constraint for IPOPT (bittle8's walk,
+which has no two-foot knot at all, stopped at the iteration cap with them bounded). Robots with fewer than three
 feet have no rows (a biped's support is one foot, a point or a sole, not a line).
 
 ċ is the central difference of the centre of mass over the cycle in the world (the stance feet
@@ -126,6 +129,20 @@ def line_capture_rows(contact: Any, feet_m: Any, icp_xy: tuple[Any, Any],
         d = (ux * (icp_xy[1] - fy[i, :]) - uy * (icp_xy[0] - fx[i, :])) / norm
         rows.append(active * (s * d - ca.fabs(s) * margin_m))
     return ca.vec(ca.vertcat(*rows))
+
+
+def rows_in_force(contact: np.ndarray, nominal_xy_m: np.ndarray,
+                  gamma: float = NEXT_TOUCHDOWN_DECAY) -> np.ndarray:
+    """Which rows of `line_capture_rows` (same order) constrain anything for this 0/1 contact
+    matrix (F × N): a knot where exactly that pair stands and the next touchdown has a side
+    (S ≠ 0). The others are identically 0 ≥ 0 — constraints with a zero gradient, which IPOPT
+    must carry as degenerate active rows; the planner frees them (bounds ±inf) per solve."""
+    c = ca.DM(np.asarray(contact, dtype=float))
+    nf, n = c.shape
+    zeros = ca.DM.zeros(3 * nf, n)
+    icp = (ca.DM.zeros(1, n), ca.DM.zeros(1, n))
+    rows = np.asarray(ca.DM(line_capture_rows(c, zeros, icp, nominal_xy_m, 1.0, gamma))).ravel()
+    return rows < 0  # = −active·|S| with the capture point on the line and m = 1
 
 
 def lip_rate_s(height_m: float, gravity_m_s2: float = GRAVITY_M_S2) -> float:

@@ -19,10 +19,12 @@ from planner.nlp.line_capture import (
     line_sides,
     lip_rate_s,
     next_touchdown_weights,
+    rows_in_force,
 )
 from planner.nlp.spacetime import GaitPlanner
 from planner.nlp.variables import parameter_vector
-from planner.templates import make_schedule
+from planner.templates import make_schedule, stance_foot_positions_m
+from robots import ContactSchedule
 
 #: a square of feet FL, FR, RL, RR (x forward, y left)
 SQUARE = np.array([[0.1, 0.05], [0.1, -0.05], [-0.1, 0.05], [-0.1, -0.05]])
@@ -133,3 +135,27 @@ def test_assembled_jacobian_with_the_rows_is_casadis_own_and_finite_differences(
         fd = (np.asarray(f_as(x + dx, p)[0].full()).ravel()[sel]
               - np.asarray(f_as(x - dx, p)[0].full()).ravel()[sel]) / (2 * eps)
         np.testing.assert_allclose(got[sel, col], fd, rtol=1e-5, atol=1e-6)
+
+
+def test_rows_in_force_only_where_a_pair_stands_and_the_next_touchdown_has_a_side() -> None:
+    """A duty-0.6 lateral-sequence walk stands on a line 60 % of the cycle: one row in force per
+    such knot; a trot (diagonal pairs land together) and a duty-0.75 walk on 30 knots (never
+    two feet) have none, and the planner frees those rows for the solve."""
+    quad = robots.load("quad12")
+    nominal = stance_foot_positions_m(quad)[:, :2]
+
+    def in_force(schedule: ContactSchedule, n: int) -> np.ndarray:
+        return rows_in_force(np.asarray(schedule.contact_matrix(n), dtype=float).T, nominal)
+
+    walk = make_schedule(quad, "walk", duty_factor=0.6)
+    assert in_force(walk, 30).sum() == 18
+    assert in_force(make_schedule(quad, "trot"), 30).sum() == 0
+    assert in_force(make_schedule(quad, "walk"), 30).sum() == 0
+    planner = GaitPlanner(quad, 10, PlannerOptions(line_capture_margin_leg_lengths=0.1))
+    rows = dict(planner._slices)["line capture"]
+    for schedule in (walk, make_schedule(quad, "trot")):
+        lb = planner._row_lower_bounds(schedule)[rows]
+        np.testing.assert_array_equal(lb == 0, in_force(schedule, 10))
+        assert np.all(np.isneginf(lb[~in_force(schedule, 10)]))
+    plain = GaitPlanner(quad, 10, PlannerOptions())
+    assert plain._row_lower_bounds(walk) is plain._lbg
