@@ -12,7 +12,7 @@ open loop, and MuJoCo does not start every fall where the plan does.
 Measured on knee8 (8 × STS3215 with the identified 0.0284 kg·m² rotor, hip-and-knee legs,
 duty-0.6 lateral-sequence walk at 0.182 m/s, docs/results/heavy_rotor.md §7): the plan starts
 its diagonal-support phase with ξ 15 mm toward the front foot that lands next; in MuJoCo it
-starts on the line (−0.3 mm, cycle mean) and grows to only 13 mm where the plan has 58 mm, so
+starts on the line (2.9 mm, cycle mean) and grows to only 15 mm where the plan has 58 mm, so
 the body stays over the hind corner whose foot has just lifted: pitched 9° nose-up, that
 swinging hind foot scuffs the ground through a third of its swing and the front foot lands
 0.13 cycle late (the robot makes 0.162 of 0.182 m/s). Stiffer servos (×2) change none of it;
@@ -32,8 +32,9 @@ side is the safe one. Knots with other stance counts have no row in force (their
 so one build serves every schedule, as the static-margin rows do; the rows not in force for
 the schedule being solved are freed (bounds ±inf) for that solve (`rows_in_force`), since a
 row that is identically 0 ≥ 0 is a degenerate active constraint for IPOPT (bittle8's walk,
-which has no two-foot knot at all, stopped at the iteration cap with them bounded). Robots with fewer than three
-feet have no rows (a biped's support is one foot, a point or a sole, not a line).
+which has no two-foot knot at all, stopped at the iteration cap with them bounded). Robots
+with fewer than three feet have no rows (a biped's support is one foot, a point or a sole,
+not a line).
 
 ċ is the central difference of the centre of mass over the cycle in the world (the stance feet
 are at rest there; `planner.nlp.command` frames), h the robot's nominal stance height

@@ -239,8 +239,8 @@ def test_plan_search_takes_the_template_options(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """--force-rate, --bounce-weight, --rotor-reserve, --swing-clearance, --line-capture-margin
-    and --entry-cycles reach the search: its NLP options and both MuJoCo acceptance checks (which judge every gait
-    with the longer entry blend)."""
+    and --entry-cycles reach the search: its NLP options and both MuJoCo acceptance checks
+    (which judge every gait with the longer entry blend)."""
     seen = captured_kwargs(
         monkeypatch, planner.search.gait_search, "search_gait",
         ["plan", "quad12", "--speed", "0.2", "--search", "--force-rate", "10",
