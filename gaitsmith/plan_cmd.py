@@ -141,7 +141,8 @@ def plan(
         "least this many leg lengths on the side of the support line where the next swing "
         "foot lands (`PlannerOptions.line_capture_margin_leg_lengths`, "
         "`planner.nlp.line_capture`): the open-loop body falls toward the landing foot; 0.16 "
-        "took knee8's duty-0.6 walk from 0.162 to 0.18 m/s (docs/results/heavy_rotor.md §7)"),
+        "took knee8's duty-0.6 walk at T 1.35 s from 0.155 to 0.180 m/s "
+        "(docs/results/heavy_rotor.md §7)"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),

@@ -257,7 +257,7 @@ class PlannerOptions:
       stand (a support line), the capture point ξ = c + ċ/ω lies at least m on the side of
       the line where the next swing foot lands (`planner.nlp.line_capture`): the open-loop
       body then falls toward the landing foot rather than back over the foot that has just
-      lifted. 0.16 took knee8's duty-0.6 walk (T 1.3 s, ρ 0.15) from 0.162 to 0.179 m/s of
+      lifted. 0.16 took knee8's duty-0.6 walk (T 1.35 s, ρ 0.15) from 0.155 to 0.180 m/s of
       0.182 (docs/results/heavy_rotor.md §7). Default None: no rows.
     - `half_cycle_mirror`: the second half of the cycle is the first half mirrored under
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
