@@ -136,6 +136,13 @@ def plan(
         None, "--swing-clearance", help="swing clearance [m]: each swing foot's bottom stays "
         "above h·sin(π·swing progress) (`PlannerOptions.swing_clearance_m`; default 0.14 × "
         "the leg length)"),
+    line_capture_margin: float | None = typer.Option(
+        None, "--line-capture-margin", help="on two-foot support the capture point lies at "
+        "least this many leg lengths on the side of the support line where the next swing "
+        "foot lands (`PlannerOptions.line_capture_margin_leg_lengths`, "
+        "`planner.nlp.line_capture`): the open-loop body falls toward the landing foot; 0.16 "
+        "took knee8's duty-0.6 walk at T 1.35 s from 0.155 to 0.180 m/s "
+        "(docs/results/heavy_rotor.md §7)"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
@@ -182,7 +189,7 @@ def plan(
         raise OptionError("--knife-edge: needs --simulate, a straight command (no --vy, "
                           "--yaw-rate) and no --search")
     check_nlp_options(force_rate, bounce_weight, entry_cycles, rotor_reserve, swing_clearance,
-                      solver, mirror, knots)
+                      solver, mirror, knots, line_capture_margin)
     check_output_file("--output", output)
     bot = robots.load(robot)
     if speed is None:
@@ -202,7 +209,8 @@ def plan(
               if search or not stand
               else StanceShaped(force_rate, bounce_weight, entry_cycles, {}))
     options = planner_options(mu, solver, shaped, rotor_reserve, swing_clearance,
-                              verbose=verbose, servo_settings=servo_settings, mirror=mirror)
+                              verbose=verbose, servo_settings=servo_settings, mirror=mirror,
+                              line_capture_margin=line_capture_margin)
     meta = gait_metadata(supply_v, servo_params_path, shaped)
     if search:
         gait, seed_schedule = user_seed(bot, gait, period, duty, phases, schedule_file)

@@ -86,6 +86,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
                 "gait-file metadata; the search's MuJoCo acceptance"),
     OptionRoute("--rotor-reserve", "rotor_reserve", NLP, NLP),
     OptionRoute("--swing-clearance", "swing_clearance", NLP, NLP),
+    OptionRoute("--line-capture-margin", "line_capture_margin", NLP, NLP),
     OptionRoute("--search", "search", "", "switches to the search"),
     OptionRoute("--generations", "generations", "", SEARCH),
     OptionRoute("--popsize", "popsize", "", SEARCH),
@@ -151,7 +152,7 @@ def check_command(vx: float | None, vy: float, yaw_rate: float) -> None:
 def check_nlp_options(force_rate: float | None, bounce_weight: float | None,
                       entry_cycles: int | None, rotor_reserve: float | None,
                       swing_clearance: float | None, solver: str, mirror: bool,
-                      knots: int) -> None:
+                      knots: int, line_capture_margin: float | None = None) -> None:
     """The NLP-shaping options (each None unless given) in the ranges the planner accepts."""
     check_number("--force-rate", force_rate, 0.0, MAX_FORCE_RATE,
                  unit="body weights per √(L/g)")  # 0: no rows (overrides the stance rule)
@@ -160,6 +161,8 @@ def check_nlp_options(force_rate: float | None, bounce_weight: float | None,
     check_number("--rotor-reserve", rotor_reserve, 0.0, 2.0, lo_open=True)
     check_number("--swing-clearance", swing_clearance, 0.0, 1.0, lo_open=True, hi_open=True,
                  unit="m")
+    check_number("--line-capture-margin", line_capture_margin, 0.0, 1.0, hi_open=True,
+                 unit="leg lengths")
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -176,14 +179,16 @@ def standing(vx: float, vy: float, yaw_rate: float, duty: str | None, phases: st
 def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve: float | None,
                     swing_clearance: float | None, *, verbose: bool = False,
                     servo_settings: tuple[ServoSetting, ...] | None = None,
-                    mirror: bool = False) -> PlannerOptions:
+                    mirror: bool = False,
+                    line_capture_margin: float | None = None) -> PlannerOptions:
     """The `PlannerOptions` of the command line (both paths; `search_planner_options` drops
     what `--search` does not take)."""
     return PlannerOptions(mu=mu, print_level=5 if verbose else 0, servo_settings=servo_settings,
                           derivatives=solver, half_cycle_mirror=mirror,
                           normal_force_rate_weights_per_t0=shaped.rate_bound,
                           weights=shaped.weights, rotor_reserve=rotor_reserve,
-                          swing_clearance_m=swing_clearance)
+                          swing_clearance_m=swing_clearance,
+                          line_capture_margin_leg_lengths=line_capture_margin)
 
 
 def search_planner_options(options: PlannerOptions) -> PlannerOptions:

@@ -253,6 +253,12 @@ class PlannerOptions:
       (docs/results/heavy_rotor.md). 0.1–0.15 took spotmicro's walk with the identified STS3215
       rotor from 84 % to 78–79 % peak torque; plans already on their envelope become
       infeasible. Default None: no rows.
+    - `line_capture_margin_leg_lengths`: m/L ≥ 0 or None: at every knot where exactly two feet
+      stand (a support line), the capture point ξ = c + ċ/ω lies at least m on the side of
+      the line where the next swing foot lands (`planner.nlp.line_capture`): the open-loop
+      body then falls toward the landing foot rather than back over the foot that has just
+      lifted. 0.16 took knee8's duty-0.6 walk (T 1.35 s, ρ 0.15) from 0.155 to 0.180 m/s of
+      0.182 (docs/results/heavy_rotor.md §7). Default None: no rows.
     - `half_cycle_mirror`: the second half of the cycle is the first half mirrored under
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
       half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric
@@ -313,6 +319,7 @@ class PlannerOptions:
     unmirrored_mean_footprint_leg_lengths: float | None = UNMIRRORED_MEAN_FOOTPRINT_LEG_LENGTHS
     normal_force_rate_weights_per_t0: float | None = NORMAL_FORCE_RATE_WEIGHTS_PER_T0
     rotor_reserve: float | None = None
+    line_capture_margin_leg_lengths: float | None = None
     half_cycle_mirror: bool = False
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
@@ -356,6 +363,9 @@ class PlannerOptions:
                 and 0 < self.normal_force_rate_weights_per_t0 < 1e3),
             "rotor_reserve": self.rotor_reserve is None
             or (math.isfinite(self.rotor_reserve) and 0 <= self.rotor_reserve <= 2),
+            "line_capture_margin_leg_lengths": self.line_capture_margin_leg_lengths is None
+            or (math.isfinite(self.line_capture_margin_leg_lengths)
+                and 0 <= self.line_capture_margin_leg_lengths < 1),
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,

@@ -35,6 +35,12 @@ from planner.nlp.flat_foot import (
 )
 from planner.nlp.foot_separation import foot_separation_labels, foot_separation_rows
 from planner.nlp.force_rate import force_rate_bounds, force_rate_labels, force_rate_rows
+from planner.nlp.line_capture import (
+    capture_point,
+    line_capture_labels,
+    line_capture_rows,
+    lip_rate_s,
+)
 from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.sideways_locked import lateral_slip_bounds_m
@@ -389,6 +395,7 @@ def build_groups(
             zeros(2),
         ),
         *_rotor_reserve_groups(model, kq, n, options, stall, qd_n),
+        *_line_capture_groups(model, sym, n, options, kq, inv_h),
         *_force_rate_groups(model, sym, n, options, inv_h, t0),
         *flat_foot_groups(model, sym, n, options, stick, Group, derived),
         *_static_margin_groups(model, sym, kq, n, options),
@@ -424,6 +431,29 @@ def _rotor_reserve_groups(model: RobotModel, kq: KnotQuantities, n: int,
     expr = envelope_faces(tau_n, qd_n)
     size = int(expr.shape[0])
     return [Group("rotor reserve", expr, np.full(size, -np.inf), np.ones(size))]
+
+
+def _line_capture_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions,
+                         kq: KnotQuantities, inv_h: Any) -> list[Group]:
+    """Line-capture margin (`PlannerOptions.line_capture_margin_leg_lengths`,
+    `planner.nlp.line_capture`): on two-foot support the capture point lies on the side of the
+    support line where the next swing foot lands, at least m = margin·L from it."""
+    margin = options.line_capture_margin_leg_lengths
+    if margin is None or model.n_feet < 3:
+        return []
+    from planner.templates import stance_foot_positions_m
+
+    motion = _motion(sym)
+    length = model.robot.leg_length_m
+    _, _, com = model.fk.map(n)(sym.base[:3, :], sym.base[3:, :], sym.q)
+    nxt, prv = _shift(com, 1), _shift(com, -1)
+    icp = capture_point(com, motion.next_in_frame(nxt[0, :], nxt[1, :]),
+                        motion.previous_in_frame(prv[0, :], prv[1, :]), inv_h,
+                        lip_rate_s(model.robot.stance_base_height_m))
+    expr = line_capture_rows(sym.contact, kq.feet_m, icp,
+                             stance_foot_positions_m(model.robot)[:, :2], margin * length)
+    size = int(expr.shape[0])
+    return [Group("line capture", expr, np.zeros(size), np.full(size, np.inf), length)]
 
 
 def _force_rate_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions,
@@ -636,6 +666,7 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
         ],
         "torque envelope": per_joint * 4,
         "rotor reserve": per_joint * 4,
+        "line capture": line_capture_labels(feet, n_knots),
         "body clearance": [
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)
         ],

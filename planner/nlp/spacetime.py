@@ -400,7 +400,7 @@ class GaitPlanner:
                 p=p,
                 lbx=self._lbx / xs,
                 ubx=self._ubx / xs,
-                lbg=self._lbg / gs,
+                lbg=self._row_lower_bounds(schedule) / gs,
                 ubg=self._ubg / gs,
             )
         sol = {
@@ -421,6 +421,21 @@ class GaitPlanner:
         if result.feasible:
             self._last = result.warm_start
         return result
+
+    def _row_lower_bounds(self, schedule: ContactSchedule) -> np.ndarray:
+        """The rows' lower bounds for `schedule`: the built ones, with the line-capture rows
+        that are not in force for it freed (`planner.nlp.line_capture.rows_in_force`)."""
+        rows = dict(self._slices).get("line capture")
+        if rows is None:
+            return self._lbg
+        from planner.nlp.line_capture import rows_in_force
+        from planner.templates import stance_foot_positions_m
+
+        lbg = self._lbg.copy()
+        contact = np.asarray(schedule.contact_matrix(self.n_knots), dtype=float).T
+        free = ~rows_in_force(contact, stance_foot_positions_m(self.robot)[:, :2])
+        lbg[rows][free] = -np.inf
+        return lbg
 
     def _solver_parameters(self, schedule: ContactSchedule, speed_m_s: float) -> np.ndarray:
         return parameter_vector(schedule, self.n_knots, speed_m_s, self.swing_clearance_m)

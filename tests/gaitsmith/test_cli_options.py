@@ -71,6 +71,8 @@ PLAN_MISTAKES = [
     (["--force-rate", "1e9"], "--force-rate must be a number in [0, 100] body weights"),
     (["--rotor-reserve", "2.5"], "--rotor-reserve must be a number in (0, 2], got 2.5"),
     (["--swing-clearance", "1"], "--swing-clearance must be a number in (0, 1) m, got 1"),
+    (["--line-capture-margin", "-0.1"], "--line-capture-margin must be a number in [0, 1) leg"),
+    (["--search", "--line-capture-margin", "1"], "--line-capture-margin must be a number in"),
 ]
 
 
@@ -236,15 +238,17 @@ def test_sweep_write_failure_after_the_sweep_is_one_line(
 def test_plan_search_takes_the_template_options(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """--force-rate, --bounce-weight, --rotor-reserve, --swing-clearance and --entry-cycles
-    reach the search: its NLP options and both MuJoCo acceptance checks (which judge every gait
-    with the longer entry blend)."""
+    """--force-rate, --bounce-weight, --rotor-reserve, --swing-clearance, --line-capture-margin
+    and --entry-cycles reach the search: its NLP options and both MuJoCo acceptance checks
+    (which judge every gait with the longer entry blend)."""
     seen = captured_kwargs(
         monkeypatch, planner.search.gait_search, "search_gait",
         ["plan", "quad12", "--speed", "0.2", "--search", "--force-rate", "10",
          "--bounce-weight", "30", "--rotor-reserve", "0.15", "--swing-clearance", "0.018",
-         "--entry-cycles", "3", "-o", str(tmp_path / "g.json")])
+         "--entry-cycles", "3", "--line-capture-margin", "0.16",
+         "-o", str(tmp_path / "g.json")])
     options = seen["options"]
+    assert options.line_capture_margin_leg_lengths == 0.16
     assert options.normal_force_rate_weights_per_t0 == 10
     assert options.weights.bounce_s2_m2 == 30
     assert options.rotor_reserve == 0.15 and options.swing_clearance_m == 0.018

@@ -51,9 +51,12 @@ def test_search_refuses_what_the_table_refuses(
 
 def test_search_options_drop_only_the_template_paths_own() -> None:
     shaped = StanceShaped(10.0, 30.0, 3, {})
-    full = planner_options(0.7, "expanded", shaped, 0.15, 0.02, verbose=True, mirror=True)
+    full = planner_options(0.7, "expanded", shaped, 0.15, 0.02, verbose=True, mirror=True,
+                           line_capture_margin=0.16)
     searched = search_planner_options(full)
     assert full.print_level == 5 and full.half_cycle_mirror
-    assert searched == planner_options(0.7, "expanded", shaped, 0.15, 0.02)
+    assert searched == planner_options(0.7, "expanded", shaped, 0.15, 0.02,
+                                       line_capture_margin=0.16)
+    assert searched.line_capture_margin_leg_lengths == 0.16
     assert searched.normal_force_rate_weights_per_t0 == 10.0
     assert searched.weights.bounce_s2_m2 == 30.0
