@@ -10,9 +10,10 @@ Each row runs the real command line in a subprocess (`python -m gaitsmith.cli pl
 length, and reads the verdict, achieved speed, peak torque and heading from the written gait
 file's `validation` block (what `--simulate` records). A command that writes no file (no
 feasible gait, an error) is a FAIL row with the command's last output line. Prints a markdown
-table (robot, legs, how, gait, duty/period, speed commanded/achieved, peak τ/stall, heading,
-verdict, wall and CPU seconds) and writes it with the commands to `--out` (default
-zoo_must_show.md in the working directory). Wall times depend on the machine's load; the CPU
+table (robot, legs, how, gait, duty/period, speed commanded/achieved, peak τ/stall planned (the
+largest knot torque, planner metadata `servo_load`) and in MuJoCo, heading, verdict, wall and CPU
+seconds) and writes it with the commands to `--out` (default zoo_must_show.md in the working
+directory); `--keep DIR` keeps the gait files. Wall times depend on the machine's load; the CPU
 seconds (children's user + system) less so.
 """
 
@@ -54,6 +55,7 @@ class Row:
     speed_cmd_m_s: float
     speed_m_s: float | None
     peak_torque: float | None
+    plan_peak_torque: float | None
     heading_deg: float | None
     verdict: str
     wall_s: float
@@ -63,15 +65,18 @@ class Row:
         def num(v: float | None, fmt: str) -> str:
             return "–" if v is None else format(v, fmt)
 
+        def pct(v: float | None) -> str:
+            return num(None if v is None else 100 * v, ".0f")
+
         return (f"| {self.robot} | {self.legs} | {self.how} | {self.gait} | {self.timing} | "
                 f"{self.speed_cmd_m_s:.3f} / {num(self.speed_m_s, '.3f')} | "
-                f"{num(None if self.peak_torque is None else 100 * self.peak_torque, '.0f')} % | "
+                f"{pct(self.plan_peak_torque)} / {pct(self.peak_torque)} % | "
                 f"{num(self.heading_deg, '+.1f')}° | {self.verdict} | {self.wall_s:.0f} s | "
                 f"{self.cpu_s:.0f} s |")
 
 
 HEADER = ("| robot | legs | how | gait | duty / period | speed cmd / achieved [m/s] "
-          "| peak τ / stall | heading | MuJoCo | wall | CPU |\n"
+          "| peak τ / stall, plan / MuJoCo | heading | MuJoCo | wall | CPU |\n"
           "|---|---|---|---|---|---|---|---|---|---|---|")
 
 
@@ -94,6 +99,14 @@ def _degrees(rad: float | None) -> float | None:
     return None if rad is None else math.degrees(rad)
 
 
+def _plan_peak_torque(data: dict[str, Any]) -> float | None:
+    """The plan's largest knot |τ|/τ_stall over all joints (planner metadata `servo_load`)."""
+    load = (data.get("planner") or {}).get("servo_load") or {}
+    peaks = [v.get("peak_torque_over_stall") for v in load.values() if isinstance(v, dict)]
+    values = [float(p) for p in peaks if isinstance(p, (int, float))]
+    return max(values) if values else None
+
+
 def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path) -> Row:
     """One command, one row (see the module docstring)."""
     bot = robots.load(str(ROOT / robot) if (ROOT / robot).is_dir() else robot)
@@ -109,7 +122,7 @@ def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path
     how = ("--search" if search else "template") + (f" {' '.join(extra)}" if extra else "")
     if not out.exists():
         last = (proc.stderr.strip() or proc.stdout.strip() or "no output").splitlines()[-1]
-        return Row(bot.name, len(bot.legs), how, "–", "–", speed, None, None, None,
+        return Row(bot.name, len(bot.legs), how, "–", "–", speed, None, None, None, None,
                    f"**FAIL**: {last[:160]}", wall, cpu)
     data = json.loads(out.read_text(encoding="utf-8"))
     validation = data.get("validation") or {}
@@ -126,6 +139,7 @@ def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path
         speed,
         _metric(metrics, "achieved_speed_m_s"),
         _metric(metrics, "peak_torque_fraction"),
+        _plan_peak_torque(data),
         _degrees(_metric(metrics, "heading_error_rad")),
         verdict, wall, cpu,
     )
@@ -143,6 +157,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--froude", type=float, default=0.02)
     parser.add_argument("--search", action="store_true", help="also run each robot's --search")
     parser.add_argument("--out", type=Path, default=Path("zoo_must_show.md"))
+    parser.add_argument("--keep", type=Path, default=None,
+                        help="write the gait files here (default: a temporary folder)")
     args = parser.parse_args(args_in)
     if not (math.isfinite(args.froude) and 0 < args.froude <= 1):
         parser.error(f"--froude must lie in (0, 1], got {args.froude}")
@@ -150,10 +166,13 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[Row] = []
     started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     print(HEADER, flush=True)
+    if args.keep is not None:
+        args.keep.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="zoo_must_show_") as tmp:
+        folder = Path(tmp) if args.keep is None else args.keep.resolve()
         for robot in names:
             for search in (False, True) if args.search else (False,):
-                row = run_row(robot, args.froude, search, extra, Path(tmp))
+                row = run_row(robot, args.froude, search, extra, folder)
                 rows.append(row)
                 print(row.markdown(), flush=True)
     load = os.getloadavg()[0]

@@ -159,7 +159,11 @@ class PlannerOptions:
     - `mu`: friction coefficient of the cone (W&P eq 9 uses 0.5), imposed as the inscribed
       linear pyramid |f_x|, |f_y| ≤ µ/√2 · f_z — conservative, and linear (a cheaper Hessian).
     - `torque_margin`: |τ| ≤ margin · τ_stall · (1 − |q̇|/ω₀); 0.8 leaves the servo 20 % for
-      tracking (sim requires peak torque ≤ 80 % of stall).
+      tracking and equals the MuJoCo verdict's peak-torque limit (80 % of stall), so it keeps
+      no headroom below the verdict on purpose: on the zoo's template plans (Fr 0.02–0.03) no
+      knot is on the envelope, MuJoCo's peaks exceed the plan by 9–35 points of stall away from
+      it (humanoid20: stance sag), and 0.78 / 0.75 lowered no peak but lost the built-in biped's
+      walk (docs/results/zoo_gaits.md, "Session 27"). Heavy rotors: `rotor_reserve`.
     - `speed_margin`: |q̇| ≤ margin · ω₀ (no-load speed).
     - `swing_clearance_m`: swing foot-sphere bottom ≥ h·sin(π·swing progress); None (default):
       h = `SWING_CLEARANCE_LEG_LENGTHS`·L (`swing_clearance_for`).
