@@ -58,6 +58,7 @@ from planner.nlp.config import DEFAULT_FROUDE, PlannerOptions, default_speed_m_s
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
+from robots.servo_params import ServoSetting
 from robots.voltage import robot_at_voltage, voltage_margin
 
 _write = write_gait  # its name here before it moved to gaitsmith.plan_output (tests use it)
@@ -271,7 +272,7 @@ def plan(
     gait_obj = planner.to_gait(result, gait, extra_metadata=meta)
     write_gait(gait_obj, bot, output, simulate, cycles, servo_settings)
     if knife_edge:
-        _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles)
+        _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles, servo_settings)
 
 
 def _note_swing_slack(bot: robots.Robot, schedule: robots.ContactSchedule, speed: float,
@@ -296,8 +297,9 @@ def _note_swing_slack(bot: robots.Robot, schedule: robots.ContactSchedule, speed
 
 def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.ContactSchedule,
                 label: str, speed: float, knots: int, options: PlannerOptions,
-                cycles: int | None) -> None:
-    """--knife-edge: `planner.robust_plan.replans` judged by `sim.robustness.knife_edge_check`."""
+                cycles: int | None, servo_settings: tuple[ServoSetting, ...] | None) -> None:
+    """--knife-edge: `planner.robust_plan.replans` judged by `sim.robustness.knife_edge_check`,
+    every run simulated with the same identified servos (`--servo-params`) as --simulate."""
     from planner.robust_plan import replans
     from sim.robustness import knife_edge_check
 
@@ -307,6 +309,7 @@ def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.Conta
     with console.status("knife-edge check: simulating the variants…") as status:
         check = knife_edge_check(
             gait_obj, bot, [(v.label, v.gait) for v in variants], n_cycles,
+            servo_settings=servo_settings,
             progress=lambda done, total: status.update(
                 f"knife-edge check: simulated {done} of {total} runs…"),
         )

@@ -20,6 +20,7 @@ from typing import Any
 
 from robots.gait import Gait
 from robots.robot import Robot
+from robots.servo_params import ServoSetting
 from sim.errors import SimConfigError
 from sim.validate import PassCriteria, validate
 
@@ -187,10 +188,13 @@ def knife_edge_check(
     latencies_s: Sequence[float] = KNIFE_EDGE_LATENCIES_S,
     criteria: PassCriteria = PassCriteria(),
     progress: Callable[[int, int], None] | None = None,
+    servo_settings: Sequence[ServoSetting] | None = None,
 ) -> KnifeEdgeResult:
     """The nominal gait at every latency in `latencies_s`, and each re-planned variant in
     `replans` (label, gait) at the first latency; see the module docstring. A re-plan without a
-    gait (None: the planner found none) counts as a failed run."""
+    gait (None: the planner found none) counts as a failed run. `servo_settings` (identified
+    servos, `gaitsmith plan --servo-params`) are simulated in every run, as `validate` does for
+    the nominal verdict."""
     if not latencies_s:
         raise SimConfigError("the knife-edge check needs at least one latency")
     todo: list[tuple[str, Gait | None, float]] = [
@@ -204,7 +208,7 @@ def knife_edge_check(
                                      ("re-plan: no feasible gait",)))
             continue
         res = validate(gait, robot, cycles, latency_s=latency, criteria=criteria,
-                       keep_trajectory=False)
+                       keep_trajectory=False, servo_settings=servo_settings)
         m = res.metrics
         runs.append(
             KnifeEdgeRun(

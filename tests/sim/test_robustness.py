@@ -40,3 +40,25 @@ def test_a_missing_replan_counts_as_a_failed_run_and_latencies_are_required() ->
     missing = result.runs[1]
     assert not missing.passed and math.isnan(missing.heading_deg)
     assert result.verdict in {"knife edge", "fails"}
+
+
+def test_every_run_is_simulated_with_the_identified_servos(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`plan --servo-params --knife-edge`: the knife-edge runs use the same servos as --simulate."""
+    import sim.robustness as robustness
+    from planner.library import stand_gait
+    from robots.servo_params import ServoSetting
+
+    bot = robots.load("biped")
+    stand = stand_gait(bot, 0.5)
+    seen: list[object] = []
+    real = robustness.validate
+
+    def spy(*args: object, **kwargs: object) -> object:
+        seen.append(kwargs.get("servo_settings"))
+        return real(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(robustness, "validate", spy)
+    settings = (ServoSetting(gain_scale=0.5),) * len(bot.joints)
+    knife_edge_check(stand, bot, [("N 8", stand)], cycles=3, latencies_s=(0.0, 0.005),
+                     servo_settings=settings)
+    assert seen == [settings, settings, settings]
