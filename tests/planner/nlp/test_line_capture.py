@@ -22,9 +22,9 @@ from planner.nlp.line_capture import (
     rows_in_force,
 )
 from planner.nlp.spacetime import GaitPlanner
-from planner.nlp.variables import parameter_vector
 from planner.templates import make_schedule, stance_foot_positions_m
 from robots import ContactSchedule
+from tests.planner.nlp.jacobian_pair import assembled_matches_ad, constraint_rows
 
 #: a square of feet FL, FR, RL, RR (x forward, y left)
 SQUARE = np.array([[0.1, 0.05], [0.1, -0.05], [-0.1, 0.05], [-0.1, -0.05]])
@@ -101,9 +101,7 @@ def test_no_rows_when_off_or_on_a_biped() -> None:
     assert PlannerOptions().line_capture_margin_leg_lengths is None
     on = PlannerOptions(line_capture_margin_leg_lengths=0.1)
     biped = robots.load("biped")
-    size = {name: GaitPlanner(biped, 8, o)._solver.get_function("nlp_jac_g").sparsity_out(1)
-            .size1() for name, o in (("off", PlannerOptions()), ("on", on))}
-    assert size["off"] == size["on"]
+    assert constraint_rows(biped, 8, on) == constraint_rows(biped, 8)
 
 
 def test_assembled_jacobian_with_the_rows_is_casadis_own_and_finite_differences() -> None:
@@ -112,24 +110,17 @@ def test_assembled_jacobian_with_the_rows_is_casadis_own_and_finite_differences(
     central finite differences at a random point."""
     robot = robots.load("quad12")
     n = 8
-    ad, assembled = (GaitPlanner(robot, n, PlannerOptions(
-        nlp_jacobian=path, line_capture_margin_leg_lengths=0.1)) for path in ("ad", "assembled"))
-    schedule = make_schedule(robot, "walk", duty_factor=0.6)
-    p = parameter_vector(schedule, n, 0.1, ad.swing_clearance_m)
-    x = np.random.default_rng(3).normal(scale=0.2, size=ad.layout.size)
-    f_ad, f_as = (pl._solver.get_function("nlp_jac_g") for pl in (ad, assembled))
-    want, got = (np.asarray(f(x, p)[1].full()) for f in (f_ad, f_as))
-    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-10 * np.abs(want).max())
-    plain = GaitPlanner(robot, n, PlannerOptions())
-    rows = plain._solver.get_function("nlp_jac_g").sparsity_out(1).size1()
-    assert want.shape[0] == rows + 6 * n
+    pair = assembled_matches_ad(robot, n, PlannerOptions(line_capture_margin_leg_lengths=0.1),
+                                make_schedule(robot, "walk", duty_factor=0.6))
+    got, f_as, x, p = pair.assembled, pair.jac_g, pair.x, pair.p
+    assert got.shape[0] == constraint_rows(robot, n) + 6 * n
     g_on = np.asarray(f_as(x, p)[0].full()).ravel()
-    sel = dict(assembled._slices)["line capture"]
+    sel = dict(pair.planner._slices)["line capture"]
     assert sel.stop - sel.start == 6 * n
     assert np.any(g_on[sel] != 0)  # the walk has two-foot knots at this point
     eps = 1e-6
     rng = np.random.default_rng(4)
-    for col in rng.choice(ad.layout.size, size=12, replace=False):
+    for col in rng.choice(x.size, size=12, replace=False):
         dx = np.zeros_like(x)
         dx[col] = eps
         fd = (np.asarray(f_as(x + dx, p)[0].full()).ravel()[sel]

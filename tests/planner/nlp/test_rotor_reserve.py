@@ -16,8 +16,8 @@ from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import KnotQuantities, _rotor_reserve_groups, group_labels
 from planner.nlp.model import RobotModel
 from planner.nlp.spacetime import GaitPlanner
-from planner.nlp.variables import parameter_vector
 from planner.templates import make_schedule
+from tests.planner.nlp.jacobian_pair import assembled_matches_ad, constraint_rows
 
 
 def test_option_validated() -> None:
@@ -74,16 +74,9 @@ def test_assembled_jacobian_with_the_rows_is_casadis_own() -> None:
     the NLP has exactly 4·J·N more rows than without them."""
     robot = robots.load("quad12")
     n = 8
-    ad, assembled = (GaitPlanner(robot, n, PlannerOptions(nlp_jacobian=path, rotor_reserve=0.2))
-                     for path in ("ad", "assembled"))
-    p = parameter_vector(make_schedule(robot, "walk"), n, 0.1, ad.swing_clearance_m)
-    x = np.random.default_rng(3).normal(scale=0.2, size=ad.layout.size)
-    f_ad, f_as = (pl._solver.get_function("nlp_jac_g") for pl in (ad, assembled))
-    want, got = (np.asarray(f(x, p)[1].full()) for f in (f_ad, f_as))
-    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-10 * np.abs(want).max())
-    plain = GaitPlanner(robot, n, PlannerOptions())
-    rows = plain._solver.get_function("nlp_jac_g").sparsity_out(1).size1()
-    assert want.shape[0] == rows + 4 * len(robot.joints) * n
+    pair = assembled_matches_ad(robot, n, PlannerOptions(rotor_reserve=0.2),
+                                make_schedule(robot, "walk"))
+    assert pair.ad.shape[0] == constraint_rows(robot, n) + 4 * len(robot.joints) * n
 
 
 @pytest.mark.parametrize(
