@@ -23,6 +23,7 @@ import argparse
 import json
 import math
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -60,6 +61,7 @@ class Row:
     verdict: str
     wall_s: float
     cpu_s: float
+    knife_edge: str = "–"  # `plan --knife-edge`'s "k of n runs pass" (template rows, --knife-edge)
 
     def markdown(self) -> str:
         def num(v: float | None, fmt: str) -> str:
@@ -71,13 +73,15 @@ class Row:
         return (f"| {self.robot} | {self.legs} | {self.how} | {self.gait} | {self.timing} | "
                 f"{self.speed_cmd_m_s:.3f} / {num(self.speed_m_s, '.3f')} | "
                 f"{pct(self.plan_peak_torque)} / {pct(self.peak_torque)} % | "
-                f"{num(self.heading_deg, '+.1f')}° | {self.verdict} | {self.wall_s:.0f} s | "
-                f"{self.cpu_s:.0f} s |")
+                f"{num(self.heading_deg, '+.1f')}° | {self.verdict} | {self.knife_edge} | "
+                f"{self.wall_s:.0f} s | {self.cpu_s:.0f} s |")
 
 
 HEADER = ("| robot | legs | how | gait | duty / period | speed cmd / achieved [m/s] "
-          "| peak τ / stall, plan / MuJoCo | heading | MuJoCo | wall | CPU |\n"
-          "|---|---|---|---|---|---|---|---|---|---|---|")
+          "| peak τ / stall, plan / MuJoCo | heading | MuJoCo | knife edge | wall | CPU |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|---|")
+#: `sim.robustness.KnifeEdgeCheck`'s summary line, as `plan --knife-edge` prints it
+KNIFE_EDGE_LINE = re.compile(r"(robust|knife edge|fails): (\d+) of (\d+) runs pass")
 
 
 def froude_speed_m_s(bot: robots.Robot, froude: float) -> float:
@@ -107,14 +111,19 @@ def _plan_peak_torque(data: dict[str, Any]) -> float | None:
     return max(values) if values else None
 
 
-def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path) -> Row:
-    """One command, one row (see the module docstring)."""
+def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path,
+            knife_edge: bool = False) -> Row:
+    """One command, one row (see the module docstring); `knife_edge`: the template command
+    also runs `--knife-edge` (perturbed re-plans, minutes) and the row says how many pass."""
     bot = robots.load(str(ROOT / robot) if (ROOT / robot).is_dir() else robot)
     speed = froude_speed_m_s(bot, froude)
     out = tmp / f"{bot.name}{'_search' if search else ''}.json"
     out.unlink(missing_ok=True)
     cmd = [sys.executable, "-m", "gaitsmith.cli", "plan", robot, "--speed", f"{speed:g}",
            "-o", str(out), "--simulate", *(SEARCH_FLAGS if search else ()), *extra]
+    knife_edge = knife_edge and not search  # plan refuses --knife-edge with --search
+    if knife_edge:
+        cmd.append("--knife-edge")
     cpu0, t0 = _children_cpu_s(), time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False, cwd=ROOT,
                           env={**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")})
@@ -123,7 +132,7 @@ def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path
     if not out.exists():
         last = (proc.stderr.strip() or proc.stdout.strip() or "no output").splitlines()[-1]
         return Row(bot.name, len(bot.legs), how, "–", "–", speed, None, None, None, None,
-                   f"**FAIL**: {last[:160]}", wall, cpu)
+                   f"**FAIL**: {last[:160]}", wall, cpu, "–")
     data = json.loads(out.read_text(encoding="utf-8"))
     validation = data.get("validation") or {}
     metrics = validation.get("metrics") or {}
@@ -134,6 +143,8 @@ def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path
     passed = bool(validation.get("passed"))
     reasons = "; ".join(str(r) for r in validation.get("reasons") or [])
     verdict = "**PASS**" if passed else f"**FAIL**: {reasons[:160] or 'not simulated'}"
+    found = KNIFE_EDGE_LINE.search(" ".join(proc.stdout.split()))
+    robust = (f"{found[2]} of {found[3]}" if found else "no summary") if knife_edge else "–"
     return Row(
         bot.name, len(bot.legs), how, str(data.get("gait_label") or "?"), timing,
         speed,
@@ -141,7 +152,7 @@ def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path
         _metric(metrics, "peak_torque_fraction"),
         _plan_peak_torque(data),
         _degrees(_metric(metrics, "heading_error_rad")),
-        verdict, wall, cpu,
+        verdict, wall, cpu, robust,
     )
 
 
@@ -157,6 +168,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--froude", type=float, default=0.02)
     parser.add_argument("--search", action="store_true", help="also run each robot's --search")
     parser.add_argument("--out", type=Path, default=Path("zoo_must_show.md"))
+    parser.add_argument("--knife-edge", action="store_true",
+                        help="the template commands also run plan --knife-edge (7 perturbed "
+                        "re-plans each: judge a default by how many pass, not by one run)")
     parser.add_argument("--keep", type=Path, default=None,
                         help="write the gait files here (default: a temporary folder)")
     args = parser.parse_args(args_in)
@@ -172,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
         folder = Path(tmp) if args.keep is None else args.keep.resolve()
         for robot in names:
             for search in (False, True) if args.search else (False,):
-                row = run_row(robot, args.froude, search, extra, folder)
+                row = run_row(robot, args.froude, search, extra, folder, args.knife_edge)
                 rows.append(row)
                 print(row.markdown(), flush=True)
     load = os.getloadavg()[0]
