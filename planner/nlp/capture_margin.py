@@ -35,15 +35,9 @@ import casadi as ca
 import numpy as np
 
 from planner.nlp.model import RobotModel
+from planner.nlp.variables import cyclic_shift
 
 N_CAPTURE_ROWS = 2  # ±y (across the sole) per flat foot and knot
-
-
-def _shift(m: Any, k: int) -> Any:
-    """Cyclic column shift: column i of the result is column (i + k) mod N of m."""
-    n = m.shape[1]
-    k %= n
-    return m if k == 0 else ca.horzcat(m[:, k:], m[:, :k])
 
 
 def single_support(contact: Any, foot: int) -> Any:
@@ -55,16 +49,25 @@ def single_support(contact: Any, foot: int) -> Any:
     return alone
 
 
+def com_with_neighbours(model: RobotModel, sym: Any, n_knots: int
+                        ) -> tuple[Any, tuple[Any, Any], tuple[Any, Any]]:
+    """The centre of mass of every knot (3 × N, world) and the x, y of its next and previous
+    knots' in knot k's command frame (`planner.nlp.command`: they carry the commanded motion over
+    ±h), the terms of its cyclic central difference (the world velocity)."""
+    _, _, com = model.fk.map(n_knots)(sym.base[:3, :], sym.base[3:, :], sym.q)
+    nxt = sym.motion.next_in_frame(cyclic_shift(com[0, :], 1), cyclic_shift(com[1, :], 1))
+    prv = sym.motion.previous_in_frame(cyclic_shift(com[0, :], -1), cyclic_shift(com[1, :], -1))
+    return com, nxt, prv
+
+
 def capture_point_xy(model: RobotModel, sym: Any, n_knots: int) -> Any:
     """2 × N instantaneous capture point ξ = c + ċ/ω₀ of the knots (command frame of each knot).
 
     ċ: the cyclic central difference of c with the neighbours expressed in knot k's command
     frame (`planner.nlp.command`: they carry the commanded motion over ±h), i.e. the world
     velocity, as in the "finite differences" rows before the command is subtracted."""
-    _, _, com = model.fk.map(n_knots)(sym.base[:3, :], sym.base[3:, :], sym.q)
+    com, (nxt_x, nxt_y), (prv_x, prv_y) = com_with_neighbours(model, sym, n_knots)
     inv_h = n_knots / sym.period_s
-    nxt_x, nxt_y = sym.motion.next_in_frame(_shift(com[0, :], 1), _shift(com[1, :], 1))
-    prv_x, prv_y = sym.motion.previous_in_frame(_shift(com[0, :], -1), _shift(com[1, :], -1))
     cd_x = (nxt_x - prv_x) * (0.5 * inv_h)
     cd_y = (nxt_y - prv_y) * (0.5 * inv_h)
     g = float(np.linalg.norm(model.gravity_m_s2))

@@ -24,6 +24,7 @@ import casadi as ca
 import numpy as np
 
 from planner.nlp.assembled_jacobian import KnotCall
+from planner.nlp.capture_margin import com_with_neighbours
 from planner.nlp.command import MotionSymbols
 from planner.nlp.config import PlannerOptions
 from planner.nlp.flat_foot import (
@@ -45,7 +46,7 @@ from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.sideways_locked import lateral_slip_bounds_m
 from planner.nlp.solver_cache import same_function
-from planner.nlp.variables import Symbols, time_unit_s
+from planner.nlp.variables import Symbols, cyclic_shift, time_unit_s
 from robots.robot import Robot
 
 GOAL_SPEED_SAMPLES_PER_KNOT = 8  # as the player's pre-flight (hardware.play.preflight)
@@ -80,13 +81,6 @@ class KnotQuantities:
     omega_world: Any  # 3 × N: base ω in the world minus the commanded turn (0, 0, W)
     #: the knot map's call as these expressions use it (`planner.nlp.assembled_jacobian`)
     knot_call: KnotCall | None = None
-
-
-def _shift(m: Any, k: int) -> Any:
-    """Cyclic column shift: column i of the result is column (i + k) mod N of m."""
-    n = m.shape[1]
-    k %= n
-    return m if k == 0 else ca.horzcat(m[:, k:], m[:, :k])
 
 
 def knot_function(model: RobotModel) -> ca.Function:
@@ -235,7 +229,7 @@ def finite_difference_rates(sym: Symbols, n_knots: int) -> tuple[Any, Any]:
     n, nj = n_knots, int(sym.q.shape[0])
     pose = ca.vertcat(sym.base, sym.q)
     # neighbours in the command frame of knot k (`planner.nlp.command`): only base x, y change
-    nxt, prv = _shift(pose, 1), _shift(pose, -1)
+    nxt, prv = cyclic_shift(pose, 1), cyclic_shift(pose, -1)
     nxt = _in_frame(nxt, *motion.next_in_frame(nxt[0, :], nxt[1, :]))
     prv = _in_frame(prv, *motion.previous_in_frame(prv[0, :], prv[1, :]))
     command_rate = ca.repmat(ca.vertcat(motion.vx_m_s, motion.vy_m_s, ca.DM.zeros(4 + nj)), 1, n)
@@ -265,11 +259,11 @@ def build_groups(
     feet_x = kq.feet_m[0::3, :]
     feet_y = kq.feet_m[1::3, :]
     feet_z = kq.feet_m[2::3, :]
-    stick = c * _shift(c, 1)  # foot in stance at k and k+1
+    stick = c * cyclic_shift(c, 1)  # foot in stance at k and k+1
     if options.vertical_contact_transitions:
         # stance at k or k+1 (C is 0/1): the foot is also still over the interval that ends at
         # touchdown and the one that starts at lift-off, so it sets down / lifts off vertically
-        stick = c + _shift(c, 1) - stick
+        stick = c + cyclic_shift(c, 1) - stick
     motion = _motion(sym)
     fx, fy, fz = sym.forces[0::3, :], sym.forces[1::3, :], sym.forces[2::3, :]
     mu = options.mu / math.sqrt(2.0)  # inscribed pyramid of the cone (eq 9)
@@ -299,7 +293,8 @@ def build_groups(
     t0 = time_unit_s(length, float(np.linalg.norm(model.gravity_m_s2)) or 9.81)
     rate = np.r_[[length / t0] * 3, [1.0 / t0] * (3 + nj)]
     fd_scale = np.r_[np.tile(rate, n), np.tile(rate / t0, n)]
-    next_feet_x, next_feet_y = motion.next_in_frame(_shift(feet_x, 1), _shift(feet_y, 1))
+    next_feet_x, next_feet_y = motion.next_in_frame(cyclic_shift(feet_x, 1),
+                                                    cyclic_shift(feet_y, 1))
     lateral_lb, lateral_ub = lateral_slip_bounds_m(
         model.robot, n, options.sideways_slip_leg_lengths
     )
@@ -443,13 +438,9 @@ def _line_capture_groups(model: RobotModel, sym: Symbols, n: int, options: Plann
         return []
     from planner.templates import stance_foot_positions_m
 
-    motion = _motion(sym)
     length = model.robot.leg_length_m
-    _, _, com = model.fk.map(n)(sym.base[:3, :], sym.base[3:, :], sym.q)
-    nxt, prv = _shift(com, 1), _shift(com, -1)
-    icp = capture_point(com, motion.next_in_frame(nxt[0, :], nxt[1, :]),
-                        motion.previous_in_frame(prv[0, :], prv[1, :]), inv_h,
-                        lip_rate_s(model.robot.stance_base_height_m))
+    com, nxt, prv = com_with_neighbours(model, sym, n)
+    icp = capture_point(com, nxt, prv, inv_h, lip_rate_s(model.robot.stance_base_height_m))
     expr = line_capture_rows(sym.contact, kq.feet_m, icp,
                              stance_foot_positions_m(model.robot)[:, :2], margin * length)
     size = int(expr.shape[0])
@@ -603,13 +594,13 @@ def _servo_goal_groups(
     # 6(u − u²)(g_{k+1} − g_k) N/T + (1 − 4u + 3u²) s_k + (3u² − 2u) s_{k+1}, sampled like the
     # pre-flight (GOAL_SPEED_SAMPLES_PER_KNOT per interval).
     slope = sym.goal_slope
-    tridiagonal = _shift(slope, -1) + 4 * slope + _shift(slope, 1)
-    spline = tridiagonal - 3 * (_shift(goal, 1) - _shift(goal, -1)) * inv_h
-    chord = (_shift(goal, 1) - goal) * inv_h
+    tridiagonal = cyclic_shift(slope, -1) + 4 * slope + cyclic_shift(slope, 1)
+    spline = tridiagonal - 3 * (cyclic_shift(goal, 1) - cyclic_shift(goal, -1)) * inv_h
+    chord = (cyclic_shift(goal, 1) - goal) * inv_h
     samples = []
     for u in np.arange(GOAL_SPEED_SAMPLES_PER_KNOT) / GOAL_SPEED_SAMPLES_PER_KNOT:
         d = 6 * (u - u * u) * chord + (1 - 4 * u + 3 * u * u) * slope
-        samples.append(d + (3 * u * u - 2 * u) * _shift(slope, 1))
+        samples.append(d + (3 * u * u - 2 * u) * cyclic_shift(slope, 1))
     # rows ordered (sample, knot, joint); labels in group_labels follow the same order
     rate = ca.vertcat(*[ca.vec(d / ca.repmat(omega0, 1, n)) for d in samples])
     rows = nj * n * GOAL_SPEED_SAMPLES_PER_KNOT

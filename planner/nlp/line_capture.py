@@ -55,16 +55,10 @@ import casadi as ca
 import numpy as np
 
 from planner.nlp.config import GRAVITY_M_S2
+from planner.nlp.variables import cyclic_shift
 
 #: γ of `next_touchdown_weights`: below 1/2, so the first foot to land outweighs all later ones
 NEXT_TOUCHDOWN_DECAY = 0.3
-
-
-def _shift(m: Any, k: int) -> Any:
-    """Cyclic column shift: column i of the result is column (i + k) mod N of m."""
-    n = m.shape[1]
-    k %= n
-    return m if k == 0 else ca.horzcat(m[:, k:], m[:, :k])
 
 
 def next_touchdown_weights(contact: Any, gamma: float = NEXT_TOUCHDOWN_DECAY) -> list[Any]:
@@ -80,8 +74,8 @@ def next_touchdown_weights(contact: Any, gamma: float = NEXT_TOUCHDOWN_DECAY) ->
         swinging = 1 - row
         w = 0 * row
         for j in range(1, n):
-            w = w + gamma ** (j - 1) * swinging * _shift(row, j)
-            swinging = swinging * (1 - _shift(row, j))
+            w = w + gamma ** (j - 1) * swinging * cyclic_shift(row, j)
+            swinging = swinging * (1 - cyclic_shift(row, j))
         out.append(w)
     return out
 

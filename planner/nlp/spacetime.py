@@ -59,6 +59,7 @@ from planner.nlp.solver_cache import (
     directions_path,
     knot_jacobian_and_hessian,
     load_directions,
+    same_function,
     save_directions,
     used_directions,
     with_knot_derivatives,
@@ -248,12 +249,10 @@ class GaitPlanner:
         kq = knot_quantities(self.model, sym, n_knots, knot, self.options.knot_threads)
         #: with "knot"/"compiled": the flat feet's and soles' per-knot functions get the knot's
         #: derivative treatment too (`DerivedFunctions`; kept alive here with the solver)
-        self.derived: DerivedFunctions | None = None
-        if self.knot_derivatives is not None:
-            self.derived = DerivedFunctions(n_knots, self.options)
-            groups = build_groups(self.model, sym, kq, n_knots, self.options, self.derived)
-        else:
-            groups = build_groups(self.model, sym, kq, n_knots, self.options)
+        self.derived: DerivedFunctions | None = (
+            None if self.knot_derivatives is None else DerivedFunctions(n_knots, self.options))
+        groups = build_groups(self.model, sym, kq, n_knots, self.options,
+                              same_function if self.derived is None else self.derived)
         terms = cost_terms(self.model, sym, kq, n_knots)
         objective = weighted_objective(terms, self.options.weights)
         g = ca.vertcat(*[grp.expr for grp in groups])

@@ -44,6 +44,13 @@ from planner.nlp.model import RobotModel
 from robots import ContactSchedule
 
 
+def cyclic_shift(m: Any, k: int) -> Any:
+    """Cyclic column shift of a knot-major matrix (one column per knot): column i of the result
+    is column (i + k) mod N of m (k = 1: each knot's next neighbour, k = −1: its previous)."""
+    n = m.shape[1]
+    k %= n
+    return m if k == 0 else ca.horzcat(m[:, k:], m[:, :k])
+
 @dataclass(frozen=True)
 class Layout:
     """Sizes and packing order of the decision vector.
