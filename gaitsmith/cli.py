@@ -56,10 +56,13 @@ class _LazyCommands(Mapping[str, Any]):
         self._modules = {
             name: module for name, module in _COMMANDS if importlib.util.find_spec(module)
         }
+        self._built: dict[str, Any] = {}  # click builds each command once per process
 
     def __getitem__(self, name: str) -> Any:
-        module = self._modules[name]  # KeyError: not a command
-        return _click_command(module, name, self._settings)
+        if name not in self._built:
+            module = self._modules[name]  # KeyError: not a command
+            self._built[name] = _click_command(module, name, self._settings)
+        return self._built[name]
 
     def __iter__(self) -> Iterator[str]:
         return iter(self._modules)
