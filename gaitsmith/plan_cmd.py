@@ -17,6 +17,7 @@ build from them (checks, `PlannerOptions`, gait-file metadata): `gaitsmith.plan_
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import typer
@@ -272,7 +273,8 @@ def plan(
     gait_obj = planner.to_gait(result, gait, extra_metadata=meta)
     write_gait(gait_obj, bot, output, simulate, cycles, servo_settings)
     if knife_edge:
-        _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles, servo_settings)
+        _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles, servo_settings,
+                    meta)
 
 
 def _note_swing_slack(bot: robots.Robot, schedule: robots.ContactSchedule, speed: float,
@@ -297,14 +299,16 @@ def _note_swing_slack(bot: robots.Robot, schedule: robots.ContactSchedule, speed
 
 def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.ContactSchedule,
                 label: str, speed: float, knots: int, options: PlannerOptions,
-                cycles: int | None, servo_settings: tuple[ServoSetting, ...] | None) -> None:
+                cycles: int | None, servo_settings: tuple[ServoSetting, ...] | None,
+                meta: dict[str, Any]) -> None:
     """--knife-edge: `planner.robust_plan.replans` judged by `sim.robustness.knife_edge_check`,
-    every run simulated with the same identified servos (`--servo-params`) as --simulate."""
+    every run simulated with the same identified servos (`--servo-params`) as --simulate and
+    written with the nominal file's metadata (`meta`: entry cycles, stance-compliance record)."""
     from planner.robust_plan import replans
     from sim.robustness import knife_edge_check
 
     with console.status("knife-edge check: re-planning at ±1 % speed and N±4…"):
-        variants = replans(bot, schedule, label, speed, knots, options)
+        variants = replans(bot, schedule, label, speed, knots, options, extra_metadata=meta)
     n_cycles, _ = simulated_cycles(gait_obj, cycles)
     with console.status("knife-edge check: simulating the variants…") as status:
         check = knife_edge_check(
