@@ -300,7 +300,7 @@ def _note_swing_slack(bot: robots.Robot, schedule: robots.ContactSchedule, speed
 def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.ContactSchedule,
                 label: str, speed: float, knots: int, options: PlannerOptions,
                 cycles: int | None, servo_settings: tuple[ServoSetting, ...] | None,
-                meta: dict[str, Any]) -> None:
+                meta: dict[str, Any] | None) -> None:
     """--knife-edge: `planner.robust_plan.replans` judged by `sim.robustness.knife_edge_check`,
     every run simulated with the same identified servos (`--servo-params`) as --simulate and
     written with the nominal file's metadata (`meta`: entry cycles, stance-compliance record)."""
