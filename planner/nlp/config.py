@@ -49,6 +49,8 @@ DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 IPOPT_TUNINGS = ("tuned", "session21")
 #: values of `PlannerOptions.nlp_jacobian`
 NLP_JACOBIANS = ("ad", "assembled")
+#: values of `PlannerOptions.nlp_hessian`
+NLP_HESSIANS = ("ad", "assembled")
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -297,6 +299,12 @@ class PlannerOptions:
       rounding, the same iterates where measured; jac_g CPU per call quad12 15.0 → 11.0 ms,
       compiled 9.2 → 3.5 ms, hex18 48 → 18 ms (docs/results/planner_speed_lifted.md). With
       `knot_threads` > 1 the assembled Jacobian evaluates J serially.
+    - `nlp_hessian`: how IPOPT's Lagrangian Hessian is computed with `derivatives` "knot" or
+      "compiled": "ad" (default) — CasADi's forward-over-adjoint AD of the NLP, which calls the
+      knot's H·Δu for n seed directions; "assembled" — the chain rule written out with one knot
+      Hessian per knot, weighted by that knot's multipliers (`planner.nlp.assembled_hessian`).
+      The same Hessian to rounding, not the same bits (docs/results/planner_speed.md,
+      session 29).
     """
 
     mu: float = 0.5
@@ -334,6 +342,7 @@ class PlannerOptions:
     ipopt_tuning: str = "tuned"
     knot_threads: int = 1
     nlp_jacobian: str = "assembled"
+    nlp_hessian: str = "ad"
 
     def __post_init__(self) -> None:
         checks = {
@@ -378,6 +387,7 @@ class PlannerOptions:
             "knot_threads": type(self.knot_threads) is int
             and 1 <= self.knot_threads <= MAX_KNOT_THREADS,
             "nlp_jacobian": self.nlp_jacobian in NLP_JACOBIANS,
+            "nlp_hessian": self.nlp_hessian in NLP_HESSIANS,
         }
         for name, ok in checks.items():
             if not ok:

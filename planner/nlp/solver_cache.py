@@ -220,6 +220,26 @@ def with_knot_derivatives(
     return KnotDerivatives(new, jacobian, hessian, keep)
 
 
+#: the solver's derivative functions whose calls `used_directions` looks through
+DERIVATIVE_FUNCTIONS = ("nlp_jac_g", "nlp_hess_l", "nlp_grad_f")
+
+
+def called_functions(solver: ca.Function) -> tuple[str, ...]:
+    """The names of the functions `solver`'s Jacobian, Hessian and gradient functions call
+    (`DERIVATIVE_FUNCTIONS`), as CasADi lists them (``Function.get_function()``: the MX
+    function's call nodes). Listing them is ≈ 0.1 ms; walking the functions' instructions for
+    their call nodes in Python, as this did until session 29, took 6 ms (quad12) to 21 ms
+    (humanoid20) per knot function asked about (docs/results/planner_speed_startup.md)."""
+    names: list[str] = []
+    for name in DERIVATIVE_FUNCTIONS:
+        try:
+            function = solver.get_function(name)
+        except RuntimeError:
+            continue
+        names.extend(function.get_function())
+    return tuple(names)
+
+
 def used_directions(solver: ca.Function, knot_name: str) -> tuple[tuple[int, ...], tuple[int, ...]]:
     """The direction counts n of the knot derivatives `solver` calls: ``fwd<n>_map<N>_knot``
     (CasADi maps ``fwd<n>_knot``) and ``fwd<n>_adj1_map<N>_knot``, found in its Jacobian,
@@ -229,19 +249,11 @@ def used_directions(solver: ca.Function, knot_name: str) -> tuple[tuple[int, ...
     second_name = re.compile(rf"fwd(\d+)_adj1_(?:threadmap\d+_)?(?:map\d+_)?{knot}")
     forward: set[int] = set()
     second: set[int] = set()
-    for name in ("nlp_jac_g", "nlp_hess_l", "nlp_grad_f"):
-        try:
-            function = solver.get_function(name)
-        except RuntimeError:
-            continue
-        for k in range(function.n_instructions()):
-            if function.instruction_id(k) != ca.OP_CALL:
-                continue
-            called = function.instruction_MX(k).which_function().name()
-            for pattern, found in ((forward_name, forward), (second_name, second)):
-                match = pattern.fullmatch(called)
-                if match:
-                    found.add(int(match.group(1)))
+    for called in called_functions(solver):
+        for pattern, found in ((forward_name, forward), (second_name, second)):
+            match = pattern.fullmatch(called)
+            if match:
+                found.add(int(match.group(1)))
     return tuple(sorted(forward)), tuple(sorted(second))
 
 

@@ -37,6 +37,7 @@ import numpy as np
 
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp import diagnostics
+from planner.nlp.assembled_hessian import assembled_hessian
 from planner.nlp.assembled_jacobian import assembled_jacobian
 from planner.nlp.command import check_command
 from planner.nlp.config import PlannerOptions
@@ -105,6 +106,11 @@ def _sigint_watch() -> Iterator[Callable[[], bool]]:
 #: duals wrong and IPOPT spends iterations unwinding them); starting from the template's solution
 #: instead of the last one, or μ_init 1e-5 with monotone μ, were worse (78 and 130 iterations).
 WARM_START_DUALS = False
+#: IPOPT's ``mumps_mem_percent`` (MUMPS' ICNTL(14): the percentage by which the factorisation's
+#: workspace exceeds MUMPS' own estimate; IPOPT's default 1000 makes it 11× the estimate, 48–50 MB
+#: on quad12 N = 12, which glibc maps and unmaps around every factorisation; IPOPT enlarges it
+#: itself should MUMPS report it too small). Measured: docs/results/planner_speed.md, session 29.
+MUMPS_MEM_PERCENT = 100
 #: `ipopt_tuning="tuned"`, warm solves: how far IPOPT pushes the start off its bounds (relative
 #: to max(1, |bound|)) and the bound multipliers' lower limit, instead of 1e-6; and μ₀
 TUNED_WARM_BOUND_PUSH = 1e-3
@@ -140,6 +146,7 @@ def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
         # MUMPS' automatic choice is 2.4x slower here (quad12 N=30 cold: 4.8 s -> 2.0 s, same
         # 22 iterations); scaling and memory options made no further difference.
         ipopt["mumps_pivot_order"] = 5
+        ipopt["mumps_mem_percent"] = MUMPS_MEM_PERCENT
     tuned_warm = warm and options.ipopt_tuning == "tuned"
     push = TUNED_WARM_BOUND_PUSH if tuned_warm else 1e-6
     ipopt.update(
@@ -239,7 +246,10 @@ class GaitPlanner:
             # the assembled constraint Jacobian calls J itself, never the knot's forward
             # derivatives (CasADi would generate any it asked for: exact, only slower)
             assembled = self.options.nlp_jacobian == "assembled"
-            forward, second = known or (() if assembled else ALL_DIRECTIONS, ALL_DIRECTIONS)
+            assembled_h = self.options.nlp_hessian == "assembled"
+            forward, second = known or (
+                () if assembled else ALL_DIRECTIONS, () if assembled_h else ALL_DIRECTIONS
+            )
             # J and H, the cache keys and the derivative names are the plain knot's; the NLP
             # calls its stacked form (`stacked_knot`: the same u and y, a faster build)
             self.knot_derivatives = with_knot_derivatives(
@@ -284,6 +294,17 @@ class GaitPlanner:
             self._jac_g = assembled_jacobian(
                 sym.x, sym.p, g_solver, kq.knot_call, self.knot_derivatives.jacobian, n_knots
             )
+        #: `PlannerOptions.nlp_hessian` "assembled": IPOPT's hess_lag (`_make_solver`)
+        self._hess_l: ca.Function | None = None
+        if (
+            self.options.nlp_hessian == "assembled"
+            and self.knot_derivatives is not None
+            and kq.knot_call is not None
+        ):
+            self._hess_l = assembled_hessian(
+                sym.x, sym.p, objective, g_solver, kq.knot_call, self.knot_derivatives.jacobian,
+                self.knot_derivatives.hessian, n_knots,
+            )
         self._solver = self._make_solver()
         self._warm_solver: Any | None = None  # `_solver_for`
         if self.knot_derivatives is not None and plain is not None:
@@ -291,7 +312,9 @@ class GaitPlanner:
             used = used_directions(self._solver, plain.name())
             # none found: a map CasADi named otherwise (the assembled Jacobian uses no
             # forward directions of the knot, only the Hessian's)
-            if used != known and (used[0] or (self._jac_g is not None and used[1])):
+            if used != known and (
+                used[0] or (self._jac_g is not None and (used[1] or self._hess_l is not None))
+            ):
                 save_directions(directions, *used)
         if self.derived is not None:
             self.derived.save_used(self._solver)
@@ -320,6 +343,8 @@ class GaitPlanner:
         }
         if self._jac_g is not None:
             opts["jac_g"] = self._jac_g
+        if self._hess_l is not None:
+            opts["hess_lag"] = self._hess_l
         return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)
 
     def _solver_for(self, warm: bool) -> Any:
