@@ -51,7 +51,7 @@ from planner.nlp import spacetime
 from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import knot_function
 from planner.nlp.spacetime import GaitPlanner, PlanResult
-from planner.templates import make_schedule, templates_for
+from planner.templates import default_gait_for, make_schedule, templates_for
 
 SAME_COST_RTOL = 1e-4
 
@@ -211,6 +211,11 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     # the constraint Jacobian assembled from one J per knot (`planner.nlp.assembled_jacobian`;
     # "knot-aj" is the default "knot" since then, named for the comparisons in that file)
     "knot-aj": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_jacobian="assembled")),
+    # the Lagrangian Hessian assembled from one knot H per knot (`planner.nlp.assembled_hessian`)
+    "knot-ah": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_hessian="assembled")),
+    "compiled-ah": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(derivatives="compiled", nlp_hessian="assembled")
+    ),
 }
 
 
@@ -288,6 +293,8 @@ def compare(
     # a pair in which either solve stopped short of IPOPT's optimality test (the iteration
     # cap): its costs say where the solver stopped, not which optimum it found
     unconverged = {p: 0 for p in paths[1:]}
+    # solves whose every iterate matched the baseline's: the same x bit for bit, iterations, cost
+    identical = {p: 0 for p in paths[1:]}
     worst_unconverged = {p: 0.0 for p in paths[1:]}
     verdicts = 0
     # process CPU time per solve: moves far less than wall time with a shared machine's load
@@ -315,6 +322,10 @@ def compare(
                 f"{'feasible' if a.feasible else a.status})"]
         for path in paths[1:]:
             b = results[path]
+            identical[path] += bool(
+                a.iterations == b.iterations and a.cost == b.cost
+                and np.array_equal(a.warm_start.x, b.warm_start.x)
+            )
             if a.feasible != b.feasible:
                 line.append(f"{path}: verdict differs ({b.status})")
                 continue
@@ -354,7 +365,8 @@ def compare(
             f"{same[path]}/{verdicts - unconverged[path]} converged (same verdict and cost "
             f"within {SAME_COST_RTOL:g} relative or lower; {lower[path]} lower), worst |rel| "
             f"{worst_rel[path]:.1e}; {unconverged[path]} stopped short of optimality on either "
-            f"path (not compared), their |rel| up to {worst_unconverged[path]:.1e}"
+            f"path (not compared), their |rel| up to {worst_unconverged[path]:.1e}; "
+            f"bit-identical x {identical[path]}/{verdicts}"
         )
     if n_warm:
         warm_rng = np.random.default_rng(seed + 1)
@@ -381,7 +393,13 @@ def main() -> None:
     ap.add_argument("--warm", type=int, default=10)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--random", type=int, default=5, help="random schedules in `compare`")
-    ap.add_argument("--robot", choices=("both", "quad12", "hex18"), default="both")
+    ap.add_argument(
+        "--robot", default="both",
+        help="both (quad12 trot 0.25 m/s and hex18 tripod 0.15 m/s), quad12, hex18, or another "
+        "robot (name or folder) for `compare`, at its default gait and --speed",
+    )
+    ap.add_argument("--speed", type=float, default=0.15,
+                    help="`compare` with another --robot: the speed [m/s]")
     ap.add_argument(
         "--section", choices=("all", "build", "solve", "compare"), default="all"
     )
@@ -412,6 +430,13 @@ def main() -> None:
         if args.robot in ("both", "hex18"):
             compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed, paths,
                     only)
+        if args.robot not in ("both", "quad12", "hex18"):
+            try:
+                gait = default_gait_for(robots.load(args.robot))
+            except robots.RobotsError as exc:
+                ap.error(f"--robot {args.robot!r}: {exc}")
+            compare(args.robot, gait, args.speed, args.knots, args.random, args.warm, args.seed,
+                    paths, only)
 
 
 if __name__ == "__main__":

@@ -19,72 +19,103 @@ with J(u) the knot's Jacobian and H(u, μ) = ∇²_uu(μᵀ knot(u)) its Lagrang
 `jacobian_and_hessian` pair of `planner.nlp.solver_cache`). ∇²_zz L̃ is CasADi's AD of a graph
 without the knot (cheap: the knot is most of the NLP's instructions); its x–Y and Y–Y blocks are
 structurally zero where the NLP is linear in Y with constant coefficients, and then neither the
-knot's J nor its outputs are evaluated at all. Exact, not an approximation: the same Hessian to
-rounding (tests/planner/nlp/test_assembled_hessian.py).
+knot's J nor its outputs are evaluated at all. The NLP's other per-knot SX functions with
+derivatives of their own (the flat feet's ``flat_knot`` and the soles' ``soles``,
+`planner.nlp.solver_cache.DerivedFunctions`, recorded by `call_mapped`) are treated the same way,
+each with its own Y, J and H (z then holds every one's outputs). Exact, not an approximation:
+the same Hessian to rounding (tests/planner/nlp/test_assembled_hessian.py).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import casadi as ca
+import numpy as np
 
 from planner.errors import PlannerConfigError
 from planner.nlp.assembled_jacobian import KnotCall
 
+#: one per-knot function's call in the NLP with its J(u) and H(u, μ) (`jacobian_and_hessian`)
+KnotTerm = tuple[KnotCall, ca.Function, ca.Function]
+
+
+def _per_knot(value: Any, n_knots: int) -> Any:
+    """A mapped argument or result (rows × cols·N) as one column per knot (its numel × N, each
+    knot's block in column-major order, as the knot's u and y stack them); an argument of one
+    knot's shape (broadcast to every knot) repeated N times."""
+    rows, cols = int(value.shape[0]), int(value.shape[1])
+    if cols >= n_knots and cols % n_knots == 0:
+        return ca.reshape(value, rows * cols // n_knots, n_knots)
+    return ca.repmat(ca.vec(value), 1, n_knots)
+
 
 def assembled_hessian(
-    x: Any,
-    p: Any,
-    f: Any,
-    g: Any,
-    call: KnotCall,
-    jacobian: ca.Function,
-    hessian: ca.Function,
-    n_knots: int,
+    x: Any, p: Any, f: Any, g: Any, terms: Sequence[KnotTerm], n_knots: int
 ) -> ca.Function:
     """CasADi's ``nlp_hess_l`` signature, (x, p, σ, λ) ↦ triu(∇²ₓₓ(σ f + λᵀ g)), assembled as in
-    the module docstring; `jacobian`: u ↦ J(u) and `hessian`: (u, μ) ↦ H(u, μ) of one knot (u:
-    its inputs stacked in order, μ: one multiplier per output row). Raises `PlannerConfigError`
-    if the knot's inputs are not affine in x (the formula would miss their curvature)."""
+    the module docstring for every per-knot function of `terms`: its call in f and g, u ↦ J(u)
+    and (u, μ) ↦ H(u, μ) of one knot (u: its inputs stacked in order, μ: one multiplier per
+    output non-zero). Raises `PlannerConfigError` if a call's inputs are not affine in x (the
+    formula would miss their curvature)."""
     n = n_knots
     n_x = int(x.shape[0])
-    out_rows = [int(o.shape[0]) for o in call.outputs]
-    n_y = sum(out_rows)
-    y_flat = ca.MX.sym("y", n_y * n)
-    y = ca.reshape(y_flat, n_y, n)  # knot k's outputs stacked in column k
-    offsets = [0]
-    for rows in out_rows:
-        offsets.append(offsets[-1] + rows)
-    f_y, g_y = ca.graph_substitute([f, g], list(call.outputs), ca.vertsplit(y, offsets))
-    u = ca.vertcat(*[v if int(v.shape[1]) == n else ca.repmat(v, 1, n) for v in call.inputs])
-    n_u = int(u.shape[0])
-    du_dx = ca.jacobian(ca.vec(u), x)
-    if ca.depends_on(du_dx, x):
-        raise PlannerConfigError(
-            "nlp_hessian='assembled': the knot's inputs are not affine in the NLP variables; "
-            "use nlp_hessian='ad'"
-        )
+    y_syms: list[Any] = []
+    outputs: list[Any] = []
+    substitutes: list[Any] = []
+    knot_u: list[Any] = []
+    du_dx: list[Any] = []
+    for call, _, _ in terms:
+        per_knot = [int(o.numel()) // n for o in call.outputs]
+        y_sym = ca.MX.sym("y", sum(per_knot) * n)
+        y = ca.reshape(y_sym, sum(per_knot), n)  # knot k's outputs stacked in column k
+        parts = ca.vertsplit(y, np.cumsum([0, *per_knot]).tolist())
+        for out, part in zip(call.outputs, parts, strict=True):
+            outputs.append(out)
+            substitutes.append(ca.reshape(part, out.shape[0], out.shape[1]))
+        y_syms.append(y_sym)
+        u = ca.vertcat(*[_per_knot(v, n) for v in call.inputs])
+        a = ca.jacobian(ca.vec(u), x)
+        if ca.depends_on(a, x):
+            raise PlannerConfigError(
+                "nlp_hessian='assembled': the inputs of the NLP's per-knot function "
+                f"{terms[len(knot_u)][1].name()} are not affine in the NLP variables; use "
+                "nlp_hessian='ad'"
+            )
+        knot_u.append(u)
+        du_dx.append(a)
+    f_y, g_y = ca.graph_substitute([f, g], outputs, substitutes)
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", int(g.shape[0]))
-    lagrangian = lam_f * f_y + ca.dot(lam_g, g_y)
-    z = ca.vertcat(x, y_flat)
-    h_zz, grad_z = ca.hessian(lagrangian, z)
-    mu = ca.reshape(grad_z[n_x:], n_y, n)  # ∂L̃/∂Y_k in column k
-    h_xx, h_xy, h_yy = h_zz[:n_x, :n_x], h_zz[:n_x, n_x:], h_zz[n_x:, n_x:]
-    knot_h = hessian.map(n)(u, mu)  # n_u × (n_u·N): knot k's H in columns k·n_u …
-    total = h_xx + ca.mtimes(du_dx.T, ca.mtimes(ca.diagcat(*ca.horzsplit(knot_h, n_u)), du_dx))
+    z = ca.vertcat(x, *y_syms)
+    h_zz, grad_z = ca.hessian(lam_f * f_y + ca.dot(lam_g, g_y), z)
+    total = h_zz[:n_x, :n_x]
+    offsets = np.cumsum([n_x, *[int(y.shape[0]) for y in y_syms]]).tolist()
+    dy_dx = []  # knot outputs by x: blockdiag(J(u_k))·A where ∇²_zz L̃ needs them, else zero
+    for (_, jacobian, hessian), u, a, y_sym, lo, hi in zip(
+        terms, knot_u, du_dx, y_syms, offsets[:-1], offsets[1:], strict=True
+    ):
+        n_u = int(u.shape[0])
+        mu = ca.reshape(grad_z[lo:hi], int(y_sym.shape[0]) // n, n)  # ∂L̃/∂Y_k in column k
+        knot_h = hessian.map(n)(u, mu)  # n_u × (n_u·N): knot k's H in columns k·n_u …
+        total = total + ca.mtimes(a.T, ca.mtimes(ca.diagcat(*ca.horzsplit(knot_h, n_u)), a))
+        if h_zz[lo:hi, :].nnz():
+            blocks = jacobian.map(n)(u)  # n_y × (n_u·N)
+            dy_dx.append(ca.mtimes(ca.diagcat(*ca.horzsplit(blocks, n_u)), a))
+        else:
+            dy_dx.append(ca.MX(int(y_sym.shape[0]), n_x))
+    h_xy, h_yy = h_zz[:n_x, n_x:], h_zz[n_x:, n_x:]
     if h_xy.nnz() or h_yy.nnz():
-        blocks = jacobian.map(n)(u)  # n_y × (n_u·N)
-        jac_a = ca.mtimes(ca.diagcat(*ca.horzsplit(blocks, n_u)), du_dx)  # dY/dx
+        jac_a = ca.vertcat(*dy_dx)
         if h_xy.nnz():
             cross = ca.mtimes(h_xy, jac_a)
             total = total + cross + cross.T
         if h_yy.nnz():
             total = total + ca.mtimes(jac_a.T, ca.mtimes(h_yy, jac_a))
-    (hess,) = ca.graph_substitute(
-        [ca.triu(total)], [y_flat], [ca.vec(ca.vertcat(*call.outputs))]
-    )
+    (hess,) = ca.graph_substitute([ca.triu(total)], y_syms, [
+        ca.vec(ca.vertcat(*[_per_knot(o, n) for o in call.outputs])) for call, _, _ in terms
+    ])
     return ca.Function(
         "nlp_hess_l", [x, p, lam_f, lam_g], [hess], ["x", "p", "lam_f", "lam_g"],
         ["triu_hess_gamma_x_x"],

@@ -54,7 +54,7 @@ from planner.nlp.capture_margin import N_CAPTURE_ROWS, capture_margin_labels, ca
 from planner.nlp.config import PlannerOptions
 from planner.nlp.contact_margin import shrunk_half_extents
 from planner.nlp.model import RobotModel
-from planner.nlp.solver_cache import same_function
+from planner.nlp.solver_cache import call_mapped, same_function
 
 N_CWC_ROWS = 16
 N_CORNERS = 4
@@ -225,8 +225,10 @@ def flat_foot_groups(
         return []
     n, nff = n_knots, n_flat(model)
     mu = options.mu / math.sqrt(2.0)
-    fn = derived(_knot_function(model, mu, options.cop_sole_fraction)).map(n)
-    normal, heading, corner_z, cone, centre = fn(sym.base, sym.q, sym.forces, sym.moments)
+    normal, heading, corner_z, cone, centre = call_mapped(
+        derived, _knot_function(model, mu, options.cop_sole_fraction), n, sym.base, sym.q,
+        sym.forces, sym.moments,
+    )
     flat = list(model.flat_feet)
     c = sym.contact[flat, :]
     hold = stick[flat, :]

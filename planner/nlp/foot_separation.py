@@ -30,7 +30,7 @@ import casadi as ca
 import numpy as np
 
 from planner.nlp.model import RobotModel
-from planner.nlp.solver_cache import same_function
+from planner.nlp.solver_cache import call_mapped, same_function
 
 #: clearance between the feet's extents, in leg lengths (5 mm for the built-in biped)
 FOOT_GAP_LEG_LENGTHS = 0.02
@@ -90,7 +90,8 @@ def foot_separation_rows(
     n = feet_m.shape[1]
     base = sym.base
     cos_y, sin_y = ca.cos(base[5, :]), ca.sin(base[5, :])
-    rots = derived(model.soles).map(n)(base[:3, :], base[3:, :], sym.q) if model.flat_feet else None
+    rots = (call_mapped(derived, model.soles, n, base[:3, :], base[3:, :], sym.q)[0]
+            if model.flat_feet else None)
     flat_index = {f: k for k, f in enumerate(model.flat_feet)}
 
     def heading_frame(x: Any, y: Any) -> tuple[Any, Any]:

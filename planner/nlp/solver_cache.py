@@ -48,6 +48,7 @@ from typing import Any
 import casadi as ca
 
 from planner.nlp import compiled_knot
+from planner.nlp.assembled_jacobian import KnotCall
 from robots.errors import OutputWriteError
 from robots.files import atomic_write_bytes
 
@@ -419,6 +420,20 @@ def same_function(fn: ca.Function) -> ca.Function:
     return fn
 
 
+def call_mapped(
+    derived: Callable[[ca.Function], ca.Function], fn: ca.Function, n_knots: int, *args: Any
+) -> tuple[Any, ...]:
+    """`derived(fn)` mapped over `n_knots` knots and called with `args`: its outputs. A `derived`
+    that records calls (`DerivedFunctions.record_call`) is told the call, so the assembled
+    Hessian can differentiate through it (`planner.nlp.assembled_hessian`)."""
+    outputs = derived(fn).map(n_knots)(*args)
+    outputs = (outputs,) if isinstance(outputs, ca.MX) else tuple(outputs)
+    record = getattr(derived, "record_call", None)
+    if record is not None:
+        record(fn.name(), KnotCall(tuple(args), outputs))
+    return outputs
+
+
 class DerivedFunctions:
     """The knot's treatment for the NLP's other per-knot SX functions (issue #16, session 26b).
 
@@ -437,14 +452,26 @@ class DerivedFunctions:
         self._options = options
         self._directory = directory
         self.made: list[tuple[str, KnotDerivatives, Path, tuple[tuple[int, ...], ...] | None]] = []
+        #: each made function's call in the NLP (`call_mapped`), for the assembled Hessian
+        self.calls: list[tuple[KnotCall, ca.Function, ca.Function]] = []
+        # the assembled Hessian (`PlannerOptions.nlp_hessian`) calls their H itself, never
+        # their second-order directions (CasADi would generate any it asked for)
+        self._second = () if getattr(options, "nlp_hessian", "ad") == "assembled" else None
 
     def __call__(self, fn: ca.Function) -> ca.Function:
         path = directions_path(fn, self._n_knots, self._options, self._directory)
         known = load_directions(path)
-        forward, second = known or (ALL_DIRECTIONS, ALL_DIRECTIONS)
+        forward, second = known or (
+            ALL_DIRECTIONS, ALL_DIRECTIONS if self._second is None else self._second
+        )
         made = with_knot_derivatives(fn, forward=forward, second=second)
         self.made.append((fn.name(), made, path, known))
         return made.knot
+
+    def record_call(self, name: str, call: KnotCall) -> None:
+        """`call_mapped` called the function made last for `name` with `call`."""
+        made = [m for n, m, _, _ in self.made if n == name][-1]
+        self.calls.append((call, made.jacobian, made.hessian))
 
     def save_used(self, solver: ca.Function) -> None:
         """Record the direction counts `solver` used of each function made (if new)."""

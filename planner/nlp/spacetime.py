@@ -301,9 +301,12 @@ class GaitPlanner:
             and self.knot_derivatives is not None
             and kq.knot_call is not None
         ):
+            knot_term = (
+                kq.knot_call, self.knot_derivatives.jacobian, self.knot_derivatives.hessian
+            )
+            derived_terms = [] if self.derived is None else self.derived.calls
             self._hess_l = assembled_hessian(
-                sym.x, sym.p, objective, g_solver, kq.knot_call, self.knot_derivatives.jacobian,
-                self.knot_derivatives.hessian, n_knots,
+                sym.x, sym.p, objective, g_solver, [knot_term, *derived_terms], n_knots
             )
         self._solver = self._make_solver()
         self._warm_solver: Any | None = None  # `_solver_for`
