@@ -318,8 +318,8 @@ def compare(
             rows[path][1].append(res.iterations)
             cpu[path].append(cpu_s[path])
         a = results[base_name]
-        line = [f"{base_name} {a.cost:.6g} ({a.iterations} it, {a.solve_time_s:.2f} s, "
-                f"{'feasible' if a.feasible else a.status})"]
+        line = [f"{base_name} {a.cost:.6g} ({a.iterations} it, {a.solve_time_s:.2f} s, CPU "
+                f"{cpu_s[base_name]:.2f} s, {'feasible' if a.feasible else a.status})"]
         for path in paths[1:]:
             b = results[path]
             identical[path] += bool(
@@ -340,7 +340,8 @@ def compare(
             else:
                 same[path] += 1  # both infeasible: the same verdict
             line.append(
-                f"{path} {b.cost:.6g} ({b.iterations} it, {b.solve_time_s:.2f} s) rel {rel:+.1e}"
+                f"{path} {b.cost:.6g} ({b.iterations} it, {b.solve_time_s:.2f} s, CPU "
+                f"{cpu_s[path]:.2f} s) rel {rel:+.1e}"
             )
         print(f"  {label}: " + " | ".join(line))
     print(f"  cold solves over {verdicts} schedules:")
