@@ -28,6 +28,7 @@ from gaitsmith.attitude_options import (
     attitude_gain_option,
     attitude_settings,
     check_attitude_gain,
+    resolved_gain,
 )
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
@@ -284,7 +285,7 @@ def plan(
             result.binding,
         )
     gait_obj = planner.to_gait(result, gait, extra_metadata=meta)
-    attitude = attitude_settings(attitude_gain)
+    attitude = attitude_settings(resolved_gain(attitude_gain, bot) if simulate else None)
     write_gait(gait_obj, bot, output, simulate, cycles, servo_settings, attitude)
     if knife_edge:
         _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles, servo_settings,

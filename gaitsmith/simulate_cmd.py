@@ -25,6 +25,7 @@ from gaitsmith.attitude_options import (
     attitude_gain_option,
     attitude_settings,
     check_attitude_gain,
+    resolved_gain,
 )
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
@@ -231,7 +232,8 @@ def simulate_command(
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         console.print(f"servos: as identified in {servo_params_path}", highlight=False)
-    attitude = attitude_settings(attitude_gain, imu_latency_ms, imu_noise_deg)
+    attitude = attitude_settings(resolved_gain(attitude_gain, bot), imu_latency_ms,
+                                 imu_noise_deg)
     criteria = PassCriteria()
     with Progress(
         TextColumn("[bold]simulating"),

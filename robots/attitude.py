@@ -52,12 +52,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robots.errors import RobotsError
 from robots.gait import Gait
 from robots.schedule import ContactSchedule
+
+if TYPE_CHECKING:
+    from robots.robot import Robot
 
 #: the largest gain accepted: G = 1 corrects the whole error kinematically; above 2 the law
 #: overcorrects by more than the error itself every tick and rings
@@ -67,6 +71,9 @@ MAX_OFFSET_BOUND_RAD = 0.5
 DEFAULT_SUPPORT_RAMP_PHASE = 0.05
 #: the validation conditions' key that says a verdict was reached closed loop
 ATTITUDE_GAIN_KEY = "attitude_gain"
+#: the default gain of a robot with fewer than 3 legs that declares an IMU (`default_attitude_gain`)
+TWO_LEG_IMU_GAIN = 0.5
+MIN_STATIC_LEGS = 3  # fewer legs have no static support polygon
 
 
 class AttitudeError(RobotsError, ValueError):
@@ -148,6 +155,23 @@ class AttitudeMap:
         return out
 
 
+def default_attitude_gain(robot: Robot) -> tuple[float, str]:
+    """(gain, why) of a robot's closed-loop runs when no gain is asked for: robot.toml's
+    ``[imu].attitude_gain`` if it gives one; else `TWO_LEG_IMU_GAIN` for a robot with an
+    ``[imu]`` and fewer than `MIN_STATIC_LEGS` legs (no static support polygon; the built-in
+    biped's and humanoid20's Fr 0.02 template walks, measured open and closed loop in
+    docs/results/attitude_feedback.md); else 0 (open loop: quadrupeds and hexapods keep their
+    open-loop verdicts; session 28 measured feedback hurting knee8 and spotmicro)."""
+    if robot.imu is None:
+        return 0.0, "no [imu] in robot.toml"
+    if robot.imu.attitude_gain is not None:
+        return robot.imu.attitude_gain, "robot.toml [imu].attitude_gain"
+    if len(robot.legs) < MIN_STATIC_LEGS:
+        return TWO_LEG_IMU_GAIN, (f"robot.toml declares an [imu] and the robot has "
+                                  f"{len(robot.legs)} legs (< {MIN_STATIC_LEGS})")
+    return 0.0, f"{len(robot.legs)} legs stand statically"
+
+
 def roll_pitch(quat_wxyz: np.ndarray) -> np.ndarray:
     """(…, 2) roll and pitch [rad] of unit quaternions (w, x, y, z) in the z-y'-x'' convention
     (R = Rz·Ry·Rx: roll = atan2(R₃₂, R₃₃), pitch = −asin(R₃₁))."""
@@ -218,6 +242,7 @@ __all__ = [
     "LegMap",
     "attitude_offsets",
     "check_gain",
+    "default_attitude_gain",
     "planned_roll_pitch",
     "roll_pitch",
     "support_weights",

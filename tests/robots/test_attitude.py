@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import math
+import re
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,14 +13,17 @@ import pytest
 import robots
 from robots.attitude import (
     DEFAULT_MAX_OFFSET_RAD,
+    TWO_LEG_IMU_GAIN,
     AttitudeError,
     AttitudeLaw,
     attitude_offsets,
     check_gain,
+    default_attitude_gain,
     roll_pitch,
     support_weights,
 )
 from robots.attitude_maps import attitude_map
+from robots.errors import RobotConfigError
 from robots.schedule import ContactSchedule
 
 
@@ -96,3 +102,30 @@ def test_hip_strategy_turns_the_trunk_through_the_hips() -> None:
     assert abs(hip_strategy[hip]) == np.max(in_leg) and abs(hip_strategy[hip]) > 0.04
     assert abs(ankle_strategy[ankle]) > 3 * abs(ankle_strategy[hip])
     assert leg.twist_to_joints.shape == (6, 6)
+
+
+def test_imu_section_is_validated(quad_copy: Path) -> None:
+    toml = quad_copy / "robot.toml"
+    base = toml.read_text()
+    toml.write_text(base + '\n[imu]\ndescription = "torso IMU"\nattitude_gain = 0.3\n')
+    bot = robots.load(str(quad_copy))
+    assert bot.imu is not None and bot.imu.attitude_gain == 0.3
+    assert default_attitude_gain(bot)[0] == 0.3  # an explicit gain wins on any body
+    for bad, where in (("attitude_gain = 5", "[imu].attitude_gain"),
+                       ("attitude_gain = nan", "[imu].attitude_gain"),
+                       ("gain = 1", "[imu]")):
+        toml.write_text(base + f"\n[imu]\n{bad}\n")
+        with pytest.raises(RobotConfigError, match=re.escape(where)):
+            robots.load(str(quad_copy))
+
+
+def test_default_gain_rule_follows_legs_and_imu(quad_copy: Path) -> None:
+    """A biped that declares an IMU closes the loop by default; one without, or a quadruped with
+    one, stays open loop."""
+    assert default_attitude_gain(robots.load("biped"))[0] == TWO_LEG_IMU_GAIN
+    assert default_attitude_gain(robots.load("quad12"))[0] == 0.0
+    (quad_copy / "robot.toml").write_text((quad_copy / "robot.toml").read_text() + "\n[imu]\n")
+    quad = robots.load(str(quad_copy))
+    assert quad.imu is not None and default_attitude_gain(quad)[0] == 0.0
+    biped = robots.load("biped")
+    assert default_attitude_gain(replace(biped, imu=None))[0] == 0.0
