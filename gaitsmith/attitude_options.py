@@ -12,6 +12,7 @@ from gaitsmith.options import check_number
 from robots.attitude import MAX_ATTITUDE_GAIN
 
 if TYPE_CHECKING:
+    from robots.gait import Gait
     from robots.robot import Robot
     from sim.attitude_loop import AttitudeSettings
 
@@ -25,8 +26,8 @@ def attitude_gain_option() -> Any:
         help="close the loop on body roll/pitch from a simulated IMU with gain G (0 to "
         f"{MAX_ATTITUDE_GAIN:g}; 1 corrects the whole tilt error each tick) through the stance "
         "legs' joints (`robots.attitude`); 0: open loop; default: 0.5 for a robot with fewer "
-        "than 3 legs whose robot.toml declares an [imu] (the built-in biped, humanoid20), "
-        "else robot.toml's [imu].attitude_gain, else 0")
+        "than 3 legs whose robot.toml declares an [imu] (the built-in biped, humanoid20) on a "
+        "walk, else robot.toml's [imu].attitude_gain, else 0")
 
 
 def check_attitude_gain(option: str, gain: float | None) -> None:
@@ -34,18 +35,18 @@ def check_attitude_gain(option: str, gain: float | None) -> None:
     check_number(option, gain, 0.0, MAX_ATTITUDE_GAIN)
 
 
-def resolved_gain(gain: float | None, robot: Robot) -> float:
-    """The gain a run uses: the option if given, else the robot's default
+def resolved_gain(gain: float | None, robot: Robot, gait: Gait) -> float:
+    """The gain a run of `gait` uses: the option if given, else the robot's default
     (`robots.attitude.default_attitude_gain`), said on the console when it closes the loop."""
     if gain is not None:
         return float(gain)
     from gaitsmith.console import console
     from robots.attitude import default_attitude_gain
 
-    default, why = default_attitude_gain(robot)
+    default, why = default_attitude_gain(robot, gait)
     if default > 0.0:
         console.print(f"attitude feedback: gain {default:g} ({why}); --attitude-gain 0 runs "
-                      "open loop", highlight=False)
+                      "open loop", highlight=False, markup=False)
     return default
 
 

@@ -285,7 +285,7 @@ def plan(
             result.binding,
         )
     gait_obj = planner.to_gait(result, gait, extra_metadata=meta)
-    attitude = attitude_settings(resolved_gain(attitude_gain, bot) if simulate else None)
+    attitude = attitude_settings(resolved_gain(attitude_gain, bot, gait_obj) if simulate else None)
     write_gait(gait_obj, bot, output, simulate, cycles, servo_settings, attitude)
     if knife_edge:
         _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles, servo_settings,

@@ -232,7 +232,7 @@ def simulate_command(
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         console.print(f"servos: as identified in {servo_params_path}", highlight=False)
-    attitude = attitude_settings(resolved_gain(attitude_gain, bot), imu_latency_ms,
+    attitude = attitude_settings(resolved_gain(attitude_gain, bot, gait), imu_latency_ms,
                                  imu_noise_deg)
     criteria = PassCriteria()
     with Progress(

@@ -155,21 +155,31 @@ class AttitudeMap:
         return out
 
 
-def default_attitude_gain(robot: Robot) -> tuple[float, str]:
-    """(gain, why) of a robot's closed-loop runs when no gain is asked for: robot.toml's
-    ``[imu].attitude_gain`` if it gives one; else `TWO_LEG_IMU_GAIN` for a robot with an
-    ``[imu]`` and fewer than `MIN_STATIC_LEGS` legs (no static support polygon; the built-in
-    biped's and humanoid20's Fr 0.02 template walks, measured open and closed loop in
-    docs/results/attitude_feedback.md); else 0 (open loop: quadrupeds and hexapods keep their
-    open-loop verdicts; session 28 measured feedback hurting knee8 and spotmicro)."""
+def default_attitude_gain(robot: Robot, gait: Gait | None = None) -> tuple[float, str]:
+    """(gain, why) of a robot's closed-loop runs of `gait` when no gain is asked for:
+    robot.toml's ``[imu].attitude_gain`` if it gives one; else `TWO_LEG_IMU_GAIN` for a walk
+    (a foot down all cycle) of a robot with an ``[imu]`` and fewer than `MIN_STATIC_LEGS` legs
+    (no static support polygon; the built-in biped's and humanoid20's Fr 0.02 template walks,
+    docs/results/attitude_feedback.md); else 0: open loop for quadrupeds and hexapods (they keep
+    their open-loop verdicts; session 28 measured feedback hurting knee8 and spotmicro) and for
+    runs (a flight phase: the built-in biped's flying run at 0.5 m/s turns −5.7° at G 0.5
+    against −2.1° open loop and fails its heading check)."""
     if robot.imu is None:
         return 0.0, "no [imu] in robot.toml"
     if robot.imu.attitude_gain is not None:
         return robot.imu.attitude_gain, "robot.toml [imu].attitude_gain"
-    if len(robot.legs) < MIN_STATIC_LEGS:
-        return TWO_LEG_IMU_GAIN, (f"robot.toml declares an [imu] and the robot has "
-                                  f"{len(robot.legs)} legs (< {MIN_STATIC_LEGS})")
-    return 0.0, f"{len(robot.legs)} legs stand statically"
+    if len(robot.legs) >= MIN_STATIC_LEGS:
+        return 0.0, f"{len(robot.legs)} legs stand statically"
+    if gait is not None and _has_flight(gait):
+        return 0.0, "a run (flight phase) stays open loop"
+    return TWO_LEG_IMU_GAIN, (f"robot.toml declares an [imu], the robot has {len(robot.legs)} "
+                              f"legs (< {MIN_STATIC_LEGS})")
+
+
+def _has_flight(gait: Gait) -> bool:
+    from robots.ramp import has_flight  # robots.ramp imports robots.gait, as this module does
+
+    return has_flight(gait)
 
 
 def roll_pitch(quat_wxyz: np.ndarray) -> np.ndarray:

@@ -24,6 +24,7 @@ from robots.attitude import (
 )
 from robots.attitude_maps import attitude_map
 from robots.errors import RobotConfigError
+from robots.gait import Gait, Velocity
 from robots.schedule import ContactSchedule
 
 
@@ -129,3 +130,10 @@ def test_default_gain_rule_follows_legs_and_imu(quad_copy: Path) -> None:
     assert quad.imu is not None and default_attitude_gain(quad)[0] == 0.0
     biped = robots.load("biped")
     assert default_attitude_gain(replace(biped, imu=None))[0] == 0.0
+    # a run (flight phase) stays open loop; a walk of the same robot closes it
+    knots = np.tile(np.asarray(biped.nominal_stance_rad), (12, 1))
+    for duty, gain in ((0.42, 0.0), (0.6, TWO_LEG_IMU_GAIN)):
+        sched = ContactSchedule(0.5, biped.foot_names, (0.0, 0.5), (duty, duty))
+        gait = Gait.create(robot=biped, knots_rad=knots, schedule=sched, velocity=Velocity(0.3),
+                           gait_label="g")
+        assert default_attitude_gain(biped, gait)[0] == gain
