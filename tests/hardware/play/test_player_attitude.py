@@ -8,7 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
+from hardware.cli import app as play_app
 from hardware.play.attitude import AttitudeCorrector, SyntheticAttitude
 from hardware.play.errors import PlayerError, PreflightError
 from hardware.play.player import Player, PlayerConfig
@@ -16,6 +18,8 @@ from hardware.play.telemetry import TelemetryWriter
 from hardware.play.watchdog import StopReason
 from robots.attitude import ATTITUDE_GAIN_KEY, AttitudeLaw
 from robots.attitude_maps import attitude_map
+from robots.gait import load as load_gait
+from robots.gait import save as save_gait
 from tests.hardware.play.player_rig import Rig, assert_wire_safe, make_rig
 
 CONFIG = PlayerConfig(cycles=2, ramp_s=0.5, force=True)
@@ -110,3 +114,31 @@ def test_corrector_settings_are_checked(tmp_path: Path) -> None:
     with pytest.raises(PlayerError, match="max age"):
         AttitudeCorrector(AttitudeLaw(1.0), attitude_map(rig.robot), rig.gait, source,
                           max_age_s=0.0)
+
+
+def _closed_loop_gait_file(tmp_path: Path) -> Path:
+    """The biped's 0.222 m/s walk (passes closed loop at G 0.5: tests/sim/test_attitude_loop.py)
+    with the verdict of that run's kind: passed, attitude gain 0.5."""
+    gait = load_gait(Path(__file__).parents[2] / "sim" / "fixtures" / "biped_walk_0222.json")
+    path = tmp_path / "walk.json"
+    save_gait(gait.with_validation({"passed": True, "conditions": {ATTITUDE_GAIN_KEY: 0.5}}),
+              path)
+    return path
+
+
+def test_play_cli_reads_the_twins_imu_and_refuses_open_loop(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("GAITSMITH_CALIBRATION_DIR", str(tmp_path / "cal"))
+    path = _closed_loop_gait_file(tmp_path)
+    common = ["run", str(path), "--robot", "biped", "--no-realtime", "--ramp-s", "0.5",
+              "--cycles", "2"]
+    res = CliRunner().invoke(play_app, [*common, "--virtual", "sim"])
+    assert res.exit_code == 0, res.output
+    assert "attitude feedback: gain 0.5 from the twin" in res.output and "twin:" in res.output
+    res = CliRunner().invoke(play_app, [*common, "--virtual", "sim", "--attitude-gain", "0"])
+    assert res.exit_code == 2 and "closed loop" in res.output, res.output
+    res = CliRunner().invoke(play_app, [*common, "--virtual", "--attitude-gain", "0.5"])
+    assert res.exit_code == 2 and "no IMU" in res.output, res.output
+    res = CliRunner().invoke(play_app, [*common, "--virtual", "sim", "--attitude-gain", "9"])
+    assert res.exit_code == 2 and "--attitude-gain" in res.output, res.output
