@@ -40,9 +40,10 @@ by the simulator (`sim.attitude_loop`) and the player (`hardware.play.attitude`)
    before lift-off, so the offsets never step when a foot lands or lifts.
 5. **Fade and clip.** The offsets are multiplied by the gait's entry blend weight (0 while the
    robot ramps to and stands at the stand, 1 once the gait runs fully; the exit blend fades them
-   out again) and each one is clipped to ±`max_offset_rad` (default 0.15 rad ≈ 8.6°: three times
-   the largest tilt error of a passing walk, so it only bites in a fall, where chasing the tilt
-   would throw the legs to their limits).
+   out again) and each one is clipped to ±`max_offset_rad` (default 0.15 rad ≈ 8.6°): the
+   built-in biped's 0.222 m/s walk asks at most 0.12 rad at G 0.5 (never clipped) and 0.17 rad
+   at G 1 (clipped on 0.6 % of its ticks), so the bound only bites in a fall, where chasing the
+   tilt would throw the legs to their limits.
 
 A gait validated with G > 0 records ``attitude_gain`` in its validation conditions; the player
 then refuses to play it open loop unless forced (`hardware.play.preflight`).
