@@ -8,6 +8,10 @@ player's normal ending: the gait blended out to the stand (`robots.ramp.gait_exi
 held `stand_s`; sampled at the stream rate, held and delayed by
 `sim.servo.held_targets`. The physics runs natively (`mujoco.rollout`) one gait cycle at a time so
 a fall can stop the run early and progress can be reported.
+
+With `RunSettings.attitude` (IMU feedback, `sim.attitude_loop`) the stream is no longer a function
+of time only: each cycle is rolled out one stream tick at a time, and before a tick's goals are
+held and delayed the loop reads the simulated IMU and adds the law's offsets to them.
 """
 
 from __future__ import annotations
