@@ -17,13 +17,19 @@ build from them (checks, `PlannerOptions`, gait-file metadata): `gaitsmith.plan_
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import typer
 from rich.table import Table
 
 import robots
+from gaitsmith.attitude_options import (
+    attitude_gain_option,
+    attitude_settings,
+    check_attitude_gain,
+    resolved_gain,
+)
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
 from gaitsmith.gait_choice import (
@@ -61,6 +67,9 @@ from planner.templates import TEMPLATES
 from planner.user_schedule import command_schedule
 from robots.servo_params import ServoSetting
 from robots.voltage import robot_at_voltage, voltage_margin
+
+if TYPE_CHECKING:
+    from sim.attitude_loop import AttitudeSettings
 
 _write = write_gait  # its name here before it moved to gaitsmith.plan_output (tests use it)
 
@@ -178,6 +187,7 @@ def plan(
         help="identified servos (servo_params.toml of `gaitsmith identify`): the servo goals "
         "use each joint's fitted gain, strength and latency; --simulate simulates them",
     ),
+    attitude_gain: float | None = attitude_gain_option(),
 ) -> None:
     """Plan one efficient cyclic gait (W&P 2009 spacetime optimisation) and write the gait file."""
     # where each option goes (template path, --search, refused with --search): OPTION_ROUTES
@@ -187,6 +197,10 @@ def plan(
     check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     check_command(speed, vy, yaw_rate)
     refuse_with_search(search, given)  # --vy, --yaw-rate, --knife-edge, --mirror, ...
+    check_attitude_gain("--attitude-gain", attitude_gain)
+    if attitude_gain is not None and not simulate:
+        raise OptionError("--attitude-gain: closes the loop in the MuJoCo run, so it needs "
+                          "--simulate")
     if knife_edge and (not simulate or vy or yaw_rate):
         raise OptionError("--knife-edge: needs --simulate, a straight command (no --vy, "
                           "--yaw-rate) and no --search")
@@ -271,10 +285,11 @@ def plan(
             result.binding,
         )
     gait_obj = planner.to_gait(result, gait, extra_metadata=meta)
-    write_gait(gait_obj, bot, output, simulate, cycles, servo_settings)
+    attitude = attitude_settings(resolved_gain(attitude_gain, bot, gait_obj) if simulate else None)
+    write_gait(gait_obj, bot, output, simulate, cycles, servo_settings, attitude)
     if knife_edge:
         _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles, servo_settings,
-                    meta)
+                    meta, attitude)
 
 
 def _note_swing_slack(bot: robots.Robot, schedule: robots.ContactSchedule, speed: float,
@@ -300,9 +315,10 @@ def _note_swing_slack(bot: robots.Robot, schedule: robots.ContactSchedule, speed
 def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.ContactSchedule,
                 label: str, speed: float, knots: int, options: PlannerOptions,
                 cycles: int | None, servo_settings: tuple[ServoSetting, ...] | None,
-                meta: dict[str, Any] | None) -> None:
+                meta: dict[str, Any] | None, attitude: AttitudeSettings | None = None) -> None:
     """--knife-edge: `planner.robust_plan.replans` judged by `sim.robustness.knife_edge_check`,
-    every run simulated with the same identified servos (`--servo-params`) as --simulate and
+    every run simulated with the same identified servos (`--servo-params`) and attitude
+    feedback (`--attitude-gain`) as --simulate and
     written with the nominal file's metadata (`meta`: entry cycles, stance-compliance record)."""
     from planner.robust_plan import replans
     from sim.robustness import knife_edge_check
@@ -314,6 +330,7 @@ def _knife_edge(gait_obj: robots.Gait, bot: robots.Robot, schedule: robots.Conta
         check = knife_edge_check(
             gait_obj, bot, [(v.label, v.gait) for v in variants], n_cycles,
             servo_settings=servo_settings,
+            attitude=attitude,
             progress=lambda done, total: status.update(
                 f"knife-edge check: simulated {done} of {total} runs…"),
         )

@@ -106,6 +106,10 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
                 "PlannerOptions.servo_settings, the stance rule, --simulate; gait-file metadata",
                 "", "--servo-params: not with --search yet; plan the chosen gait without "
                 "--search to use the identified servos"),
+    OptionRoute("--attitude-gain", "attitude_gain", "--simulate and --knife-edge closed loop; "
+                "the validation's conditions", "",
+                "--attitude-gain: not with --search yet (its MuJoCo acceptance is open loop); "
+                "plan the chosen gait with --simulate --attitude-gain"),
 )
 
 

@@ -95,6 +95,12 @@ def show(
         )
     console.print(table)
     console.print("feet: " + ", ".join(_foot_text(leg) for leg in r.legs))
+    if r.imu is not None:
+        from robots.attitude import default_attitude_gain
+
+        gain, why = default_attitude_gain(r)
+        console.print(f"imu: {r.imu.description or 'declared'}; attitude feedback gain {gain:g} "
+                      f"on walks by default ({why})", markup=False, highlight=False)
 
 
 def _parse_limit(text: str) -> tuple[str, tuple[float, float]]:

@@ -19,6 +19,14 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 import robots.gait as gait_io
+from gaitsmith.attitude_options import (
+    MAX_IMU_LATENCY_MS,
+    MAX_IMU_NOISE_DEG,
+    attitude_gain_option,
+    attitude_settings,
+    check_attitude_gain,
+    resolved_gain,
+)
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
 from gaitsmith.options import (
@@ -178,6 +186,13 @@ def simulate_command(
         help="identified servos (servo_params.toml of `gaitsmith identify`): each joint's gain, "
         "strength and goal latency instead of the catalogue's",
     ),
+    attitude_gain: float | None = attitude_gain_option(),
+    imu_latency_ms: float = typer.Option(
+        0.0, "--imu-latency-ms", help="with --attitude-gain: age of the simulated IMU's reading "
+        "\\[ms]"),
+    imu_noise_deg: float = typer.Option(
+        0.0, "--imu-noise-deg", help="with --attitude-gain: 1σ noise of the simulated IMU's roll "
+        "and pitch [°] (seeded)"),
 ) -> None:
     """Simulate a gait in MuJoCo with servo actuators; exit 0 if it passes, 1 if it fails."""
     check_cycles("--cycles", cycles)
@@ -190,6 +205,9 @@ def simulate_command(
     check_number("--bout-min", bout_min, 0.0, MAX_BOUT_S / 60.0, lo_open=True, unit="min")
     check_number("--ambient-c", ambient_c, *AMBIENT_RANGE_C, unit="°C")
     check_number("--stand-s", stand_s, 0.0, MAX_STAND_S, unit="s")
+    check_attitude_gain("--attitude-gain", attitude_gain)
+    check_number("--imu-latency-ms", imu_latency_ms, 0.0, MAX_IMU_LATENCY_MS, unit="ms")
+    check_number("--imu-noise-deg", imu_noise_deg, 0.0, MAX_IMU_NOISE_DEG, unit="°")
     if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
         raise OptionError(f"--video {video}: must end in .mp4 or .gif")
     for option, path in (("--video", video), ("--report", report)):
@@ -214,6 +232,8 @@ def simulate_command(
 
         servo_settings = servo_params.load(servo_params_path).for_robot(bot)
         console.print(f"servos: as identified in {servo_params_path}", highlight=False)
+    attitude = attitude_settings(resolved_gain(attitude_gain, bot, gait), imu_latency_ms,
+                                 imu_noise_deg)
     criteria = PassCriteria()
     with Progress(
         TextColumn("[bold]simulating"),
@@ -238,6 +258,7 @@ def simulate_command(
             stand_s=stand_s,
             end_at_stand=end_at_stand,
             servo_settings=servo_settings,
+            attitude=attitude,
         )
     result = evaluate(traj, gait, sim, criteria, rate_hz=rate_hz, latency_s=latency_ms / 1000.0)
     console.print(_metrics_table(result))
@@ -283,6 +304,7 @@ def simulate_command(
                 max(cycles // 2, criteria.warmup_cycles + 2),
                 rate_hz=rate_hz,
                 criteria=criteria,
+                attitude=attitude,
             )
         table = Table(title=f"robustness: {sweep.pass_fraction:.0%} of perturbed runs pass")
         for col in ("factor", "value", "verdict", "speed [m/s]", "peak τ/stall", "why"):

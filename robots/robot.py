@@ -103,6 +103,16 @@ class Leg:
 
 
 @dataclass(frozen=True)
+class ImuSpec:
+    """robot.toml's ``[imu]``: the build has an IMU the player can read roll and pitch from.
+    `attitude_gain`: the default gain of the attitude feedback (`robots.attitude`; None: the
+    rule in `robots.attitude.default_attitude_gain`)."""
+
+    description: str = ""
+    attitude_gain: float | None = None
+
+
+@dataclass(frozen=True)
 class Robot:
     """A legged robot build. `fingerprint` hashes robot.xml + robot.toml (+ the figures of any
     servo model taken from a user catalogue file)."""
@@ -122,6 +132,7 @@ class Robot:
     leg_length_m: float
     prepared: PreparedMjcf | None = None
     servo_catalogue_path: Path | None = None  # the user catalogue file in force at load
+    imu: ImuSpec | None = None  # robot.toml's [imu]: the build carries an IMU (robots.attitude)
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -175,7 +186,8 @@ class Robot:
 # robot.toml parsing
 
 
-_TOP_KEYS = {"robot", "servos", "joints", "legs"}
+_TOP_KEYS = {"robot", "servos", "joints", "legs", "imu"}
+_IMU_KEYS = {"description", "attitude_gain"}
 _ROBOT_KEYS = {"name", "description", "foot_radius_m", "bus_baud"}
 _JOINT_KEYS = {
     "servo",
@@ -221,6 +233,7 @@ class RobotSpec:
     joints: tuple[_JointSpec, ...]
     legs: tuple[Leg, ...]
     user_servos: tuple[ServoModel, ...] = ()  # models taken from the user catalogue file
+    imu: ImuSpec | None = None
 
 
 def _parse_joint(
@@ -348,7 +361,23 @@ def parse_robot_toml(text: str, file: str, servo_catalogue: str | Path | None = 
                 f"([joints.{joints[0].name}]); one bus, one protocol",
             )
     legs = _parse_legs(file, ts.table(file, "[legs]", data.get("legs")), joints)
-    return RobotSpec(name, description, foot_radius, baud, joints, legs, user_used)
+    imu = _parse_imu(file, data["imu"]) if "imu" in data else None
+    return RobotSpec(name, description, foot_radius, baud, joints, legs, user_used, imu)
+
+
+def _parse_imu(file: str, value: Any) -> ImuSpec:
+    """``[imu]``: an optional description and an optional default attitude gain."""
+    from robots.attitude import MAX_ATTITUDE_GAIN
+
+    if isinstance(value, dict) and not value:
+        return ImuSpec()  # `[imu]` alone: the build has an IMU, nothing more to say
+    table = ts.table(file, "[imu]", value)
+    ts.check_keys(file, "[imu]", table, _IMU_KEYS)
+    description = ts.string(file, "[imu].description", table.get("description", ""),
+                            allow_empty=True)
+    gain = table.get("attitude_gain")
+    return ImuSpec(description, None if gain is None else ts.number(
+        file, "[imu].attitude_gain", gain, 0.0, MAX_ATTITUDE_GAIN))
 
 
 def _parse_legs(
@@ -676,6 +705,7 @@ def _build(
         stance_base_height_m=height,
         leg_length_m=sum(leg_lengths) / len(leg_lengths),
         prepared=prepared,
+        imu=spec.imu,
     )
 
 

@@ -21,6 +21,7 @@ from typing import Any
 from robots.gait import Gait
 from robots.robot import Robot
 from robots.servo_params import ServoSetting
+from sim.attitude_loop import AttitudeSettings
 from sim.errors import SimConfigError
 from sim.validate import PassCriteria, validate
 
@@ -81,8 +82,10 @@ def robustness_sweep(
     rate_hz: float = 100.0,
     criteria: PassCriteria = PassCriteria(),
     progress: Callable[[int, int], None] | None = None,
+    attitude: AttitudeSettings | None = None,
 ) -> RobustnessResult:
-    """Validate `gait` under each perturbation in turn; see the module docstring."""
+    """Validate `gait` under each perturbation in turn; see the module docstring (`attitude`:
+    every run closed loop with that IMU feedback)."""
     if payloads_kg is None:
         payloads_kg = tuple(round(f * robot.mass_kg, 3) for f in DEFAULT_PAYLOAD_FRACTIONS)
     plan: list[tuple[str, float, dict[str, Any]]] = []
@@ -93,7 +96,8 @@ def robustness_sweep(
     runs: list[SweepRun] = []
     for i, (factor, value, kwargs) in enumerate(plan):
         res = validate(
-            gait, robot, cycles, rate_hz=rate_hz, criteria=criteria, keep_trajectory=False, **kwargs
+            gait, robot, cycles, rate_hz=rate_hz, criteria=criteria, keep_trajectory=False,
+            attitude=attitude, **kwargs,
         )  # type: ignore[arg-type]
         m = res.metrics
         runs.append(
@@ -189,12 +193,13 @@ def knife_edge_check(
     criteria: PassCriteria = PassCriteria(),
     progress: Callable[[int, int], None] | None = None,
     servo_settings: Sequence[ServoSetting] | None = None,
+    attitude: AttitudeSettings | None = None,
 ) -> KnifeEdgeResult:
     """The nominal gait at every latency in `latencies_s`, and each re-planned variant in
     `replans` (label, gait) at the first latency; see the module docstring. A re-plan without a
     gait (None: the planner found none) counts as a failed run. `servo_settings` (identified
     servos, `gaitsmith plan --servo-params`) are simulated in every run, as `validate` does for
-    the nominal verdict."""
+    the nominal verdict, and so is `attitude` (closed-loop IMU feedback, `sim.attitude_loop`)."""
     if not latencies_s:
         raise SimConfigError("the knife-edge check needs at least one latency")
     todo: list[tuple[str, Gait | None, float]] = [
@@ -208,7 +213,8 @@ def knife_edge_check(
                                      ("re-plan: no feasible gait",)))
             continue
         res = validate(gait, robot, cycles, latency_s=latency, criteria=criteria,
-                       keep_trajectory=False, servo_settings=servo_settings)
+                       keep_trajectory=False, servo_settings=servo_settings,
+                       attitude=attitude)
         m = res.metrics
         runs.append(
             KnifeEdgeRun(

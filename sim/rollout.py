@@ -8,6 +8,10 @@ player's normal ending: the gait blended out to the stand (`robots.ramp.gait_exi
 held `stand_s`; sampled at the stream rate, held and delayed by
 `sim.servo.held_targets`. The physics runs natively (`mujoco.rollout`) one gait cycle at a time so
 a fall can stop the run early and progress can be reported.
+
+With `RunSettings.attitude` (IMU feedback, `sim.attitude_loop`) the stream is no longer a function
+of time only: each cycle is rolled out one stream tick at a time, and before a tick's goals are
+held and delayed the loop reads the simulated IMU and adds the law's offsets to them.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from robots.gait import Gait
 from robots.ramp import GaitEntry, GaitExit, gait_entry, gait_exit, min_jerk
 from robots.robot import Robot
 from robots.sole import sole_pose_world
+from sim.attitude_loop import AttitudeLoop, AttitudeSettings, RunClock
 from sim.errors import SimConfigError, SimDivergedError
 from sim.model import SimModel
 from sim.servo import DEFAULT_RATE_HZ, held_targets
@@ -41,6 +46,11 @@ class RunSettings:
     ramp_min_s: float = 1.0
     stand_s: float = 0.0  # hold at the gait's stand (mean pose) after the ramp, and at the end
     end_at_stand: bool = False  # after the cycles, blend out to the stand as the player does
+    attitude: AttitudeSettings | None = None  # closed-loop IMU feedback (sim.attitude_loop)
+
+    @property
+    def attitude_gain(self) -> float:
+        return 0.0 if self.attitude is None else self.attitude.law.gain
 
     def __post_init__(self) -> None:
         if not (isinstance(self.cycles, int) and self.cycles >= 1):
@@ -84,6 +94,7 @@ class Trajectory:
     robot_contacts: np.ndarray  # (T,) number of robot–ground contacts (all geoms)
     qpos: np.ndarray  # (T, nq) for rendering
     gait_end_s: float = math.inf  # end of the gait's cycles (then the blend-out, if any)
+    attitude_gain: float = 0.0  # the IMU feedback's gain G (0: open loop; sim.attitude_loop)
 
     @property
     def dt_s(self) -> float:
@@ -232,20 +243,38 @@ def run(
     bounds = sorted(set(b for b in bounds if b > 0))
     data = mujoco.MjData(model)
     state = sim.initial_state()
+    loop = _attitude_loop(gait, sim, settings, plan)
+    if loop is not None:
+        stream = stream.copy()  # each tick's goals get the offsets as the run reaches it
+    latency = stream_latency_s(settings, sim)
     states, sensors = [], []
-    start, stopped = 0, False
+    start, stopped, tick = 0, False, 0
     for end in bounds:
-        ctrl = held_targets(
-            stream,
-            rate_hz=settings.rate_hz,
-            latency_s=stream_latency_s(settings, sim),
-            dt_s=dt,
-            n_steps=end - start,
-            initial_rad=stance,
-            first_step=start,
-        )
-        st, sd = mujoco.rollout.rollout(model, data, state[None], ctrl[None])
-        st, sd = st[0], sd[0]
+        if loop is None:
+            ctrl = held_targets(stream, rate_hz=settings.rate_hz, latency_s=latency, dt_s=dt,
+                                n_steps=end - start, initial_rad=stance, first_step=start)
+            st, sd = mujoco.rollout.rollout(model, data, state[None], ctrl[None])
+            st, sd = st[0], sd[0]
+        else:  # one stream tick at a time: the IMU is read and the tick's goals corrected
+            parts_st, parts_sd = [], []
+            s0 = start
+            while s0 < end:
+                while tick < len(stream) and tick / settings.rate_hz <= s0 * dt + 1e-9:
+                    stream[tick] += loop.correct(tick / settings.rate_hz)
+                    tick += 1
+                s1 = min(end, max(s0 + 1, math.ceil(tick / settings.rate_hz / dt - 1e-9)))
+                ctrl = held_targets(stream, rate_hz=settings.rate_hz, latency_s=latency,
+                                    dt_s=dt, n_steps=s1 - s0, initial_rad=stance, first_step=s0)
+                st, sd = mujoco.rollout.rollout(model, data, state[None], ctrl[None])
+                st, sd = st[0], sd[0]
+                loop.record(st[:, 0], st[:, 4:8])
+                parts_st.append(st)
+                parts_sd.append(sd)
+                state = st[-1].copy()
+                if not np.all(np.isfinite(state)):
+                    break
+                s0 = s1
+            st, sd = np.concatenate(parts_st), np.concatenate(parts_sd)
         if not (np.all(np.isfinite(st[-1])) and np.all(np.isfinite(sd[-1]))):
             raise SimDivergedError(f"physics diverged (NaN) near t = {st[-1, 0]:.3f} s")
         states.append(st)
@@ -259,6 +288,19 @@ def run(
             break
     st_all, sd_all = np.concatenate(states), np.concatenate(sensors)
     return _trajectory(gait, sim, settings, stream, plan, st_all, sd_all, stopped)
+
+
+def _attitude_loop(gait: Gait, sim: SimModel, settings: RunSettings,
+                   plan: RunPlan) -> AttitudeLoop | None:
+    """The run's attitude loop (None: open loop, or a gain of 0)."""
+    if settings.attitude is None or settings.attitude.law.gain == 0.0:
+        return None
+    if sim.conditions.lifted:
+        raise SimConfigError("attitude feedback needs the robot on the ground (not lifted)")
+    from robots.attitude_maps import attitude_map
+
+    clock = RunClock(plan.settle_s, plan.entry, plan.gait_end_s, plan.exit)
+    return AttitudeLoop(settings.attitude, attitude_map(sim.robot, sim.model), gait, clock)
 
 
 def _sole_centre_velocity(
@@ -356,4 +398,5 @@ def _trajectory(
         robot_contacts=sim.sensor(sd, "gs_robot_contacts")[:, 0],
         qpos=qpos,
         gait_end_s=plan.gait_end_s if plan.exit is not None else math.inf,
+        attitude_gain=settings.attitude_gain,
     )

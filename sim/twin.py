@@ -189,6 +189,14 @@ class MujocoTwin:
             return np.array(self.data.xquat[self.sim.root_body], dtype=float)
         return np.array(self.data.qpos[3:7], dtype=float)
 
+    def roll_pitch_rad(self) -> tuple[float, float]:
+        """The base's roll and pitch now (z-y'-x''), as an IMU on the body reads them: the
+        player's attitude source on the twin (`gaitsmith-play run --virtual sim`)."""
+        from robots.attitude import roll_pitch
+
+        roll, pitch = roll_pitch(self._base_quat())
+        return float(roll), float(pitch)
+
     @property
     def joint_angles_rad(self) -> np.ndarray:
         return np.array(self.data.qpos[self._qadr], dtype=float)

@@ -19,9 +19,11 @@ from dataclasses import asdict, dataclass, field, replace
 import mujoco
 import numpy as np
 
+from robots.attitude import ATTITUDE_GAIN_KEY
 from robots.gait import Gait
 from robots.robot import Robot
 from robots.servo_params import ServoSetting
+from sim.attitude_loop import AttitudeSettings
 from sim.errors import SimConfigError
 from sim.metrics import FallThresholds, JointMetrics, Metrics, compute, detect_fall, tilt_of
 from sim.model import SimConditions, SimModel, build_sim_model
@@ -254,12 +256,14 @@ def simulate(
     stand_s: float = 0.0,
     end_at_stand: bool = False,
     servo_settings: Sequence[ServoSetting] | None = None,
+    attitude: AttitudeSettings | None = None,
 ) -> tuple[SimModel, Trajectory]:
     """Build the model and run the gait (no verdict); see `validate`. `servo_settings`: the
-    identified servos (`robots.servo_params`, one per joint; None: catalogue servos)."""
+    identified servos (`robots.servo_params`, one per joint; None: catalogue servos);
+    `attitude`: closed-loop IMU feedback (`sim.attitude_loop`; None: open loop)."""
     gait.check_robot(robot)
     settings = RunSettings(cycles=cycles, rate_hz=rate_hz, latency_s=latency_s,
-                           stand_s=stand_s, end_at_stand=end_at_stand)
+                           stand_s=stand_s, end_at_stand=end_at_stand, attitude=attitude)
     sim = build_sim_model(
         robot,
         SimConditions(friction=friction, payload_kg=payload_kg, strength=strength),
@@ -305,6 +309,7 @@ def validate(
     stand_s: float = 0.0,
     end_at_stand: bool = False,
     servo_settings: Sequence[ServoSetting] | None = None,
+    attitude: AttitudeSettings | None = None,
 ) -> ValidationResult:
     """Simulate `cycles` cycles of `gait` on `robot` and return metrics + verdict (`stand_s`,
     `end_at_stand`: start and end at the gait's stand, see the module docstring)."""
@@ -326,6 +331,7 @@ def validate(
         stand_s=stand_s,
         end_at_stand=end_at_stand,
         servo_settings=servo_settings,
+        attitude=attitude,
     )
     result = evaluate(
         traj,
@@ -368,6 +374,8 @@ def evaluate(
         "strength": cond.strength,
         "timestep_s": float(sim.model.opt.timestep),
     }
+    if traj.attitude_gain > 0.0:  # a closed-loop verdict says so (the player checks it)
+        conditions[ATTITUDE_GAIN_KEY] = traj.attitude_gain
     return ValidationResult(
         passed=not reasons,
         reasons=reasons,

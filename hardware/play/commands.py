@@ -302,6 +302,11 @@ def run(
         "Servo supply [V] for pre-flight's torque margin; default: measured (the lowest "
         "servo reading)."
     ),
+    attitude_gain: float | None = typer.Option(
+        None, "--attitude-gain",
+        help="IMU feedback on body roll/pitch with gain G (0 to 2; hardware.play.attitude), "
+        "added to the goals before the safety gate. Only --virtual sim has an IMU (the MuJoCo "
+        "twin's body); default there: the gain the gait was validated with, else 0."),
 ) -> None:
     """Play a gait on the servos: pre-flight, ramp-in, stream, watchdog, safe stop.
 
@@ -331,6 +336,9 @@ def run(
             "--fault injects faults into the virtual bus only: add --virtual (or --virtual sim) "
             "to rehearse on it, or drop --fault to play on real servos"
         )
+    problem = _attitude_problem(attitude_gain, virtual)
+    if problem is not None:
+        raise _fail(problem)
     rob, gait_obj, cal = _load_inputs(robot, gait, calibration)
     if port is not None and virtual is None and not dry_run:
         _warn_beyond_bus_budget(rob, port, baud or rob.bus_baud, rate_hz)
@@ -368,11 +376,47 @@ def run(
             clock=VirtualClock() if dry_run else clock,
             telemetry=session.writer,
             on_tick=faults.on_tick if faults is not None and faults.timed else None,
+            attitude=_twin_attitude(attitude_gain, rob, gait_obj, session.twin, clock),
         )
         if dry_run:
             console.print("[bold]dry run[/]: nothing is sent to the servos")
         result = player.run()
     finish_session(lambda: _report(result, session.twin, rate_hz, telemetry), result.exit_code)
+
+
+def _attitude_problem(gain: float | None, virtual: VirtualMode | None) -> str | None:
+    """--attitude-gain's one-line refusal (None: fine)."""
+    if gain is None:
+        return None
+    from robots.attitude import AttitudeError, check_gain
+
+    try:
+        check_gain("--attitude-gain", gain)
+    except AttitudeError as exc:
+        return str(exc)
+    if gain > 0 and virtual is not VirtualMode.sim:
+        return ("--attitude-gain: no IMU to read here; only --virtual sim has one (the MuJoCo "
+                "twin's body); gaitsmith-play has no IMU driver yet")
+    return None
+
+
+def _twin_attitude(gain: float | None, robot: Any, gait: Any, twin: Any, clock: Clock) -> Any:
+    """The twin's IMU feedback for `Player` (None: open loop): `gain`, or the gain the gait was
+    validated with when there is a twin to read."""
+    if twin is None or not hasattr(twin, "roll_pitch_rad"):
+        return None
+    from hardware.play.attitude import AttitudeCorrector, SyntheticAttitude
+    from hardware.play.preflight import validated_attitude_gain
+    from robots.attitude import AttitudeLaw
+    from robots.attitude_maps import attitude_map
+
+    g = validated_attitude_gain(gait.validation) if gain is None else gain
+    if not g:
+        return None
+    console.print(f"attitude feedback: gain {g:g} from the twin's body orientation",
+                  highlight=False)
+    source = SyntheticAttitude(lambda _t: twin.roll_pitch_rad(), clock.now_s)
+    return AttitudeCorrector(AttitudeLaw(g), attitude_map(robot), gait, source)
 
 
 @dataclass

@@ -57,6 +57,7 @@ from hardware.errors import (
     NoResponse,
     ServoFault,
 )
+from hardware.play.attitude import AttitudeCorrector
 from hardware.play.calibration import Calibration
 from hardware.play.clock import Clock, MonotonicClock, VirtualClock
 from hardware.play.errors import PlayerError
@@ -72,7 +73,7 @@ from hardware.play.telemetry import TelemetryWriter, TickRecord
 from hardware.play.thermal_watch import PredictedHeating, predicted_heating
 from hardware.play.watchdog import StopEvent, StopReason, Watchdog, WatchdogLimits, stop_on_signals
 from robots.gait import Gait
-from robots.ramp import GaitEntry, MinJerkRamp, gait_entry, gait_exit, ramp_to
+from robots.ramp import GaitEntry, MinJerkRamp, gait_entry, gait_exit, min_jerk, ramp_to
 from robots.robot import Robot
 
 TickHook = Callable[[int, float], None]
@@ -211,10 +212,13 @@ class Player:
         telemetry: TelemetryWriter | None = None,
         on_tick: TickHook | None = None,
         heating: Mapping[int, PredictedHeating] | None = None,
+        attitude: AttitudeCorrector | None = None,
     ) -> None:
         """`heating`: the predicted heating the watchdog compares against (default: `gait`'s;
-        `hardware.play.drive` passes the worst over its library)."""
+        `hardware.play.drive` passes the worst over its library); `attitude`: IMU feedback
+        added to the goals before the SafetyGate (`hardware.play.attitude`; None: open loop)."""
         self.robot, self.gait = robot, gait
+        self.attitude = attitude
         self.config = cfg = config or PlayerConfig()
         if bus is None and not cfg.dry_run:
             raise PlayerError("no servo bus given (use --dry-run to play without one)")
@@ -277,6 +281,7 @@ class Player:
             cfg.force,
             rate_hz=cfg.rate_hz,
             cycles=cfg.cycles,
+            attitude_gain=None if self.attitude is None else self.attitude.law.gain,
         )
         return warnings
 
@@ -414,6 +419,23 @@ class Player:
             return "blend_in", entry.positions(entry.blend_start_s + t_blend)
         return None
 
+    @staticmethod
+    def _entry_clock(plan: EntryPlan, k: int) -> tuple[float, float]:
+        """(blend weight, gait time [s]) of entry deadline k, for the attitude feedback: 0
+        during the ramp and the stand; in the blend the gait's clock runs from its start."""
+        entry = plan.entry
+        if k < plan.n_ramp + plan.n_hold:
+            return 0.0, 0.0
+        t_blend = (k - plan.n_ramp - plan.n_hold) * entry.blend_s / plan.n_blend
+        alpha = float(entry.blend_weight(entry.blend_start_s + t_blend))
+        return alpha, t_blend * entry.time_scale
+
+    def _corrected(self, target: np.ndarray, blend: float, gait_time_s: float) -> np.ndarray:
+        """`target` plus the attitude feedback's offsets (module `hardware.play.attitude`)."""
+        if self.attitude is None:
+            return target
+        return target + self.attitude.offsets(self.clock.now_s(), blend, gait_time_s)
+
     def _play(self) -> None:
         cfg = self.config
         plan = self._entry_plan(self.gait, cfg.speed_scale, cfg.stand_s)
@@ -425,12 +447,14 @@ class Player:
             step = self._entry_target(plan, k)
             if step is not None:
                 phase, target = step
+                target = self._corrected(target, *self._entry_clock(plan, k))
             elif n_gait is not None and k - plan.ticks > n_gait:
                 self._end_at_stand(k, (n_gait + 1) * self.period_s * cfg.speed_scale, plan.n_hold)
                 break
             else:
                 t_gait = (k - plan.ticks) * self.period_s * cfg.speed_scale
-                phase, target = "gait", self.gait.joint_targets(t_gait)
+                phase = "gait"
+                target = self._corrected(self.gait.joint_targets(t_gait), 1.0, t_gait)
             k = self._tick(k, phase, target, watch=True)
 
     def _end_at_stand(self, k: int, gait_s: float, n_hold: int) -> None:
@@ -447,7 +471,10 @@ class Player:
                     return
                 t_exit = min(j, n_exit) * exit_.duration_s / n_exit  # ends exactly at the stand
                 phase = "blend_out" if j < n_exit else "stand"
-                k = self._tick(k, phase, exit_.positions(t_exit), watch=True)
+                keep = 1.0 - float(min_jerk(t_exit / exit_.duration_s))
+                target = self._corrected(exit_.positions(t_exit), keep,
+                                         gait_s + cfg.speed_scale * t_exit)
+                k = self._tick(k, phase, target, watch=True)
             if self.watchdog.stop is not None:
                 return
             self._at_stand = True

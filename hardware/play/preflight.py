@@ -25,6 +25,7 @@ warned about (the watchdog will stop the run there).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -37,6 +38,7 @@ from hardware.play.calibration import Calibration
 from hardware.play.errors import PreflightError, SpeedScaleError
 from hardware.play.thermal_watch import PredictedHeating
 from hardware.play.watchdog import WatchdogLimits
+from robots.attitude import ATTITUDE_GAIN_KEY
 from robots.errors import GaitFileError
 from robots.gait import Gait
 from robots.robot import Robot
@@ -83,11 +85,13 @@ def check_offline(
     force: bool,
     rate_hz: float | None = None,
     cycles: float | None = None,
+    attitude_gain: float | None = None,
 ) -> tuple[list[str], np.ndarray]:
     """Checks that need no bus; returns (warnings, peak speeds at `speed_scale`).
 
     `allowed_speed_rad_s`: the speed the gate enforces (at `rate_hz`, named in the refusal);
-    `cycles`: cycles to play (None: until stopped)."""
+    `cycles`: cycles to play (None: until stopped); `attitude_gain`: the IMU feedback's gain
+    the run will use (None: open loop; `check_attitude`)."""
     try:
         gait.check_robot(robot)
     except GaitFileError as exc:
@@ -135,7 +139,32 @@ def check_offline(
                 f"gait {what}; run `gaitsmith simulate` first, or pass --force to play it anyway",
             )
         warnings.append(f"WARNING: gait {what}; playing it anyway because of --force")
+    warnings += check_attitude(gait, attitude_gain, force)
     return warnings, peaks
+
+
+def validated_attitude_gain(validation: Mapping[str, Any] | None) -> float:
+    """The IMU feedback gain the gait's sim verdict was reached with (0: open loop)."""
+    cond = (validation or {}).get("conditions")
+    gain = cond.get(ATTITUDE_GAIN_KEY, 0.0) if isinstance(cond, Mapping) else 0.0
+    ok = isinstance(gain, (int, float)) and not isinstance(gain, bool) and math.isfinite(gain)
+    return float(gain) if ok else 0.0
+
+
+def check_attitude(gait: Gait, attitude_gain: float | None, force: bool) -> list[str]:
+    """A gait validated closed loop (``validation.conditions.attitude_gain`` > 0) is refused
+    open loop unless `force`; a different gain than validated is a warning."""
+    validated = validated_attitude_gain(gait.validation)
+    if validated > 0.0 and not attitude_gain:
+        what = (f"gait was validated closed loop (attitude gain {validated:g}) and this run has "
+                "no IMU feedback")
+        if not force:
+            raise PreflightError("gait validation", f"{what}; pass --force to play it open loop")
+        return [f"WARNING: {what}; playing it open loop because of --force"]
+    if attitude_gain and abs(attitude_gain - validated) > 1e-9:
+        return [f"WARNING: attitude gain {attitude_gain:g} differs from the {validated:g} the "
+                "gait was validated with"]
+    return []
 
 
 def check_bus(

@@ -39,7 +39,8 @@ def test_every_plan_option_has_one_route() -> None:
 def test_search_refuses_what_the_table_refuses(
     route: OptionRoute, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    value = {"--vy": ["0.05"], "--yaw-rate": ["0.2"], "--servo-params": ["servo_params.toml"]}
+    value = {"--vy": ["0.05"], "--yaw-rate": ["0.2"], "--servo-params": ["servo_params.toml"],
+             "--attitude-gain": ["0.5"]}
     out = tmp_path / "g.json"
     argv = ["plan", "quad12", "--speed", "0.2", "--search", route.flag,
             *value.get(route.flag, []), "-o", str(out)]

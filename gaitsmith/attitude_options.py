@@ -1,0 +1,64 @@
+"""`--attitude-gain G` (`plan --simulate`/`--knife-edge`, `simulate`): closed-loop IMU feedback
+in the MuJoCo run (`robots.attitude`, `sim.attitude_loop`). Checked before any work; the gain a
+run used is written into the gait file's validation conditions (``attitude_gain``)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import typer
+
+from gaitsmith.options import check_number
+from robots.attitude import MAX_ATTITUDE_GAIN
+
+if TYPE_CHECKING:
+    from robots.gait import Gait
+    from robots.robot import Robot
+    from sim.attitude_loop import AttitudeSettings
+
+MAX_IMU_LATENCY_MS = 500.0
+MAX_IMU_NOISE_DEG = 10.0
+
+
+def attitude_gain_option() -> Any:
+    return typer.Option(
+        None, "--attitude-gain",
+        help="close the loop on body roll/pitch from a simulated IMU with gain G (0 to "
+        f"{MAX_ATTITUDE_GAIN:g}; 1 corrects the whole tilt error each tick) through the stance "
+        "legs' joints (`robots.attitude`); 0: open loop; default: 0.5 for a robot with fewer "
+        "than 3 legs whose robot.toml declares an \\[imu] (the built-in biped, humanoid20) on a "
+        "walk, else robot.toml's \\[imu].attitude_gain, else 0")
+
+
+def check_attitude_gain(option: str, gain: float | None) -> None:
+    """`gain` (None: not given) finite and in [0, MAX_ATTITUDE_GAIN] (one-line OptionError)."""
+    check_number(option, gain, 0.0, MAX_ATTITUDE_GAIN)
+
+
+def resolved_gain(gain: float | None, robot: Robot, gait: Gait) -> float:
+    """The gain a run of `gait` uses: the option if given, else the robot's default
+    (`robots.attitude.default_attitude_gain`), said on the console when it closes the loop."""
+    if gain is not None:
+        return float(gain)
+    from gaitsmith.console import console
+    from robots.attitude import default_attitude_gain
+
+    default, why = default_attitude_gain(robot, gait)
+    if default > 0.0:
+        console.print(f"attitude feedback: gain {default:g} ({why}); --attitude-gain 0 runs "
+                      "open loop", highlight=False, markup=False)
+    return default
+
+
+def attitude_settings(gain: float | None, imu_latency_ms: float = 0.0,
+                      imu_noise_deg: float = 0.0) -> AttitudeSettings | None:
+    """The run's closed-loop settings (None: open loop), from checked options."""
+    if not gain:
+        return None
+    import math
+
+    from robots.attitude import AttitudeLaw
+    from sim.attitude_loop import AttitudeSettings, ImuSettings
+
+    return AttitudeSettings(AttitudeLaw(float(gain)),
+                            ImuSettings(imu_latency_ms / 1000.0, math.radians(imu_noise_deg)))
