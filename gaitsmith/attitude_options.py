@@ -26,8 +26,8 @@ def attitude_gain_option() -> Any:
         help="close the loop on body roll/pitch from a simulated IMU with gain G (0 to "
         f"{MAX_ATTITUDE_GAIN:g}; 1 corrects the whole tilt error each tick) through the stance "
         "legs' joints (`robots.attitude`); 0: open loop; default: 0.5 for a robot with fewer "
-        "than 3 legs whose robot.toml declares an \\[imu] (the built-in biped, humanoid20) on a "
-        "walk, else robot.toml's \\[imu].attitude_gain, else 0")
+        "than 3 legs whose robot.toml declares an [imu] (the built-in biped, humanoid20) on a "
+        "walk, else robot.toml's [imu].attitude_gain, else 0")
 
 
 def check_attitude_gain(option: str, gain: float | None) -> None:

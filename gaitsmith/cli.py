@@ -120,6 +120,8 @@ app = typer.Typer(
     no_args_is_help=True,
     pretty_exceptions_enable=False,
     add_completion=False,
+    # help texts are plain: units like [ms] or [m/s] are not rich markup tags to be eaten
+    rich_markup_mode=None,
     cls=_LazyGroup,
     callback=_no_group_options,
 )

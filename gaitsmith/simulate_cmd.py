@@ -189,7 +189,7 @@ def simulate_command(
     attitude_gain: float | None = attitude_gain_option(),
     imu_latency_ms: float = typer.Option(
         0.0, "--imu-latency-ms", help="with --attitude-gain: age of the simulated IMU's reading "
-        "\\[ms]"),
+        "[ms]"),
     imu_noise_deg: float = typer.Option(
         0.0, "--imu-noise-deg", help="with --attitude-gain: 1σ noise of the simulated IMU's roll "
         "and pitch [°] (seeded)"),

@@ -37,6 +37,8 @@ app = typer.Typer(
     help="Play gaits on Dynamixel / Feetech servos; scan buses; run a virtual servo bus.",
     no_args_is_help=True,
     add_completion=False,
+    # help texts are plain: units like [ms] or [s] are not rich markup tags to be eaten
+    rich_markup_mode=None,
 )
 console = Console()
 err_console = Console(stderr=True)
@@ -113,7 +115,7 @@ def model_names(protocol: str, model_number: int) -> str:
 def scan(
     port: str = typer.Option(..., "--port", "-p", help="Serial device, e.g. /dev/ttyUSB0."),
     protocol: ProtocolName = typer.Option(..., "--protocol", help="Wire protocol."),
-    baud: int | None = typer.Option(None, "--baud", help="Baud rate \\[bit/s]; default: factory."),
+    baud: int | None = typer.Option(None, "--baud", help="Baud rate [bit/s]; default: factory."),
     ids: str = typer.Option("0-252", "--ids", help="Ids to ping, e.g. 1-12,20."),
     timeout_ms: float = typer.Option(10.0, "--timeout-ms", help="Reply allowance per ping."),
 ) -> None:
@@ -148,12 +150,12 @@ def virtual_bus(
     protocol: ProtocolName | None = typer.Option(None, "--protocol", help="Without --robot."),
     ids: str = typer.Option("1-12", "--ids", help="Servo ids (without --robot), e.g. 1-12."),
     model: str | None = typer.Option(None, "--model", help="Catalogue servo model (no --robot)."),
-    duration_s: float | None = typer.Option(None, "--duration", help="Stop after this \\[s]."),
+    duration_s: float | None = typer.Option(None, "--duration", help="Stop after this [s]."),
     wire_baud: int | None = typer.Option(
-        None, "--wire-baud", help="Emulate wire time at this baud \\[bit/s] (default: off)."
+        None, "--wire-baud", help="Emulate wire time at this baud [bit/s] (default: off)."
     ),
     latency_ms: float = typer.Option(
-        0.0, "--latency-ms", help="With --wire-baud: emulated USB adapter latency \\[ms]."
+        0.0, "--latency-ms", help="With --wire-baud: emulated USB adapter latency [ms]."
     ),
 ) -> None:
     """Emulate a servo bus on a pseudo-terminal; prints its device path; runs until Ctrl-C."""

@@ -32,7 +32,7 @@ def rate_option(help_text: str | None = None) -> Any:
     return typer.Option(
         100.0,
         "--rate",
-        help=help_text or f"Stream rate \\[Hz], 1..1000 (sustained: ≤ {SUSTAINED_RATE_HZ:g}).",
+        help=help_text or f"Stream rate [Hz], 1..1000 (sustained: ≤ {SUSTAINED_RATE_HZ:g}).",
     )
 
 
@@ -41,7 +41,7 @@ def telemetry_option() -> Any:
 
 
 def ramp_option() -> Any:
-    return typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time \\[s].")
+    return typer.Option(2.0, "--ramp-s", help="Minimum ramp-in time [s].")
 
 
 def rest_option() -> Any:

@@ -280,7 +280,7 @@ def run(
     rest: RestPose = rest_option(),
     on_stop: OnStop = on_stop_option(),
     stand_s: float = typer.Option(
-        0.0, "--stand-s", help="Hold the gait's stand (mean pose) this long \\[s] after the "
+        0.0, "--stand-s", help="Hold the gait's stand (mean pose) this long [s] after the "
         "ramp-in and, on completion, at the end."),
     end_at_stand: bool = typer.Option(
         True, "--end-at-stand/--end-at-rest",
@@ -502,16 +502,16 @@ def budget(
     robot: str = typer.Option(..., "--robot", help="Robot name or folder."),
     baud: int | None = baud_option(),
     return_delay_us: float | None = typer.Option(
-        None, "--return-delay-us", help="Servos' Return Delay Time \\[µs]; default: factory."
+        None, "--return-delay-us", help="Servos' Return Delay Time [µs]; default: factory."
     ),
     latency_ms: float | None = typer.Option(
         None,
         "--latency-ms",
-        help="USB adapter latency timer \\[ms]; default: read from sysfs for --port, else 16 "
+        help="USB adapter latency timer [ms]; default: read from sysfs for --port, else 16 "
         "(FTDI factory).",
     ),
     port: str | None = typer.Option(None, "--port", "-p", help="Read its latency timer."),
-    rate_hz: float | None = typer.Option(None, "--rate", help="Also check this rate \\[Hz]."),
+    rate_hz: float | None = typer.Option(None, "--rate", help="Also check this rate [Hz]."),
 ) -> None:
     """The loop rate the robot's bus sustains: bytes per tick, wire time, return delays, USB
     latency; which term dominates and what to change."""
@@ -637,7 +637,7 @@ def report(
         3.0, "--departure-factor", help="Departure: this many × a joint's median plan error."
     ),
     departure_rad: float = typer.Option(
-        0.1, "--departure-rad", help="Departure: absolute plan error cap \\[rad]."
+        0.1, "--departure-rad", help="Departure: absolute plan error cap [rad]."
     ),
 ) -> None:
     """Planned vs measured after a run: tracking, load, temperature, loop timing, and where

@@ -84,16 +84,16 @@ def drive(
         '{"vx":0.1,"vy":0,"yaw_rate":0.2}); default: keyboard in a terminal, else stdin.',
     ),
     deadman_s: float = typer.Option(
-        0.5, "--deadman-s", help="No command for this long → decelerate to the stand \\[s]."
+        0.5, "--deadman-s", help="No command for this long → decelerate to the stand [s]."
     ),
     rate_hz: float = rate_option(),
     telemetry: Path | None = telemetry_option(),
-    accel: float = typer.Option(0.5, "--accel", help="Command acceleration limit \\[m/s²]."),
+    accel: float = typer.Option(0.5, "--accel", help="Command acceleration limit [m/s²]."),
     yaw_accel: float = typer.Option(
-        1.5, "--yaw-accel", help="Yaw-rate acceleration limit \\[rad/s²]."
+        1.5, "--yaw-accel", help="Yaw-rate acceleration limit [rad/s²]."
     ),
     max_drive_s: float = typer.Option(
-        0.0, "--max-drive-s", help="End (standing) after this long \\[s]; 0 = when input ends."
+        0.0, "--max-drive-s", help="End (standing) after this long [s]; 0 = when input ends."
     ),
     calibration: Path | None = calibration_option(),
     ramp_s: float = ramp_option(),

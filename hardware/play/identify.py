@@ -306,14 +306,14 @@ def identify_command(
         None, "--joints", help="Comma-separated joint names to excite (default: all)."
     ),
     amplitude_deg: float = typer.Option(
-        DEFAULT_AMPLITUDE_DEG, "--amplitude-deg", help="Step amplitude about stance \\[deg]."
+        DEFAULT_AMPLITUDE_DEG, "--amplitude-deg", help="Step amplitude about stance [deg]."
     ),
     duration_s: float = typer.Option(
-        DEFAULT_SEGMENT_S, "--duration-s", help="Excitation per joint group \\[s] (2..120)."
+        DEFAULT_SEGMENT_S, "--duration-s", help="Excitation per joint group [s] (2..120)."
     ),
     yes: bool = typer.Option(False, "--yes", "-y", help="The robot is lifted: do not ask."),
     calibration: Path | None = calibration_option(),
-    rate_hz: float = rate_option("Stream rate \\[Hz], 1..1000."),
+    rate_hz: float = rate_option("Stream rate [Hz], 1..1000."),
     ramp_s: float = ramp_option(),
     timeout_ms: float = timeout_option(),
     baud: int | None = baud_option(),

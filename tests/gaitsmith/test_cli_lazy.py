@@ -40,3 +40,16 @@ def test_importing_the_cli_imports_no_subcommand() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=120)
     assert out.stdout.strip() == "[]"
+
+
+def test_help_shows_units_and_toml_sections_in_brackets() -> None:
+    """Help texts are plain text (`rich_markup_mode=None`): "[ms]", "[m/s]" and "[imu]" were
+    eaten as rich style tags when help was rendered as markup."""
+    from typer.testing import CliRunner
+
+    runner = CliRunner()
+    cases = ((["simulate", "--help"], ("[ms]", "[imu]")), (["plan", "--help"], ("[m/s]",)))
+    for argv, shown in cases:
+        res = runner.invoke(cli.app, argv, env={"COLUMNS": "200"})
+        assert res.exit_code == 0, res.output
+        assert all(s in res.output for s in shown), res.output

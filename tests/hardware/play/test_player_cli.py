@@ -195,6 +195,6 @@ def test_fault_needs_the_virtual_bus(gait_file: Path, where: tuple[str, ...]) ->
     ("command", "unit"), [("run", "time [s]"), ("scan", "rate [bit/s]"), ("virtual-bus", "[s]")]
 )
 def test_help_shows_units_in_brackets(command: str, unit: str) -> None:
-    """Typer renders help as rich markup: an unescaped "[s]" would vanish as a style tag."""
+    """Help is plain text (`rich_markup_mode=None`): as rich markup "[s]" vanished (a style tag)."""
     res = runner.invoke(app, [command, "--help"], env={"COLUMNS": "200"})
     assert res.exit_code == 0 and unit in res.output, res.output
