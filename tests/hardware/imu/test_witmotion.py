@@ -4,6 +4,7 @@ quaternion reference, a vanished adapter, and the corrector fading a silent IMU 
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -186,5 +187,5 @@ def test_a_silent_imu_fades_the_correction_out(tmp_path: Path) -> None:
         size.append(float(np.max(np.abs(corr.offsets(now[0], 1.0, 0.0)))))
     assert max(size[:30]) > 0.01
     # stale after max_age (0.05 s) past the last frame, then linear to zero over fade (0.2 s)
-    assert all(b <= a + 1e-12 for a, b in zip(size[34:], size[35:], strict=False))
+    assert all(b <= a + 1e-12 for a, b in itertools.pairwise(size[34:]))
     assert size[29 + 5 + 20 + 2] < 1e-9 and corr.trust == 0.0 and corr.stale_ticks > 0
