@@ -484,6 +484,9 @@ def _attitude(gain: float | None, robot: Any, gait: Any, twin: Any, imu: Any,
 
     g = validated_attitude_gain(gait.validation) if gain is None else gain
     if not g:
+        if imu is not None:
+            console.print(f"attitude feedback: off (gain 0: the gait was validated open loop; "
+                          f"--attitude-gain G uses {what})", highlight=False)
         return None
     console.print(f"attitude feedback: gain {g:g} from {what}", highlight=False)
     return AttitudeCorrector(AttitudeLaw(g), attitude_map(robot), gait, source)

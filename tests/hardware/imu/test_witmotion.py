@@ -189,3 +189,23 @@ def test_a_silent_imu_fades_the_correction_out(tmp_path: Path) -> None:
     # stale after max_age (0.05 s) past the last frame, then linear to zero over fade (0.2 s)
     assert all(b <= a + 1e-12 for a, b in itertools.pairwise(size[34:]))
     assert size[29 + 5 + 20 + 2] < 1e-9 and corr.trust == 0.0 and corr.stale_ticks > 0
+
+
+def test_a_reading_stamped_just_after_the_ticks_clock_is_fresh(tmp_path: Path) -> None:
+    """On a real clock the player reads the time, then the IMU stamps its new frame a few µs
+    later: that reading must count as fresh (it was counted stale: negative age)."""
+    rig = make_rig(tmp_path, "biped")
+    port = FakePort()
+    now = [0.0]
+    imu = WitmotionImu(port, lambda: now[0] + 0.0005)  # the IMU stamps 0.5 ms after the tick
+    corr = AttitudeCorrector(AttitudeLaw(1.0), attitude_map(rig.robot), rig.gait, imu)
+    for k in range(20):
+        now[0] = k * 0.01
+        port.pending += angle_frame(4.0, -3.0, 0.0)
+        size = float(np.max(np.abs(corr.offsets(now[0], 1.0, 0.0))))
+        assert corr.trust == 1.0 and size > 0.01 and corr.stale_ticks == 0
+    # a reading from another clock, far ahead of the player's, is not used
+    imu.clock = lambda: now[0] + 1.0
+    port.pending += angle_frame(4.0, -3.0, 0.0)
+    corr.offsets(0.2, 1.0, 0.0)
+    assert corr.stale_ticks == 1
