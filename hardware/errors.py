@@ -11,6 +11,7 @@ Hierarchy::
     │   └── ServoFault           a servo answered with hardware-error flags set
     ├── InvalidSetting           a bus / fault-plan setting out of bounds (also a ValueError)
     ├── CalibrationError         calibration file missing, malformed or for another robot build
+    ├── ImuError                 the IMU cannot be opened, is silent or too slow, or a bad setting
     └── LimitError               a joint target lies outside the joint's limits
 """
 
@@ -112,3 +113,7 @@ class LimitError(HardwareError):
             f"[{lower_rad:.4f}, {upper_rad:.4f}] rad"
         )
 
+
+class ImuError(HardwareError, ValueError):
+    """The IMU (`hardware.imu`) cannot be opened, sends no usable frames, sends them too
+    slowly for the player, or one of its settings (baud, mount) is out of bounds."""

@@ -10,7 +10,8 @@ An IMU is anything that implements `AttitudeSource` (``read()`` → the newest `
 player's clock — or None when there is none yet). `SyntheticAttitude` is a scripted source for
 tests and the virtual bus.
 
-Stale or missing readings: a reading older than `max_age_s` (or none at all) is not used. The
+Stale or missing readings: a reading older than `max_age_s` (or none at all) is not used (nor
+one stamped more than `max_age_s` after the tick's clock: another clock's). The
 correction then fades linearly to zero over `fade_s` from what it last was — it is never frozen
 at its last value, which on a robot whose IMU has died would hold a tilt correction for a tilt
 that is gone. When fresh readings return, the correction fades back in over the same time.
@@ -105,9 +106,12 @@ class AttitudeCorrector:
         dt = 0.0 if self._t_last is None else max(0.0, now_s - self._t_last)
         self._t_last = now_s
         reading = self.source.read()
+        # |age| ≤ max age: a source that stamps its reading when read (WitmotionImu,
+        # SyntheticAttitude on a real clock) stamps it just *after* `now_s`, which the player
+        # read before asking; that reading is the freshest there is, not one from the future
         fresh = (reading is not None and math.isfinite(reading.roll_rad)
                  and math.isfinite(reading.pitch_rad)
-                 and 0.0 <= now_s - reading.t_s <= self.max_age_s)
+                 and abs(now_s - reading.t_s) <= self.max_age_s)
         step = dt / self.fade_s
         if fresh:
             assert reading is not None

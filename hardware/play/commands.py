@@ -48,6 +48,7 @@ from typer.core import TyperCommand
 
 from hardware.bus.servo_bus import BusConfig, ServoBus
 from hardware.errors import HardwareError
+from hardware.imu.witmotion import DEFAULT_BAUD as DEFAULT_IMU_BAUD
 from hardware.play.cli_options import (
     SUSTAINED_RATE_HZ,
     baud_option,
@@ -305,8 +306,18 @@ def run(
     attitude_gain: float | None = typer.Option(
         None, "--attitude-gain",
         help="IMU feedback on body roll/pitch with gain G (0 to 2; hardware.play.attitude), "
-        "added to the goals before the safety gate. Only --virtual sim has an IMU (the MuJoCo "
-        "twin's body); default there: the gain the gait was validated with, else 0."),
+        "added to the goals before the safety gate, from --imu or --virtual sim (the MuJoCo "
+        "twin's body); default with either: the gain the gait was validated with, else 0."),
+    imu: str | None = typer.Option(
+        None, "--imu", metavar="PORT",
+        help="Serial port of a WitMotion IMU (WT901/JY901/HWT901B; hardware.imu.witmotion) "
+        "on the robot's body, for --attitude-gain; it must stream angle frames at >= 40 Hz."),
+    imu_baud: int = typer.Option(
+        DEFAULT_IMU_BAUD, "--imu-baud", help="The IMU's baud rate (WitMotion factory: 9600)."),
+    imu_mount: str = typer.Option(
+        "", "--imu-mount", metavar="yaw=DEG,roll=DEG",
+        help="The IMU's axes on the body (x forward, y left, z up): yaw turns its X axis "
+        "about body up (X pointing right: yaw=-90); roll=180: mounted upside down."),
 ) -> None:
     """Play a gait on the servos: pre-flight, ramp-in, stream, watchdog, safe stop.
 
@@ -336,7 +347,7 @@ def run(
             "--fault injects faults into the virtual bus only: add --virtual (or --virtual sim) "
             "to rehearse on it, or drop --fault to play on real servos"
         )
-    problem = _attitude_problem(attitude_gain, virtual)
+    problem = _attitude_problem(attitude_gain, virtual, imu)
     if problem is not None:
         raise _fail(problem)
     rob, gait_obj, cal = _load_inputs(robot, gait, calibration)
@@ -362,7 +373,30 @@ def run(
         )
     except ValueError as exc:
         raise _fail(str(exc)) from None
-    clock: Clock = MonotonicClock() if realtime or virtual is None else VirtualClock()
+    # a real IMU runs in real time: its readings are only fresh on a real clock
+    clock: Clock = MonotonicClock() if realtime or virtual is None or imu else VirtualClock()
+    imu_source = None if imu is None else _open_imu(imu, imu_baud, imu_mount, clock)
+    try:
+        _play(rob, gait_obj, cal, port, virtual, config, bus_config, faults, clock, telemetry,
+              _Feedback(attitude_gain, imu_source))
+    finally:
+        if imu_source is not None:
+            imu_source.close()
+
+
+@dataclass(frozen=True)
+class _Feedback:
+    """`run`'s attitude feedback settings: --attitude-gain and the opened --imu (or None)."""
+
+    gain: float | None
+    imu: Any
+
+
+def _play(rob: Any, gait_obj: Any, cal: Any, port: str | None, virtual: VirtualMode | None,
+          config: PlayerConfig, bus_config: BusConfig, faults: FaultSchedule | None,
+          clock: Clock, telemetry: Path | None, feedback: _Feedback) -> None:
+    """`run` after its options are checked and the IMU is open: play, report, exit."""
+    dry_run, rate_hz, imu_source = config.dry_run, config.rate_hz, feedback.imu
     with play_session(
         rob, port, virtual, bus_config, clock, faults, telemetry,
         open_bus=not dry_run or port is not None or virtual is not None,
@@ -376,16 +410,26 @@ def run(
             clock=VirtualClock() if dry_run else clock,
             telemetry=session.writer,
             on_tick=faults.on_tick if faults is not None and faults.timed else None,
-            attitude=_twin_attitude(attitude_gain, rob, gait_obj, session.twin, clock),
+            attitude=_attitude(feedback.gain, rob, gait_obj, session.twin, imu_source, clock),
         )
         if dry_run:
             console.print("[bold]dry run[/]: nothing is sent to the servos")
         result = player.run()
-    finish_session(lambda: _report(result, session.twin, rate_hz, telemetry), result.exit_code)
+
+    def report() -> None:
+        _report(result, session.twin, rate_hz, telemetry)
+        if imu_source is not None:
+            console.print(imu_source.summary(), highlight=False)
+
+    finish_session(report, result.exit_code)
 
 
-def _attitude_problem(gain: float | None, virtual: VirtualMode | None) -> str | None:
-    """--attitude-gain's one-line refusal (None: fine)."""
+def _attitude_problem(gain: float | None, virtual: VirtualMode | None,
+                      imu: str | None = None) -> str | None:
+    """--attitude-gain / --imu's one-line refusal (None: fine)."""
+    if imu is not None and virtual is VirtualMode.sim:
+        return ("--imu: --virtual sim reads the twin's body as its IMU; drop --imu, or play on "
+                "the in-process virtual bus (--virtual) or real servos with it")
     if gain is None:
         return None
     from robots.attitude import AttitudeError, check_gain
@@ -394,28 +438,57 @@ def _attitude_problem(gain: float | None, virtual: VirtualMode | None) -> str | 
         check_gain("--attitude-gain", gain)
     except AttitudeError as exc:
         return str(exc)
-    if gain > 0 and virtual is not VirtualMode.sim:
-        return ("--attitude-gain: no IMU to read here; only --virtual sim has one (the MuJoCo "
-                "twin's body); gaitsmith-play has no IMU driver yet")
+    if gain > 0 and virtual is not VirtualMode.sim and imu is None:
+        return ("--attitude-gain: no IMU to read here; pass --imu PORT (a WitMotion serial "
+                "IMU), or use --virtual sim (the MuJoCo twin's body)")
     return None
 
 
-def _twin_attitude(gain: float | None, robot: Any, gait: Any, twin: Any, clock: Clock) -> Any:
-    """The twin's IMU feedback for `Player` (None: open loop): `gain`, or the gain the gait was
-    validated with when there is a twin to read."""
-    if twin is None or not hasattr(twin, "roll_pitch_rad"):
+def _open_imu(path: str, baud: int, mount: str, clock: Clock) -> Any:
+    """The WitMotion IMU on `path`, heard streaming before any servo moves (else a one-line
+    failure naming --imu and the port)."""
+    from hardware.errors import ImuError
+    from hardware.imu.witmotion import open_witmotion, parse_mount
+    from hardware.play.attitude import DEFAULT_MAX_AGE_S
+
+    try:
+        parsed = parse_mount(mount)
+    except ImuError as exc:
+        raise _fail(f"--imu-mount: {exc}") from None
+    try:
+        # two fresh readings per max age: a reading stamped up to a tick late stays fresh
+        return open_witmotion(path, baud, clock.now_s, parsed,
+                              min_rate_hz=2.0 / DEFAULT_MAX_AGE_S)
+    except ImuError as exc:
+        raise _fail(f"--imu {path}: {exc}") from None
+
+
+def _attitude(gain: float | None, robot: Any, gait: Any, twin: Any, imu: Any,
+              clock: Clock) -> Any:
+    """The IMU feedback for `Player` (None: open loop): the source is `imu` (a real IMU,
+    `hardware.imu`) or else the twin's body; the gain is `gain`, or the gain the gait was
+    validated with when there is a source."""
+    if imu is not None:
+        source, what = imu, f"the IMU on {imu.name}"
+    elif twin is not None and hasattr(twin, "roll_pitch_rad"):
+        from hardware.play.attitude import SyntheticAttitude
+
+        source = SyntheticAttitude(lambda _t: twin.roll_pitch_rad(), clock.now_s)
+        what = "the twin's body orientation"
+    else:
         return None
-    from hardware.play.attitude import AttitudeCorrector, SyntheticAttitude
+    from hardware.play.attitude import AttitudeCorrector
     from hardware.play.preflight import validated_attitude_gain
     from robots.attitude import AttitudeLaw
     from robots.attitude_maps import attitude_map
 
     g = validated_attitude_gain(gait.validation) if gain is None else gain
     if not g:
+        if imu is not None:
+            console.print(f"attitude feedback: off (gain 0: the gait was validated open loop; "
+                          f"--attitude-gain G uses {what})", highlight=False)
         return None
-    console.print(f"attitude feedback: gain {g:g} from the twin's body orientation",
-                  highlight=False)
-    source = SyntheticAttitude(lambda _t: twin.roll_pitch_rad(), clock.now_s)
+    console.print(f"attitude feedback: gain {g:g} from {what}", highlight=False)
     return AttitudeCorrector(AttitudeLaw(g), attitude_map(robot), gait, source)
 
 
