@@ -242,9 +242,11 @@ def cost_of_transport(result: PlanResult, robot: Robot) -> float:
 class TimingResult(LocalResult):
     """A local solve of the search; `plan_feasible`: the NLP solved, whatever acceptance said.
 
-    For measurement (`benchmarks/gait_search_bench.py`): `solve_s` the NLP solve's wall time,
-    `accept_s` the acceptance check's, `build_s` the worker's planner build (on the first
-    result a worker returns, 0 on the others)."""
+    For measurement (`benchmarks/gait_search_bench.py`, `benchmarks/readme_split.py`):
+    `solve_s` the NLP solve's wall time, `accept_s` the acceptance check's, `build_s` the
+    worker's planner build (on the first result a worker returns, 0 on the others); `cpu_s`
+    and `accept_cpu_s` the worker process's CPU seconds (`time.process_time`) of the solve and
+    of the check, which other jobs on a shared machine move far less than wall time."""
 
     plan_feasible: bool = False
     solve_s: float = 0.0
@@ -252,6 +254,11 @@ class TimingResult(LocalResult):
     build_s: float = 0.0
     #: IPOPT's return status of the solve ("" if it did not run)
     status: str = ""
+    cpu_s: float = 0.0
+    accept_cpu_s: float = 0.0
+    #: IPOPT's iterates, iteration 0 first: (objective, inf_pr, inf_du) as IPOPT reports them
+    #: (`PlanResult.stats["iterations"]`), for replaying iteration rules on recorded searches
+    iteration_log: tuple[tuple[float, float, float], ...] = ()
 
 
 @dataclass
@@ -290,7 +297,7 @@ class TimingSolver:
         build_s, self.build_s = self.build_s, 0.0
         x = np.clip(np.asarray(x, dtype=float), *self.space.bounds())
         schedule = self.space.decode(x)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         start = self.start_for(x)
         try:
             # cold by default: on a new contact timing a warm start saved few iterations if
@@ -301,25 +308,31 @@ class TimingSolver:
             )
         except PlannerConfigError:  # e.g. a foot never lands on any knot
             return TimingResult(x, math.inf, False, 0, math.inf,
-                                solve_s=time.perf_counter() - t0, build_s=build_s)
-        solve_s = time.perf_counter() - t0
+                                solve_s=time.perf_counter() - t0, build_s=build_s,
+                                cpu_s=time.process_time() - c0)
+        solve_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
         evals = int(result.iterations) + 1
+        log = result.stats.get("iterations", {})
+        iteration_log = tuple(zip(log.get("obj", ()), log.get("inf_pr", ()), log.get("inf_du", ()),
+                                  strict=True))
         cost = result.cost + (self.tipping(schedule) if self.tipping is not None else 0.0)
         if result.feasible and self.warm_start != "cold":
             self.solved.append((self._normalised(x), cost, result.warm_start))
             del self.solved[:-WARM_START_MEMORY]
         if result.feasible and self.acceptance is not None:
-            t1 = time.perf_counter()
+            t1, c1 = time.perf_counter(), time.process_time()
             verdict = self.acceptance(self.planner.to_gait(result, "search sample"))
-            accept_s = time.perf_counter() - t1
+            accept_s, accept_cpu_s = time.perf_counter() - t1, time.process_time() - c1
             if not verdict.passed:
                 return TimingResult(x, cost, False, evals,
                                     REJECTED_VIOLATION * (1.0 + verdict.badness), True,
-                                    solve_s, accept_s, build_s, result.status)
+                                    solve_s, accept_s, build_s, result.status, cpu_s,
+                                    accept_cpu_s, iteration_log)
             return TimingResult(x, cost, True, evals, result.max_violation, True,
-                                solve_s, accept_s, build_s, result.status)
+                                solve_s, accept_s, build_s, result.status, cpu_s, accept_cpu_s,
+                                iteration_log)
         return TimingResult(x, cost, result.feasible, evals, result.max_violation, result.feasible,
-                            solve_s, 0.0, build_s, result.status)
+                            solve_s, 0.0, build_s, result.status, cpu_s, 0.0, iteration_log)
 
 
 @dataclass(frozen=True)
