@@ -16,8 +16,8 @@ imports when it runs), and prints where the command's wall time and CPU time wen
   (`TimingResult.cpu_s`), the samples' MuJoCo checks (`TimingResult.accept_cpu_s`) and the rest
   (interpreter start, imports, NLP builds: the workers' total minus those two);
 - the four parts of issue #16's question: build, coarse solves, fine (30-knot) solves, MuJoCo —
-  CPU seconds, the fine solves' and final checks' being their wall time in this process (one
-  thread; equal to CPU on a quiet machine, an upper bound otherwise).
+  CPU seconds; the final phase's CPU (`GaitSearchResult.phase_cpu_s`) is shared between its
+  re-solves and their MuJoCo checks in proportion to their wall times.
 
 The command's output is printed as usual; the split follows, with the load average before and
 after. Measured in docs/results/planner_speed_search.md (Session 29).
@@ -76,7 +76,8 @@ def main(argv: list[str]) -> int:
     res = captured["result"]
     assert isinstance(res, gs.GaitSearchResult)
     t0, t1 = float(captured["t0"]), float(captured["t1"])  # type: ignore[arg-type]
-    c0, c1 = float(captured["c0"]), float(captured["c1"])  # type: ignore[arg-type]
+    c0 = float(captured["c0"])  # type: ignore[arg-type]
+    c1 = float(captured["c1"])  # type: ignore[arg-type]
     w0, w1 = float(captured["w0"]), float(captured["w1"])  # type: ignore[arg-type]
     ph = res.phase_s
     samples = [r for _, r in res.samples]
@@ -88,13 +89,13 @@ def main(argv: list[str]) -> int:
     final_check_s = sum(check_s for _, check_s, _ in res.final_solves)
     wall = t_end - T_START
     cpu = (c_end - C_START) + (w_end - 0.0)
+    pc = res.phase_cpu_s
     rows = [
         ("start-up: imports, options, robot (this process)", t0 - T_START, c0 - C_START),
-        ("seeding: pool start, worker builds, template solves", ph["seed"], None),
-        ("basin-CMA generations", ph["cma"], None),
-        ("final NLP build (this process)", ph["final_build"], None),
-        ("final re-solves + MuJoCo checks (this process)", ph["final"], None),
-        ("search, this process's CPU (final phase, CMA bookkeeping)", None, c1 - c0),
+        ("seeding: pool start, worker builds, template solves", ph["seed"], pc["seed"]),
+        ("basin-CMA generations", ph["cma"], pc["cma"]),
+        ("final NLP build (this process)", ph["final_build"], pc["final_build"]),
+        ("final re-solves + MuJoCo checks (this process)", ph["final"], pc["final"]),
         ("search, worker processes' CPU", None, workers_cpu),
         ("after the search: gait file, search log (this process)", t_end - t1, c_end - c1),
     ]
@@ -110,14 +111,16 @@ def main(argv: list[str]) -> int:
               f"{'' if c is None else f'{c:8.2f}':>8s}")
     print(f"  {'total (wall; CPU of this process and its workers)':62s} {wall:8.2f} {cpu:8.2f}")
     other_workers = workers_cpu - coarse_cpu - accept_cpu
-    main_other = (c_end - C_START) - fine_s - final_check_s - ph["final_build"]
+    fine_share = fine_s / max(fine_s + final_check_s, 1e-9)
+    fine_cpu, final_check_cpu = pc["final"] * fine_share, pc["final"] * (1.0 - fine_share)
+    main_other = (c_end - C_START) - pc["final"] - pc["final_build"]
     parts = [
         ("build: workers' start, imports and NLP builds", other_workers),
-        ("build: final NLP (wall)", ph["final_build"]),
+        ("build: final NLP (this process)", pc["final_build"]),
         ("coarse solves (workers)", coarse_cpu),
-        ("fine solves (wall, this process)", fine_s),
+        ("fine solves (this process)", fine_cpu),
         ("MuJoCo: samples' checks (workers)", accept_cpu),
-        ("MuJoCo: final checks (wall, this process)", final_check_s),
+        ("MuJoCo: final checks (this process)", final_check_cpu),
         ("the rest of this process (start-up, writing, bookkeeping)", main_other),
     ]
     print(f"  CPU by issue #16's parts (of {cpu:.2f} s):")

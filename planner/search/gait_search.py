@@ -450,6 +450,8 @@ class GaitSearchResult:
     #: wall time [s] of the search's phases: "final_build" (the final planner, 0 if passed in),
     #: "seed" (executor start, worker builds, template solves), "cma", "final" (re-solves + checks)
     phase_s: dict[str, float] = field(default_factory=dict)
+    #: this process's CPU seconds (`time.process_time`) in the same phases
+    phase_cpu_s: dict[str, float] = field(default_factory=dict)
     #: the template that won after no searched timing passed the final acceptance (None: a
     #: searched timing, or the normal ranking, won)
     fallback_template: str | None = None
@@ -508,7 +510,7 @@ def search_gait(
     them instead of the cheapest template, they join the templates in the fallback, and the
     period box grows to hold their periods with `SEED_PERIOD_ROOM` to spare.
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
     if planner is not None and planner.n_knots != n_knots:
         raise PlannerConfigError(f"planner has {planner.n_knots} knots, search asked for {n_knots}")
@@ -557,7 +559,7 @@ def search_gait(
             progress(row)
 
     lo, hi = space.bounds()
-    t_seed = time.perf_counter()
+    t_seed, c_seed = time.perf_counter(), time.process_time()
     with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
         pool = RecordingExecutor(ex)
         # 1. seed with the hand templates that fit the encoding (one parallel batch)
@@ -579,7 +581,7 @@ def search_gait(
         # CMA starts from the user's own schedule when one is given (their intent), else from
         # the cheapest template
         x0 = next(iter(seeds.values())) if seeds else seed_x[best_template]
-        t_cma = time.perf_counter()
+        t_cma, c_cma = time.perf_counter(), time.process_time()
         # 2. basin-CMA over the timings (projection = coarse spacetime solve)
         cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),
                         popsize=popsize,
@@ -588,9 +590,10 @@ def search_gait(
                         callback=on_generation)
     # 3. the cheapest timings, re-solved at full resolution; the first feasible (and accepted)
     #    one wins, else the first feasible one (reported as not accepted)
-    t_final = time.perf_counter()
+    t_final, c_final = time.perf_counter(), time.process_time()
     final = planner or GaitPlanner(robot, n_knots, options)
     final_build_s = 0.0 if planner is not None else time.perf_counter() - t_final
+    final_build_cpu_s = 0.0 if planner is not None else time.process_time() - c_final
     final_check = final_acceptance or acceptance
     check = final_check() if final_check is not None else None
     candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
@@ -644,6 +647,10 @@ def search_gait(
         final_solves=tuple(final_solves), fallback_template=fallback,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": time.perf_counter() - t_final - final_build_s},
+        phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
+                     "final_build": final_build_cpu_s,
+                     "final": time.process_time() - c_final - final_build_cpu_s,
+                     "total": time.process_time() - c0},
     )
 
 
