@@ -60,6 +60,7 @@ import numpy as np
 
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
+from planner.nlp.iteration_abort import StallAbort
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.search import defaults
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
@@ -103,6 +104,8 @@ REJECTED_VIOLATION = 1e-9
 #: "incumbent" (the worker's cheapest NLP-feasible solution so far). Measured in
 #: docs/results/planner_speed_threads.md.
 SEARCH_WARM_STARTS = ("cold", "nearest", "incumbent")
+#: `TimingResult.status` of a coarse solve stopped by `TimingSolverFactory.coarse_abort`
+ABORTED_STATUS = "stopped: constraint violation stalled"
 #: solutions a worker keeps to warm-start from (oldest dropped first)
 WARM_START_MEMORY = 64
 
@@ -315,6 +318,11 @@ class TimingSolver:
         log = result.stats.get("iterations", {})
         iteration_log = tuple(zip(log.get("obj", ()), log.get("inf_pr", ()), log.get("inf_du", ()),
                                   strict=True))
+        if self.planner.last_solve_aborted:
+            # stopped as hopeless (`TimingSolverFactory.coarse_abort`): ranked after every
+            # solved sample, whatever violation the point it stopped at has
+            return TimingResult(x, math.inf, False, evals, math.inf, False, solve_s, 0.0,
+                                build_s, ABORTED_STATUS, cpu_s, 0.0, iteration_log)
         cost = result.cost + (self.tipping(schedule) if self.tipping is not None else 0.0)
         if result.feasible and self.warm_start != "cold":
             self.solved.append((self._normalised(x), cost, result.warm_start))
@@ -349,11 +357,16 @@ class TimingSolverFactory:
     warm_start: str = "cold"
     #: the search's period box when a seed schedule widened it (None: the robot's default box)
     period_bounds_s: tuple[float, float] | None = None
+    #: stop coarse solves whose constraint violation stalls (`planner.nlp.iteration_abort`;
+    #: None: every solve runs to IPOPT's own stop)
+    coarse_abort: StallAbort | None = None
 
     def __call__(self) -> TimingSolver:
         t0 = time.perf_counter()
         robot = load_robot(self.robot_dir)
         planner = GaitPlanner(robot, self.n_knots, self.options)
+        if self.coarse_abort is not None:
+            planner.set_iteration_abort(self.coarse_abort)
         tipping = TippingCost.for_robot(robot, self.tipping_weight) if self.tipping_weight else None
         check = self.acceptance() if self.acceptance is not None else None
         space = TimingSpace.for_robot(robot, self.symmetric)
@@ -496,6 +509,7 @@ def search_gait(
     final_candidates: int = FINAL_CANDIDATES,
     warm_start: str = "cold",
     seed_schedules: Mapping[str, ContactSchedule] | None = None,
+    coarse_abort: StallAbort | None = None,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -509,6 +523,8 @@ def search_gait(
     `gaitsmith plan --search --period/--duty/--phases/--schedule`): CMA starts from the first of
     them instead of the cheapest template, they join the templates in the fallback, and the
     period box grows to hold their periods with `SEED_PERIOD_ROOM` to spare.
+    `coarse_abort`: stop coarse solves whose constraint violation stalls and rank them last
+    (`planner.nlp.iteration_abort`; None, the default: every solve runs to IPOPT's stop).
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
@@ -546,7 +562,7 @@ def search_gait(
                              else min(options.max_iter, search_max_iter))
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
                                   search_options, tipping_weight, acceptance, warm_start,
-                                  space.period_bounds_s if seeds else None)
+                                  space.period_bounds_s if seeds else None, coarse_abort)
     log: list[SearchLogRow] = []
 
     def on_generation(rep: GenerationReport) -> None:
