@@ -22,7 +22,8 @@ start) or one of the final phase's candidates up to the one that won. Rules:
 
 Prints, per recording and rule: the samples stopped by outcome, the iterations saved, and
 whether the course (every generation's elites), the templates and the final candidates up to
-the winner are kept.
+the winner are kept (elites that differ only in the last generation change no later sample: the
+winner is then kept if the candidates are).
 """
 
 from __future__ import annotations
@@ -90,9 +91,18 @@ class Replay:
     templates_ok: bool
     candidates_ok: bool
 
+    last_generation: int = -1
+
     @property
     def kept(self) -> bool:
         return self.diverged is None and self.templates_ok and self.candidates_ok
+
+    @property
+    def same_winner(self) -> bool:
+        """Elites that differ only in the last generation change no later sample: the final
+        phase, and hence the winner, stays the same if its candidates do."""
+        return (self.diverged is None or self.diverged == self.last_generation) and \
+            self.templates_ok and self.candidates_ok
 
 
 def replay(rec: dict, rule: Rule, tips: Sequence[float]) -> Replay:
@@ -138,7 +148,7 @@ def replay(rec: dict, rule: Rule, tips: Sequence[float]) -> Replay:
 
     kept_recs = [rr for rr, k in zip(records, stopped, strict=True) if k is None]
     return Replay(tuple(stopped), saved, by, diverged, templates_ok,
-                  cands(kept_recs) == cands(records))
+                  cands(kept_recs) == cands(records), gens - 1)
 
 
 def main() -> None:
@@ -186,12 +196,13 @@ def main() -> None:
             why = "" if rp.kept else ("A" if rp.by_outcome["accepted"] else "") + (
                 f"g{rp.diverged}" if rp.diverged is not None else "") + (
                 "" if rp.templates_ok else "T") + ("" if rp.candidates_ok else "C")
-            cells.append(f"{rp.saved:5d} {rp.saved / max(total, 1):4.0%} "
-                         f"{'KEPT' if rp.kept else why:>6s}")
+            verdict = "KEPT" if rp.kept else why + ("*" if rp.same_winner else "")
+            cells.append(f"{rp.saved:5d} {rp.saved / max(total, 1):4.0%} {verdict:>6s}")
         print(f"{name:34s} " + " | ".join(cells))
     print("kept: every generation's elites, the templates and the final candidates unchanged; "
           "else A = an accepted sample stopped, gN = elites differ from generation N, "
-          "T = a template stopped, C = final candidates differ")
+          "T = a template stopped, C = final candidates differ; * = only the last generation's "
+          "elites differ, so the final candidates and the winner are the same")
 
 
 if __name__ == "__main__":
