@@ -13,6 +13,9 @@ generations of the coarse (12-knot) NLP, then the final 30-knot solve of the bes
 
 `--warm-starts cold,nearest,incumbent` runs each path with those search warm starts
 (`planner.search.gait_search.SEARCH_WARM_STARTS`; labelled ``knot+nearest`` etc.).
+`--coarse-aborts off,30/0.03` runs each path without and with the stall abort of the coarse
+solves (`planner.nlp.iteration_abort.StallAbort(after_iter=30, min_violation=0.03)`; labelled
+``knot+abort30/0.03``), alternating, so their CPU ratio is measured under the same load.
 
 Every combination of `--derivatives` (`PlannerOptions.derivatives`: "expanded" = the whole NLP
 expanded to SX, "knot" = per-knot derivatives, today's default) and `--executors` runs in this
@@ -39,9 +42,16 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import robots
 from gaitsmith.plan_cmd import DEFAULT_CYCLES
 from gaitsmith.search_options import sim_acceptance
-from planner.nlp.config import DERIVATIVE_PATHS, PlannerOptions
+from gaitsmith.stance_options import stance_shaped
+from planner.nlp.config import DERIVATIVE_PATHS, CostWeights, PlannerOptions
+from planner.nlp.iteration_abort import StallAbort
 from planner.search.executors import ExecutorKind
-from planner.search.gait_search import SEARCH_WARM_STARTS, GaitSearchResult, search_gait
+from planner.search.gait_search import (
+    ABORTED_STATUS,
+    SEARCH_WARM_STARTS,
+    GaitSearchResult,
+    search_gait,
+)
 
 
 @dataclass(frozen=True)
@@ -75,6 +85,10 @@ class SearchRun:
                   "infeasible": not plan_ok}[what]
         return n
 
+    def stopped(self) -> int:
+        """Samples stopped by the coarse solves' stall abort."""
+        return sum(getattr(r, "status", "") == ABORTED_STATUS for _, r in self.result.samples)
+
     def worker_s(self, field: str) -> float:
         """`build_s`, `solve_s` or `accept_s` summed over every local solve (worker seconds)."""
         return sum(float(getattr(r, field, 0.0)) for _, r in self.result.samples)
@@ -93,20 +107,39 @@ def _children_cpu_s() -> float:
 
 def run(robot_name: str, speed: float, generations: int, workers: int, seed: int,
         sim_accept: bool, derivatives: str, executor: str, knots: int,
-        warm_start: str = "cold") -> SearchRun:
+        warm_start: str = "cold", abort: str = "off") -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call)."""
     robot = robots.load(robot_name)
+    # the options `gaitsmith plan ROBOT --search` uses with no flags (stance-compliance rule)
+    shaped = stance_shaped(robot, None, None, None, None)
+    options = PlannerOptions(
+        derivatives=derivatives,
+        weights=CostWeights() if shaped.bounce is None else CostWeights(bounce_s2_m2=shaped.bounce),
+        normal_force_rate_weights_per_t0=shaped.force_rate or None)
     t0, c0, w0 = time.perf_counter(), time.process_time(), _children_cpu_s()
     result = search_gait(
-        robot, speed, n_knots=knots, options=PlannerOptions(derivatives=derivatives),
+        robot, speed, n_knots=knots, options=options,
         max_generations=generations, seed=seed, executor=executor, workers=workers,
-        warm_start=warm_start,
-        **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES),
+        warm_start=warm_start, coarse_abort=_abort_rule(abort),
+        **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES, shaped.entry or 1),
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
+    label += "" if abort == "off" else f"+abort{abort}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
+
+
+def _abort_rule(text: str) -> StallAbort | None:
+    """"off" or "K/V": `StallAbort(after_iter=K, min_violation=V)`."""
+    if text == "off":
+        return None
+    try:
+        after, violation = text.split("/")
+        return StallAbort(after_iter=int(after), min_violation=float(violation))
+    except ValueError as e:
+        raise SystemExit(f"--coarse-aborts: expected off or K/V (e.g. 30/0.03), got {text!r}"
+                         ) from e
 
 
 def report(r: SearchRun, target_s: float) -> str:
@@ -124,7 +157,8 @@ def report(r: SearchRun, target_s: float) -> str:
         f"{r.worker_cpu_s:.1f} s); {res.cma.n_generations} generations "
         f"({res.cma.stop_reason})",
         f"           samples: {r.count('accepted')} accepted, {r.count('rejected')} rejected in "
-        f"MuJoCo, {r.count('infeasible')} infeasible; winner {res.label} (search cost "
+        f"MuJoCo, {r.count('infeasible')} infeasible ({r.stopped()} stopped by the abort); "
+        f"winner {res.label} (search cost "
         f"{res.search_cost:.5g}, best template {res.best_template} {res.best_template_cost:.5g}), "
         f"final cost {res.best.cost:.6g}, period {res.best.schedule.period_s:.3f} s, "
         f"{r.verdict()}",
@@ -163,11 +197,17 @@ def main() -> None:
     ap.add_argument("--warm-starts", default="cold",
                     help=f"comma-separated search warm starts, run after each derivative path "
                          f"({', '.join(SEARCH_WARM_STARTS)})")
+    ap.add_argument("--coarse-aborts", default="off",
+                    help="comma-separated: off | K/V (stall abort of the coarse solves from "
+                         "iteration K above violation V), run alternately per path")
     ap.add_argument("--target", type=float, default=60.0, help="target wall time [s]")
     args = ap.parse_args()
     paths = _choices(args.derivatives, tuple(DERIVATIVE_PATHS), "--derivatives")
     executors = _choices(args.executors, get_args(ExecutorKind), "--executors")
     warm_starts = _choices(args.warm_starts, SEARCH_WARM_STARTS, "--warm-starts")
+    aborts = [a.strip() for a in args.coarse_aborts.split(",") if a.strip()] or ["off"]
+    for a in aborts:
+        _abort_rule(a)  # validate before any search runs
     print(
         f"{args.robot} gait search at {args.speed} m/s, {args.generations} generations, "
         f"final N={args.knots}, sim acceptance {'on' if args.sim_accept else 'off'}, "
@@ -177,11 +217,13 @@ def main() -> None:
     runs: list[SearchRun] = []
     for derivatives in paths:
         for warm_start in warm_starts:
-            for executor in executors:
-                r = run(args.robot, args.speed, args.generations, args.workers, args.seed,
-                        args.sim_accept, derivatives, executor, args.knots, warm_start)
-                runs.append(r)
-                print(report(r, args.target), flush=True)
+            for abort in aborts:
+                for executor in executors:
+                    r = run(args.robot, args.speed, args.generations, args.workers, args.seed,
+                            args.sim_accept, derivatives, executor, args.knots, warm_start,
+                            abort)
+                    runs.append(r)
+                    print(report(r, args.target), flush=True)
     for executor in executors:
         same = [r for r in runs if r.executor == executor]
         for r in same[1:]:

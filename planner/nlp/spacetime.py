@@ -50,6 +50,7 @@ from planner.nlp.constraints import (
     stacked_knot,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
+from planner.nlp.iteration_abort import AbortCallback, StallAbort
 from planner.nlp.mirror import check_mirror
 from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import (
@@ -348,7 +349,25 @@ class GaitPlanner:
             opts["jac_g"] = self._jac_g
         if self._hess_l is not None:
             opts["hess_lag"] = self._hess_l
+        abort = getattr(self, "_abort", None)
+        if abort is not None:
+            opts["iteration_callback"] = abort
         return ca.nlpsol("spacetime", "ipopt", self._nlp, opts)
+
+    def set_iteration_abort(self, rule: StallAbort | None) -> None:
+        """Stop solves whose constraint violation stalls (`planner.nlp.iteration_abort`; the
+        gait search's coarse solves) or, with None, never; rebuilds the IPOPT instances."""
+        self._abort = None if rule is None else AbortCallback(
+            rule, int(self._nlp["x"].numel()), int(self._nlp["g"].numel()),
+            int(self._nlp["p"].numel()))
+        self._solver = self._make_solver()
+        self._warm_solver = None
+
+    @property
+    def last_solve_aborted(self) -> bool:
+        """The iteration abort (`set_iteration_abort`) stopped the last solve."""
+        abort = getattr(self, "_abort", None)
+        return abort is not None and abort.fired
 
     def _solver_for(self, warm: bool) -> Any:
         """The IPOPT instance for a cold or a warm solve: one instance when the tuning uses the
@@ -418,6 +437,10 @@ class GaitPlanner:
             # this NLP's row count (a warm start may come from a planner with other rows)
             start = WarmStart(start.x, np.zeros_like(self._lbx), np.zeros_like(self._lbg))
         xs, gs = self._x_scale, self._g_scale
+        lbg = self._row_lower_bounds(schedule) / gs
+        abort = getattr(self, "_abort", None)
+        if abort is not None:
+            abort.arm(lbg, self._ubg / gs)
         with _sigint_watch() as interrupted:
             # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
             sol = solver(
@@ -427,7 +450,7 @@ class GaitPlanner:
                 p=p,
                 lbx=self._lbx / xs,
                 ubx=self._ubx / xs,
-                lbg=self._row_lower_bounds(schedule) / gs,
+                lbg=lbg,
                 ubg=self._ubg / gs,
             )
         sol = {
@@ -437,7 +460,8 @@ class GaitPlanner:
             "f": float(sol["f"]),
         }
         stats = solver.stats()
-        if interrupted() or stats.get("return_status") in _USER_STOP:
+        aborted = abort is not None and abort.fired
+        if interrupted() or (stats.get("return_status") in _USER_STOP and not aborted):
             # CasADi swallows Ctrl-C (NonIpopt_Exception_Thrown), IPOPT's own handler returns
             # User_Requested_Stop: either way the user stopped it, the gait is not infeasible
             raise KeyboardInterrupt(f"IPOPT stopped ({stats.get('return_status')})")

@@ -60,6 +60,7 @@ import numpy as np
 
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
+from planner.nlp.iteration_abort import StallAbort
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.search import defaults
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
@@ -103,6 +104,8 @@ REJECTED_VIOLATION = 1e-9
 #: "incumbent" (the worker's cheapest NLP-feasible solution so far). Measured in
 #: docs/results/planner_speed_threads.md.
 SEARCH_WARM_STARTS = ("cold", "nearest", "incumbent")
+#: `TimingResult.status` of a coarse solve stopped by `TimingSolverFactory.coarse_abort`
+ABORTED_STATUS = "stopped: constraint violation stalled"
 #: solutions a worker keeps to warm-start from (oldest dropped first)
 WARM_START_MEMORY = 64
 
@@ -242,9 +245,11 @@ def cost_of_transport(result: PlanResult, robot: Robot) -> float:
 class TimingResult(LocalResult):
     """A local solve of the search; `plan_feasible`: the NLP solved, whatever acceptance said.
 
-    For measurement (`benchmarks/gait_search_bench.py`): `solve_s` the NLP solve's wall time,
-    `accept_s` the acceptance check's, `build_s` the worker's planner build (on the first
-    result a worker returns, 0 on the others)."""
+    For measurement (`benchmarks/gait_search_bench.py`, `benchmarks/readme_split.py`):
+    `solve_s` the NLP solve's wall time, `accept_s` the acceptance check's, `build_s` the
+    worker's planner build (on the first result a worker returns, 0 on the others); `cpu_s`
+    and `accept_cpu_s` the worker process's CPU seconds (`time.process_time`) of the solve and
+    of the check, which other jobs on a shared machine move far less than wall time."""
 
     plan_feasible: bool = False
     solve_s: float = 0.0
@@ -252,6 +257,11 @@ class TimingResult(LocalResult):
     build_s: float = 0.0
     #: IPOPT's return status of the solve ("" if it did not run)
     status: str = ""
+    cpu_s: float = 0.0
+    accept_cpu_s: float = 0.0
+    #: IPOPT's iterates, iteration 0 first: (objective, inf_pr, inf_du) as IPOPT reports them
+    #: (`PlanResult.stats["iterations"]`), for replaying iteration rules on recorded searches
+    iteration_log: tuple[tuple[float, float, float], ...] = ()
 
 
 @dataclass
@@ -290,7 +300,7 @@ class TimingSolver:
         build_s, self.build_s = self.build_s, 0.0
         x = np.clip(np.asarray(x, dtype=float), *self.space.bounds())
         schedule = self.space.decode(x)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         start = self.start_for(x)
         try:
             # cold by default: on a new contact timing a warm start saved few iterations if
@@ -301,25 +311,36 @@ class TimingSolver:
             )
         except PlannerConfigError:  # e.g. a foot never lands on any knot
             return TimingResult(x, math.inf, False, 0, math.inf,
-                                solve_s=time.perf_counter() - t0, build_s=build_s)
-        solve_s = time.perf_counter() - t0
+                                solve_s=time.perf_counter() - t0, build_s=build_s,
+                                cpu_s=time.process_time() - c0)
+        solve_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
         evals = int(result.iterations) + 1
+        log = result.stats.get("iterations", {})
+        iteration_log = tuple(zip(log.get("obj", ()), log.get("inf_pr", ()), log.get("inf_du", ()),
+                                  strict=True))
+        if self.planner.last_solve_aborted:
+            # stopped as hopeless (`TimingSolverFactory.coarse_abort`): ranked after every
+            # solved sample, whatever violation the point it stopped at has
+            return TimingResult(x, math.inf, False, evals, math.inf, False, solve_s, 0.0,
+                                build_s, ABORTED_STATUS, cpu_s, 0.0, iteration_log)
         cost = result.cost + (self.tipping(schedule) if self.tipping is not None else 0.0)
         if result.feasible and self.warm_start != "cold":
             self.solved.append((self._normalised(x), cost, result.warm_start))
             del self.solved[:-WARM_START_MEMORY]
         if result.feasible and self.acceptance is not None:
-            t1 = time.perf_counter()
+            t1, c1 = time.perf_counter(), time.process_time()
             verdict = self.acceptance(self.planner.to_gait(result, "search sample"))
-            accept_s = time.perf_counter() - t1
+            accept_s, accept_cpu_s = time.perf_counter() - t1, time.process_time() - c1
             if not verdict.passed:
                 return TimingResult(x, cost, False, evals,
                                     REJECTED_VIOLATION * (1.0 + verdict.badness), True,
-                                    solve_s, accept_s, build_s, result.status)
+                                    solve_s, accept_s, build_s, result.status, cpu_s,
+                                    accept_cpu_s, iteration_log)
             return TimingResult(x, cost, True, evals, result.max_violation, True,
-                                solve_s, accept_s, build_s, result.status)
+                                solve_s, accept_s, build_s, result.status, cpu_s, accept_cpu_s,
+                                iteration_log)
         return TimingResult(x, cost, result.feasible, evals, result.max_violation, result.feasible,
-                            solve_s, 0.0, build_s, result.status)
+                            solve_s, 0.0, build_s, result.status, cpu_s, 0.0, iteration_log)
 
 
 @dataclass(frozen=True)
@@ -336,11 +357,16 @@ class TimingSolverFactory:
     warm_start: str = "cold"
     #: the search's period box when a seed schedule widened it (None: the robot's default box)
     period_bounds_s: tuple[float, float] | None = None
+    #: stop coarse solves whose constraint violation stalls (`planner.nlp.iteration_abort`;
+    #: None: every solve runs to IPOPT's own stop)
+    coarse_abort: StallAbort | None = None
 
     def __call__(self) -> TimingSolver:
         t0 = time.perf_counter()
         robot = load_robot(self.robot_dir)
         planner = GaitPlanner(robot, self.n_knots, self.options)
+        if self.coarse_abort is not None:
+            planner.set_iteration_abort(self.coarse_abort)
         tipping = TippingCost.for_robot(robot, self.tipping_weight) if self.tipping_weight else None
         check = self.acceptance() if self.acceptance is not None else None
         space = TimingSpace.for_robot(robot, self.symmetric)
@@ -437,6 +463,8 @@ class GaitSearchResult:
     #: wall time [s] of the search's phases: "final_build" (the final planner, 0 if passed in),
     #: "seed" (executor start, worker builds, template solves), "cma", "final" (re-solves + checks)
     phase_s: dict[str, float] = field(default_factory=dict)
+    #: this process's CPU seconds (`time.process_time`) in the same phases
+    phase_cpu_s: dict[str, float] = field(default_factory=dict)
     #: the template that won after no searched timing passed the final acceptance (None: a
     #: searched timing, or the normal ranking, won)
     fallback_template: str | None = None
@@ -481,6 +509,7 @@ def search_gait(
     final_candidates: int = FINAL_CANDIDATES,
     warm_start: str = "cold",
     seed_schedules: Mapping[str, ContactSchedule] | None = None,
+    coarse_abort: StallAbort | None = None,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -494,8 +523,10 @@ def search_gait(
     `gaitsmith plan --search --period/--duty/--phases/--schedule`): CMA starts from the first of
     them instead of the cheapest template, they join the templates in the fallback, and the
     period box grows to hold their periods with `SEED_PERIOD_ROOM` to spare.
+    `coarse_abort`: stop coarse solves whose constraint violation stalls and rank them last
+    (`planner.nlp.iteration_abort`; None, the default: every solve runs to IPOPT's stop).
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
     if planner is not None and planner.n_knots != n_knots:
         raise PlannerConfigError(f"planner has {planner.n_knots} knots, search asked for {n_knots}")
@@ -531,7 +562,7 @@ def search_gait(
                              else min(options.max_iter, search_max_iter))
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
                                   search_options, tipping_weight, acceptance, warm_start,
-                                  space.period_bounds_s if seeds else None)
+                                  space.period_bounds_s if seeds else None, coarse_abort)
     log: list[SearchLogRow] = []
 
     def on_generation(rep: GenerationReport) -> None:
@@ -544,7 +575,7 @@ def search_gait(
             progress(row)
 
     lo, hi = space.bounds()
-    t_seed = time.perf_counter()
+    t_seed, c_seed = time.perf_counter(), time.process_time()
     with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
         pool = RecordingExecutor(ex)
         # 1. seed with the hand templates that fit the encoding (one parallel batch)
@@ -566,7 +597,7 @@ def search_gait(
         # CMA starts from the user's own schedule when one is given (their intent), else from
         # the cheapest template
         x0 = next(iter(seeds.values())) if seeds else seed_x[best_template]
-        t_cma = time.perf_counter()
+        t_cma, c_cma = time.perf_counter(), time.process_time()
         # 2. basin-CMA over the timings (projection = coarse spacetime solve)
         cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),
                         popsize=popsize,
@@ -575,9 +606,10 @@ def search_gait(
                         callback=on_generation)
     # 3. the cheapest timings, re-solved at full resolution; the first feasible (and accepted)
     #    one wins, else the first feasible one (reported as not accepted)
-    t_final = time.perf_counter()
+    t_final, c_final = time.perf_counter(), time.process_time()
     final = planner or GaitPlanner(robot, n_knots, options)
     final_build_s = 0.0 if planner is not None else time.perf_counter() - t_final
+    final_build_cpu_s = 0.0 if planner is not None else time.process_time() - c_final
     final_check = final_acceptance or acceptance
     check = final_check() if final_check is not None else None
     candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
@@ -631,6 +663,10 @@ def search_gait(
         final_solves=tuple(final_solves), fallback_template=fallback,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": time.perf_counter() - t_final - final_build_s},
+        phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
+                     "final_build": final_build_cpu_s,
+                     "final": time.process_time() - c_final - final_build_cpu_s,
+                     "total": time.process_time() - c0},
     )
 
 

@@ -134,6 +134,11 @@ def test_rejected_samples_rank_after_feasible_and_before_infeasible_ones(
     assert not r.feasible and math.isfinite(r.cost)
     assert 0 < r.violation < 1e-6  # ranks ahead of plans that violate the NLP (≥ 1e-4)
     assert r.solve_s > 0 and r.accept_s > 0 and r.build_s == 0  # timed for the benchmarks
+    assert r.cpu_s > 0 and r.accept_cpu_s > 0
+    # IPOPT's iterates, iteration 0 first: the last objective is the NLP's cost
+    assert len(r.iteration_log) == r.n_fevals
+    assert r.iteration_log[-1][0] == pytest.approx(r.cost, rel=1e-12)
+    assert all(len(row) == 3 and min(row[1:]) >= 0 for row in r.iteration_log)
     ok = TimingSolver(small_quad_planner, space, 0.2, None, lambda g: _Verdict(True, 0.0))(x)
     assert ok.feasible and ok.cost == pytest.approx(r.cost)
 
@@ -254,6 +259,12 @@ def test_search_beats_or_matches_the_best_template_and_logs(
     assert any(plan is result.best for plan, _, _ in result.final_solves)
     assert set(result.phase_s) == {"seed", "cma", "final_build", "final"}
     assert result.phase_s["final_build"] == 0 and min(result.phase_s.values()) >= 0
+    # this process's CPU in the same phases (the serial executor solves in this process)
+    cpu = result.phase_cpu_s
+    assert set(cpu) == {"seed", "cma", "final_build", "final", "total"}
+    assert cpu["final_build"] == 0 and cpu["cma"] > 0 and min(cpu.values()) >= 0
+    assert cpu["total"] >= cpu["seed"] + cpu["cma"] + cpu["final"] - 1e-9
+    assert sum(r.cpu_s for r in timed) <= cpu["seed"] + cpu["cma"] + 1e-6
     log = tmp_path / "search.csv"
     write_search_log(result, log)
     text = log.read_text().splitlines()

@@ -28,6 +28,7 @@ class _Result:
     iterations: int = 3
     max_violation: float = 0.0
     status: str = "Solve_Succeeded"
+    stats: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -37,6 +38,7 @@ class _StubPlanner:
 
     costs: list[float]
     starts: list[Any] = field(default_factory=list)
+    last_solve_aborted: bool = False  # GaitPlanner's: no iteration abort here
 
     def solve(self, schedule: Any, speed_m_s: float, warm_start: Any = None) -> _Result:
         self.starts.append(warm_start)

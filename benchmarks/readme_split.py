@@ -1,0 +1,133 @@
+"""The README's search command, run as the command line runs it, its time split into parts.
+
+    python benchmarks/readme_split.py [-- PLAN ARGUMENTS]
+    # default: plan quad12 --speed 0.25 --search -o /tmp/readme_split/quad12.json
+
+Runs `gaitsmith.cli.main` in this process with the given `gaitsmith` arguments (default: issue
+#16's `gaitsmith plan quad12 --speed 0.25 --search`, MuJoCo acceptance on, process executor),
+keeps the `GaitSearchResult` the command computed (by wrapping `search_gait`, which the command
+imports when it runs), and prints where the command's wall time and CPU time went:
+
+- wall: start-up (imports, options, robot), the search's phases (`GaitSearchResult.phase_s`:
+  seeding = pool start + worker builds + template solves, basin-CMA, final NLP build, final
+  re-solves + their MuJoCo checks) and the writing after the search;
+- CPU: this process (`time.process_time`) before, during and after the search, and the worker
+  processes (`RUSAGE_CHILDREN`, read after the pool has shut down), split into the coarse solves
+  (`TimingResult.cpu_s`), the samples' MuJoCo checks (`TimingResult.accept_cpu_s`) and the rest
+  (interpreter start, imports, NLP builds: the workers' total minus those two);
+- the four parts of issue #16's question: build, coarse solves, fine (30-knot) solves, MuJoCo —
+  CPU seconds; the final phase's CPU (`GaitSearchResult.phase_cpu_s`) is shared between its
+  re-solves and their MuJoCo checks in proportion to their wall times.
+
+The command's output is printed as usual; the split follows, with the load average before and
+after. Measured in docs/results/planner_speed_search.md (Session 29).
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import sys
+import time
+
+T_START = time.perf_counter()
+C_START = time.process_time()
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+DEFAULT_ARGS = ["plan", "quad12", "--speed", "0.25", "--search", "-o",
+                "/tmp/readme_split/quad12.json"]
+
+
+def _children_cpu_s() -> float:
+    use = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return use.ru_utime + use.ru_stime
+
+
+def main(argv: list[str]) -> int:
+    args = argv or DEFAULT_ARGS
+    load0 = os.getloadavg()
+    utc0 = time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime())
+    import planner.search.gait_search as gs
+    from gaitsmith import cli
+
+    captured: dict[str, object] = {}
+    inner = gs.search_gait
+
+    def recording_search_gait(*a: object, **kw: object) -> gs.GaitSearchResult:
+        captured["t0"], captured["c0"] = time.perf_counter(), time.process_time()
+        captured["w0"] = _children_cpu_s()
+        result = inner(*a, **kw)  # type: ignore[arg-type]
+        captured["t1"], captured["c1"] = time.perf_counter(), time.process_time()
+        captured["w1"] = _children_cpu_s()
+        captured["result"] = result
+        return result
+
+    gs.search_gait = recording_search_gait  # type: ignore[assignment]
+    try:
+        code = cli.main(args)
+    finally:
+        gs.search_gait = inner  # type: ignore[assignment]
+    t_end, c_end, w_end = time.perf_counter(), time.process_time(), _children_cpu_s()
+    if "result" not in captured:
+        print(f"readme_split: the command ran no search (exit code {code}); nothing to split",
+              file=sys.stderr)
+        return 2
+    res = captured["result"]
+    assert isinstance(res, gs.GaitSearchResult)
+    t0, t1 = float(captured["t0"]), float(captured["t1"])  # type: ignore[arg-type]
+    c0 = float(captured["c0"])  # type: ignore[arg-type]
+    c1 = float(captured["c1"])  # type: ignore[arg-type]
+    w0, w1 = float(captured["w0"]), float(captured["w1"])  # type: ignore[arg-type]
+    ph = res.phase_s
+    samples = [r for _, r in res.samples]
+    coarse_cpu = sum(float(getattr(r, "cpu_s", 0.0)) for r in samples)
+    accept_cpu = sum(float(getattr(r, "accept_cpu_s", 0.0)) for r in samples)
+    iterations = sum(max(r.n_fevals - 1, 0) for r in samples)
+    workers_cpu = w1 - w0
+    fine_s = sum(plan.solve_time_s for plan, _, _ in res.final_solves)
+    final_check_s = sum(check_s for _, check_s, _ in res.final_solves)
+    wall = t_end - T_START
+    cpu = (c_end - C_START) + (w_end - 0.0)
+    pc = res.phase_cpu_s
+    rows = [
+        ("start-up: imports, options, robot (this process)", t0 - T_START, c0 - C_START),
+        ("seeding: pool start, worker builds, template solves", ph["seed"], pc["seed"]),
+        ("basin-CMA generations", ph["cma"], pc["cma"]),
+        ("final NLP build (this process)", ph["final_build"], pc["final_build"]),
+        ("final re-solves + MuJoCo checks (this process)", ph["final"], pc["final"]),
+        ("search, worker processes' CPU", None, workers_cpu),
+        ("after the search: gait file, search log (this process)", t_end - t1, c_end - c1),
+    ]
+    print(f"\nreadme_split: gaitsmith {' '.join(args)}")
+    print(f"  {utc0} UTC, load average {load0[0]:.2f} at the start, "
+          f"{os.getloadavg()[0]:.2f} at the end; {len(samples)} coarse solves, {iterations} "
+          f"IPOPT iterations; winner {res.label}, search cost {res.search_cost:.6g}, final "
+          f"cost {res.best.cost:.6g}, MuJoCo "
+          + {True: "pass", False: "FAIL", None: "not checked"}[res.accepted])
+    print(f"  {'part':62s} {'wall s':>8s} {'CPU s':>8s}")
+    for name, w, c in rows:
+        print(f"  {name:62s} {'' if w is None else f'{w:8.2f}':>8s} "
+              f"{'' if c is None else f'{c:8.2f}':>8s}")
+    print(f"  {'total (wall; CPU of this process and its workers)':62s} {wall:8.2f} {cpu:8.2f}")
+    other_workers = workers_cpu - coarse_cpu - accept_cpu
+    fine_share = fine_s / max(fine_s + final_check_s, 1e-9)
+    fine_cpu, final_check_cpu = pc["final"] * fine_share, pc["final"] * (1.0 - fine_share)
+    main_other = (c_end - C_START) - pc["final"] - pc["final_build"]
+    parts = [
+        ("build: workers' start, imports and NLP builds", other_workers),
+        ("build: final NLP (this process)", pc["final_build"]),
+        ("coarse solves (workers)", coarse_cpu),
+        ("fine solves (this process)", fine_cpu),
+        ("MuJoCo: samples' checks (workers)", accept_cpu),
+        ("MuJoCo: final checks (this process)", final_check_cpu),
+        ("the rest of this process (start-up, writing, bookkeeping)", main_other),
+    ]
+    print(f"  CPU by issue #16's parts (of {cpu:.2f} s):")
+    for name, v in parts:
+        print(f"    {name:60s} {v:8.2f}  {v / cpu:6.1%}")
+    return code
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
