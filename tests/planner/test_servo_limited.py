@@ -9,6 +9,7 @@ from planner.nlp.config import PlannerOptions
 from planner.servo_limited import (
     SERVO_LIMITED_DUTY,
     SERVO_LIMITED_LINE_CAPTURE_LEG_LENGTHS,
+    SERVO_LIMITED_MAX_TILT_RAD,
     SERVO_LIMITED_ROTOR_RESERVE,
     SERVO_LIMITED_SLACK,
     servo_limited_schedule,
@@ -32,7 +33,7 @@ def test_knee8_gets_the_shortest_period_with_the_slack() -> None:
     shorter = make_schedule(bot, "walk", period_s=timing.period_s - 0.005,
                             duty_factor=SERVO_LIMITED_DUTY)
     assert swing_slack(bot, shorter, 0.182).ratio < SERVO_LIMITED_SLACK
-    assert 1.3 < timing.period_s < 1.4  # heavy_rotor.md §9: 1.345 s
+    assert 1.3 < timing.period_s < 1.4  # heavy_rotor.md §9: 1.373 s
     assert "servo-limited walk, duty 0.6" in timing.summary()
 
 
@@ -58,5 +59,8 @@ def test_the_users_options_win() -> None:
     ruled = timing.options(PlannerOptions())
     assert ruled.rotor_reserve == SERVO_LIMITED_ROTOR_RESERVE
     assert ruled.line_capture_margin_leg_lengths == SERVO_LIMITED_LINE_CAPTURE_LEG_LENGTHS
-    own = timing.options(PlannerOptions(rotor_reserve=0.05, line_capture_margin_leg_lengths=0.1))
+    assert ruled.max_tilt_rad == SERVO_LIMITED_MAX_TILT_RAD < PlannerOptions().max_tilt_rad
+    own = timing.options(PlannerOptions(rotor_reserve=0.05, line_capture_margin_leg_lengths=0.1,
+                                        max_tilt_rad=0.2))
     assert (own.rotor_reserve, own.line_capture_margin_leg_lengths) == (0.05, 0.1)
+    assert own.max_tilt_rad == 0.2  # a tighter bound is kept
