@@ -63,12 +63,13 @@ from gaitsmith.stance_options import StanceShaped, stance_shaped
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp.config import DEFAULT_FROUDE, PlannerOptions, default_speed_m_s
 from planner.nlp.spacetime import GaitPlanner, PlanResult
-from planner.templates import TEMPLATES
+from planner.templates import TEMPLATES, default_gait_for
 from planner.user_schedule import command_schedule
 from robots.servo_params import ServoSetting
 from robots.voltage import robot_at_voltage, voltage_margin
 
 if TYPE_CHECKING:
+    from planner.servo_limited import ServoLimitedTiming
     from sim.attitude_loop import AttitudeSettings
 
 _write = write_gait  # its name here before it moved to gaitsmith.plan_output (tests use it)
@@ -229,6 +230,11 @@ def plan(
                               line_capture_margin=line_capture_margin)
     meta = gait_metadata(supply_v, servo_params_path, shaped)
     if search:
+        limited = (servo_limited(bot, default_gait_for(bot), speed, options)
+                   if gait is None and not stand and not vy and not yaw_rate
+                   and all(v is None for v in (period, duty, phases, schedule_file)) else None)
+        if limited is not None:  # the search starts from the rule's timing, with its options
+            duty, period, options = _servo_limited_timing(limited, options)
         gait, seed_schedule = user_seed(bot, gait, period, duty, phases, schedule_file)
         plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
                     search_planner_options(options), shaped.entry or 1, seed_schedule, meta)
@@ -240,6 +246,11 @@ def plan(
         gait = default_gait(bot, standing=stand)
     choice = commanded_gait(bot, gait, vy, yaw_rate, options)
     gait, options = choice.gait, choice.options
+    limited = (servo_limited(bot, gait, speed, options)
+               if choice.reason == "default" and not custom and period is None and duty is None
+               else None)
+    if limited is not None:
+        duty, period, options = _servo_limited_timing(limited, options)
     if not custom:
         check_gait_fits(bot, gait)
     if choice.duty_factor is not None and duty is None:
@@ -290,6 +301,22 @@ def plan(
     if knife_edge:
         _knife_edge(gait_obj, bot, schedule, gait, speed, knots, options, cycles, servo_settings,
                     meta, attitude)
+
+
+def servo_limited(bot: robots.Robot, gait: str, speed: float,
+                  options: PlannerOptions) -> ServoLimitedTiming | None:
+    """The servo-limited timing of the default template (`planner.servo_limited`): only on a
+    robot whose template swing is faster than its servos can swing (slack < 1)."""
+    from planner.servo_limited import servo_limited_timing
+
+    return servo_limited_timing(bot, gait, speed, options)
+
+
+def _servo_limited_timing(limited: ServoLimitedTiming,
+                          options: PlannerOptions) -> tuple[str, float, PlannerOptions]:
+    """Say the rule's timing and return it as --duty, --period and the options it sets."""
+    console.print(f"servo-limited timing: {limited.summary()} (docs/results/heavy_rotor.md §9)")
+    return f"{limited.duty_factor:g}", limited.period_s, limited.options(options)
 
 
 def _note_swing_slack(bot: robots.Robot, schedule: robots.ContactSchedule, speed: float,
