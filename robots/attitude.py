@@ -243,6 +243,22 @@ def attitude_offsets(
     return np.asarray(np.clip(raw, -law.max_offset_rad, law.max_offset_rad))
 
 
+def gait_offsets(
+    law: AttitudeLaw,
+    amap: AttitudeMap,
+    gait: Gait,
+    measured_rp_rad: np.ndarray,
+    blend: float,
+    gait_time_s: float,
+) -> np.ndarray:
+    """(J,) `attitude_offsets` at the gait's clock `gait_time_s`: the error against the plan's
+    roll/pitch there (scaled by the blend weight), the stance legs' support weights there. The
+    one step the simulator's loop and the player's corrector share."""
+    planned = blend * planned_roll_pitch(gait, gait_time_s)
+    support = support_weights(gait.schedule, gait_time_s / gait.period_s, law.support_ramp_phase)
+    return attitude_offsets(law, amap, np.asarray(measured_rp_rad) - planned, support, blend)
+
+
 __all__ = [
     "ATTITUDE_GAIN_KEY",
     "DEFAULT_MAX_OFFSET_RAD",
@@ -254,6 +270,7 @@ __all__ = [
     "attitude_offsets",
     "check_gain",
     "default_attitude_gain",
+    "gait_offsets",
     "planned_roll_pitch",
     "roll_pitch",
     "support_weights",

@@ -24,10 +24,8 @@ import numpy as np
 from robots.attitude import (
     AttitudeLaw,
     AttitudeMap,
-    attitude_offsets,
-    planned_roll_pitch,
+    gait_offsets,
     roll_pitch,
-    support_weights,
 )
 from robots.gait import Gait
 from robots.ramp import GaitEntry, GaitExit, min_jerk
@@ -119,12 +117,8 @@ class AttitudeLoop:
         alpha = self.clock.blend(t_s)
         if alpha <= 0.0:
             return np.zeros(self.amap.n_joints)
-        tau = t_s - self.clock.gait_clock_start_s
-        planned = alpha * planned_roll_pitch(self.gait, tau)
-        law = self.settings.law
-        support = support_weights(self.gait.schedule, tau / self.gait.period_s,
-                                  law.support_ramp_phase)
-        return attitude_offsets(law, self.amap, self.measured(t_s) - planned, support, alpha)
+        return gait_offsets(self.settings.law, self.amap, self.gait, self.measured(t_s), alpha,
+                            t_s - self.clock.gait_clock_start_s)
 
 
 __all__ = ["AttitudeLoop", "AttitudeSettings", "ImuSettings", "RunClock"]

@@ -30,9 +30,7 @@ from hardware.play.errors import PlayerError
 from robots.attitude import (
     AttitudeLaw,
     AttitudeMap,
-    attitude_offsets,
-    planned_roll_pitch,
-    support_weights,
+    gait_offsets,
 )
 from robots.gait import Gait
 
@@ -116,11 +114,9 @@ class AttitudeCorrector:
         if fresh:
             assert reading is not None
             self.trust = min(1.0, self.trust + step) if self._had_reading else 1.0
-            planned = blend * planned_roll_pitch(self.gait, gait_time_s)
-            support = support_weights(self.gait.schedule, gait_time_s / self.gait.period_s,
-                                      self.law.support_ramp_phase)
-            error = np.array([reading.roll_rad, reading.pitch_rad]) - planned
-            self._offset = attitude_offsets(self.law, self.amap, error, support, blend)
+            measured = np.array([reading.roll_rad, reading.pitch_rad])
+            self._offset = gait_offsets(self.law, self.amap, self.gait, measured, blend,
+                                        gait_time_s)
         else:
             self.stale_ticks += 1
             self.trust = max(0.0, self.trust - step)
