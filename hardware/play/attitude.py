@@ -3,7 +3,9 @@
 The law is the simulator's (`robots.attitude`, map from `robots.attitude_maps`): each tick the
 player asks `AttitudeCorrector.offsets` for the stance legs' joint offsets and adds them to the
 tick's target *before* `SafetyGate.command`, so joint limits, the per-tick speed budget and the
-safe stop apply to the corrected goal exactly as to an open-loop one.
+safe stop apply to the corrected goal exactly as to an open-loop one. `gaitsmith-play drive`
+(`hardware.play.drive`) asks `AttitudeCorrector.blended_offsets` instead: the reference of the
+blend its `GaitBlender` plays (`robots.attitude.blended_offsets`), the same freshness fade.
 
 An IMU is anything that implements `AttitudeSource` (``read()`` → the newest `AttitudeReading`
 — roll, pitch [rad] in the planner's z-y'-x'' convention and when it was measured, on the
