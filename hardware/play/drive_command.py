@@ -6,7 +6,9 @@ The robot stands up (pre-flight, ramp-in to the library's stand), then walks at 
 No command for `--deadman-s` → decelerate to the stand. The drive ends standing once the input
 ends (EOF, `{"end": true}`, X on the keyboard) or after `--max-drive-s`; then, as after `run`,
 the ramp to rest and torque off. Signals, the watchdog, faults (`--fault`, virtual bus only) and
-exit codes are `run`'s (`hardware.play.commands`).
+exit codes are `run`'s (`hardware.play.commands`). IMU attitude feedback (`--attitude-gain`,
+`--imu PORT`, or the twin's body with `--virtual sim`) is `run`'s too, options and wiring
+shared, applied to the blended command (`hardware.play.drive`).
 """
 
 from __future__ import annotations

@@ -273,3 +273,28 @@ def test_the_cli_drives_the_twin_closed_loop_and_refuses_what_run_refuses(
         res = run(*extra)
         err = " ".join(res.stderr.split())
         assert res.returncode == code and words in err, (extra, res.stdout, err)
+
+
+def test_the_cli_drives_from_a_witmotion_imu_without_force(tmp_path: Path) -> None:
+    """`gaitsmith-play drive --imu PORT` (a WitMotion stream on a pty) on the virtual bus: the
+    closed-loop library drives without --force at its validated gain; the IMU's summary ends
+    the run."""
+    import subprocess
+    import sys
+
+    from tests.hardware.imu.test_imu_cli import PtyImu
+    from tests.hardware.player_process import env
+
+    e = env()
+    e["GAITSMITH_CALIBRATION_DIR"] = str(tmp_path / "cal")
+    cmds = script_lines([*repeated(0.0, 1.0, 0.2, vx=0.222), {"t": 1.0, "end": True}])
+    with PtyImu(100.0) as imu:
+        out = subprocess.run(
+            [sys.executable, "-m", "hardware.cli", "drive", str(LIBRARY), "--robot", "biped",
+             "--virtual", "--imu", imu.path, "--imu-baud", "115200", "--imu-mount", "yaw=-90",
+             "--input", "stdin", "--ramp-s", "0.3"],
+            input=cmds.decode(), capture_output=True, text=True, env=e, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    text = " ".join(out.stdout.split())
+    assert f"attitude feedback: gain 0.5 from the IMU on {imu.path}" in text, text
+    assert "stopped: completed" in text and "imu " in out.stdout and "port lost" not in text
