@@ -32,6 +32,24 @@ def attitude_gain_option() -> Any:
         "walk, else robot.toml's [imu].attitude_gain, else 0")
 
 
+def imu_latency_option() -> Any:
+    return typer.Option(
+        0.0, "--imu-latency-ms", help="with --attitude-gain: age of the simulated IMU's reading "
+        "[ms]")
+
+
+def imu_noise_option() -> Any:
+    return typer.Option(
+        0.0, "--imu-noise-deg", help="with --attitude-gain: 1σ noise of the simulated IMU's roll "
+        "and pitch [°] (seeded)")
+
+
+def check_imu_options(latency_ms: float, noise_deg: float) -> None:
+    """--imu-latency-ms and --imu-noise-deg in range (one-line OptionError)."""
+    check_number("--imu-latency-ms", latency_ms, 0.0, MAX_IMU_LATENCY_MS, unit="ms")
+    check_number("--imu-noise-deg", noise_deg, 0.0, MAX_IMU_NOISE_DEG, unit="°")
+
+
 def check_attitude_gain(option: str, gain: float | None) -> None:
     """`gain` (None: not given) finite and in [0, MAX_ATTITUDE_GAIN] (one-line OptionError)."""
     check_number(option, gain, 0.0, MAX_ATTITUDE_GAIN)

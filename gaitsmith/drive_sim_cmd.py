@@ -26,6 +26,9 @@ from gaitsmith.attitude_options import (
     attitude_gain_option,
     attitude_settings,
     check_attitude_gain,
+    check_imu_options,
+    imu_latency_option,
+    imu_noise_option,
     resolved_library_gain,
 )
 from gaitsmith.console import console
@@ -104,6 +107,8 @@ def drive_sim_command(
     report: Path | None = typer.Option(None, "--report", help="write an HTML report"),
     json_out: Path | None = typer.Option(None, "--json", help="write the metrics as JSON"),
     attitude_gain: float | None = attitude_gain_option(),
+    imu_latency_ms: float = imu_latency_option(),
+    imu_noise_deg: float = imu_noise_option(),
     servo_params_path: Path | None = typer.Option(
         None, "--servo-params",
         help="identified servos (servo_params.toml of `gaitsmith identify`): gain, strength "
@@ -119,6 +124,7 @@ def drive_sim_command(
     check_number("--latency-ms", latency_ms, 0.0, MAX_LATENCY_MS, unit="ms")
     check_number("--video-speed", video_speed, 0.0, MAX_VIDEO_SPEED, lo_open=True)
     check_attitude_gain("--attitude-gain", attitude_gain)
+    check_imu_options(imu_latency_ms, imu_noise_deg)
     if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
         raise OptionError(f"--video {video}: must end in .mp4 or .gif")
     if plot is not None and plot.suffix.lower() != ".png":
@@ -144,7 +150,7 @@ def drive_sim_command(
     settings = FollowSettings(
         rate_hz=rate_hz, latency_s=latency_ms / 1000.0, laps=laps,
         pursuit=PursuitSettings(lookahead_leg_lengths=lookahead, speed_m_s=speed),
-        attitude=attitude_settings(gain))
+        attitude=attitude_settings(gain, imu_latency_ms, imu_noise_deg))
     lo, hi = lib.command_bounds()
     limits = blend_limits(bot, settings)
     cruise = hi.vx_m_s if speed is None else min(speed, hi.vx_m_s)
@@ -180,6 +186,8 @@ def drive_sim_command(
         "command_accel_m_s2": limits.accel_m_s2,
         "yaw_accel_rad_s2": limits.yaw_accel_rad_s2,
         "attitude_gain": gain,
+        "imu_latency_s": imu_latency_ms / 1000.0 if gain else None,
+        "imu_noise_rad": math.radians(imu_noise_deg) if gain else None,
     }
     png: bytes | None = None
     if plot is not None or report is not None:
