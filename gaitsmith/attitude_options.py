@@ -1,9 +1,11 @@
-"""`--attitude-gain G` (`plan --simulate`/`--knife-edge`, `simulate`): closed-loop IMU feedback
-in the MuJoCo run (`robots.attitude`, `sim.attitude_loop`). Checked before any work; the gain a
-run used is written into the gait file's validation conditions (``attitude_gain``)."""
+"""`--attitude-gain G` (`plan --simulate`/`--knife-edge`, `simulate`, `drive-sim`): closed-loop
+IMU feedback in the MuJoCo run (`robots.attitude`, `sim.attitude_loop`). Checked before any
+work; the gain a run used is written into the gait file's validation conditions
+(``attitude_gain``); `drive-sim` reports it beside its metrics."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import typer
@@ -30,6 +32,24 @@ def attitude_gain_option() -> Any:
         "walk, else robot.toml's [imu].attitude_gain, else 0")
 
 
+def imu_latency_option() -> Any:
+    return typer.Option(
+        0.0, "--imu-latency-ms", help="with --attitude-gain: age of the simulated IMU's reading "
+        "[ms]")
+
+
+def imu_noise_option() -> Any:
+    return typer.Option(
+        0.0, "--imu-noise-deg", help="with --attitude-gain: 1σ noise of the simulated IMU's roll "
+        "and pitch [°] (seeded)")
+
+
+def check_imu_options(latency_ms: float, noise_deg: float) -> None:
+    """--imu-latency-ms and --imu-noise-deg in range (one-line OptionError)."""
+    check_number("--imu-latency-ms", latency_ms, 0.0, MAX_IMU_LATENCY_MS, unit="ms")
+    check_number("--imu-noise-deg", noise_deg, 0.0, MAX_IMU_NOISE_DEG, unit="°")
+
+
 def check_attitude_gain(option: str, gain: float | None) -> None:
     """`gain` (None: not given) finite and in [0, MAX_ATTITUDE_GAIN] (one-line OptionError)."""
     check_number(option, gain, 0.0, MAX_ATTITUDE_GAIN)
@@ -46,6 +66,23 @@ def resolved_gain(gain: float | None, robot: Robot, gait: Gait) -> float:
     default, why = default_attitude_gain(robot, gait)
     if default > 0.0:
         console.print(f"attitude feedback: gain {default:g} ({why}); --attitude-gain 0 runs "
+                      "open loop", highlight=False, markup=False)
+    return default
+
+
+def resolved_library_gain(gain: float | None, robot: Robot, gaits: Sequence[Gait]) -> float:
+    """`resolved_gain` for a drive through a library's `gaits` (`drive-sim`): the option if
+    given, else the largest of the robot's defaults over the gaits (a biped's walks close the
+    loop at the rule's gain even if the library also holds a run, which the rule keeps open loop:
+    the law runs on the blend, one gain for the drive), said on the console when it closes it."""
+    if gain is not None:
+        return float(gain)
+    from gaitsmith.console import console
+    from robots.attitude import default_attitude_gain
+
+    default, why = max((default_attitude_gain(robot, g) for g in gaits), key=lambda d: d[0])
+    if default > 0.0:
+        console.print(f"attitude feedback: gain {default:g} ({why}); --attitude-gain 0 drives "
                       "open loop", highlight=False, markup=False)
     return default
 

@@ -22,6 +22,15 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from gaitsmith.attitude_options import (
+    attitude_gain_option,
+    attitude_settings,
+    check_attitude_gain,
+    check_imu_options,
+    imu_latency_option,
+    imu_noise_option,
+    resolved_library_gain,
+)
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
 from gaitsmith.options import (
@@ -44,7 +53,8 @@ LOOKAHEAD_RANGE = (0.5, 20.0)  # leg lengths
 MAX_VIDEO_SPEED = 20.0
 
 
-def _metrics_table(result: DriveResult) -> Table:
+def _metrics_table(result: DriveResult, gain: float, offset_max_rad: float,
+                   clipped_ticks: int) -> Table:
     m = result.metrics
     deg = 180.0 / math.pi
     table = Table(title="drive-sim metrics (while steering along the path)")
@@ -62,6 +72,9 @@ def _metrics_table(result: DriveResult) -> Table:
         ("fall", "no" if not m.fell else f"at {m.fall_time_s:.2f} s ({m.fall_reason})"),
         ("footprints", str(m.footprints)),
         ("requests clipped into the box", f"{m.clipped_fraction:.1%} of ticks"),
+        ("attitude feedback", "open loop" if not gain else
+         f"gain {gain:g}: largest offset {offset_max_rad:.3f} rad, at the clip on "
+         f"{clipped_ticks} tick(s)"),
     ):
         table.add_row(k, v)
     return table
@@ -93,6 +106,9 @@ def drive_sim_command(
     plot: Path | None = typer.Option(None, "--plot", help="write the planned vs driven path PNG"),
     report: Path | None = typer.Option(None, "--report", help="write an HTML report"),
     json_out: Path | None = typer.Option(None, "--json", help="write the metrics as JSON"),
+    attitude_gain: float | None = attitude_gain_option(),
+    imu_latency_ms: float = imu_latency_option(),
+    imu_noise_deg: float = imu_noise_option(),
     servo_params_path: Path | None = typer.Option(
         None, "--servo-params",
         help="identified servos (servo_params.toml of `gaitsmith identify`): gain, strength "
@@ -107,6 +123,8 @@ def drive_sim_command(
     check_number("--rate-hz", rate_hz, *RATE_HZ_RANGE, unit="Hz")
     check_number("--latency-ms", latency_ms, 0.0, MAX_LATENCY_MS, unit="ms")
     check_number("--video-speed", video_speed, 0.0, MAX_VIDEO_SPEED, lo_open=True)
+    check_attitude_gain("--attitude-gain", attitude_gain)
+    check_imu_options(imu_latency_ms, imu_noise_deg)
     if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
         raise OptionError(f"--video {video}: must end in .mp4 or .gif")
     if plot is not None and plot.suffix.lower() != ".png":
@@ -128,9 +146,11 @@ def drive_sim_command(
         raise OptionError(f"--laps {laps}: {path_spec!r} is an open path (its last waypoint "
                           "does not repeat the first); use --laps 1")
 
+    gain = resolved_library_gain(attitude_gain, bot, [e.gait for e in lib.entries])
     settings = FollowSettings(
         rate_hz=rate_hz, latency_s=latency_ms / 1000.0, laps=laps,
-        pursuit=PursuitSettings(lookahead_leg_lengths=lookahead, speed_m_s=speed))
+        pursuit=PursuitSettings(lookahead_leg_lengths=lookahead, speed_m_s=speed),
+        attitude=attitude_settings(gain, imu_latency_ms, imu_noise_deg))
     lo, hi = lib.command_bounds()
     limits = blend_limits(bot, settings)
     cruise = hi.vx_m_s if speed is None else min(speed, hi.vx_m_s)
@@ -151,7 +171,8 @@ def drive_sim_command(
     criteria = DriveCriteria(
         max_mean_cross_track_m=None if max_cross_track_cm is None else max_cross_track_cm / 100)
     result = judge(log, bot.joint_names, period, criteria)
-    console.print(_metrics_table(result))
+    console.print(_metrics_table(result, gain, log.attitude_offset_max_rad,
+                                 log.attitude_clipped_ticks))
     for name, ok, detail in result.checks:
         console.print(f"  {'[green]ok  [/]' if ok else '[red]FAIL[/]'} {name}: {detail}")
     conditions: dict[str, object] = {
@@ -164,6 +185,9 @@ def drive_sim_command(
         "timestep_s": float(sim.model.opt.timestep),
         "command_accel_m_s2": limits.accel_m_s2,
         "yaw_accel_rad_s2": limits.yaw_accel_rad_s2,
+        "attitude_gain": gain,
+        "imu_latency_s": imu_latency_ms / 1000.0 if gain else None,
+        "imu_noise_rad": math.radians(imu_noise_deg) if gain else None,
     }
     png: bytes | None = None
     if plot is not None or report is not None:
@@ -194,6 +218,8 @@ def drive_sim_command(
                "checks": [{"name": n, "ok": ok, "detail": d} for n, ok, d in result.checks],
                "metrics": result.metrics.to_dict(),
                "joint_peak_torque_fraction": dict(result.joint_peak_fraction),
+               "attitude": {"gain": gain, "offset_max_rad": log.attitude_offset_max_rad,
+                            "clipped_ticks": log.attitude_clipped_ticks},
                "conditions": conditions}
         atomic_write_text(json_out, json.dumps(doc, indent=2) + "\n")
         console.print(f"metrics → {json_out}")

@@ -20,11 +20,12 @@ from rich.table import Table
 
 import robots.gait as gait_io
 from gaitsmith.attitude_options import (
-    MAX_IMU_LATENCY_MS,
-    MAX_IMU_NOISE_DEG,
     attitude_gain_option,
     attitude_settings,
     check_attitude_gain,
+    check_imu_options,
+    imu_latency_option,
+    imu_noise_option,
     resolved_gain,
 )
 from gaitsmith.console import console
@@ -187,12 +188,8 @@ def simulate_command(
         "strength and goal latency instead of the catalogue's",
     ),
     attitude_gain: float | None = attitude_gain_option(),
-    imu_latency_ms: float = typer.Option(
-        0.0, "--imu-latency-ms", help="with --attitude-gain: age of the simulated IMU's reading "
-        "[ms]"),
-    imu_noise_deg: float = typer.Option(
-        0.0, "--imu-noise-deg", help="with --attitude-gain: 1σ noise of the simulated IMU's roll "
-        "and pitch [°] (seeded)"),
+    imu_latency_ms: float = imu_latency_option(),
+    imu_noise_deg: float = imu_noise_option(),
 ) -> None:
     """Simulate a gait in MuJoCo with servo actuators; exit 0 if it passes, 1 if it fails."""
     check_cycles("--cycles", cycles)
@@ -206,8 +203,7 @@ def simulate_command(
     check_number("--ambient-c", ambient_c, *AMBIENT_RANGE_C, unit="°C")
     check_number("--stand-s", stand_s, 0.0, MAX_STAND_S, unit="s")
     check_attitude_gain("--attitude-gain", attitude_gain)
-    check_number("--imu-latency-ms", imu_latency_ms, 0.0, MAX_IMU_LATENCY_MS, unit="ms")
-    check_number("--imu-noise-deg", imu_noise_deg, 0.0, MAX_IMU_NOISE_DEG, unit="°")
+    check_imu_options(imu_latency_ms, imu_noise_deg)
     if video is not None and video.suffix.lower() not in VIDEO_SUFFIXES:
         raise OptionError(f"--video {video}: must end in .mp4 or .gif")
     for option, path in (("--video", video), ("--report", report)):

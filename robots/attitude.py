@@ -52,6 +52,7 @@ then refuses to play it open loop unless forced (`hardware.play.preflight`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -134,6 +135,10 @@ class AttitudeMap:
 
     n_joints: int
     legs: tuple[LegMap, ...]
+
+    @property
+    def n_legs(self) -> int:
+        return len(self.legs)
 
     def joint_offsets(self, rotation_rad: np.ndarray, support: np.ndarray,
                       pivot_fraction: float = 0.0) -> np.ndarray:
@@ -259,6 +264,44 @@ def gait_offsets(
     return attitude_offsets(law, amap, np.asarray(measured_rp_rad) - planned, support, blend)
 
 
+def blended_offsets(
+    law: AttitudeLaw,
+    amap: AttitudeMap,
+    gaits: Sequence[Gait],
+    weights: Sequence[float] | np.ndarray,
+    measured_rp_rad: np.ndarray,
+    blend: float,
+    phase: float,
+) -> np.ndarray:
+    """(J,) `gait_offsets` for a blend of gaits played at one phase (`robots.blend`: the
+    library's entries share a schedule and are blended at equal phase φ, q = Σ wₑ Sₑ(φ)). The
+    reference is blended the way the joints are, with the same weights wₑ (Σ wₑ = 1):
+
+        (roll, pitch)_ref = α · Σ wₑ (roll, pitch)_planned,e(φ·Tₑ),
+        support_f = Σ wₑ support_f,e(φ),
+
+    so a blend sitting on one entry gives exactly that entry's `gait_offsets` at gait time
+    φ·Tₑ, and a command moving between entries (a gait switch mid-blend) moves the reference and
+    the support weights continuously with the weights; both stay in [0, 1] and the clip of
+    `attitude_offsets` still bounds every offset. `phase` in cycles; `blend` is the entry/exit
+    blend weight α as in `gait_offsets`."""
+    w = np.asarray(weights, dtype=float).reshape(-1)
+    if len(gaits) != w.size or w.size == 0:
+        raise AttitudeError(f"blended_offsets: {len(gaits)} gait(s) for {w.size} weight(s)")
+    if not (np.all(np.isfinite(w)) and np.all(w >= -1e-12) and abs(float(np.sum(w)) - 1.0)
+            <= 1e-6):
+        raise AttitudeError(f"blended_offsets: weights must be ≥ 0 and sum to 1, got {w}")
+    planned = np.zeros(2)
+    support = np.zeros(amap.n_legs)
+    for g, wg in zip(gaits, w, strict=True):
+        if wg <= 0.0:
+            continue
+        planned += wg * planned_roll_pitch(g, phase * g.period_s)
+        support += wg * support_weights(g.schedule, phase, law.support_ramp_phase)
+    return attitude_offsets(law, amap, np.asarray(measured_rp_rad) - blend * planned, support,
+                            blend)
+
+
 __all__ = [
     "ATTITUDE_GAIN_KEY",
     "DEFAULT_MAX_OFFSET_RAD",
@@ -268,6 +311,7 @@ __all__ = [
     "AttitudeMap",
     "LegMap",
     "attitude_offsets",
+    "blended_offsets",
     "check_gain",
     "default_attitude_gain",
     "gait_offsets",

@@ -304,6 +304,15 @@ class GaitBlender:
         return float(min_jerk(self._u)) if self._state == "gait" else 0.0
 
     @property
+    def entry_weights(self) -> tuple[np.ndarray, np.ndarray]:
+        """(indices into `library.entries`, weights summing to 1) of the blend at the command in
+        use: the weights wₑ of the last `step`'s q = Σ wₑ Sₑ(φ) (the rest point's while not
+        walking). The attitude feedback blends its reference with them
+        (`robots.attitude.blended_offsets`)."""
+        idx, w, _ = self._weights(self._cmd)
+        return idx.copy(), w.copy()
+
+    @property
     def targets_rad(self) -> np.ndarray:
         """The last targets returned by `step` (the start pose before the first step)."""
         return self._q.copy()

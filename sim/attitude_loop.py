@@ -82,6 +82,35 @@ class RunClock:
         return float(1.0 - min_jerk(min(1.0, (t_s - self.gait_end_s) / self.exit.duration_s)))
 
 
+class SimulatedImu:
+    """The simulated IMU (`ImuSettings`, module docstring): logs the base orientation as the
+    physics runs and reads it `latency_s` late, plus seeded noise. Shared by the closed-loop
+    rollout (`AttitudeLoop`) and the closed-loop path following of `sim.path.follow`."""
+
+    def __init__(self, settings: ImuSettings) -> None:
+        self.settings = settings
+        self._rng = np.random.default_rng(settings.seed)
+        self._t = [0.0]
+        self._quat = [np.array([1.0, 0.0, 0.0, 0.0])]
+        self._read = 0  # index of the newest entry read so far (reads come in time order)
+
+    def record(self, time_s: np.ndarray, quat_wxyz: np.ndarray) -> None:
+        """Log the base orientation after some physics steps ((n,), (n, 4))."""
+        self._t.extend(float(t) for t in time_s)
+        self._quat.extend(np.array(quat_wxyz, dtype=float))  # a copy: not a view of live data
+
+    def measured(self, t_s: float) -> np.ndarray:
+        """(2,) the IMU's roll/pitch at run time `t_s`: the newest logged orientation at or
+        before t − latency, plus noise."""
+        t_read = t_s - self.settings.latency_s + 1e-9
+        while self._read + 1 < len(self._t) and self._t[self._read + 1] <= t_read:
+            self._read += 1
+        rp = roll_pitch(self._quat[self._read])
+        if self.settings.noise_rad > 0.0:
+            rp = rp + self._rng.normal(0.0, self.settings.noise_rad, 2)
+        return np.asarray(rp)
+
+
 class AttitudeLoop:
     """Per-tick offsets of one closed-loop run (module docstring). Keeps the IMU's history."""
 
@@ -91,26 +120,15 @@ class AttitudeLoop:
         self.amap = amap
         self.gait = gait
         self.clock = clock
-        self._rng = np.random.default_rng(settings.imu.seed)
-        self._t = [0.0]
-        self._quat = [np.array([1.0, 0.0, 0.0, 0.0])]
-        self._read = 0  # index of the newest entry read so far (reads come in time order)
+        self.imu = SimulatedImu(settings.imu)
 
     def record(self, time_s: np.ndarray, quat_wxyz: np.ndarray) -> None:
         """Log the base orientation after some physics steps ((n,), (n, 4))."""
-        self._t.extend(float(t) for t in time_s)
-        self._quat.extend(np.asarray(quat_wxyz, dtype=float))
+        self.imu.record(time_s, quat_wxyz)
 
     def measured(self, t_s: float) -> np.ndarray:
-        """(2,) the IMU's roll/pitch at run time `t_s`: the newest logged orientation at or
-        before t − latency, plus noise."""
-        t_read = t_s - self.settings.imu.latency_s + 1e-9
-        while self._read + 1 < len(self._t) and self._t[self._read + 1] <= t_read:
-            self._read += 1
-        rp = roll_pitch(self._quat[self._read])
-        if self.settings.imu.noise_rad > 0.0:
-            rp = rp + self._rng.normal(0.0, self.settings.imu.noise_rad, 2)
-        return np.asarray(rp)
+        """(2,) the IMU's roll/pitch at run time `t_s` (`SimulatedImu.measured`)."""
+        return self.imu.measured(t_s)
 
     def correct(self, t_s: float) -> np.ndarray:
         """(J,) goal offsets for the tick sent at run time `t_s`."""
@@ -121,4 +139,4 @@ class AttitudeLoop:
                             t_s - self.clock.gait_clock_start_s)
 
 
-__all__ = ["AttitudeLoop", "AttitudeSettings", "ImuSettings", "RunClock"]
+__all__ = ["AttitudeLoop", "AttitudeSettings", "ImuSettings", "RunClock", "SimulatedImu"]

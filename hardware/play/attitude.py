@@ -3,7 +3,9 @@
 The law is the simulator's (`robots.attitude`, map from `robots.attitude_maps`): each tick the
 player asks `AttitudeCorrector.offsets` for the stance legs' joint offsets and adds them to the
 tick's target *before* `SafetyGate.command`, so joint limits, the per-tick speed budget and the
-safe stop apply to the corrected goal exactly as to an open-loop one.
+safe stop apply to the corrected goal exactly as to an open-loop one. `gaitsmith-play drive`
+(`hardware.play.drive`) asks `AttitudeCorrector.blended_offsets` instead: the reference of the
+blend its `GaitBlender` plays (`robots.attitude.blended_offsets`), the same freshness fade.
 
 An IMU is anything that implements `AttitudeSource` (``read()`` → the newest `AttitudeReading`
 — roll, pitch [rad] in the planner's z-y'-x'' convention and when it was measured, on the
@@ -20,7 +22,7 @@ that is gone. When fresh readings return, the correction fades back in over the 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -30,6 +32,7 @@ from hardware.play.errors import PlayerError
 from robots.attitude import (
     AttitudeLaw,
     AttitudeMap,
+    blended_offsets,
     gait_offsets,
 )
 from robots.gait import Gait
@@ -81,8 +84,11 @@ class AttitudeCorrector:
     """Per-tick offsets (module docstring): the law on the source's readings, faded by the
     readings' freshness."""
 
-    def __init__(self, law: AttitudeLaw, amap: AttitudeMap, gait: Gait, source: AttitudeSource,
-                 *, max_age_s: float = DEFAULT_MAX_AGE_S, fade_s: float = DEFAULT_FADE_S) -> None:
+    def __init__(self, law: AttitudeLaw, amap: AttitudeMap, gait: Gait | None,
+                 source: AttitudeSource, *, max_age_s: float = DEFAULT_MAX_AGE_S,
+                 fade_s: float = DEFAULT_FADE_S) -> None:
+        """`gait`: the gait `offsets` follows (`run`); None when the reference is given each
+        tick (`blended_offsets`: `drive`'s blend of a library's gaits)."""
         if not (math.isfinite(max_age_s) and 0.0 < max_age_s <= MAX_AGE_BOUND_S):
             raise PlayerError(f"IMU max age must be in (0, {MAX_AGE_BOUND_S:g}] s, got "
                               f"{max_age_s!r}")
@@ -101,6 +107,24 @@ class AttitudeCorrector:
         """(J,) offsets to add to the target of the tick at `now_s` (the player's clock, the
         one the source's readings are stamped on), with entry/exit blend
         weight `blend` ∈ [0, 1] and the gait's clock at `gait_time_s`."""
+        gait = self.gait
+        if gait is None:
+            raise PlayerError("AttitudeCorrector.offsets needs the corrector's gait; a blend of "
+                              "gaits goes through blended_offsets")
+        return self._faded(now_s, lambda measured: gait_offsets(
+            self.law, self.amap, gait, measured, blend, gait_time_s))
+
+    def blended_offsets(self, now_s: float, blend: float, gaits: Sequence[Gait],
+                        weights: np.ndarray, phase: float) -> np.ndarray:
+        """(J,) `offsets` for a blend of gaits at one phase (`drive`): the reference roll/pitch
+        and the support weights blended with the blender's weights
+        (`robots.attitude.blended_offsets`), `blend` the blender's entry/exit weight α."""
+        return self._faded(now_s, lambda measured: blended_offsets(
+            self.law, self.amap, gaits, weights, measured, blend, phase))
+
+    def _faded(self, now_s: float, law: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+        """The law's offsets on a fresh reading, faded by the readings' freshness (module
+        docstring)."""
         dt = 0.0 if self._t_last is None else max(0.0, now_s - self._t_last)
         self._t_last = now_s
         reading = self.source.read()
@@ -114,9 +138,7 @@ class AttitudeCorrector:
         if fresh:
             assert reading is not None
             self.trust = min(1.0, self.trust + step) if self._had_reading else 1.0
-            measured = np.array([reading.roll_rad, reading.pitch_rad])
-            self._offset = gait_offsets(self.law, self.amap, self.gait, measured, blend,
-                                        gait_time_s)
+            self._offset = law(np.array([reading.roll_rad, reading.pitch_rad]))
         else:
             self.stale_ticks += 1
             self.trust = max(0.0, self.trust - step)

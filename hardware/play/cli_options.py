@@ -72,11 +72,45 @@ def supply_option(help_text: str) -> Any:
     return typer.Option(None, "--supply-v", help=help_text)
 
 
+def attitude_gain_option(default_text: str) -> Any:
+    """`--attitude-gain` (`run`, `drive`); `default_text` says what the default gain is."""
+    return typer.Option(
+        None, "--attitude-gain",
+        help="IMU feedback on body roll/pitch with gain G (0 to 2; hardware.play.attitude), "
+        "added to the goals before the safety gate, from --imu or --virtual sim (the MuJoCo "
+        f"twin's body); default with either: {default_text}, else 0.")
+
+
+def imu_option() -> Any:
+    return typer.Option(
+        None, "--imu", metavar="PORT",
+        help="Serial port of a WitMotion IMU (WT901/JY901/HWT901B; hardware.imu.witmotion) "
+        "on the robot's body, for --attitude-gain; it must stream angle frames at >= 40 Hz.")
+
+
+def imu_baud_option() -> Any:
+    from hardware.imu.witmotion import DEFAULT_BAUD
+
+    return typer.Option(
+        DEFAULT_BAUD, "--imu-baud", help="The IMU's baud rate (WitMotion factory: 9600).")
+
+
+def imu_mount_option() -> Any:
+    return typer.Option(
+        "", "--imu-mount", metavar="yaw=DEG,roll=DEG",
+        help="The IMU's axes on the body (x forward, y left, z up): yaw turns its X axis "
+        "about body up (X pointing right: yaw=-90); roll=180: mounted upside down.")
+
+
 __all__ = [
     "SUSTAINED_RATE_HZ",
+    "attitude_gain_option",
     "baud_option",
     "calibration_option",
     "fault_option",
+    "imu_baud_option",
+    "imu_mount_option",
+    "imu_option",
     "on_stop_option",
     "port_option",
     "ramp_option",

@@ -34,7 +34,7 @@ rehearse the safe stop without hardware; the syntax is in `hardware.play.fault_s
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from enum import Enum
@@ -48,12 +48,15 @@ from typer.core import TyperCommand
 
 from hardware.bus.servo_bus import BusConfig, ServoBus
 from hardware.errors import HardwareError
-from hardware.imu.witmotion import DEFAULT_BAUD as DEFAULT_IMU_BAUD
 from hardware.play.cli_options import (
     SUSTAINED_RATE_HZ,
+    attitude_gain_option,
     baud_option,
     calibration_option,
     fault_option,
+    imu_baud_option,
+    imu_mount_option,
+    imu_option,
     on_stop_option,
     port_option,
     ramp_option,
@@ -303,21 +306,10 @@ def run(
         "Servo supply [V] for pre-flight's torque margin; default: measured (the lowest "
         "servo reading)."
     ),
-    attitude_gain: float | None = typer.Option(
-        None, "--attitude-gain",
-        help="IMU feedback on body roll/pitch with gain G (0 to 2; hardware.play.attitude), "
-        "added to the goals before the safety gate, from --imu or --virtual sim (the MuJoCo "
-        "twin's body); default with either: the gain the gait was validated with, else 0."),
-    imu: str | None = typer.Option(
-        None, "--imu", metavar="PORT",
-        help="Serial port of a WitMotion IMU (WT901/JY901/HWT901B; hardware.imu.witmotion) "
-        "on the robot's body, for --attitude-gain; it must stream angle frames at >= 40 Hz."),
-    imu_baud: int = typer.Option(
-        DEFAULT_IMU_BAUD, "--imu-baud", help="The IMU's baud rate (WitMotion factory: 9600)."),
-    imu_mount: str = typer.Option(
-        "", "--imu-mount", metavar="yaw=DEG,roll=DEG",
-        help="The IMU's axes on the body (x forward, y left, z up): yaw turns its X axis "
-        "about body up (X pointing right: yaw=-90); roll=180: mounted upside down."),
+    attitude_gain: float | None = attitude_gain_option("the gain the gait was validated with"),
+    imu: str | None = imu_option(),
+    imu_baud: int = imu_baud_option(),
+    imu_mount: str = imu_mount_option(),
 ) -> None:
     """Play a gait on the servos: pre-flight, ramp-in, stream, watchdog, safe stop.
 
@@ -373,30 +365,55 @@ def run(
         )
     except ValueError as exc:
         raise _fail(str(exc)) from None
-    # a real IMU runs in real time: its readings are only fresh on a real clock
-    clock: Clock = MonotonicClock() if realtime or virtual is None or imu else VirtualClock()
-    imu_source = None if imu is None else _open_imu(imu, imu_baud, imu_mount, clock)
+    clock = feedback_clock(realtime, virtual, imu)
+    feedback = open_feedback(attitude_gain, imu, imu_baud, imu_mount, clock)
     try:
         _play(rob, gait_obj, cal, port, virtual, config, bus_config, faults, clock, telemetry,
-              _Feedback(attitude_gain, imu_source))
+              feedback)
     finally:
-        if imu_source is not None:
-            imu_source.close()
+        feedback.close()
 
 
 @dataclass(frozen=True)
-class _Feedback:
-    """`run`'s attitude feedback settings: --attitude-gain and the opened --imu (or None)."""
+class Feedback:
+    """The attitude feedback settings of `run` and `drive`: --attitude-gain and the opened
+    --imu (or None)."""
 
     gain: float | None
     imu: Any
 
+    def corrector(self, robot: Any, gaits: Sequence[Any], twin: Any, clock: Clock) -> Any:
+        """The `AttitudeCorrector` for these gaits (None: open loop; `attitude_corrector`)."""
+        return attitude_corrector(self.gain, robot, gaits, twin, self.imu, clock)
+
+    def report(self) -> None:
+        """After the run: the IMU's own summary (frames, bad checksums, a lost port)."""
+        if self.imu is not None:
+            console.print(self.imu.summary(), highlight=False)
+
+    def close(self) -> None:
+        if self.imu is not None:
+            self.imu.close()
+
+
+def feedback_clock(realtime: bool, virtual: VirtualMode | None, imu: str | None) -> Clock:
+    """The run's clock: real time on real servos, with --realtime, and with a real IMU (its
+    readings are only fresh on a real clock); else the virtual clock."""
+    return MonotonicClock() if realtime or virtual is None or imu else VirtualClock()
+
+
+def open_feedback(gain: float | None, imu: str | None, imu_baud: int, imu_mount: str,
+                  clock: Clock) -> Feedback:
+    """--attitude-gain and --imu (opened and heard streaming, `_open_imu`) of `run` / `drive`;
+    the options were checked by `_attitude_problem` before anything was loaded."""
+    return Feedback(gain, None if imu is None else _open_imu(imu, imu_baud, imu_mount, clock))
+
 
 def _play(rob: Any, gait_obj: Any, cal: Any, port: str | None, virtual: VirtualMode | None,
           config: PlayerConfig, bus_config: BusConfig, faults: FaultSchedule | None,
-          clock: Clock, telemetry: Path | None, feedback: _Feedback) -> None:
+          clock: Clock, telemetry: Path | None, feedback: Feedback) -> None:
     """`run` after its options are checked and the IMU is open: play, report, exit."""
-    dry_run, rate_hz, imu_source = config.dry_run, config.rate_hz, feedback.imu
+    dry_run, rate_hz = config.dry_run, config.rate_hz
     with play_session(
         rob, port, virtual, bus_config, clock, faults, telemetry,
         open_bus=not dry_run or port is not None or virtual is not None,
@@ -410,7 +427,7 @@ def _play(rob: Any, gait_obj: Any, cal: Any, port: str | None, virtual: VirtualM
             clock=VirtualClock() if dry_run else clock,
             telemetry=session.writer,
             on_tick=faults.on_tick if faults is not None and faults.timed else None,
-            attitude=_attitude(feedback.gain, rob, gait_obj, session.twin, imu_source, clock),
+            attitude=feedback.corrector(rob, [gait_obj], session.twin, clock),
         )
         if dry_run:
             console.print("[bold]dry run[/]: nothing is sent to the servos")
@@ -418,8 +435,7 @@ def _play(rob: Any, gait_obj: Any, cal: Any, port: str | None, virtual: VirtualM
 
     def report() -> None:
         _report(result, session.twin, rate_hz, telemetry)
-        if imu_source is not None:
-            console.print(imu_source.summary(), highlight=False)
+        feedback.report()
 
     finish_session(report, result.exit_code)
 
@@ -463,11 +479,14 @@ def _open_imu(path: str, baud: int, mount: str, clock: Clock) -> Any:
         raise _fail(f"--imu {path}: {exc}") from None
 
 
-def _attitude(gain: float | None, robot: Any, gait: Any, twin: Any, imu: Any,
-              clock: Clock) -> Any:
-    """The IMU feedback for `Player` (None: open loop): the source is `imu` (a real IMU,
-    `hardware.imu`) or else the twin's body; the gain is `gain`, or the gain the gait was
-    validated with when there is a source."""
+def attitude_corrector(gain: float | None, robot: Any, gaits: Sequence[Any], twin: Any,
+                       imu: Any, clock: Clock) -> Any:
+    """The IMU feedback for `Player` / `Driver` (None: open loop): the source is `imu` (a real
+    IMU, `hardware.imu`) or else the twin's body; the gain is `gain`, or — when there is a
+    source — the gain the gaits were validated with: `run`'s one gait's, `drive`'s largest over
+    its library (a library built closed loop holds its walks at the rule's gain; pre-flight
+    warns about every gait validated at another). One gait (`run`): the corrector follows it;
+    several (`drive`): the reference comes from the blend each tick."""
     if imu is not None:
         source, what = imu, f"the IMU on {imu.name}"
     elif twin is not None and hasattr(twin, "roll_pitch_rad"):
@@ -482,14 +501,20 @@ def _attitude(gain: float | None, robot: Any, gait: Any, twin: Any, imu: Any,
     from robots.attitude import AttitudeLaw
     from robots.attitude_maps import attitude_map
 
-    g = validated_attitude_gain(gait.validation) if gain is None else gain
+    validated = sorted({validated_attitude_gain(g.validation) for g in gaits})
+    g = validated[-1] if gain is None else gain
     if not g:
         if imu is not None:
-            console.print(f"attitude feedback: off (gain 0: the gait was validated open loop; "
+            console.print(f"attitude feedback: off (gain 0: validated open loop; "
                           f"--attitude-gain G uses {what})", highlight=False)
         return None
-    console.print(f"attitude feedback: gain {g:g} from {what}", highlight=False)
-    return AttitudeCorrector(AttitudeLaw(g), attitude_map(robot), gait, source)
+    why = ""
+    if gain is None and len(validated) > 1:
+        why = f" (the largest of the gains the library was validated with: " \
+              f"{', '.join(f'{v:g}' for v in validated)})"
+    console.print(f"attitude feedback: gain {g:g} from {what}{why}", highlight=False)
+    return AttitudeCorrector(AttitudeLaw(g), attitude_map(robot),
+                             gaits[0] if len(gaits) == 1 else None, source)
 
 
 @dataclass

@@ -23,6 +23,18 @@ input has ended (EOF, `{"end": true}`, the keyboard's X, a lost gamepad) or `max
 passed, and the blender has come to rest in the stand; any stop reason of `run` (signal,
 watchdog, bus) ends it at once, through the same safe stop as `run`.
 
+Attitude feedback (`attitude`, an `hardware.play.attitude.AttitudeCorrector`; `--imu PORT` or
+the twin's body, as `run`): each drive tick the offsets of `robots.attitude.blended_offsets`
+are added to the blender's targets before the SafetyGate, exactly where `run` adds them. The
+blender plays q = Σ wₑ Sₑ(φ) at one phase φ; the reference roll/pitch and the stance-support
+weights are blended with the same wₑ at the same φ, and faded by the blender's entry/exit weight
+α (`GaitBlender.blend_weight`). Standing and the stand ↔ walk ramps (α = 0) get no correction:
+`run` and the simulator's closed-loop validation apply none there either (their α is 0 before
+the gait's blend-in and after its blend-out), so no verdict covers one; the ramps are not a
+plan with a reference attitude. A stale or vanished IMU fades the correction to zero (the
+corrector's), and the pre-flight refuses a library holding a gait validated closed loop when
+the drive has no feedback, unless `force` — `run`'s rule, applied to every gait of the library.
+
 Telemetry (one row per tick, as `run`) adds the commands beside the targets: requested (what the
 hold gave the blender: the source's command, or 0 after the deadman), applied (the blender's
 command after acceleration limits and clipping into the grid), the gait phase, and the running
@@ -39,6 +51,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from hardware.bus.servo_bus import ServoBus
+from hardware.play.attitude import AttitudeCorrector
 from hardware.play.calibration import Calibration
 from hardware.play.clock import Clock
 from hardware.play.command_sources import STOP, CommandHold, CommandSource
@@ -79,6 +92,12 @@ class Blender(Protocol):
 
     @property
     def standing(self) -> bool: ...
+
+    @property
+    def blend_weight(self) -> float: ...
+
+    @property
+    def entry_weights(self) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 # (start pose [rad], joint speed limit [rad/s], DriveConfig) → a blender standing there
@@ -154,7 +173,8 @@ def worst_heating(robot: Robot, gaits: Sequence[Gait]) -> dict[int, PredictedHea
 
 class Driver(Player):
     """Drives `robot` from `source` through the blender `make_blender` builds (see above);
-    `stand` is entered first, `gaits` are everything the blender may play (pre-flight)."""
+    `stand` is entered first, `gaits` are everything the blender may play (pre-flight), in
+    the order its `entry_weights` index; `attitude`: IMU feedback on the blend (see above)."""
 
     def __init__(
         self,
@@ -171,6 +191,7 @@ class Driver(Player):
         clock: Clock | None = None,
         telemetry: TelemetryWriter | None = None,
         on_tick: TickHook | None = None,
+        attitude: AttitudeCorrector | None = None,
     ) -> None:
         cfg = config or PlayerConfig(cycles=None)
         if cfg.cycles is not None or cfg.speed_scale != 1.0:
@@ -180,6 +201,7 @@ class Driver(Player):
         super().__init__(
             robot, stand, bus=bus, calibration=calibration, config=cfg, clock=clock,
             telemetry=telemetry, on_tick=on_tick, heating=worst_heating(robot, self.gaits),
+            attitude=attitude,
         )  # fmt: skip
         self.drive = drive or DriveConfig()
         self.make_blender = make_blender
@@ -198,6 +220,7 @@ class Driver(Player):
                 more, _ = check_offline(
                     self.robot, gait, self.calibration, 1.0, self.gate.enforced_speed_rad_s,
                     cfg.force, rate_hz=cfg.rate_hz, cycles=None,
+                    attitude_gain=None if self.attitude is None else self.attitude.law.gain,
                 )  # fmt: skip
             except PreflightError as exc:
                 raise PreflightError(f"library {_label(gait)}: {exc.what}", exc.problem) from None
@@ -253,13 +276,26 @@ class Driver(Player):
             # the input ended (EOF, an end line): no command holds on for the deadman
             requested = STOP if self.source.ended else self.hold.requested(t_s)
             dt_s = max(1, k - k_prev) * self.period_s  # deadlines skipped after an overrun count
-            target = blender.step(requested, dt_s)
+            target = self._corrected_blend(blender, blender.step(requested, dt_s))
             standing = blender.standing
             self._drive_ticks += max(1, k - k_prev)
             self._walking_ticks += 0 if standing else max(1, k - k_prev)
             k_prev = k
             extra = self._extra(requested, blender.command, blender.phase)
             k = self._tick(k, "stand" if standing else "drive", target, watch=True, extra=extra)
+
+    def _corrected_blend(self, blender: Blender, target: np.ndarray) -> np.ndarray:
+        """`target` plus the attitude feedback's offsets for the blend the blender played
+        (`AttitudeCorrector.blended_offsets`: the reference roll/pitch and support weights of
+        its entries at its phase, weighted like the joints; faded by its entry/exit weight α,
+        which is 0 while it stands or ramps, so the stand gets no correction). The offsets go
+        in before the SafetyGate, as `run`'s, and never into the blender's own state."""
+        if self.attitude is None:
+            return target
+        idx, weights = blender.entry_weights
+        gaits = [self.gaits[1 + int(i)] for i in idx]  # self.gaits = (stand, *entries)
+        return target + self.attitude.blended_offsets(
+            self.clock.now_s(), blender.blend_weight, gaits, weights, blender.phase)
 
     def _start_pose(self) -> np.ndarray:
         """Where the blender starts: the stand pose itself when the last goal is the stand to

@@ -6,7 +6,9 @@ The robot stands up (pre-flight, ramp-in to the library's stand), then walks at 
 No command for `--deadman-s` → decelerate to the stand. The drive ends standing once the input
 ends (EOF, `{"end": true}`, X on the keyboard) or after `--max-drive-s`; then, as after `run`,
 the ramp to rest and torque off. Signals, the watchdog, faults (`--fault`, virtual bus only) and
-exit codes are `run`'s (`hardware.play.commands`).
+exit codes are `run`'s (`hardware.play.commands`). IMU attitude feedback (`--attitude-gain`,
+`--imu PORT`, or the twin's body with `--virtual sim`) is `run`'s too, options and wiring
+shared, applied to the blended command (`hardware.play.drive`).
 """
 
 from __future__ import annotations
@@ -23,9 +25,13 @@ from rich.markup import escape
 from hardware.bus.servo_bus import BusConfig
 from hardware.play.cli_options import (
     SUSTAINED_RATE_HZ,
+    attitude_gain_option,
     baud_option,
     calibration_option,
     fault_option,
+    imu_baud_option,
+    imu_mount_option,
+    imu_option,
     on_stop_option,
     port_option,
     ramp_option,
@@ -37,9 +43,11 @@ from hardware.play.cli_options import (
     telemetry_option,
     timeout_option,
 )
-from hardware.play.clock import Clock, MonotonicClock, VirtualClock
+from hardware.play.clock import Clock
 from hardware.play.commands import (
+    Feedback,
     VirtualMode,
+    _attitude_problem,
     _fail,
     _fault_schedule,
     _load_inputs,
@@ -47,7 +55,9 @@ from hardware.play.commands import (
     check_option,
     console,
     err_console,
+    feedback_clock,
     finish_session,
+    open_feedback,
     play_session,
 )
 from hardware.play.player import OnStop, PlayerConfig, RestPose
@@ -107,13 +117,18 @@ def drive(
         "Virtual bus only, repeatable: inject a fault (as `run --fault`)."
     ),
     supply_v: float | None = supply_option("Servo supply [V] for pre-flight's torque margin."),
+    attitude_gain: float | None = attitude_gain_option(
+        "the largest gain the library's gaits were validated with"),
+    imu: str | None = imu_option(),
+    imu_baud: int = imu_baud_option(),
+    imu_mount: str = imu_mount_option(),
 ) -> None:
     """Drive the robot live: keyboard, gamepad or JSON-line commands, blended from a gait
     library; every target through the safety gate; no command for --deadman-s → stand.
 
     Ctrl-C, SIGTERM, SIGHUP and SIGQUIT stop safely as in `run` (ramp to rest, torque off);
     exit codes as `run`: 0 completed, 2 refused, 3-9 watchdog / bus, 129-143 signals."""
-    from hardware.play.command_sources import check_input_spec, open_source
+    from hardware.play.command_sources import check_input_spec
 
     for name, value in (
         ("--rate", rate_hz), ("--ramp-s", ramp_s), ("--timeout-ms", timeout_ms), ("--baud", baud),
@@ -139,6 +154,9 @@ def drive(
         raise _fail("--fault injects faults into the virtual bus only: add --virtual")
     if port is None and virtual is None:
         raise _fail("give --port DEVICE or --virtual [bus|sim]")
+    problem = _attitude_problem(attitude_gain, virtual, imu)
+    if problem is not None:
+        raise _fail(problem)
     rob, _, cal = _load_inputs(robot, None, calibration)
     lib = _load_library(library, rob)
     faults = _fault_schedule(fault or [], [j.bus_id for j in rob.joints])
@@ -158,9 +176,24 @@ def drive(
         )  # fmt: skip
     except ValueError as exc:
         raise _fail(str(exc)) from None
-    clock: Clock = MonotonicClock() if realtime or virtual is None else VirtualClock()
+    clock = feedback_clock(realtime, virtual, imu)
+    feedback = open_feedback(attitude_gain, imu, imu_baud, imu_mount, clock)
+    try:
+        _drive(rob, lib, cal, port, virtual, input_spec, stdin_fd, config, bus_config,
+               drive_config, faults, clock, telemetry, feedback)
+    finally:
+        feedback.close()
+
+
+def _drive(rob: Any, lib: Any, cal: Any, port: str | None, virtual: VirtualMode | None,
+           input_spec: str, stdin_fd: int | None, config: PlayerConfig, bus_config: BusConfig,
+           drive_config: Any, faults: Any, clock: Clock, telemetry: Path | None,
+           feedback: Feedback) -> None:
+    """`drive` after its options are checked and the IMU is open: drive, report, exit."""
+    from hardware.play.command_sources import open_source
     from hardware.play.drive import TELEMETRY_COLUMNS, drive_from_library
 
+    rate_hz = config.rate_hz
     with play_session(
         rob, port, virtual, bus_config, clock, faults, telemetry, TELEMETRY_COLUMNS
     ) as session:
@@ -177,15 +210,22 @@ def drive(
             raise _fail(f"--input {input_spec}: this process has no stdin to read")
         source = open_source(input_spec, lib.command_bounds(), stdin_fd or 0, echo)
         try:
+            gaits = [lib.stand, *(e.gait for e in lib.entries)]
             driver = drive_from_library(
                 rob, lib, source, bus=session.bus, calibration=cal, config=config,
                 drive=drive_config, clock=clock, telemetry=session.writer,
                 on_tick=faults.on_tick if faults is not None and faults.timed else None,
+                attitude=feedback.corrector(rob, gaits, session.twin, clock),
             )  # fmt: skip
             result = driver.drive_run()
         finally:
             source.close()  # the terminal restored, the socket removed, on every path
-    finish_session(lambda: _report(result, session.twin, rate_hz, telemetry), result.exit_code)
+
+    def report() -> None:
+        _report(result, session.twin, rate_hz, telemetry)
+        feedback.report()
+
+    finish_session(report, result.exit_code)
 
 
 def _stdin_fd() -> int | None:

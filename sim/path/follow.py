@@ -10,7 +10,10 @@ player's stream rate, 100 Hz by default):
 2. `robots.blend.GaitBlender.step(command, dt)` turns it into joint targets (acceleration
    limits, stand ↔ walk transitions, per-tick joint-speed clip): exactly what the player's drive
    mode streams to the servos;
-3. the targets reach the servos after `latency_s` plus each servo's own identified delay
+3. with `FollowSettings.attitude` (closed loop) the simulated IMU (`sim.attitude_loop`) is read
+   and the attitude law's offsets for the blend are added to the targets (`_Feedback`), as
+   `gaitsmith-play drive` adds them before its SafetyGate;
+4. the targets reach the servos after `latency_s` plus each servo's own identified delay
    (`SimModel.servo_latency_s`; a delay line of whole ticks) and are held over the tick's
    physics steps (zero-order hold).
 
@@ -29,11 +32,13 @@ from dataclasses import dataclass, field, replace
 import mujoco
 import numpy as np
 
+from robots.attitude import AttitudeMap, blended_offsets
 from robots.blend import BlendLimits, GaitBlender
 from robots.gait import Velocity
 from robots.library import GaitLibrary
 from robots.robot import Robot
 from robots.servo_params import ServoSetting
+from sim.attitude_loop import AttitudeSettings, SimulatedImu
 from sim.errors import SimConfigError, SimDivergedError
 from sim.metrics import CONTACT_FORCE_FRACTION, GRAVITY_M_S2, FallThresholds, tilt_of, yaw_of
 from sim.model import SimConditions, SimModel, build_sim_model
@@ -67,6 +72,8 @@ class FollowSettings:
     timeout_factor: float = 3.0  # × (path length / cruise speed) + 30 s before giving up
     pursuit: PursuitSettings = field(default_factory=PursuitSettings)
     falls: FallThresholds = field(default_factory=FallThresholds)
+    #: closed-loop attitude feedback (`sim.attitude_loop`; None or gain 0: open loop)
+    attitude: AttitudeSettings | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 10_000.0):
@@ -118,6 +125,9 @@ class FollowLog:
     fall_reason: str | None
     timed_out: bool
     command_clipped_ticks: int  # ticks whose request lay outside the box (clipped by the blender)
+    attitude_gain: float = 0.0  # the attitude feedback's gain (0: open loop)
+    attitude_offset_max_rad: float = 0.0  # the largest |offset| the feedback added to a target
+    attitude_clipped_ticks: int = 0  # ticks where an offset sat at the law's clip
 
     @property
     def n_ticks(self) -> int:
@@ -198,6 +208,7 @@ def follow(
                                        maxlen=int(delay_ticks.max()) + 1)
     joint_cols = np.arange(robot.dof)
     data.ctrl[:] = stance
+    feedback = _Feedback.of(settings.attitude, library, robot, model, data, limits)
 
     def cols(prefix: str, names: tuple[str, ...]) -> np.ndarray:
         return np.concatenate([np.arange(model.nsensordata)[sim.sensors[f"{prefix}{n}"]]
@@ -240,12 +251,16 @@ def follow(
             arrived, driving = t, False
         command = st.command if driving else Velocity()
         targets = blender.step(command, tick_s)
+        if feedback is not None:
+            targets = feedback.corrected(blender, targets, t)
         clipped += int(blender.command_clipped)
         history.append(targets)
         data.ctrl[:] = np.stack(history)[-1 - delay_ticks, joint_cols]
         tick_peak = np.zeros(robot.dof)
         for _ in range(substeps):
             mujoco.mj_step(model, data)
+            if feedback is not None:
+                feedback.imu.record(np.array([data.time]), data.qpos[None, 3:7])
             tau = np.abs(data.sensordata[drive_idx] - back_emf * data.sensordata[qd_idx])
             np.maximum(tick_peak, tau, out=tick_peak)
         np.maximum(peak, tick_peak, out=peak)
@@ -322,4 +337,50 @@ def follow(
         fall_reason=None if fall is None else fall[1],
         timed_out=timed_out,
         command_clipped_ticks=clipped,
+        attitude_gain=0.0 if feedback is None else feedback.law.gain,
+        attitude_offset_max_rad=0.0 if feedback is None else feedback.offset_max_rad,
+        attitude_clipped_ticks=0 if feedback is None else feedback.clipped_ticks,
     )
+
+
+class _Feedback:
+    """The attitude feedback of a closed-loop drive: the simulated IMU (`sim.attitude_loop`)
+    read each tick, the law on the blend the blender played (`robots.attitude.blended_offsets`:
+    the entries' reference roll/pitch and support weights with the blender's weights, at its
+    phase, faded by its entry/exit weight α — zero while it stands or ramps, as in
+    `gaitsmith-play drive`), the corrected targets clipped to the joint limits (the player's
+    SafetyGate does the same)."""
+
+    def __init__(self, settings: AttitudeSettings, library: GaitLibrary, amap: AttitudeMap,
+                 limits: BlendLimits) -> None:
+        self.law = settings.law
+        self.imu = SimulatedImu(settings.imu)
+        self.amap = amap
+        self.gaits = [e.gait for e in library.entries]
+        self.limits = limits
+        self.offset_max_rad = 0.0
+        self.clipped_ticks = 0
+
+    @staticmethod
+    def of(settings: AttitudeSettings | None, library: GaitLibrary, robot: Robot,
+           model: mujoco.MjModel, data: mujoco.MjData, limits: BlendLimits) -> _Feedback | None:
+        if settings is None or settings.law.gain == 0.0:
+            return None
+        from robots.attitude_maps import attitude_map
+
+        out = _Feedback(settings, library, attitude_map(robot, model), limits)
+        out.imu.record(np.array([data.time]), data.qpos[None, 3:7])
+        return out
+
+    def corrected(self, blender: GaitBlender, targets: np.ndarray, t_s: float) -> np.ndarray:
+        """`targets` of the tick sent at run time `t_s` plus the law's offsets."""
+        idx, w = blender.entry_weights
+        off = blended_offsets(self.law, self.amap, [self.gaits[i] for i in idx], w,
+                              self.imu.measured(t_s), blender.blend_weight, blender.phase)
+        peak = float(np.max(np.abs(off))) if off.size else 0.0
+        self.offset_max_rad = max(self.offset_max_rad, peak)
+        self.clipped_ticks += int(peak >= self.law.max_offset_rad - 1e-12)
+        q = targets + off
+        if self.limits.lower_rad is not None and self.limits.upper_rad is not None:
+            q = np.clip(q, self.limits.lower_rad, self.limits.upper_rad)
+        return np.asarray(q)

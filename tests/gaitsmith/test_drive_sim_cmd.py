@@ -48,6 +48,8 @@ def _error_line(capsys: pytest.CaptureFixture[str]) -> str:
     (["--path", "circle:1", "--video", "x.avi"], "must end in .mp4 or .gif"),
     (["--path", "circle:1", "--plot", "x.jpg"], "must end in .png"),
     (["--path", "circle:1", "--robot", "quad12"], "fingerprint"),
+    (["--path", "circle:1", "--attitude-gain", "2.5"], "--attitude-gain must be a number in"),
+    (["--path", "circle:1", "--imu-noise-deg", "-1"], "--imu-noise-deg must be a number in"),
 ])
 def test_bad_input_is_one_line_exit_2(hex_library: Path, extra: list[str], match: str,
                                       capsys: pytest.CaptureFixture[str],
