@@ -51,6 +51,8 @@ IPOPT_TUNINGS = ("tuned", "session21")
 NLP_JACOBIANS = ("ad", "assembled")
 #: values of `PlannerOptions.nlp_hessian`
 NLP_HESSIANS = ("ad", "assembled")
+#: `PlannerOptions.nlp_hessian`'s default (`gaitsmith plan --nlp-hessian` says it)
+DEFAULT_NLP_HESSIAN = "ad"
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -342,7 +344,7 @@ class PlannerOptions:
     ipopt_tuning: str = "tuned"
     knot_threads: int = 1
     nlp_jacobian: str = "assembled"
-    nlp_hessian: str = "ad"
+    nlp_hessian: str = DEFAULT_NLP_HESSIAN
 
     def __post_init__(self) -> None:
         checks = {
