@@ -61,7 +61,12 @@ from gaitsmith.search_options import (
 )
 from gaitsmith.stance_options import StanceShaped, stance_shaped
 from planner.errors import InfeasibleGaitError, PlannerConfigError
-from planner.nlp.config import DEFAULT_FROUDE, PlannerOptions, default_speed_m_s
+from planner.nlp.config import (
+    DEFAULT_FROUDE,
+    DEFAULT_NLP_HESSIAN,
+    PlannerOptions,
+    default_speed_m_s,
+)
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import TEMPLATES, default_gait_for
 from planner.user_schedule import command_schedule
@@ -113,6 +118,12 @@ def plan(
         "Jacobian and Hessian, cached; fast build; uses compiled ones if cached), expanded (whole "
         "NLP in SX; slow build) or compiled (knot, with J and H compiled to C once per robot: "
         "minutes the first time, faster solves after)"),
+    nlp_hessian: str = typer.Option(
+        DEFAULT_NLP_HESSIAN, "--nlp-hessian", help="IPOPT's Lagrangian Hessian with --solver "
+        "knot or compiled (`PlannerOptions.nlp_hessian`): ad (CasADi's AD of the whole NLP) or "
+        "assembled (one knot Hessian per knot weighted by its multipliers, "
+        "`planner.nlp.assembled_hessian`); the same Hessian to rounding, not the same bits "
+        "(docs/results/planner_speed.md, sessions 29-30)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
     knife_edge: bool = typer.Option(
         False, "--knife-edge", help="with --simulate: also re-plan at ±1% speed and N±4 and "
@@ -206,7 +217,7 @@ def plan(
         raise OptionError("--knife-edge: needs --simulate, a straight command (no --vy, "
                           "--yaw-rate) and no --search")
     check_nlp_options(force_rate, bounce_weight, entry_cycles, rotor_reserve, swing_clearance,
-                      solver, mirror, knots, line_capture_margin)
+                      solver, mirror, knots, line_capture_margin, nlp_hessian)
     check_output_file("--output", output)
     bot = robots.load(robot)
     if speed is None:
@@ -227,7 +238,8 @@ def plan(
               else StanceShaped(force_rate, bounce_weight, entry_cycles, {}))
     options = planner_options(mu, solver, shaped, rotor_reserve, swing_clearance,
                               verbose=verbose, servo_settings=servo_settings, mirror=mirror,
-                              line_capture_margin=line_capture_margin)
+                              line_capture_margin=line_capture_margin,
+                              nlp_hessian=nlp_hessian)
     meta = gait_metadata(supply_v, servo_params_path, shaped)
     if search:
         limited = (servo_limited(bot, default_gait_for(bot), speed, options)

@@ -27,7 +27,12 @@ from gaitsmith.options import (
 from gaitsmith.plan_search import SearchSettings
 from gaitsmith.search_options import check_search_options
 from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, StanceShaped
-from planner.nlp.config import DERIVATIVE_PATHS, PlannerOptions
+from planner.nlp.config import (
+    DEFAULT_NLP_HESSIAN,
+    DERIVATIVE_PATHS,
+    NLP_HESSIANS,
+    PlannerOptions,
+)
 from robots.gait import ENTRY_CYCLES_KEY, MAX_ENTRY_CYCLES
 from robots.servo_params import ServoSetting
 
@@ -74,6 +79,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--schedule", "schedule_file", SCHEDULE, SEED),
     OptionRoute("--mu", "mu", NLP, NLP),
     OptionRoute("--solver", "solver", NLP, NLP),
+    OptionRoute("--nlp-hessian", "nlp_hessian", NLP, NLP),
     OptionRoute("--verbose", "verbose", "PlannerOptions.print_level", ""),
     OptionRoute("--knife-edge", "knife_edge", "re-plans and simulations after --simulate", "",
                 "--knife-edge: needs --simulate, a straight command (no --vy, --yaw-rate) and "
@@ -156,7 +162,8 @@ def check_command(vx: float | None, vy: float, yaw_rate: float) -> None:
 def check_nlp_options(force_rate: float | None, bounce_weight: float | None,
                       entry_cycles: int | None, rotor_reserve: float | None,
                       swing_clearance: float | None, solver: str, mirror: bool,
-                      knots: int, line_capture_margin: float | None = None) -> None:
+                      knots: int, line_capture_margin: float | None = None,
+                      nlp_hessian: str = DEFAULT_NLP_HESSIAN) -> None:
     """The NLP-shaping options (each None unless given) in the ranges the planner accepts."""
     check_number("--force-rate", force_rate, 0.0, MAX_FORCE_RATE,
                  unit="body weights per √(L/g)")  # 0: no rows (overrides the stance rule)
@@ -171,6 +178,8 @@ def check_nlp_options(force_rate: float | None, bounce_weight: float | None,
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
         raise OptionError(f"--solver {solver!r}: use one of {', '.join(DERIVATIVE_PATHS)}")
+    if nlp_hessian not in NLP_HESSIANS:
+        raise OptionError(f"--nlp-hessian {nlp_hessian!r}: use one of {', '.join(NLP_HESSIANS)}")
 
 
 def standing(vx: float, vy: float, yaw_rate: float, duty: str | None, phases: str | None,
@@ -184,7 +193,8 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
                     swing_clearance: float | None, *, verbose: bool = False,
                     servo_settings: tuple[ServoSetting, ...] | None = None,
                     mirror: bool = False,
-                    line_capture_margin: float | None = None) -> PlannerOptions:
+                    line_capture_margin: float | None = None,
+                    nlp_hessian: str = DEFAULT_NLP_HESSIAN) -> PlannerOptions:
     """The `PlannerOptions` of the command line (both paths; `search_planner_options` drops
     what `--search` does not take)."""
     return PlannerOptions(mu=mu, print_level=5 if verbose else 0, servo_settings=servo_settings,
@@ -192,7 +202,8 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
                           normal_force_rate_weights_per_t0=shaped.rate_bound,
                           weights=shaped.weights, rotor_reserve=rotor_reserve,
                           swing_clearance_m=swing_clearance,
-                          line_capture_margin_leg_lengths=line_capture_margin)
+                          line_capture_margin_leg_lengths=line_capture_margin,
+                          nlp_hessian=nlp_hessian)
 
 
 def search_planner_options(options: PlannerOptions) -> PlannerOptions:

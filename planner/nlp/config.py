@@ -51,6 +51,8 @@ IPOPT_TUNINGS = ("tuned", "session21")
 NLP_JACOBIANS = ("ad", "assembled")
 #: values of `PlannerOptions.nlp_hessian`
 NLP_HESSIANS = ("ad", "assembled")
+#: `PlannerOptions.nlp_hessian`'s default (`gaitsmith plan --nlp-hessian` says it)
+DEFAULT_NLP_HESSIAN = "assembled"
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -300,11 +302,13 @@ class PlannerOptions:
       compiled 9.2 → 3.5 ms, hex18 48 → 18 ms (docs/results/planner_speed_lifted.md). With
       `knot_threads` > 1 the assembled Jacobian evaluates J serially.
     - `nlp_hessian`: how IPOPT's Lagrangian Hessian is computed with `derivatives` "knot" or
-      "compiled": "ad" (default) — CasADi's forward-over-adjoint AD of the NLP, which calls the
-      knot's H·Δu for n seed directions; "assembled" — the chain rule written out with one knot
-      Hessian per knot, weighted by that knot's multipliers (`planner.nlp.assembled_hessian`).
-      The same Hessian to rounding, not the same bits (docs/results/planner_speed.md,
-      session 29).
+      "compiled": "assembled" (default) — the chain rule written out with one knot Hessian per
+      knot, weighted by that knot's multipliers (`planner.nlp.assembled_hessian`); "ad" —
+      CasADi's forward-over-adjoint AD of the NLP, which calls the knot's H·Δu for n seed
+      directions. The same Hessian to rounding, not the same bits: the same optimum on 21 of
+      21 quad12/hex18 schedules, the same knife-edge counts on the 9 must-show robots,
+      planner build 0.71–0.84× the CPU, solves 0.97–0.98× (quad12, hex18) and 0.80×
+      (humanoid20) (docs/results/planner_speed.md, sessions 29 and 30).
     """
 
     mu: float = 0.5
@@ -342,7 +346,7 @@ class PlannerOptions:
     ipopt_tuning: str = "tuned"
     knot_threads: int = 1
     nlp_jacobian: str = "assembled"
-    nlp_hessian: str = "ad"
+    nlp_hessian: str = DEFAULT_NLP_HESSIAN
 
     def __post_init__(self) -> None:
         checks = {

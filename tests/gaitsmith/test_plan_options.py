@@ -61,3 +61,34 @@ def test_search_options_drop_only_the_template_paths_own() -> None:
     assert searched.line_capture_margin_leg_lengths == 0.16
     assert searched.normal_force_rate_weights_per_t0 == 10.0
     assert searched.weights.bounce_s2_m2 == 30.0
+
+
+def test_plan_rejects_an_unknown_nlp_hessian_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "g.json"
+    assert main(["plan", "quad12", "-o", str(out), "--nlp-hessian", "exact"]) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert lines == ["error: --nlp-hessian 'exact': use one of ad, assembled"]
+    assert not out.exists()
+
+
+class _Built(Exception):
+    """Raised by the stand-in planner: the options `plan` built it with."""
+
+
+@pytest.mark.parametrize("flag", [[], ["--nlp-hessian", "ad"], ["--nlp-hessian", "assembled"]],
+                         ids=["default", "ad", "assembled"])
+def test_plan_nlp_hessian_reaches_the_planner(
+    flag: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import gaitsmith.plan_cmd as plan_cmd
+    from planner.nlp.config import PlannerOptions
+
+    def built(*args: object, options: PlannerOptions, **kwargs: object) -> None:
+        raise _Built(options.nlp_hessian)
+
+    monkeypatch.setattr(plan_cmd, "GaitPlanner", built)
+    with pytest.raises(_Built) as caught:
+        main(["plan", "quad12", "--gait", "trot", "-o", str(tmp_path / "g.json"), *flag])
+    assert caught.value.args[0] == (flag[1] if flag else PlannerOptions().nlp_hessian)

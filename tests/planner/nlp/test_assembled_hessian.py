@@ -68,7 +68,7 @@ def test_toy_inputs_not_affine_in_x_are_refused() -> None:
 
 def _hessians(robot_name: str, gait: str) -> tuple[GaitPlanner, np.ndarray, np.ndarray, tuple]:
     robot = robots.load(robot_name)
-    ad = GaitPlanner(robot, 8)
+    ad = GaitPlanner(robot, 8, PlannerOptions(nlp_hessian="ad"))
     assembled = GaitPlanner(robot, 8, PlannerOptions(nlp_hessian="assembled"))
     p = parameter_vector(make_schedule(robot, gait), 8, 0.2, ad.swing_clearance_m, 0.05, 0.1)
     rng = np.random.default_rng(3)
@@ -121,7 +121,7 @@ def test_options_are_checked() -> None:
 def test_assembled_hessian_reaches_the_ad_optimum() -> None:
     robot = robots.load("quad12")
     schedule = make_schedule(robot, "trot")
-    ad = GaitPlanner(robot, 8).solve(schedule, 0.2)
+    ad = GaitPlanner(robot, 8, PlannerOptions(nlp_hessian="ad")).solve(schedule, 0.2)
     options = replace(PlannerOptions(), nlp_hessian="assembled")
     assembled = GaitPlanner(robot, 8, options).solve(schedule, 0.2)
     assert ad.feasible and assembled.feasible

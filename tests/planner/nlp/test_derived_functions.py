@@ -40,7 +40,8 @@ def test_derived_functions_equal_casadi_ad(
 ) -> None:
     # flat_knot ignores the other legs' joints: its J has zero columns (dense adjoints kept)
     plain = flat_foot._knot_function(humanoid, 0.5) if which == "flat_knot" else humanoid.soles
-    derived = DerivedFunctions(3, PlannerOptions(), tmp_path)(plain)
+    # CasADi's AD Hessian asks for the second-order directions served here
+    derived = DerivedFunctions(3, PlannerOptions(nlp_hessian="ad"), tmp_path)(plain)
     rng = np.random.default_rng(5)
     ref_fn, our_fn = _mapped_derivatives(plain, 3), _mapped_derivatives(derived, 3)
     args = [rng.uniform(-0.5, 0.5, ref_fn.sparsity_in(i).shape) for i in range(ref_fn.n_in())]
@@ -52,7 +53,8 @@ def test_planner_serves_the_flat_foot_derivatives_and_records_their_directions(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("GAITSMITH_CACHE", str(tmp_path))
-    planner = GaitPlanner(robots.load("tests/zoo/humanoid20"), 8)
+    options = PlannerOptions(nlp_hessian="ad")  # its Hessian calls the second-order directions
+    planner = GaitPlanner(robots.load("tests/zoo/humanoid20"), 8, options)
     assert planner.derived is not None
     names = {name for name, *_ in planner.derived.made}
     assert names == {"flat_knot", "soles"}
@@ -66,6 +68,6 @@ def test_planner_serves_the_flat_foot_derivatives_and_records_their_directions(
     for _, _, path, _ in planner.derived.made:
         recorded = load_directions(path)
         assert recorded is not None and recorded[1]  # the Hessian's second-order counts
-    again = GaitPlanner(robots.load("tests/zoo/humanoid20"), 8)
+    again = GaitPlanner(robots.load("tests/zoo/humanoid20"), 8, options)
     assert again.derived is not None
     assert all(known is not None for *_, known in again.derived.made)

@@ -46,9 +46,11 @@ def test_threaded_map_has_the_serial_derivatives(threads: int, name: str) -> Non
 
 def test_threaded_planner_has_the_serial_nlp_derivatives() -> None:
     robot = robots.load("quad12")
-    # CasADi's AD Jacobian (the default assembled one evaluates J serially: test_lifted.py)
-    serial = GaitPlanner(robot, 8, PlannerOptions(nlp_jacobian="ad"))
-    threaded = GaitPlanner(robot, 8, PlannerOptions(knot_threads=2, nlp_jacobian="ad"))
+    # CasADi's AD Jacobian (the default assembled one evaluates J serially: test_lifted.py) and
+    # AD Hessian (it calls the threaded maps' second-order directions)
+    serial = GaitPlanner(robot, 8, PlannerOptions(nlp_jacobian="ad", nlp_hessian="ad"))
+    threaded = GaitPlanner(
+        robot, 8, PlannerOptions(knot_threads=2, nlp_jacobian="ad", nlp_hessian="ad"))
     rng = np.random.default_rng(0)
     for name in ("nlp_g", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l"):
         ref_fn = serial._solver.get_function(name)

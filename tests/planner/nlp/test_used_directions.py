@@ -27,8 +27,10 @@ def _walked(solver: ca.Function) -> list[str]:
 
 
 @pytest.mark.parametrize(("robot_name", "options"), [
-    ("quad12", PlannerOptions(nlp_jacobian="ad")),  # forward and second-order directions
-    ("biped", PlannerOptions()),  # flat feet: flat_knot and soles have directions of their own
+    # forward and second-order directions (CasADi's AD Hessian, whatever the default)
+    ("quad12", PlannerOptions(nlp_jacobian="ad", nlp_hessian="ad")),
+    # flat feet: flat_knot and soles have directions of their own
+    ("biped", PlannerOptions(nlp_hessian="ad")),
 ])
 def test_called_functions_are_the_call_instructions(robot_name: str,
                                                     options: PlannerOptions) -> None:
