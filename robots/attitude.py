@@ -52,8 +52,9 @@ then refuses to play it open loop unless forced (`hardware.play.preflight`).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -177,6 +178,28 @@ def default_attitude_gain(robot: Robot, gait: Gait | None = None) -> tuple[float
                               f"legs (< {MIN_STATIC_LEGS})")
 
 
+def gait_attitude_gain(robot: Robot, gait: Gait | None = None,
+                       gain: float | None = None) -> tuple[float, str]:
+    """(gain, why) of a run of `gait` on `robot`: `gain` if one was asked for (an explicit
+    ``--attitude-gain``; 0 is open loop), else the robot's default for that gait
+    (`default_attitude_gain`). The one rule every MuJoCo judgement applies — `plan --simulate`
+    and `--knife-edge`, `simulate`, the search's acceptance (coarse samples and final
+    candidates, `sim.acceptance`), `sweep` and the gait library's validation — so that a
+    gait is judged by the controller it will be played with."""
+    if gain is not None:
+        return check_gain("attitude gain", gain), "asked for"
+    return default_attitude_gain(robot, gait)
+
+
+def validated_attitude_gain(validation: Mapping[str, Any] | None) -> float:
+    """The IMU feedback gain a gait's sim verdict (its ``validation`` block) was reached with
+    (0: open loop, or no verdict): what the player's pre-flight checks."""
+    cond = (validation or {}).get("conditions")
+    gain = cond.get(ATTITUDE_GAIN_KEY, 0.0) if isinstance(cond, Mapping) else 0.0
+    ok = isinstance(gain, (int, float)) and not isinstance(gain, bool) and math.isfinite(gain)
+    return float(gain) if ok else 0.0
+
+
 def _has_flight(gait: Gait) -> bool:
     from robots.ramp import has_flight  # robots.ramp imports robots.gait, as this module does
 
@@ -270,8 +293,10 @@ __all__ = [
     "attitude_offsets",
     "check_gain",
     "default_attitude_gain",
+    "gait_attitude_gain",
     "gait_offsets",
     "planned_roll_pitch",
     "roll_pitch",
     "support_weights",
+    "validated_attitude_gain",
 ]

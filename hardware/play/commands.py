@@ -478,8 +478,7 @@ def _attitude(gain: float | None, robot: Any, gait: Any, twin: Any, imu: Any,
     else:
         return None
     from hardware.play.attitude import AttitudeCorrector
-    from hardware.play.preflight import validated_attitude_gain
-    from robots.attitude import AttitudeLaw
+    from robots.attitude import AttitudeLaw, validated_attitude_gain
     from robots.attitude_maps import attitude_map
 
     g = validated_attitude_gain(gait.validation) if gain is None else gain
