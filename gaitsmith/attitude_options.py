@@ -1,7 +1,8 @@
-"""`--attitude-gain G` (`plan --simulate`/`--knife-edge`, `simulate`, `drive-sim`): closed-loop
-IMU feedback in the MuJoCo run (`robots.attitude`, `sim.attitude_loop`). Checked before any
-work; the gain a run used is written into the gait file's validation conditions
-(``attitude_gain``); `drive-sim` reports it beside its metrics."""
+"""`--attitude-gain G` (`plan --simulate`/`--knife-edge`, `plan --search`'s acceptance, `simulate`,
+`sweep`, `library`, `drive-sim`): closed-loop IMU feedback in the MuJoCo runs (`robots.attitude`,
+`sim.attitude_loop`); without it each gait gets the robot's rule
+(`robots.attitude.gait_attitude_gain`). Checked before any work; the gain a run used is written
+into the validation's conditions (``attitude_gain``); `drive-sim` reports it beside its metrics."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
+from gaitsmith.errors import OptionError
 from gaitsmith.options import check_number
 from robots.attitude import MAX_ATTITUDE_GAIN
 
@@ -55,19 +57,27 @@ def check_attitude_gain(option: str, gain: float | None) -> None:
     check_number(option, gain, 0.0, MAX_ATTITUDE_GAIN)
 
 
-def resolved_gain(gain: float | None, robot: Robot, gait: Gait) -> float:
-    """The gain a run of `gait` uses: the option if given, else the robot's default
-    (`robots.attitude.default_attitude_gain`), said on the console when it closes the loop."""
-    if gain is not None:
-        return float(gain)
-    from gaitsmith.console import console
-    from robots.attitude import default_attitude_gain
+def check_attitude_judged(gain: float | None, judged: bool, needs: str) -> None:
+    """`--attitude-gain` in range, and given only where a MuJoCo run uses it (`judged`; `needs`:
+    the options that run one), as one-line `OptionError`s."""
+    check_attitude_gain("--attitude-gain", gain)
+    if gain is not None and not judged:
+        raise OptionError(f"--attitude-gain: closes the loop in the MuJoCo run, so it needs "
+                          f"{needs}")
 
-    default, why = default_attitude_gain(robot, gait)
-    if default > 0.0:
-        console.print(f"attitude feedback: gain {default:g} ({why}); --attitude-gain 0 runs "
+
+def resolved_gain(gain: float | None, robot: Robot, gait: Gait) -> float:
+    """The gain a run of `gait` uses (`robots.attitude.gait_attitude_gain`: the option if
+    given, else the robot's default), said on the console when the default closes the loop."""
+    from robots.attitude import gait_attitude_gain
+
+    resolved, why = gait_attitude_gain(robot, gait, gain)
+    if gain is None and resolved > 0.0:
+        from gaitsmith.console import console
+
+        console.print(f"attitude feedback: gain {resolved:g} ({why}); --attitude-gain 0 runs "
                       "open loop", highlight=False, markup=False)
-    return default
+    return resolved
 
 
 def resolved_library_gain(gain: float | None, robot: Robot, gaits: Sequence[Gait]) -> float:
@@ -94,8 +104,7 @@ def attitude_settings(gain: float | None, imu_latency_ms: float = 0.0,
         return None
     import math
 
-    from robots.attitude import AttitudeLaw
-    from sim.attitude_loop import AttitudeSettings, ImuSettings
+    from sim.attitude_loop import ImuSettings, closed_loop
 
-    return AttitudeSettings(AttitudeLaw(float(gain)),
-                            ImuSettings(imu_latency_ms / 1000.0, math.radians(imu_noise_deg)))
+    return closed_loop(float(gain), ImuSettings(imu_latency_ms / 1000.0,
+                                                math.radians(imu_noise_deg)))

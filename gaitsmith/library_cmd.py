@@ -18,6 +18,7 @@ import typer
 from rich.table import Table
 
 import robots
+from gaitsmith.attitude_options import attitude_gain_option, check_attitude_gain
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError
 from gaitsmith.gait_choice import check_gait_fits, default_gait, grid_gait
@@ -44,6 +45,7 @@ from planner.nlp.config import PlannerOptions
 from planner.templates import make_schedule
 from robots import Gait, Robot
 from robots import library as libfile
+from robots.attitude import validated_attitude_gain
 from robots.library import velocity_tuple
 
 MAX_AXIS_VALUES = 15
@@ -73,23 +75,28 @@ def _values(option: str, text: str | None) -> tuple[float, ...] | None:
 class _SimCheck:
     robot: Robot
     cycles: int
+    attitude_gain: float | None = None
 
     def __call__(self, gait: Gait) -> dict[str, Any]:
-        from sim.validate import validate
+        from sim.acceptance import validate_as_played
 
-        result = validate(gait, self.robot, self.cycles)
+        result = validate_as_played(gait, self.robot, self.cycles, self.attitude_gain)
         return validation_record(result, gait, self.robot)[0]
 
 
 @dataclass(frozen=True)
 class SimValidator:
-    """Picklable factory (built once per worker) of the MuJoCo validation of one gait."""
+    """Picklable factory (built once per worker) of the MuJoCo validation of one gait, with
+    the attitude feedback each gait gets (`attitude_gain`, i.e. ``--attitude-gain``; None: the
+    robot's rule per gait, `robots.attitude.gait_attitude_gain`), recorded in its verdict's
+    conditions as `gaitsmith plan --simulate` records it."""
 
     robot_dir: str
     cycles: int
+    attitude_gain: float | None = None
 
     def __call__(self) -> _SimCheck:
-        return _SimCheck(robots.load(self.robot_dir), self.cycles)
+        return _SimCheck(robots.load(self.robot_dir), self.cycles, self.attitude_gain)
 
 
 def _fmt(v: robots.Velocity) -> str:
@@ -99,7 +106,9 @@ def _fmt(v: robots.Velocity) -> str:
 def _progress(i: int, n: int, o: EntryOutcome) -> None:
     head = f"  [{i:2d}/{n}] {_fmt(o.command)}"
     warm = " (warm)" if o.warm_started else ""
-    times = f"plan {o.plan_s:5.1f} s{warm}, sim {o.validate_s:4.1f} s"
+    gain = validated_attitude_gain(None if o.gait is None else o.gait.validation)
+    times = (f"plan {o.plan_s:5.1f} s{warm}, sim {o.validate_s:4.1f} s"
+             + (f" closed loop, attitude gain {gain:g}" if gain else ""))
     if o.passed and o.achieved is not None:
         console.print(f"{head}  [green]PASS[/]  achieved {_fmt(o.achieved)}  ({times})")
     else:
@@ -136,6 +145,7 @@ def library(
     warm: bool = typer.Option(
         True, "--warm/--cold", help="warm-start each entry from a solved neighbour (waves from "
         "the command nearest zero), or solve all from the template's guess in one batch"),
+    attitude_gain: float | None = attitude_gain_option(),
 ) -> None:
     """Plan a gait library: one schedule family over a grid of (vx, vy, yaw rate) commands,
     each entry validated in MuJoCo, with the stand; blended live by `gaitsmith-play drive`."""
@@ -145,6 +155,7 @@ def library(
             check_velocity(option, v)
     check_knots("--knots", knots)
     check_cycles("--cycles", cycles)
+    check_attitude_gain("--attitude-gain", attitude_gain)
     check_integer("--workers", workers, 1, MAX_WORKERS)
     if address is not None and not ray:
         raise OptionError("--address is for Ray: add --ray")
@@ -184,7 +195,7 @@ def library(
         + ("" if warm else ", cold starts"))
     console.print(f"family for every entry: {fam} (duty {schedule.duty_factor[0]:g}, period "
                   f"{schedule.period_s:.3f} s) — {choice.reason}", highlight=False)
-    validator = SimValidator(str(bot.root_dir), cycles)
+    validator = SimValidator(str(bot.root_dir), cycles, attitude_gain)
     with console.status("validating the stand in MuJoCo…"):
         stand_check = validator()
     build = build_library(

@@ -27,7 +27,7 @@ import robots
 from gaitsmith.attitude_options import (
     attitude_gain_option,
     attitude_settings,
-    check_attitude_gain,
+    check_attitude_judged,
     resolved_gain,
 )
 from gaitsmith.console import console
@@ -209,10 +209,8 @@ def plan(
     check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     check_command(speed, vy, yaw_rate)
     refuse_with_search(search, given)  # --vy, --yaw-rate, --knife-edge, --mirror, ...
-    check_attitude_gain("--attitude-gain", attitude_gain)
-    if attitude_gain is not None and not simulate:
-        raise OptionError("--attitude-gain: closes the loop in the MuJoCo run, so it needs "
-                          "--simulate")
+    check_attitude_judged(attitude_gain, simulate or (search and sim_accept),
+                          "--simulate (or --search with its MuJoCo acceptance, --sim-accept)")
     if knife_edge and (not simulate or vy or yaw_rate):
         raise OptionError("--knife-edge: needs --simulate, a straight command (no --vy, "
                           "--yaw-rate) and no --search")
@@ -249,7 +247,8 @@ def plan(
             duty, period, options = _servo_limited_timing(limited, options)
         gait, seed_schedule = user_seed(bot, gait, period, duty, phases, schedule_file)
         plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
-                    search_planner_options(options), shaped.entry or 1, seed_schedule, meta)
+                    search_planner_options(options), shaped.entry or 1, seed_schedule, meta,
+                    attitude_gain)
         return
     custom = phases is not None or schedule_file is not None
     if gait is None and (custom or stand):

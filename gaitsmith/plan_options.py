@@ -113,9 +113,9 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
                 "", "--servo-params: not with --search yet; plan the chosen gait without "
                 "--search to use the identified servos"),
     OptionRoute("--attitude-gain", "attitude_gain", "--simulate and --knife-edge closed loop; "
-                "the validation's conditions", "",
-                "--attitude-gain: not with --search yet (its MuJoCo acceptance is open loop); "
-                "plan the chosen gait with --simulate --attitude-gain"),
+                "the validation's conditions",
+                ACCEPTANCE + " closed loop (every gait, instead of the rule per gait); the "
+                "validation's conditions"),
 )
 
 

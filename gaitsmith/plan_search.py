@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import robots
+from gaitsmith.attitude_options import attitude_settings, resolved_gain
 from gaitsmith.console import console
 from gaitsmith.plan_output import DEFAULT_CYCLES, write_gait
 from gaitsmith.search_options import sim_acceptance
@@ -55,9 +56,12 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
                 st: SearchSettings, simulate: bool, cycles: int | None,
                 supply_v: float | None, options: PlannerOptions, entry_cycles: int,
                 seed_schedule: robots.ContactSchedule | None = None,
-                extra_meta: dict[str, Any] | None = None) -> None:
+                extra_meta: dict[str, Any] | None = None,
+                attitude_gain: float | None = None) -> None:
     """Search, print its progress and result, write the best gait (with `extra_meta` and the
-    search's own record) and the search log."""
+    search's own record) and the search log. Every MuJoCo run — the acceptance of each sample
+    and candidate, `--simulate`'s verdict — uses the attitude feedback the gait gets
+    (`attitude_gain`, else the robot's rule per gait: `robots.attitude.gait_attitude_gain`)."""
     from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
@@ -88,7 +92,8 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
         seed_schedules=None if seed_schedule is None else {USER_SEED: seed_schedule},
-        **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles),
+        **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles,
+                         attitude_gain),
     )
     for name, cost in result.template_costs.items():
         console.print(f"  template {name:18s} cost {cost:.5g}")
@@ -135,4 +140,5 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
     log_path = output.with_suffix(".search.csv")
     write_search_log(result, log_path)
     console.print(f"search log: {log_path}")
-    write_gait(gait_obj, bot, output, simulate, cycles)
+    attitude = attitude_settings(resolved_gain(attitude_gain, bot, gait_obj) if simulate else None)
+    write_gait(gait_obj, bot, output, simulate, cycles, attitude=attitude)

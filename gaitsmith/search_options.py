@@ -61,16 +61,20 @@ def check_search_options(executor: str, generations: int, popsize: int | None,
 
 
 def sim_acceptance(robot: robots.Robot, enabled: bool, final_cycles: int,
-                   entry_cycles: int = 1) -> dict[str, Any]:
+                   entry_cycles: int = 1, attitude_gain: float | None = None) -> dict[str, Any]:
     """`search_gait` keyword arguments for MuJoCo acceptance: samples are judged with the search
     criteria, the full-resolution candidates with the default ones over `final_cycles` — the
     cycles of the command's own `--simulate` validation, so that a gait that passed acceptance
-    passes it too (sim is imported only if enabled)."""
+    passes it too — both with the attitude feedback each gait gets (`attitude_gain`, i.e.
+    ``--attitude-gain``, else the robot's rule per gait: `robots.attitude.gait_attitude_gain`)
+    as `--simulate` then runs it (sim is imported only if enabled)."""
     if not enabled:
         return {}
     from sim.acceptance import SimAcceptance
     from sim.validate import PassCriteria
 
     root = str(robot.root_dir)
-    return {"acceptance": SimAcceptance(root, entry_cycles=entry_cycles),
-            "final_acceptance": SimAcceptance(root, final_cycles, PassCriteria(), entry_cycles)}
+    return {"acceptance": SimAcceptance(root, entry_cycles=entry_cycles,
+                                        attitude_gain=attitude_gain),
+            "final_acceptance": SimAcceptance(root, final_cycles, PassCriteria(), entry_cycles,
+                                              attitude_gain)}

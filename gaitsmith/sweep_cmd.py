@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 import robots
+from gaitsmith.attitude_options import attitude_gain_option, check_attitude_judged
 from gaitsmith.console import console
 from gaitsmith.errors import OptionError, OutputError
 from gaitsmith.options import (
@@ -62,6 +63,7 @@ def sweep(
     simulate: bool = typer.Option(
         False, "--simulate", help="validate each speed's gait in MuJoCo (pass/fail column)"),
     cycles: int = typer.Option(12, "--cycles", help="cycles to simulate (--simulate)"),
+    attitude_gain: float | None = attitude_gain_option(),
 ) -> None:
     """Search the best gait at each speed; table + plot of gait, duty factor and CoT vs Froude."""
     values = None if speeds is None else parse_speeds(speeds)
@@ -70,6 +72,7 @@ def sweep(
     check_search_options(executor, generations, popsize, workers, search_knots, tipping_weight)
     if simulate or sim_accept:
         check_cycles("--cycles", cycles)
+    check_attitude_judged(attitude_gain, simulate or sim_accept, "--simulate or --sim-accept")
     check_output_dir("--output", output)
     bot = robots.load(robot)
     if values is None:  # speeds at fixed Froude numbers, v = √(Fr·g·L)
@@ -78,8 +81,10 @@ def sweep(
 
     def on_row(row: SweepRow) -> None:
         clock.finish_speed()
+        loop = (f", attitude gain {row.sim_attitude_gain:g}" if row.sim_attitude_gain > 0
+                else "")
         sim = "" if row.sim_passed is None else \
-            f", sim {'pass' if row.sim_passed else 'FAIL'} at {row.sim_speed_m_s:.3f} m/s " \
+            f", sim {'pass' if row.sim_passed else 'FAIL'} at {row.sim_speed_m_s:.3f} m/s{loop} " \
             f"({row.sim_gait}: flight {100 * row.sim_flight_fraction:.1f} %, double support " \
             f"{100 * row.sim_double_support_fraction:.1f} %)"
         console.print(f"[bold]{row.speed_m_s:.3f} m/s[/] (Fr {row.froude:.3f}): {row.gait_label}, "
@@ -105,8 +110,9 @@ def sweep(
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
                         seed=seed, executor=executor, workers=workers,
                         search_knots=search_knots, tipping_weight=tipping_weight,
-                        **sim_acceptance(bot, sim_accept, cycles, entry),
-                        validator=_sim_validator(cycles, entry) if simulate else None,
+                        **sim_acceptance(bot, sim_accept, cycles, entry, attitude_gain),
+                        validator=(_sim_validator(cycles, entry, attitude_gain) if simulate
+                                   else None),
                         on_row=on_row, progress=progress)
     try:
         paths = write_sweep(rows, output, bot)
@@ -187,23 +193,27 @@ class SweepClock:
         return max(per_speed * left - running, 0.0)
 
 
-def _sim_validator(cycles: int, entry_cycles: int = 1) -> Validator:
-    """Each speed's gait in MuJoCo, started with at least `entry_cycles` entry blend cycles."""
+def _sim_validator(cycles: int, entry_cycles: int = 1,
+                   attitude_gain: float | None = None) -> Validator:
+    """Each speed's gait in MuJoCo, started with at least `entry_cycles` entry blend cycles,
+    with the attitude feedback it gets (`attitude_gain`, else the robot's rule per gait)."""
     def validate_result(result: GaitSearchResult) -> SimOutcome:
         import numpy as np
 
-        from sim.acceptance import with_entry_cycles
-        from sim.validate import validate  # lazy: MuJoCo rollouts only on request
+        from robots.attitude import ATTITUDE_GAIN_KEY
+        from sim.acceptance import validate_as_played, with_entry_cycles
 
         gait = with_entry_cycles(result.planner.to_gait(result.best, result.label), entry_cycles)
-        v = validate(gait, result.robot, cycles)
+        v = validate_as_played(gait, result.robot, cycles, attitude_gain)
         traj = v.trajectory
         assert traj is not None  # keep_trajectory=True
         # the steady steps, as `Trajectory.flight_fraction` counts them (cycle 2 to the end)
         steady = (traj.gait_phase() >= 2.0) & (traj.time_s <= traj.gait_end_s)
         down = traj.foot_contacts[steady] > 0
         double = float(np.mean(np.all(down, axis=1))) if down.size else float("nan")
-        return SimOutcome(v.passed, v.metrics.achieved_speed_m_s, traj.flight_fraction(), double)
+        gain = float(v.conditions.get(ATTITUDE_GAIN_KEY) or 0.0)
+        return SimOutcome(v.passed, v.metrics.achieved_speed_m_s, traj.flight_fraction(), double,
+                          gain)
 
     return validate_result
 

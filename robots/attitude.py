@@ -52,9 +52,9 @@ then refuses to play it open loop unless forced (`hardware.play.preflight`).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -180,6 +180,28 @@ def default_attitude_gain(robot: Robot, gait: Gait | None = None) -> tuple[float
         return 0.0, "a run (flight phase) stays open loop"
     return TWO_LEG_IMU_GAIN, (f"robot.toml declares an [imu], the robot has {len(robot.legs)} "
                               f"legs (< {MIN_STATIC_LEGS})")
+
+
+def gait_attitude_gain(robot: Robot, gait: Gait | None = None,
+                       gain: float | None = None) -> tuple[float, str]:
+    """(gain, why) of a run of `gait` on `robot`: `gain` if one was asked for (an explicit
+    ``--attitude-gain``; 0 is open loop), else the robot's default for that gait
+    (`default_attitude_gain`). The one rule every MuJoCo judgement applies — `plan --simulate`
+    and `--knife-edge`, `simulate`, the search's acceptance (coarse samples and final
+    candidates, `sim.acceptance`), `sweep` and the gait library's validation — so that a
+    gait is judged by the controller it will be played with."""
+    if gain is not None:
+        return check_gain("attitude gain", gain), "asked for"
+    return default_attitude_gain(robot, gait)
+
+
+def validated_attitude_gain(validation: Mapping[str, Any] | None) -> float:
+    """The IMU feedback gain a gait's sim verdict (its ``validation`` block) was reached with
+    (0: open loop, or no verdict): what the player's pre-flight checks."""
+    cond = (validation or {}).get("conditions")
+    gain = cond.get(ATTITUDE_GAIN_KEY, 0.0) if isinstance(cond, Mapping) else 0.0
+    ok = isinstance(gain, (int, float)) and not isinstance(gain, bool) and math.isfinite(gain)
+    return float(gain) if ok else 0.0
 
 
 def _has_flight(gait: Gait) -> bool:
@@ -314,8 +336,10 @@ __all__ = [
     "blended_offsets",
     "check_gain",
     "default_attitude_gain",
+    "gait_attitude_gain",
     "gait_offsets",
     "planned_roll_pitch",
     "roll_pitch",
     "support_weights",
+    "validated_attitude_gain",
 ]

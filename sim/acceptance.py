@@ -15,16 +15,26 @@ the 80 % margin is judged where it matters, on the final gait. Its "badness" is 
 failed criteria, so a gait that only misses the speed tolerance ranks ahead of one that falls.
 `entry_cycles` K > 1: every gait is judged started with at least K cycles of entry blend, as the
 gait file the search writes asks (`gaitsmith plan --search --entry-cycles K`, `robots.ramp`).
+
+Every gait is judged with the controller it will be played with (`validate_as_played`): the IMU
+attitude feedback at the gain `robots.attitude.gait_attitude_gain` gives it — per gait, so on a
+biped with an ``[imu]`` a walk sample runs closed loop at G 0.5 and a run sample (a flight phase)
+open loop, as `gaitsmith plan --simulate` judges the gait the search writes; `attitude_gain`
+(``--attitude-gain``) overrides the rule for every gait. A closed-loop verdict records its gain
+in the validation's conditions (`sim.validate`, ``attitude_gain``), which the player checks.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 from robots import Gait, Robot
 from robots import load as load_robot
+from robots.attitude import ATTITUDE_GAIN_KEY, gait_attitude_gain
 from robots.gait import ENTRY_CYCLES_KEY
-from sim.validate import PassCriteria, validate
+from sim.attitude_loop import closed_loop
+from sim.validate import PassCriteria, ValidationResult, validate
 
 #: Cycles per acceptance run: 2 warm-up + 6 judged keeps a check ≈ 0.1 s at ~80× real time.
 DEFAULT_ACCEPTANCE_CYCLES = 8
@@ -37,24 +47,37 @@ class GaitVerdict:
     badness: float  # 0 when passed, else the number of failed criteria
     achieved_speed_m_s: float
     reasons: tuple[str, ...]
+    attitude_gain: float = 0.0  # the IMU feedback's gain the gait was judged with (0: open loop)
+
+
+def validate_as_played(gait: Gait, robot: Robot, cycles: int,
+                       attitude_gain: float | None = None, **kwargs: Any) -> ValidationResult:
+    """`sim.validate.validate` of `gait` closed loop at the gain it will be played with
+    (`robots.attitude.gait_attitude_gain`: `attitude_gain` if given, else the robot's rule for
+    this gait), open loop at 0; `kwargs` go to `validate`."""
+    gain, _ = gait_attitude_gain(robot, gait, attitude_gain)
+    return validate(gait, robot, cycles, attitude=closed_loop(gain), **kwargs)
 
 
 @dataclass
 class GaitCheck:
-    """Validate one gait on `robot` in MuJoCo."""
+    """Validate one gait on `robot` in MuJoCo (`attitude_gain`: None applies the rule per
+    gait, a number every gait's gain)."""
 
     robot: Robot
     cycles: int = DEFAULT_ACCEPTANCE_CYCLES
     criteria: PassCriteria = SEARCH_CRITERIA
     entry_cycles: int = 1
+    attitude_gain: float | None = None
 
     def __call__(self, gait: Gait) -> GaitVerdict:
         gait = with_entry_cycles(gait, self.entry_cycles)
-        result = validate(gait, self.robot, self.cycles, criteria=self.criteria,
-                          keep_trajectory=False)
+        result = validate_as_played(gait, self.robot, self.cycles, self.attitude_gain,
+                                    criteria=self.criteria, keep_trajectory=False)
         failed = sum(1 for _, ok, _ in result.checks if not ok)
+        gain = result.conditions.get(ATTITUDE_GAIN_KEY) or 0.0
         return GaitVerdict(result.passed, 0.0 if result.passed else float(max(failed, 1)),
-                           result.metrics.achieved_speed_m_s, result.reasons)
+                           result.metrics.achieved_speed_m_s, result.reasons, float(gain))
 
 
 @dataclass(frozen=True)
@@ -65,10 +88,11 @@ class SimAcceptance:
     cycles: int = DEFAULT_ACCEPTANCE_CYCLES
     criteria: PassCriteria = SEARCH_CRITERIA
     entry_cycles: int = 1
+    attitude_gain: float | None = None  # None: the rule per gait (`gait_attitude_gain`)
 
     def __call__(self) -> GaitCheck:
         return GaitCheck(load_robot(self.robot_dir), self.cycles, self.criteria,
-                         self.entry_cycles)
+                         self.entry_cycles, self.attitude_gain)
 
 
 def with_entry_cycles(gait: Gait, cycles: int) -> Gait:
@@ -84,5 +108,6 @@ __all__ = [
     "GaitCheck",
     "GaitVerdict",
     "SimAcceptance",
+    "validate_as_played",
     "with_entry_cycles",
 ]

@@ -60,6 +60,12 @@ class AttitudeSettings:
     imu: ImuSettings = ImuSettings()
 
 
+def closed_loop(gain: float, imu: ImuSettings = ImuSettings()) -> AttitudeSettings | None:
+    """The run's closed-loop settings at gain `gain` (the law's defaults otherwise; None: open
+    loop, at gain 0)."""
+    return AttitudeSettings(AttitudeLaw(gain), imu) if gain > 0.0 else None
+
+
 @dataclass(frozen=True, eq=False)
 class RunClock:
     """When the run's gait clock starts and how the blend weight goes (from `sim.rollout`)."""
@@ -139,4 +145,6 @@ class AttitudeLoop:
                             t_s - self.clock.gait_clock_start_s)
 
 
-__all__ = ["AttitudeLoop", "AttitudeSettings", "ImuSettings", "RunClock", "SimulatedImu"]
+__all__ = [
+    "AttitudeLoop", "AttitudeSettings", "ImuSettings", "RunClock", "SimulatedImu", "closed_loop",
+]

@@ -497,8 +497,7 @@ def attitude_corrector(gain: float | None, robot: Any, gaits: Sequence[Any], twi
     else:
         return None
     from hardware.play.attitude import AttitudeCorrector
-    from hardware.play.preflight import validated_attitude_gain
-    from robots.attitude import AttitudeLaw
+    from robots.attitude import AttitudeLaw, validated_attitude_gain
     from robots.attitude_maps import attitude_map
 
     validated = sorted({validated_attitude_gain(g.validation) for g in gaits})

@@ -25,7 +25,6 @@ warned about (the watchdog will stop the run there).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -38,7 +37,7 @@ from hardware.play.calibration import Calibration
 from hardware.play.errors import PreflightError, SpeedScaleError
 from hardware.play.thermal_watch import PredictedHeating
 from hardware.play.watchdog import WatchdogLimits
-from robots.attitude import ATTITUDE_GAIN_KEY
+from robots.attitude import validated_attitude_gain
 from robots.errors import GaitFileError
 from robots.gait import Gait
 from robots.robot import Robot
@@ -141,14 +140,6 @@ def check_offline(
         warnings.append(f"WARNING: gait {what}; playing it anyway because of --force")
     warnings += check_attitude(gait, attitude_gain, force)
     return warnings, peaks
-
-
-def validated_attitude_gain(validation: Mapping[str, Any] | None) -> float:
-    """The IMU feedback gain the gait's sim verdict was reached with (0: open loop)."""
-    cond = (validation or {}).get("conditions")
-    gain = cond.get(ATTITUDE_GAIN_KEY, 0.0) if isinstance(cond, Mapping) else 0.0
-    ok = isinstance(gain, (int, float)) and not isinstance(gain, bool) and math.isfinite(gain)
-    return float(gain) if ok else 0.0
 
 
 def check_attitude(gait: Gait, attitude_gain: float | None, force: bool) -> list[str]:

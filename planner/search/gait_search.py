@@ -27,9 +27,11 @@ Acceptance (optional, `acceptance=`): a picklable factory of a check `Gait → v
 `.passed`, `.badness`), built once per worker. Every feasible projected sample is written as a
 gait and checked; one that does not walk is ranked as infeasible (W&P rank infeasible samples
 last). The command line passes `sim.acceptance.SimAcceptance` (MuJoCo, the servo model, ramp-in
-from rest), so the search optimises over gaits that walk open loop, not only over plans that
-satisfy the NLP: optimised timings exploit the model (feet that barely touch, knife-edge
-balance) in ways the templates do not. `planner` never imports `sim`; the CLI wires them.
+from rest, each gait with the IMU attitude feedback it will be played with: closed loop for a
+walk of a biped with an IMU, open loop otherwise, `robots.attitude.gait_attitude_gain`), so the
+search optimises over gaits that walk as played, not only over plans that satisfy the NLP:
+optimised timings exploit the model (feet that barely touch, knife-edge balance) in ways the
+templates do not. `planner` never imports `sim`; the CLI wires them.
 
 Resolution: the search projects each sample with a coarse NLP (`search_knots`, default 12, and
 IPOPT capped at `search_max_iter`; a sample stopped by the cap counts as feasible only if the

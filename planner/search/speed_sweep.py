@@ -60,6 +60,8 @@ class SweepRow:
     #: touching the ground, and with every foot touching it
     sim_flight_fraction: float = math.nan
     sim_double_support_fraction: float = math.nan
+    #: the IMU attitude feedback's gain the MuJoCo verdict was reached with (0: open loop)
+    sim_attitude_gain: float = math.nan
     #: knots of the final NLP with no foot in stance, and its knot count (`airborne_knots`)
     airborne_knots: int = -1
     n_knots: int = 0
@@ -108,6 +110,7 @@ class SimOutcome:
     speed_m_s: float
     flight_fraction: float = math.nan
     double_support_fraction: float = math.nan
+    attitude_gain: float = 0.0  # the IMU feedback's gain it was judged with (0: open loop)
 
 
 #: the `SimOutcome` of a search result's gait; supplied by the caller so that the planner
@@ -156,6 +159,7 @@ def row_from(result: GaitSearchResult, validator: Validator | None = None) -> Sw
         sim_flight_fraction=math.nan if outcome is None else outcome.flight_fraction,
         sim_double_support_fraction=(math.nan if outcome is None
                                      else outcome.double_support_fraction),
+        sim_attitude_gain=math.nan if outcome is None else outcome.attitude_gain,
     )
 
 
@@ -220,7 +224,8 @@ def to_markdown(rows: Sequence[SweepRow]) -> str:
     lines = [head, "|" + "---|" * 14]
     for r in rows:
         sim = "-" if r.sim_passed is None else \
-            f"{'pass' if r.sim_passed else 'FAIL'} {r.sim_speed_m_s:.3f} m/s"
+            f"{'pass' if r.sim_passed else 'FAIL'} {r.sim_speed_m_s:.3f} m/s" + (
+                f", closed loop G {r.sim_attitude_gain:g}" if r.sim_attitude_gain > 0 else "")
         measured = "-" if r.sim_gait == "-" else (
             f"{r.sim_gait}: {100 * r.sim_flight_fraction:.1f} % / "
             f"{100 * r.sim_double_support_fraction:.1f} %")

@@ -129,3 +129,26 @@ def test_straight_grids_and_family_keep_the_default(
         return
     assert asked["family"] == family and asked["duty_factor"] is None
     assert asked["period_s"] is None and asked["options"].static_margin_leg_lengths is None
+
+
+def test_the_validator_judges_each_gait_as_it_will_be_played() -> None:
+    """Issue #14: the library's entries (and its stand) on a biped with an [imu] are validated
+    closed loop at the rule's gain, recorded in the verdict's conditions as `plan --simulate`
+    records it (the player's pre-flight reads it); `--attitude-gain 0` validates open loop; a
+    quadruped stays open loop. The factory pickles with its gain (process pool, Ray)."""
+    import pickle
+
+    import robots
+    from robots.attitude import ATTITUDE_GAIN_KEY, TWO_LEG_IMU_GAIN, validated_attitude_gain
+    from sim.synthetic import standing_gait
+
+    biped, quad = robots.load("biped"), robots.load("quad12")
+    by_rule = library_cmd.SimValidator(str(biped.root_dir), 3)
+    assert pickle.loads(pickle.dumps(by_rule)) == by_rule
+    v = by_rule()(standing_gait(biped))
+    assert v["conditions"][ATTITUDE_GAIN_KEY] == TWO_LEG_IMU_GAIN
+    assert validated_attitude_gain(v) == TWO_LEG_IMU_GAIN
+    opened = pickle.loads(pickle.dumps(library_cmd.SimValidator(str(biped.root_dir), 3, 0.0)))
+    assert ATTITUDE_GAIN_KEY not in opened()(standing_gait(biped))["conditions"]
+    v_quad = library_cmd.SimValidator(str(quad.root_dir), 3)()(standing_gait(quad))
+    assert ATTITUDE_GAIN_KEY not in v_quad["conditions"]

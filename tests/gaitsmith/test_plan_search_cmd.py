@@ -7,6 +7,9 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
+
+import pytest
 
 
 def test_plan_search_writes_the_gait_and_its_log(tmp_path: Path) -> None:
@@ -39,3 +42,29 @@ def test_plan_search_rejects_a_bad_executor(tmp_path: Path) -> None:
     assert proc.returncode != 0 and "--executor must be serial, process or ray" in (
         proc.stdout + proc.stderr)
     assert not (tmp_path / "x.json").exists()
+
+
+class _Recorded(Exception):
+    pass
+
+
+def test_the_search_acceptance_gets_the_asked_gain_or_the_rule(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`plan --search --attitude-gain G` judges every sample and candidate at G; without it the
+    acceptance applies the robot's rule per gait (None), as `--simulate` does."""
+    from gaitsmith import plan_search
+    from gaitsmith.cli import main
+
+    seen: list[float | None] = []
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.append(args[4] if len(args) > 4 else kwargs.get("attitude_gain"))
+        raise _Recorded
+
+    monkeypatch.setattr(plan_search, "sim_acceptance", record)
+    for extra, expected in ((["--attitude-gain", "0.7"], 0.7), ([], None)):
+        with pytest.raises(_Recorded):
+            main(["plan", "biped", "--speed", "0.2", "--search", "--simulate", *extra,
+                  "-o", str(tmp_path / "g.json")])
+        assert seen[-1] == expected

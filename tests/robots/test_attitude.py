@@ -12,6 +12,7 @@ import pytest
 
 import robots
 from robots.attitude import (
+    ATTITUDE_GAIN_KEY,
     DEFAULT_MAX_OFFSET_RAD,
     TWO_LEG_IMU_GAIN,
     AttitudeError,
@@ -19,8 +20,10 @@ from robots.attitude import (
     attitude_offsets,
     check_gain,
     default_attitude_gain,
+    gait_attitude_gain,
     roll_pitch,
     support_weights,
+    validated_attitude_gain,
 )
 from robots.attitude_maps import attitude_map
 from robots.errors import RobotConfigError
@@ -137,3 +140,26 @@ def test_default_gain_rule_follows_legs_and_imu(quad_copy: Path) -> None:
         gait = Gait.create(robot=biped, knots_rad=knots, schedule=sched, velocity=Velocity(0.3),
                            gait_label="g")
         assert default_attitude_gain(biped, gait)[0] == gain
+
+
+def test_a_gait_gets_the_asked_gain_else_the_rule() -> None:
+    """`gait_attitude_gain`, the one rule every MuJoCo judgement applies: an explicit gain
+    (0: open loop) on any gait and body, checked; else the default rule per gait."""
+    biped = robots.load("biped")
+    knots = np.tile(np.asarray(biped.nominal_stance_rad), (12, 1))
+    run = Gait.create(robot=biped, knots_rad=knots, velocity=Velocity(0.3), gait_label="g",
+                      schedule=ContactSchedule(0.5, biped.foot_names, (0.0, 0.5), (0.42, 0.42)))
+    assert gait_attitude_gain(biped, run) == default_attitude_gain(biped, run) == (
+        0.0, "a run (flight phase) stays open loop")
+    assert gait_attitude_gain(biped, run, 1.5) == (1.5, "asked for")
+    assert gait_attitude_gain(biped, None, 0.0)[0] == 0.0
+    assert gait_attitude_gain(biped)[0] == TWO_LEG_IMU_GAIN
+    with pytest.raises(AttitudeError, match="attitude gain must be from 0 to 2"):
+        gait_attitude_gain(biped, run, 2.5)
+
+
+def test_the_validated_gain_is_read_from_the_verdict_conditions() -> None:
+    assert validated_attitude_gain({"conditions": {ATTITUDE_GAIN_KEY: 0.5}}) == 0.5
+    for bad in (None, {}, {"conditions": None}, {"conditions": {ATTITUDE_GAIN_KEY: True}},
+                {"conditions": {ATTITUDE_GAIN_KEY: float("nan")}}):
+        assert validated_attitude_gain(bad) == 0.0

@@ -97,8 +97,16 @@ def test_imu_latency_and_noise_run_reproducibly() -> None:
      "--imu-latency-ms"),
     (["plan", "biped", "-o", "/nonexistent/g.json", "--attitude-gain", "0.5"],
      "needs --simulate"),
-    (["plan", "biped", "-o", "/nonexistent/g.json", "--search", "--simulate",
-      "--attitude-gain", "0.5"], "--search"),
+    (["plan", "biped", "-o", "/nonexistent/g.json", "--search", "--no-sim-accept",
+      "--attitude-gain", "0.5"], "needs --simulate (or --search with its MuJoCo acceptance"),
+    (["sweep", "biped", "-o", "/nonexistent/s", "--attitude-gain", "2.5"],
+     "--attitude-gain must be"),
+    (["sweep", "biped", "-o", "/nonexistent/s", "--no-sim-accept", "--attitude-gain", "0.5"],
+     "needs --simulate or --sim-accept"),
+    (["library", "biped", "-o", "/nonexistent/l.json", "--attitude-gain", "-0.1"],
+     "--attitude-gain must be"),
+    (["library", "biped", "-o", "/nonexistent/l.json", "--attitude-gain", "inf"],
+     "--attitude-gain must be"),
 ])
 def test_bad_attitude_options_are_one_line_errors(
     args: list[str], needle: str, capsys: pytest.CaptureFixture[str]

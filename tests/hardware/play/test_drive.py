@@ -169,6 +169,19 @@ def test_preflight_refuses_a_library_with_an_entry_that_failed_sim(tmp_path: Pat
     assert any("FAILED sim validation" in w and "vx 0.1" in w for w in forced.play.warnings)
 
 
+def test_preflight_refuses_a_library_validated_closed_loop(tmp_path: Path) -> None:
+    """`gaitsmith library` validates a biped's walks closed loop by the attitude rule; the drive
+    has no IMU feedback, so it refuses such a library (it would play a gait with another
+    controller than the one its verdict was reached with) unless forced."""
+    rig, lib = drive_rig(tmp_path)
+    closed = _with_validation(lib, 4, {"passed": True, "conditions": {"attitude_gain": 0.5}})
+    with pytest.raises(PreflightError, match=r"validated closed loop \(attitude gain 0.5\)"):
+        run_drive(rig, closed, b"")
+    assert not any(s.torque_enabled for s in rig.vbus.servos)
+    forced, _ = run_drive(rig, closed, b"", config=replace(DRIVE_CONFIG, force=True))
+    assert any("playing it open loop because of --force" in w for w in forced.play.warnings)
+
+
 def test_preflight_refuses_an_entry_faster_than_the_gate_allows(tmp_path: Path) -> None:
     rig, lib = drive_rig(tmp_path)
     e = lib.entries[-1]

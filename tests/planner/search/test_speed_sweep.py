@@ -116,3 +116,12 @@ def test_airborne_knots_count_the_flight_the_nlp_plans(duty: float, n_knots: int
                    60.0, flight_fraction=flight_fraction(schedule), airborne_knots=expected,
                    n_knots=n_knots)
     assert f"({expected}/{n_knots} knots) |" in to_markdown([row])
+
+
+def test_the_table_says_which_rows_were_judged_closed_loop() -> None:
+    row = SweepRow(0.2, 0.02, "biped_walk", "biped_walk", 0.6, 0.6, 0.2, 0.2, 0.9, True, 18,
+                   60.0, sim_passed=True, sim_speed_m_s=0.2, sim_attitude_gain=0.5)
+    assert "| pass 0.200 m/s, closed loop G 0.5 |" in to_markdown([row])
+    opened = SweepRow(0.4, 0.08, "biped_run", "biped_run", 0.5, 0.4, 0.2, 0.2, 0.9, True, 18,
+                      60.0, sim_passed=True, sim_speed_m_s=0.4, sim_attitude_gain=0.0)
+    assert "| pass 0.400 m/s |" in to_markdown([opened])
