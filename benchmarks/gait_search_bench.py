@@ -11,8 +11,9 @@ generations of the coarse (12-knot) NLP, then the final 30-knot solve of the bes
 `--sim-accept` adds the MuJoCo acceptance check of every feasible sample and of the final gait
 (the command line's default, with the command line's own acceptance settings).
 
-`--warm-starts cold,nearest,incumbent` runs each path with those search warm starts
-(`planner.search.gait_search.SEARCH_WARM_STARTS`; labelled ``knot+nearest`` etc.).
+`--warm-starts cold,nearest-retimed` runs each path with those search warm starts
+(`planner.search.gait_search.SEARCH_WARM_STARTS`; labelled ``knot+nearest-retimed`` etc.;
+measured in docs/results/planner_speed_search.md, session 30).
 `--coarse-aborts off,30/0.03` runs each path without and with the stall abort of the coarse
 solves (`planner.nlp.iteration_abort.StallAbort(after_iter=30, min_violation=0.03)`; labelled
 ``knot+abort30/0.03``), alternating, so their CPU ratio is measured under the same load.

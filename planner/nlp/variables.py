@@ -33,6 +33,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from planner.errors import PlannerConfigError
 from planner.nlp.command import (
     N_MOTION_PARAMETERS,
     MotionSymbols,
@@ -307,3 +308,48 @@ def initial_guess(layout: Layout, model: RobotModel, schedule: ContactSchedule) 
     f = np.zeros((n, layout.n_feet, 3))
     f[:, :, 2] = contact / np.maximum(contact.sum(axis=1, keepdims=True), 1.0)
     return layout.pack(base, q, f)
+
+
+def retimed_start(
+    layout: Layout,
+    x: np.ndarray,
+    period_from_s: float,
+    period_to_s: float,
+    contact_from: np.ndarray,
+    contact_to: np.ndarray,
+) -> np.ndarray:
+    """A solved primal point `x` (physical units, period `period_from_s`) mapped onto another
+    schedule at the same knots, to warm-start that schedule's solve (the search's coarse samples,
+    `planner.search.gait_search.SEARCH_WARM_STARTS`).
+
+    Knot k stays at phase k/N of the cycle, so poses, joint angles and torques are kept; the
+    time derivatives follow d/dt = (1/T)·d/dφ: velocities and servo-goal slopes scale by
+    T_from/T_to, accelerations by its square. Forces follow the contact matrices (N × F, of the
+    solved schedule and of the new one): kept where the foot stays in contact, zero where it
+    swings, and where it newly stands the cold start's share of the weight (`initial_guess`)."""
+    x = np.asarray(x, dtype=float).ravel()
+    if x.shape != (layout.size,):
+        raise PlannerConfigError(
+            f"retimed_start: {x.size} variables for a layout of {layout.size}")
+    if not (period_from_s > 0 and period_to_s > 0):
+        raise PlannerConfigError(
+            f"retimed_start: periods must be > 0, got {period_from_s}, {period_to_s}")
+    was, contact = np.asarray(contact_from, dtype=bool), np.asarray(contact_to, dtype=bool)
+    for m in (was, contact):
+        if m.shape != (layout.n_knots, layout.n_feet):
+            raise PlannerConfigError(f"retimed_start: contact matrix {m.shape}, expected "
+                             f"{(layout.n_knots, layout.n_feet)}")
+    out = x.copy()
+    rate = period_from_s / period_to_s
+    start = layout.n_base + layout.n_q
+    f = out[start : start + layout.n_f].reshape(layout.n_knots, layout.n_feet, 3)
+    share = 1.0 / np.maximum(contact.sum(axis=1, keepdims=True), 1)
+    f[:, :, 2] = np.where(contact & ~was, np.broadcast_to(share, contact.shape), f[:, :, 2])
+    f[~contact] = 0.0
+    start += layout.n_f
+    out[start : start + layout.n_rates] *= rate  # velocities
+    start += layout.n_rates
+    out[start : start + layout.n_rates] *= rate**2  # accelerations
+    start += layout.n_rates + layout.n_q  # torques unchanged
+    out[start : start + layout.n_q] *= rate  # servo-goal slopes [rad/s]
+    return out

@@ -64,6 +64,7 @@ from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.iteration_abort import StallAbort
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
+from planner.nlp.variables import retimed_start
 from planner.search import defaults
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
 from planner.search.executors import Executor, make_executor
@@ -99,17 +100,18 @@ DEFAULT_SIGMA_FRACTION = 1.0 / 3.0
 #: Violation reported for a sample whose plan is feasible but fails acceptance, per unit of the
 #: check's badness: ranks it after the feasible samples and ahead of NLP-infeasible ones.
 REJECTED_VIOLATION = 1e-9
-#: How a worker starts each sample's NLP solve (`search_gait(warm_start=...)`): "cold" (the
-#: planner's initial guess: every sample's cost is independent of which samples the worker
-#: solved before, so the search is executor-invariant), "nearest" (the worker's earlier
-#: NLP-feasible solution whose timing is closest, in box-normalised timing coordinates) or
-#: "incumbent" (the worker's cheapest NLP-feasible solution so far). Measured in
-#: docs/results/planner_speed_threads.md.
-SEARCH_WARM_STARTS = ("cold", "nearest", "incumbent")
+#: How each coarse sample's NLP solve starts (`search_gait(warm_start=...)`): "cold" (the
+#: planner's template-shaped initial guess), or from the primal solution of an earlier sample
+#: chosen in the main process from the batches already finished (the seeding batch, earlier
+#: generations; never a sample of the same batch, so the search does not depend on the executor
+#: or its scheduling): "nearest" (the plan-feasible sample closest in box-normalised timing) or
+#: "incumbent" (the cheapest one, accepted samples first). "-retimed" maps the start onto the
+#: sample's schedule first (`planner.nlp.variables.retimed_start`: rates rescaled to its period,
+#: forces to its contact pattern); without it the solution is used knot for knot as solved.
+#: Measured in docs/results/planner_speed_search.md, "Session 30 (branch warm)".
+SEARCH_WARM_STARTS = ("cold", "nearest", "nearest-retimed", "incumbent", "incumbent-retimed")
 #: `TimingResult.status` of a coarse solve stopped by `TimingSolverFactory.coarse_abort`
 ABORTED_STATUS = "stopped: constraint violation stalled"
-#: solutions a worker keeps to warm-start from (oldest dropped first)
-WARM_START_MEMORY = 64
 
 
 class AcceptanceVerdict(Protocol):
@@ -264,13 +266,36 @@ class TimingResult(LocalResult):
     #: IPOPT's iterates, iteration 0 first: (objective, inf_pr, inf_du) as IPOPT reports them
     #: (`PlanResult.stats["iterations"]`), for replaying iteration rules on recorded searches
     iteration_log: tuple[tuple[float, float, float], ...] = ()
+    #: the coarse NLP's primal solution of a plan-feasible sample, kept only when the search
+    #: warm-starts later samples from earlier ones (`SEARCH_WARM_STARTS`; None otherwise)
+    solution: np.ndarray | None = field(default=None, repr=False)
+    #: whether this sample's solve started from an earlier sample's solution
+    warm: bool = False
+
+
+@dataclass(frozen=True)
+class SampleStart:
+    """A sample's timing with the start point of its solve: what the main process sends a
+    worker under a warm `SEARCH_WARM_STARTS` policy (one coarse primal vector, ≈ 10 kB).
+
+    `primal`: an earlier sample's solution (physical units, the coarse NLP's layout);
+    `source_x`: that sample's timing; `retime`: map the solution onto this sample's schedule
+    (`planner.nlp.variables.retimed_start`) before starting from it."""
+
+    x: np.ndarray
+    primal: np.ndarray
+    source_x: np.ndarray
+    retime: bool
 
 
 @dataclass
 class TimingSolver:
     """The local solve g(x) of basin-CMA: one spacetime solve for the decoded timing.
 
-    The returned cost is the NLP's cost plus the support term of the timing (if any).
+    The returned cost is the NLP's cost plus the support term of the timing (if any). A
+    `SampleStart` instead of a timing vector starts the solve from its point (W&P §4.1.1's
+    projection is unchanged: the timing stays fixed, the solve ends at a constrained local
+    minimum for it; which one may depend on the start).
     """
 
     planner: GaitPlanner
@@ -280,41 +305,45 @@ class TimingSolver:
     acceptance: GaitAcceptance | None = None
     #: wall time of building `planner` (and the check), reported once with the first result
     build_s: float = 0.0
-    #: `SEARCH_WARM_STARTS`; "cold" by default (the search stays executor-invariant)
+    #: `SEARCH_WARM_STARTS`: anything but "cold" returns each plan-feasible solution
+    #: (`TimingResult.solution`) for the main process to start later samples from
     warm_start: str = "cold"
-    #: this worker's NLP-feasible solutions (normalised timing, cost, start point), newest last
-    solved: list[tuple[np.ndarray, float, WarmStart]] = field(default_factory=list)
 
-    def start_for(self, x: np.ndarray) -> WarmStart | None:
-        """The point the solve of timing `x` starts from under `warm_start` (None: cold)."""
-        if self.warm_start == "cold" or not self.solved:
+    def start_for(self, sample: np.ndarray | SampleStart, schedule: ContactSchedule
+                  ) -> WarmStart | None:
+        """The point the solve of `schedule` starts from (None: cold)."""
+        if not isinstance(sample, SampleStart):
             return None
-        if self.warm_start == "incumbent":
-            return min(self.solved, key=lambda s: s[1])[2]
-        u = self._normalised(x)
-        return min(self.solved, key=lambda s: float(np.sum((s[0] - u) ** 2)))[2]
+        primal = np.asarray(sample.primal, dtype=float)
+        if primal.shape != (self.planner.layout.size,):
+            raise PlannerConfigError(
+                f"warm start: a start of {primal.size} variables for a coarse NLP of "
+                f"{self.planner.layout.size}; starts must come from the same search")
+        if sample.retime:
+            n = self.planner.n_knots
+            source = self.space.decode(np.clip(sample.source_x, *self.space.bounds()))
+            primal = retimed_start(self.planner.layout, primal, source.period_s,
+                                   schedule.period_s, source.contact_matrix(n),
+                                   schedule.contact_matrix(n))
+        # primal only (session 22: an earlier schedule's multipliers cost iterations)
+        return WarmStart(primal, np.zeros_like(primal), np.zeros(self.planner._lbg.shape))
 
-    def _normalised(self, x: np.ndarray) -> np.ndarray:
-        lo, hi = self.space.bounds()
-        return (np.asarray(x, dtype=float) - lo) / (hi - lo)
-
-    def __call__(self, x: np.ndarray) -> TimingResult:
+    def __call__(self, sample: np.ndarray | SampleStart) -> TimingResult:
         build_s, self.build_s = self.build_s, 0.0
+        x = sample.x if isinstance(sample, SampleStart) else sample
         x = np.clip(np.asarray(x, dtype=float), *self.space.bounds())
         schedule = self.space.decode(x)
         t0, c0 = time.perf_counter(), time.process_time()
-        start = self.start_for(x)
+        start = self.start_for(sample, schedule)
+        warm = start is not None
         try:
-            # cold by default: on a new contact timing a warm start saved few iterations if
-            # any (planner_speed_threads.md), and cold solves make every sample's cost
-            # independent of which samples a worker solved before (executor-invariant search)
             result = self.planner.solve(
                 schedule, self.speed_m_s, warm_start=start if start is not None else False
             )
         except PlannerConfigError:  # e.g. a foot never lands on any knot
             return TimingResult(x, math.inf, False, 0, math.inf,
                                 solve_s=time.perf_counter() - t0, build_s=build_s,
-                                cpu_s=time.process_time() - c0)
+                                cpu_s=time.process_time() - c0, warm=warm)
         solve_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
         evals = int(result.iterations) + 1
         log = result.stats.get("iterations", {})
@@ -324,11 +353,9 @@ class TimingSolver:
             # stopped as hopeless (`TimingSolverFactory.coarse_abort`): ranked after every
             # solved sample, whatever violation the point it stopped at has
             return TimingResult(x, math.inf, False, evals, math.inf, False, solve_s, 0.0,
-                                build_s, ABORTED_STATUS, cpu_s, 0.0, iteration_log)
+                                build_s, ABORTED_STATUS, cpu_s, 0.0, iteration_log, warm=warm)
         cost = result.cost + (self.tipping(schedule) if self.tipping is not None else 0.0)
-        if result.feasible and self.warm_start != "cold":
-            self.solved.append((self._normalised(x), cost, result.warm_start))
-            del self.solved[:-WARM_START_MEMORY]
+        solution = result.warm_start.x if result.feasible and self.warm_start != "cold" else None
         if result.feasible and self.acceptance is not None:
             t1, c1 = time.perf_counter(), time.process_time()
             verdict = self.acceptance(self.planner.to_gait(result, "search sample"))
@@ -337,12 +364,62 @@ class TimingSolver:
                 return TimingResult(x, cost, False, evals,
                                     REJECTED_VIOLATION * (1.0 + verdict.badness), True,
                                     solve_s, accept_s, build_s, result.status, cpu_s,
-                                    accept_cpu_s, iteration_log)
+                                    accept_cpu_s, iteration_log, solution, warm)
             return TimingResult(x, cost, True, evals, result.max_violation, True,
                                 solve_s, accept_s, build_s, result.status, cpu_s, accept_cpu_s,
-                                iteration_log)
+                                iteration_log, solution, warm)
         return TimingResult(x, cost, result.feasible, evals, result.max_violation, result.feasible,
-                            solve_s, 0.0, build_s, result.status, cpu_s, 0.0, iteration_log)
+                            solve_s, 0.0, build_s, result.status, cpu_s, 0.0, iteration_log,
+                            solution, warm)
+
+
+class WarmStartExecutor:
+    """Sends each sample with the start point its policy picks (`SEARCH_WARM_STARTS`) from the
+    plan-feasible solutions of the batches this executor finished before (main process).
+
+    Starts come only from earlier batches, so a sample's start is the same whatever the
+    executor, its worker count or its scheduling."""
+
+    def __init__(self, inner: Executor, space: TimingSpace, policy: str) -> None:
+        if policy not in SEARCH_WARM_STARTS or policy == "cold":
+            raise PlannerConfigError(f"WarmStartExecutor needs a warm policy of "
+                                     f"{', '.join(SEARCH_WARM_STARTS[1:])}, got {policy!r}")
+        self.inner, self.space, self.policy = inner, space, policy
+        self.retime = policy.endswith("-retimed")
+        lo, hi = space.bounds()
+        self._lo, self._width = lo, hi - lo
+        #: (normalised timing, rank (accepted first, cost), primal solution, timing)
+        self.solved: list[tuple[np.ndarray, tuple[int, float], np.ndarray, np.ndarray]] = []
+
+    def _normalised(self, x: np.ndarray) -> np.ndarray:
+        return (np.clip(x, self._lo, self._lo + self._width) - self._lo) / self._width
+
+    def start(self, x: np.ndarray) -> np.ndarray | SampleStart:
+        """The item sent for sample `x`: itself (cold) while nothing is solved, else a
+        `SampleStart` from the policy's earlier solution."""
+        if not self.solved:
+            return x
+        if self.policy.startswith("incumbent"):
+            _, _, primal, source = min(self.solved, key=lambda s: s[1])
+        else:
+            u = self._normalised(x)
+            _, _, primal, source = min(self.solved, key=lambda s: float(np.sum((s[0] - u) ** 2)))
+        return SampleStart(x, primal, source, self.retime)
+
+    def map(self, fn: Callable[[np.ndarray | SampleStart], LocalResult],
+            xs: Iterable[np.ndarray]) -> list[LocalResult]:
+        items = [np.asarray(x, dtype=float) for x in xs]
+        out = self.inner.map(fn, [self.start(x) for x in items])
+        for x, r in zip(items, out, strict=True):
+            self.remember(x, r)
+        return out
+
+    def remember(self, x: np.ndarray, result: LocalResult) -> None:
+        """Keep `result`'s solution (if it returned one: plan-feasible) to start later samples."""
+        solution = getattr(result, "solution", None)
+        if solution is not None:
+            rank = (0 if result.feasible else 1, float(result.cost))
+            self.solved.append((self._normalised(x), rank, solution, np.asarray(x, dtype=float)))
 
 
 @dataclass(frozen=True)
@@ -520,7 +597,7 @@ def search_gait(
     `acceptance` judges every feasible sample, `final_acceptance` (default: `acceptance`) the
     full-resolution candidates — the final judge may be stricter than the coarse one;
     `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins.
-    `warm_start`: how each worker starts a sample's solve (`SEARCH_WARM_STARTS`).
+    `warm_start`: where each coarse sample's solve starts (`SEARCH_WARM_STARTS`; "cold").
     `seed_schedules`: more named seeds beside the templates (e.g. the user's own schedule,
     `gaitsmith plan --search --period/--duty/--phases/--schedule`): CMA starts from the first of
     them instead of the cheapest template, they join the templates in the fallback, and the
@@ -579,7 +656,9 @@ def search_gait(
     lo, hi = space.bounds()
     t_seed, c_seed = time.perf_counter(), time.process_time()
     with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
-        pool = RecordingExecutor(ex)
+        # a warm policy picks each sample's start in this process (`WarmStartExecutor`)
+        pool = RecordingExecutor(ex if warm_start == "cold"
+                                 else WarmStartExecutor(ex, space, warm_start))
         # 1. seed with the hand templates that fit the encoding (one parallel batch)
         if progress is not None:
             progress(SearchLogRow(-1, math.inf, math.inf, 0, 0, time.perf_counter() - t0, 0.0,

@@ -1,5 +1,6 @@
-"""Search warm starts (`search_gait(warm_start=...)`, docs/results/planner_speed_threads.md):
-which earlier solution a worker starts a sample from; no NLP is solved here."""
+"""Search warm starts (`search_gait(warm_start=...)`, planner_speed_search.md "Session 30"):
+which earlier solution the main process starts a sample from, and what a worker does with it;
+no NLP is solved here."""
 
 from __future__ import annotations
 
@@ -12,12 +13,18 @@ import pytest
 import robots
 from planner.errors import PlannerConfigError
 from planner.nlp.spacetime import WarmStart
+from planner.nlp.variables import Layout
+from planner.search.executors import SerialExecutor
 from planner.search.gait_search import (
-    WARM_START_MEMORY,
+    SampleStart,
+    TimingResult,
     TimingSolver,
     TimingSpace,
+    WarmStartExecutor,
     search_gait,
 )
+
+LAYOUT = Layout(12, 12, 4)
 
 
 @dataclass
@@ -33,24 +40,26 @@ class _Result:
 
 @dataclass
 class _StubPlanner:
-    """Records the start of every solve; returns `costs` in turn (feasible), tagging its start
-    point with the call index."""
+    """Records the start of every solve; returns `costs` in turn (feasible), its solution a
+    vector of the coarse layout filled with the call index."""
 
     costs: list[float]
     starts: list[Any] = field(default_factory=list)
     last_solve_aborted: bool = False  # GaitPlanner's: no iteration abort here
+    layout: Layout = LAYOUT
+    n_knots: int = 12
+    _lbg: np.ndarray = field(default_factory=lambda: np.zeros(5))
 
     def solve(self, schedule: Any, speed_m_s: float, warm_start: Any = None) -> _Result:
         self.starts.append(warm_start)
         k = len(self.starts) - 1
-        tag = np.full(1, float(k))
-        return _Result(self.costs[k], True, WarmStart(tag, tag, tag))
+        x = np.full(LAYOUT.size, float(k))
+        return _Result(self.costs[k], True, WarmStart(x, x, x))
 
 
 def _solver(policy: str, costs: list[float]) -> tuple[TimingSolver, _StubPlanner]:
-    robot = robots.load("quad12")
     stub = _StubPlanner(costs)
-    space = TimingSpace.for_robot(robot)
+    space = TimingSpace.for_robot(robots.load("quad12"))
     return TimingSolver(stub, space, 0.25, warm_start=policy), stub  # type: ignore[arg-type]
 
 
@@ -60,30 +69,66 @@ def _samples(space: TimingSpace) -> list[np.ndarray]:
 
 
 @pytest.mark.parametrize(("policy", "expected"), [
-    ("cold", [False, False, False, False]),
-    # sample 2 is nearest sample 0, sample 3 nearest sample 1
-    ("nearest", [False, 0.0, 0.0, 1.0]),
-    # the cheapest so far: sample 1 (cost 1) once solved
-    ("incumbent", [False, 0.0, 1.0, 1.0]),
+    # first batch (samples 0, 1) cold; then sample 2 is nearest sample 0, sample 3 nearest 1
+    ("nearest", [False, False, 0.0, 1.0]),
+    # the cheapest of the first batch: sample 1 (cost 1)
+    ("incumbent", [False, False, 1.0, 1.0]),
 ])
-def test_each_policy_starts_from_the_expected_solution(policy: str, expected: list[Any]) -> None:
+def test_each_policy_starts_from_an_earlier_batch(policy: str, expected: list[Any]) -> None:
     solver, stub = _solver(policy, [5.0, 1.0, 3.0, 2.0])
-    for x in _samples(solver.space):
-        solver(x)
+    pool = WarmStartExecutor(SerialExecutor(), solver.space, policy)
+    xs = _samples(solver.space)
+    pool.map(solver, xs[:2])
+    pool.map(solver, xs[2:])  # one batch: neither sample starts from the other
     got = [s if s is False else float(s.x[0]) for s in stub.starts]
     assert got == expected
-    assert len(solver.solved) == (0 if policy == "cold" else 4)
+    assert len(pool.solved) == 4
 
 
-def test_memory_is_bounded() -> None:
-    solver, _ = _solver("nearest", [1.0] * (WARM_START_MEMORY + 5))
+def test_cold_policy_returns_no_solution_and_needs_no_executor_wrapper() -> None:
+    solver, stub = _solver("cold", [1.0])
+    r = solver(_samples(solver.space)[0])
+    assert r.solution is None and not r.warm and stub.starts == [False]
+    with pytest.raises(PlannerConfigError, match="warm policy"):
+        WarmStartExecutor(SerialExecutor(), solver.space, "cold")
+
+
+def test_warm_result_is_marked_and_carries_its_solution() -> None:
+    solver, _ = _solver("nearest", [1.0, 2.0])
     x = _samples(solver.space)[0]
-    for _ in range(WARM_START_MEMORY + 5):
-        solver(x)
-    assert len(solver.solved) == WARM_START_MEMORY
+    first = solver(x)
+    assert first.solution is not None and not first.warm
+    second = solver(SampleStart(x, first.solution, x, retime=False))
+    assert second.warm
+
+
+def test_a_start_of_another_layout_is_refused_in_one_line() -> None:
+    solver, _ = _solver("nearest", [1.0])
+    x = _samples(solver.space)[0]
+    with pytest.raises(PlannerConfigError, match="same search") as err:
+        solver(SampleStart(x, np.zeros(7), x, retime=False))
+    assert "\n" not in str(err.value)
+
+
+def test_retimed_start_reaches_the_worker_rescaled() -> None:
+    solver, stub = _solver("nearest-retimed", [1.0])
+    lo, hi = solver.space.bounds()
+    source, target = lo + 0.5 * (hi - lo), lo + 0.5 * (hi - lo)
+    target[0] = source[0] / 2.0 if source[0] / 2.0 >= lo[0] else lo[0]
+    x = np.ones(LAYOUT.size)
+    solver(SampleStart(target, x, source, retime=True))
+    start = stub.starts[0].x
+    v0 = LAYOUT.n_base + LAYOUT.n_q + LAYOUT.n_f
+    rate = source[0] / target[0]
+    assert start[v0] == pytest.approx(rate) and rate > 1.0
 
 
 def test_unknown_warm_start_is_one_line() -> None:
     with pytest.raises(PlannerConfigError, match="warm_start must be one of") as err:
         search_gait(robots.load("quad12"), 0.25, warm_start="hot")
     assert "\n" not in str(err.value)
+
+
+def test_timing_result_defaults_keep_old_records_loadable() -> None:
+    r = TimingResult(np.zeros(1), 1.0, True)
+    assert r.solution is None and r.warm is False
