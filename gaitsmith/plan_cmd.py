@@ -166,6 +166,13 @@ def plan(
         "`planner.nlp.line_capture`): the open-loop body falls toward the landing foot; 0.16 "
         "took knee8's duty-0.6 walk at T 1.35 s from 0.155 to 0.180 m/s "
         "(docs/results/heavy_rotor.md §7)"),
+    cop_sole_fraction: float | None = typer.Option(
+        None, "--cop-sole-fraction", help="flat feet: plan each stance wrench in the cone of "
+        "the sole shrunk to this fraction of its half length and width, a centre-of-pressure "
+        "and torsional-friction margin (`PlannerOptions.cop_sole_fraction`, "
+        "`planner.nlp.contact_margin`; default 1, the whole sole): 0.5 took the built-in "
+        "biped's 0.222 m/s turning walks from a 0.05-0.08 rad/s yaw-rate overshoot to "
+        "0.007-0.025 (docs/results/attitude_feedback.md, Session 30 (branch yaw))"),
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
@@ -215,13 +222,17 @@ def plan(
         raise OptionError("--knife-edge: needs --simulate, a straight command (no --vy, "
                           "--yaw-rate) and no --search")
     check_nlp_options(force_rate, bounce_weight, entry_cycles, rotor_reserve, swing_clearance,
-                      solver, mirror, knots, line_capture_margin, nlp_hessian)
+                      solver, mirror, knots, line_capture_margin, nlp_hessian,
+                      cop_sole_fraction)
     check_output_file("--output", output)
     bot = robots.load(robot)
     if speed is None:
         speed = default_speed_m_s(bot.leg_length_m)
         console.print(default_speed_note(bot, speed))
     check_yaw_rate("--yaw-rate", yaw_rate, bot)
+    if cop_sole_fraction is not None and not any(leg.is_flat for leg in bot.legs):
+        raise OptionError(f"--cop-sole-fraction: {bot.name} has point feet, no sole to shrink; "
+                          "drop the option (it applies to flat feet only)")
     check_supply_v("--supply-v", supply_v, bot)
     bot = robot_at_voltage(bot, supply_v)
     servo_settings = None
@@ -237,7 +248,7 @@ def plan(
     options = planner_options(mu, solver, shaped, rotor_reserve, swing_clearance,
                               verbose=verbose, servo_settings=servo_settings, mirror=mirror,
                               line_capture_margin=line_capture_margin,
-                              nlp_hessian=nlp_hessian)
+                              nlp_hessian=nlp_hessian, cop_sole_fraction=cop_sole_fraction)
     meta = gait_metadata(supply_v, servo_params_path, shaped)
     if search:
         limited = (servo_limited(bot, default_gait_for(bot), speed, options)

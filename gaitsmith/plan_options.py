@@ -28,6 +28,7 @@ from gaitsmith.plan_search import SearchSettings
 from gaitsmith.search_options import check_search_options
 from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, StanceShaped
 from planner.nlp.config import (
+    COP_SOLE_FRACTION,
     DEFAULT_NLP_HESSIAN,
     DERIVATIVE_PATHS,
     NLP_HESSIANS,
@@ -93,6 +94,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--rotor-reserve", "rotor_reserve", NLP, NLP),
     OptionRoute("--swing-clearance", "swing_clearance", NLP, NLP),
     OptionRoute("--line-capture-margin", "line_capture_margin", NLP, NLP),
+    OptionRoute("--cop-sole-fraction", "cop_sole_fraction", NLP, NLP),
     OptionRoute("--search", "search", "", "switches to the search"),
     OptionRoute("--generations", "generations", "", SEARCH),
     OptionRoute("--popsize", "popsize", "", SEARCH),
@@ -163,7 +165,8 @@ def check_nlp_options(force_rate: float | None, bounce_weight: float | None,
                       entry_cycles: int | None, rotor_reserve: float | None,
                       swing_clearance: float | None, solver: str, mirror: bool,
                       knots: int, line_capture_margin: float | None = None,
-                      nlp_hessian: str = DEFAULT_NLP_HESSIAN) -> None:
+                      nlp_hessian: str = DEFAULT_NLP_HESSIAN,
+                      cop_sole_fraction: float | None = None) -> None:
     """The NLP-shaping options (each None unless given) in the ranges the planner accepts."""
     check_number("--force-rate", force_rate, 0.0, MAX_FORCE_RATE,
                  unit="body weights per √(L/g)")  # 0: no rows (overrides the stance rule)
@@ -174,6 +177,7 @@ def check_nlp_options(force_rate: float | None, bounce_weight: float | None,
                  unit="m")
     check_number("--line-capture-margin", line_capture_margin, 0.0, 1.0, hi_open=True,
                  unit="leg lengths")
+    check_number("--cop-sole-fraction", cop_sole_fraction, 0.0, 1.0, lo_open=True)
     if mirror and knots % 2:
         raise OptionError(f"--mirror needs an even --knots (half a cycle on knots), got {knots}")
     if solver not in DERIVATIVE_PATHS:
@@ -194,7 +198,8 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
                     servo_settings: tuple[ServoSetting, ...] | None = None,
                     mirror: bool = False,
                     line_capture_margin: float | None = None,
-                    nlp_hessian: str = DEFAULT_NLP_HESSIAN) -> PlannerOptions:
+                    nlp_hessian: str = DEFAULT_NLP_HESSIAN,
+                    cop_sole_fraction: float | None = None) -> PlannerOptions:
     """The `PlannerOptions` of the command line (both paths; `search_planner_options` drops
     what `--search` does not take)."""
     return PlannerOptions(mu=mu, print_level=5 if verbose else 0, servo_settings=servo_settings,
@@ -203,7 +208,9 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
                           weights=shaped.weights, rotor_reserve=rotor_reserve,
                           swing_clearance_m=swing_clearance,
                           line_capture_margin_leg_lengths=line_capture_margin,
-                          nlp_hessian=nlp_hessian)
+                          nlp_hessian=nlp_hessian,
+                          cop_sole_fraction=(COP_SOLE_FRACTION if cop_sole_fraction is None
+                                             else cop_sole_fraction))
 
 
 def search_planner_options(options: PlannerOptions) -> PlannerOptions:

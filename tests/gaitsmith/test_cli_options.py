@@ -18,6 +18,7 @@ from gaitsmith.cli import main
 from gaitsmith.gait_choice import check_gait_fits, default_gait
 from gaitsmith.sweep_cmd import SweepClock, format_duration
 from planner.errors import TemplateError
+from planner.nlp.config import COP_SOLE_FRACTION
 from robots import files
 from tests.gaitsmith.capture import captured_kwargs
 
@@ -73,6 +74,10 @@ PLAN_MISTAKES = [
     (["--swing-clearance", "1"], "--swing-clearance must be a number in (0, 1) m, got 1"),
     (["--line-capture-margin", "-0.1"], "--line-capture-margin must be a number in [0, 1) leg"),
     (["--search", "--line-capture-margin", "1"], "--line-capture-margin must be a number in"),
+    (["--cop-sole-fraction", "0"], "--cop-sole-fraction must be a number in (0, 1], got 0"),
+    (["--cop-sole-fraction", "1.5"], "--cop-sole-fraction must be a number in (0, 1], got 1.5"),
+    (["--search", "--cop-sole-fraction", "nan"], "--cop-sole-fraction must be a number in"),
+    (["--cop-sole-fraction", "0.5"], "--cop-sole-fraction: quad12 has point feet"),
 ]
 
 
@@ -253,6 +258,25 @@ def test_plan_search_takes_the_template_options(
     assert options.weights.bounce_s2_m2 == 30
     assert options.rotor_reserve == 0.15 and options.swing_clearance_m == 0.018
     assert seen["acceptance"].entry_cycles == 3 and seen["final_acceptance"].entry_cycles == 3
+
+
+def test_plan_cop_sole_fraction_reaches_the_flat_foot_nlp(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--cop-sole-fraction becomes `PlannerOptions.cop_sole_fraction` of the template path's
+    NLP and of the search's; without it the planner's default (the whole sole) stays."""
+    out = str(tmp_path / "g.json")
+    seen = captured_kwargs(monkeypatch, plan_cmd, "GaitPlanner",
+                           ["plan", "biped", "--speed", "0.222", "--yaw-rate", "0.3",
+                            "--cop-sole-fraction", "0.5", "-o", out])
+    assert seen["options"].cop_sole_fraction == 0.5
+    seen = captured_kwargs(monkeypatch, planner.search.gait_search, "search_gait",
+                           ["plan", "biped", "--speed", "0.2", "--search",
+                            "--cop-sole-fraction", "0.7", "-o", out])
+    assert seen["options"].cop_sole_fraction == 0.7
+    seen = captured_kwargs(monkeypatch, plan_cmd, "GaitPlanner",
+                           ["plan", "biped", "--speed", "0.222", "-o", out])
+    assert seen["options"].cop_sole_fraction == COP_SOLE_FRACTION == 1.0
 
 
 def test_plan_search_seeds_from_the_users_schedule(
