@@ -111,11 +111,16 @@ def _plan_peak_torque(data: dict[str, Any]) -> float | None:
     return max(values) if values else None
 
 
+def robot_path(robot: str) -> str:
+    """A built-in robot's name as given, a folder relative to the repository made absolute."""
+    return str(ROOT / robot) if (ROOT / robot).is_dir() else robot
+
+
 def run_row(robot: str, froude: float, search: bool, extra: list[str], tmp: Path,
             knife_edge: bool = False) -> Row:
     """One command, one row (see the module docstring); `knife_edge`: the template command
     also runs `--knife-edge` (perturbed re-plans, minutes) and the row says how many pass."""
-    bot = robots.load(str(ROOT / robot) if (ROOT / robot).is_dir() else robot)
+    bot = robots.load(robot_path(robot))
     speed = froude_speed_m_s(bot, froude)
     out = tmp / f"{bot.name}{'_search' if search else ''}.json"
     out.unlink(missing_ok=True)
@@ -177,6 +182,11 @@ def main(argv: list[str] | None = None) -> int:
     if not (math.isfinite(args.froude) and 0 < args.froude <= 1):
         parser.error(f"--froude must lie in (0, 1], got {args.froude}")
     names = [r for r in args.robots.split(",") if r]
+    for robot in names:  # every robot loads before the first (minutes-long) command
+        try:
+            robots.load(robot_path(robot))
+        except robots.RobotsError as exc:
+            parser.error(f"--robots: {exc}")
     rows: list[Row] = []
     started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     print(HEADER, flush=True)
