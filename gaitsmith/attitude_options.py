@@ -69,32 +69,25 @@ def check_attitude_judged(gain: float | None, judged: bool, needs: str) -> None:
 def resolved_gain(gain: float | None, robot: Robot, gait: Gait) -> float:
     """The gain a run of `gait` uses (`robots.attitude.gait_attitude_gain`: the option if
     given, else the robot's default), said on the console when the default closes the loop."""
-    from robots.attitude import gait_attitude_gain
-
-    resolved, why = gait_attitude_gain(robot, gait, gain)
-    if gain is None and resolved > 0.0:
-        from gaitsmith.console import console
-
-        console.print(f"attitude feedback: gain {resolved:g} ({why}); --attitude-gain 0 runs "
-                      "open loop", highlight=False, markup=False)
-    return resolved
+    return resolved_library_gain(gain, robot, (gait,), "runs")
 
 
-def resolved_library_gain(gain: float | None, robot: Robot, gaits: Sequence[Gait]) -> float:
+def resolved_library_gain(gain: float | None, robot: Robot, gaits: Sequence[Gait],
+                          verb: str = "drives") -> float:
     """`resolved_gain` for a drive through a library's `gaits` (`drive-sim`): the option if
     given, else the largest of the robot's defaults over the gaits (a biped's walks close the
     loop at the rule's gain even if the library also holds a run, which the rule keeps open loop:
-    the law runs on the blend, one gain for the drive), said on the console when it closes it."""
-    if gain is not None:
-        return float(gain)
-    from gaitsmith.console import console
-    from robots.attitude import default_attitude_gain
+    the law runs on the blend, one gain for the drive), said on the console when the default
+    closes the loop (`verb`: what ``--attitude-gain 0`` then does open loop)."""
+    from robots.attitude import gait_attitude_gain
 
-    default, why = max((default_attitude_gain(robot, g) for g in gaits), key=lambda d: d[0])
-    if default > 0.0:
-        console.print(f"attitude feedback: gain {default:g} ({why}); --attitude-gain 0 drives "
+    resolved, why = max((gait_attitude_gain(robot, g, gain) for g in gaits), key=lambda d: d[0])
+    if gain is None and resolved > 0.0:
+        from gaitsmith.console import console
+
+        console.print(f"attitude feedback: gain {resolved:g} ({why}); --attitude-gain 0 {verb} "
                       "open loop", highlight=False, markup=False)
-    return default
+    return resolved
 
 
 def attitude_settings(gain: float | None, imu_latency_ms: float = 0.0,
