@@ -288,9 +288,7 @@ def warm_start(motion: Motion, planner: GaitPlanner) -> WarmStart:
         [vel.ravel(), acc.ravel(), motion.joint_torques_nm.ravel(), slopes.ravel()]
     )
     x = planner.layout.pack(motion.base_pose, motion.joint_angles_rad, motion.forces_mg, lifted)
-    lbx, ubx = planner._lbx, planner._ubx
-    x = np.clip(x, lbx, ubx)
-    return WarmStart(x, np.zeros_like(x), np.zeros(planner._lbg.shape))
+    return planner.primal_start(x, clip_to_bounds=True)
 
 
 @dataclass(frozen=True)

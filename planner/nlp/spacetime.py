@@ -369,6 +369,18 @@ class GaitPlanner:
         abort = getattr(self, "_abort", None)
         return abort is not None and abort.fired
 
+    def primal_start(self, x: np.ndarray, clip_to_bounds: bool = False) -> WarmStart:
+        """A start at the primal point `x` (physical units, `layout` order) with zero multipliers:
+        the warm-start policy for another schedule (`WARM_START_DUALS`); `clip_to_bounds` moves
+        `x` into the variable bounds first."""
+        x = np.asarray(x, dtype=float).ravel()
+        if x.shape != self._lbx.shape:
+            raise PlannerConfigError(
+                f"a start of {x.size} variables for an NLP of {self._lbx.size}")
+        if clip_to_bounds:
+            x = np.clip(x, self._lbx, self._ubx)
+        return WarmStart(x, np.zeros_like(x), np.zeros(self._lbg.shape))
+
     def _solver_for(self, warm: bool) -> Any:
         """The IPOPT instance for a cold or a warm solve: one instance when the tuning uses the
         same options for both, else the warm one is created at the first warm solve."""

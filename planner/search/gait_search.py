@@ -326,7 +326,7 @@ class TimingSolver:
                                    schedule.period_s, source.contact_matrix(n),
                                    schedule.contact_matrix(n))
         # primal only (session 22: an earlier schedule's multipliers cost iterations)
-        return WarmStart(primal, np.zeros_like(primal), np.zeros(self.planner._lbg.shape))
+        return self.planner.primal_start(primal)
 
     def __call__(self, sample: np.ndarray | SampleStart) -> TimingResult:
         build_s, self.build_s = self.build_s, 0.0
@@ -371,6 +371,11 @@ class TimingSolver:
         return TimingResult(x, cost, result.feasible, evals, result.max_violation, result.feasible,
                             solve_s, 0.0, build_s, result.status, cpu_s, 0.0, iteration_log,
                             solution, warm)
+
+
+#: the most plan-feasible solutions a `WarmStartExecutor` keeps (≈ 10 kB each for quad12's
+#: coarse NLP); the worst-ranked is dropped beyond it
+WARM_STARTS_KEPT = 256
 
 
 class WarmStartExecutor:
@@ -420,6 +425,10 @@ class WarmStartExecutor:
         if solution is not None:
             rank = (0 if result.feasible else 1, float(result.cost))
             self.solved.append((self._normalised(x), rank, solution, np.asarray(x, dtype=float)))
+            if len(self.solved) > WARM_STARTS_KEPT:
+                # memory stays bounded on long searches: the worst-ranked solution goes
+                worst = max(range(len(self.solved)), key=lambda i: self.solved[i][1])
+                del self.solved[worst]
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from planner.nlp.spacetime import WarmStart
 from planner.nlp.variables import Layout
 from planner.search.executors import SerialExecutor
 from planner.search.gait_search import (
+    WARM_STARTS_KEPT,
     SampleStart,
     TimingResult,
     TimingSolver,
@@ -48,7 +49,9 @@ class _StubPlanner:
     last_solve_aborted: bool = False  # GaitPlanner's: no iteration abort here
     layout: Layout = LAYOUT
     n_knots: int = 12
-    _lbg: np.ndarray = field(default_factory=lambda: np.zeros(5))
+
+    def primal_start(self, x: np.ndarray) -> WarmStart:
+        return WarmStart(x, np.zeros_like(x), np.zeros(5))
 
     def solve(self, schedule: Any, speed_m_s: float, warm_start: Any = None) -> _Result:
         self.starts.append(warm_start)
@@ -83,6 +86,20 @@ def test_each_policy_starts_from_an_earlier_batch(policy: str, expected: list[An
     got = [s if s is False else float(s.x[0]) for s in stub.starts]
     assert got == expected
     assert len(pool.solved) == 4
+
+
+def test_the_solutions_kept_are_bounded_and_the_worst_goes_first() -> None:
+    solver, _ = _solver("nearest", [])
+    pool = WarmStartExecutor(SerialExecutor(), solver.space, "nearest")
+    x = _samples(solver.space)[0]
+    for k in range(WARM_STARTS_KEPT + 3):
+        # costs 0, 1, 2, ... except one very cheap late sample
+        cost = -1.0 if k == WARM_STARTS_KEPT + 1 else float(k)
+        result = TimingResult(x, cost, True, solution=np.full(LAYOUT.size, float(k)))
+        pool.remember(x, result)
+    assert len(pool.solved) == WARM_STARTS_KEPT
+    kept = sorted(s[1][1] for s in pool.solved)
+    assert kept[0] == -1.0 and kept[-1] == float(WARM_STARTS_KEPT - 2)
 
 
 def test_cold_policy_returns_no_solution_and_needs_no_executor_wrapper() -> None:
