@@ -356,9 +356,11 @@ def save_directions(path: Path, forward: tuple[int, ...], second: tuple[int, ...
         pass
 
 
-def _compiled_entry(
-    knot: ca.Function, compiler: compiled_knot.Compiler, directory: Path | None
+def knot_compiled_entry(
+    knot: ca.Function, compiler: compiled_knot.Compiler, directory: Path | None = None
 ) -> compiled_knot.CompiledEntry:
+    """Where the compiled J and H of `knot` by `compiler` live in the cache (`directory`, default
+    `cache_dir`) and what the library must hold."""
     n_u = sum(knot.sparsity_in(i).numel() for i in range(knot.n_in()))
     n_y = sum(knot.sparsity_out(i).numel() for i in range(knot.n_out()))
     return compiled_knot.compiled_entry(
@@ -383,7 +385,7 @@ def compiled_jacobian_and_hessian(
         raise compiled_knot.CompileError(
             "no C compiler found (gcc, cc or $GAITSMITH_CC) to compile the knot derivatives"
         )
-    entry = _compiled_entry(knot, compiler, directory)
+    entry = knot_compiled_entry(knot, compiler, directory)
     loaded = compiled_knot.load_compiled(entry)
     busy = background_compile.running(entry) if loaded is None else None
     if busy is not None:
@@ -418,7 +420,7 @@ def knot_jacobian_and_hessian(
     """
     compiler = compiled_knot.find_compiler()
     if compiler is not None and derivatives != "compiled":
-        entry = _compiled_entry(knot, compiler, directory)
+        entry = knot_compiled_entry(knot, compiler, directory)
         loaded = compiled_knot.load_compiled(entry)
         if loaded is not None:
             return (*loaded, CacheOutcome(entry.library, "hit", compiled=True))
