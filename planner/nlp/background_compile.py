@@ -27,10 +27,8 @@ command on that robot loads the library from the cache.
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
-import resource
 import subprocess
 import sys
 import time
@@ -68,7 +66,7 @@ def enabled() -> bool:
     unrecognised value turns it off, with one warning line per process."""
     value = os.environ.get(ENV_SWITCH, "").strip().lower()
     if value in ON_VALUES:
-        return True
+        return sys.platform != "win32"  # the lock is an flock (POSIX)
     if value not in OFF_VALUES and value not in _warned_switch:
         _warned_switch.append(value)
         compiled_knot.warn(f"${ENV_SWITCH}={value!r} is not one of 0/1 (on/off); the "
@@ -129,6 +127,8 @@ def _write_attempts(path: Path, record: Attempts) -> None:
 
 def _try_lock(path: Path) -> int | None:
     """An open descriptor of `path` holding its ``flock``, or None if another process holds it."""
+    import fcntl  # POSIX only (`enabled` is False elsewhere)
+
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -345,6 +345,8 @@ def _entry_from(job: dict[str, Any]) -> tuple[compiled_knot.CompiledEntry,
 def main(argv: list[str]) -> int:
     """The compile process: ``python -m planner.nlp.background_compile JOB.json`` (written by
     `start`, which passes the lock's descriptor on). Exit 0 when the library is in the cache."""
+    import resource
+
     from planner.nlp.solver_cache import jacobian_and_hessian
 
     try:
