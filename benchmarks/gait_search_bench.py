@@ -39,6 +39,9 @@ from dataclasses import dataclass
 from typing import get_args
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+# a "knot" build on an empty cache would start compiling the robot's J and H in the background
+# (planner.nlp.background_compile), on the cores being measured; set it to 1 to measure that
+os.environ.setdefault("GAITSMITH_BACKGROUND_COMPILE", "0")
 
 import robots
 from gaitsmith.plan_cmd import DEFAULT_CYCLES

@@ -41,6 +41,9 @@ from pathlib import Path
 from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+# a "knot" build on an empty cache would start compiling the robot's J and H in the background
+# (planner.nlp.background_compile), on the cores being measured; set it to 1 to measure that
+os.environ.setdefault("GAITSMITH_BACKGROUND_COMPILE", "0")
 
 import casadi as ca
 import numpy as np

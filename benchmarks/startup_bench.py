@@ -84,6 +84,8 @@ sys.exit(1)
 def _run(code_dir: Path, cache: Path, cmd: list[str]) -> dict[str, float]:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     env.update(PYTHONPATH=str(code_dir), GAITSMITH_CACHE=str(cache))
+    # no compile in the background between the repeats (planner.nlp.background_compile)
+    env.setdefault("GAITSMITH_BACKGROUND_COMPILE", "0")
     out = subprocess.run(
         [sys.executable, "-c", _CHILD, *cmd],
         capture_output=True, text=True, check=False, env=env, cwd=code_dir,

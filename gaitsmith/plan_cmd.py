@@ -16,6 +16,7 @@ build from them (checks, `PlannerOptions`, gait-file metadata): `gaitsmith.plan_
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -124,6 +125,12 @@ def plan(
         "assembled (one knot Hessian per knot weighted by its multipliers, "
         "`planner.nlp.assembled_hessian`); the same Hessian to rounding, not the same bits "
         "(docs/results/planner_speed.md, sessions 29-30)"),
+    background_compile: bool = typer.Option(
+        True, "--background-compile/--no-background-compile", help="with --solver knot and a "
+        "C compiler: if the robot's knot derivatives are not compiled yet, compile them in a "
+        "detached background process (nice 10, about a minute of CPU) so later commands plan "
+        "faster (`gaitsmith cache` shows it; $GAITSMITH_BACKGROUND_COMPILE=0 turns it off "
+        "everywhere)"),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="show IPOPT's iteration log live"),
     knife_edge: bool = typer.Option(
         False, "--knife-edge", help="with --simulate: also re-plan at ±1% speed and N±4 and "
@@ -225,6 +232,10 @@ def plan(
                       solver, mirror, knots, line_capture_margin, nlp_hessian,
                       cop_sole_fraction)
     check_output_file("--output", output)
+    if not background_compile:  # this process and the search's workers (they inherit it)
+        from planner.nlp.background_compile import ENV_SWITCH
+
+        os.environ[ENV_SWITCH] = "0"
     bot = robots.load(robot)
     if speed is None:
         speed = default_speed_m_s(bot.leg_length_m)

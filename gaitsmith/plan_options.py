@@ -49,6 +49,7 @@ NLP_META = "PlannerOptions via the stance rule; gait-file metadata"
 SEARCH = "the search's settings"
 VALIDATION = "--simulate's validation"
 ACCEPTANCE = "--simulate's validation and the search's MuJoCo acceptance"
+BACKGROUND = "$GAITSMITH_BACKGROUND_COMPILE of this command and its workers"
 
 FORWARD_ONLY = ("--search plans forward gaits only: drop --vy/--yaw-rate, or plan a template "
                 "without --search")
@@ -81,6 +82,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--mu", "mu", NLP, NLP),
     OptionRoute("--solver", "solver", NLP, NLP),
     OptionRoute("--nlp-hessian", "nlp_hessian", NLP, NLP),
+    OptionRoute("--background-compile", "background_compile", BACKGROUND, BACKGROUND),
     OptionRoute("--verbose", "verbose", "PlannerOptions.print_level", ""),
     OptionRoute("--knife-edge", "knife_edge", "re-plans and simulations after --simulate", "",
                 "--knife-edge: needs --simulate, a straight command (no --vy, --yaw-rate) and "

@@ -13,10 +13,12 @@ whole NLP's Hessian it derives through ``H(u, λ)`` is wrong (denser), other der
 directions are asked for and the build fails. With it the NLP's Jacobian and Hessian have
 exactly the SX path's patterns, and the values agree to rounding.
 
-Compiling takes minutes (a robot's H is ~160K instructions, 5 MB of C), so it happens only when
-asked: ``PlannerOptions(derivatives="compiled")`` (``gaitsmith plan --solver compiled``) or
-``gaitsmith cache build ROBOT``; after that the default ``derivatives="knot"`` finds the library
-in the disk cache and uses it.
+Compiling takes about a minute of CPU (a robot's H is ~160K instructions, 5 MB of C), so no
+command waits for it unless asked to: ``PlannerOptions(derivatives="compiled")`` (``gaitsmith
+plan --solver compiled``) and ``gaitsmith cache build ROBOT`` compile in the foreground; the
+default ``derivatives="knot"`` finds the library in the disk cache and uses it, and when it finds
+none it starts the compile in a detached background process for the next command
+(`planner.nlp.background_compile`).
 
 Disk cache (beside the direction counts, ``$GAITSMITH_CACHE`` or ``~/.cache/gaitsmith/``):
 ``knot-<key>.so`` and its manifest ``knot-<key>.json``. The key is the knot's key
@@ -131,8 +133,9 @@ def compiled_entry(sx_key: str, compiler: Compiler, directory: Path, n_u: int,
 
 
 def _manifest(entry: CompiledEntry, library_sha256: str, compiler: Compiler,
-              jac_sparsity_nnz: list[int]) -> dict[str, object]:
+              jac_sparsity_nnz: list[int], label: str = "") -> dict[str, object]:
     return {
+        "label": label,
         "jac_sparsity_nnz": jac_sparsity_nnz,
         "format": COMPILED_FORMAT,
         "key": entry.key,
@@ -199,10 +202,12 @@ def _renamed(function: ca.Function, name: str) -> ca.Function:
 
 
 def compile_jacobian_and_hessian(
-    entry: CompiledEntry, jacobian: ca.Function, hessian: ca.Function, compiler: Compiler
+    entry: CompiledEntry, jacobian: ca.Function, hessian: ca.Function, compiler: Compiler,
+    label: str = "",
 ) -> tuple[ca.Function, ca.Function]:
     """Generate C for the SX `jacobian` and `hessian` (with their Jacobian sparsity), compile it
-    into `entry.library` (atomically) and load it. Raises `CompileError` (and leaves no file at
+    into `entry.library` (atomically) and load it; `label` (the robot's name) goes into the
+    manifest for ``gaitsmith cache``. Raises `CompileError` (and leaves no file at
     the entry's paths) if the compiler fails or times out; `OutputWriteError` if the cache folder
     cannot be written."""
     folder = entry.library.parent
@@ -238,7 +243,7 @@ def compile_jacobian_and_hessian(
         data = library.read_bytes()
         os.replace(library, entry.library)  # same folder: atomic
         manifest = _manifest(entry, hashlib.sha256(data).hexdigest(), compiler,
-                             _jac_sparsity_nnz(jacobian, hessian))
+                             _jac_sparsity_nnz(jacobian, hessian), label)
         atomic_write_bytes(entry.manifest, json.dumps(manifest, indent=1).encode("utf-8"))
     except OSError as exc:
         raise OutputWriteError(f"{folder}: cannot write the compiled knot derivatives ({exc})"

@@ -27,10 +27,11 @@ SX, but reading that entry back took 1.2–1.6× as long as building them again
 (docs/results/planner_speed_startup.md), so only what does pay is cached
 (``$GAITSMITH_CACHE`` or ``~/.cache/gaitsmith/``): the direction counts a solver of this knot, N
 and options used (`directions_path`, a small JSON file) and the compiled library of J and H if one
-was built (`planner.nlp.compiled_knot`). Both are keyed by `knot_cache_key`: the knot function's
-own serialised form (which is the robot's model: masses, inertias, kinematics, feet — and nothing
-else enters J or H) and the casadi and gaitsmith versions; an unreadable, corrupt or mismatching
-entry is rebuilt and replaced, never trusted.
+was built (`planner.nlp.compiled_knot`; a "knot" build that finds none starts its compile in
+the background, `planner.nlp.background_compile`). Both are keyed by `knot_cache_key`: the knot
+function's own serialised form (which is the robot's model: masses, inertias, kinematics, feet —
+and nothing else enters J or H) and the casadi and gaitsmith versions; an unreadable, corrupt or
+mismatching entry is rebuilt and replaced, never trusted.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ import hashlib
 import json
 import os
 import re
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import metadata as importlib_metadata
@@ -47,7 +49,7 @@ from typing import Any
 
 import casadi as ca
 
-from planner.nlp import compiled_knot
+from planner.nlp import background_compile, compiled_knot
 from planner.nlp.assembled_jacobian import KnotCall
 from robots.errors import OutputWriteError
 from robots.files import atomic_write_bytes
@@ -354,9 +356,11 @@ def save_directions(path: Path, forward: tuple[int, ...], second: tuple[int, ...
         pass
 
 
-def _compiled_entry(
-    knot: ca.Function, compiler: compiled_knot.Compiler, directory: Path | None
+def knot_compiled_entry(
+    knot: ca.Function, compiler: compiled_knot.Compiler, directory: Path | None = None
 ) -> compiled_knot.CompiledEntry:
+    """Where the compiled J and H of `knot` by `compiler` live in the cache (`directory`, default
+    `cache_dir`) and what the library must hold."""
     n_u = sum(knot.sparsity_in(i).numel() for i in range(knot.n_in()))
     n_y = sum(knot.sparsity_out(i).numel() for i in range(knot.n_out()))
     return compiled_knot.compiled_entry(
@@ -368,48 +372,62 @@ def compiled_jacobian_and_hessian(
     knot: ca.Function,
     directory: Path | None = None,
     compiler: compiled_knot.Compiler | None = None,
+    label: str = "",
 ) -> tuple[ca.Function, ca.Function, CacheOutcome]:
     """The compiled J and H of one knot (`planner.nlp.compiled_knot`): loaded from the cache, or
-    compiled now (minutes) from J and H built now if missing or not intact. `compiler`: default the
-    one `compiled_knot.find_compiler` finds with the default flags. Raises `CompileError` (no
+    compiled now (minutes) from J and H built now if missing or not intact. A background compile
+    of the same entry (`planner.nlp.background_compile`) is waited for first, and its library
+    loaded if it left one. `compiler`: default the one `compiled_knot.find_compiler` finds with
+    the default flags; `label`: the robot's name, for the manifest. Raises `CompileError` (no
     compiler, the compiler failed) or `OutputWriteError` (cache folder not writable)."""
     compiler = compiler or compiled_knot.find_compiler()
     if compiler is None:
         raise compiled_knot.CompileError(
             "no C compiler found (gcc, cc or $GAITSMITH_CC) to compile the knot derivatives"
         )
-    entry = _compiled_entry(knot, compiler, directory)
+    entry = knot_compiled_entry(knot, compiler, directory)
     loaded = compiled_knot.load_compiled(entry)
+    busy = background_compile.running(entry) if loaded is None else None
+    if busy is not None:
+        print(f"gaitsmith: waiting for the background compile of these knot derivatives (pid "
+              f"{busy.pid}, log: {busy.log})", file=sys.stderr, flush=True)
+        background_compile.wait_for(entry, compiled_knot.COMPILE_TIMEOUT_S)
+        loaded = compiled_knot.load_compiled(entry)
     if loaded is not None:
         return (*loaded, CacheOutcome(entry.library, "hit", compiled=True))
     status = "rebuilt" if entry.library.exists() or entry.manifest.exists() else "built"
     jacobian, hessian = jacobian_and_hessian(knot)
     jacobian, hessian = compiled_knot.compile_jacobian_and_hessian(
-        entry, jacobian, hessian, compiler
+        entry, jacobian, hessian, compiler, label
     )
+    background_compile.clear_attempts(entry)
     return jacobian, hessian, CacheOutcome(entry.library, status, compiled=True)
 
 
 def knot_jacobian_and_hessian(
-    knot: ca.Function, derivatives: str = "knot", directory: Path | None = None
+    knot: ca.Function, derivatives: str = "knot", directory: Path | None = None,
+    label: str = "",
 ) -> tuple[ca.Function, ca.Function, CacheOutcome]:
     """J and H of one knot for the planner path `derivatives` (`PlannerOptions.derivatives`):
 
     - "knot": the compiled entry (`planner.nlp.compiled_knot`) if the cache holds one for the C
-      compiler found and the default flags, else J and H built now (`built_jacobian_and_hessian`);
-      never compiles.
+      compiler found and the default flags, else J and H built now (`built_jacobian_and_hessian`)
+      — and, if there is a C compiler, the compile started in a detached background process for
+      the next command (`planner.nlp.background_compile.start`; `label`, the robot's name, is
+      what it says it compiles). Never waits for a compiler.
     - "compiled": the compiled entry, compiled now (minutes) if missing or not intact; with no C
       compiler or a failed compile, a one-line warning and J and H built now.
     """
     compiler = compiled_knot.find_compiler()
     if compiler is not None and derivatives != "compiled":
-        entry = _compiled_entry(knot, compiler, directory)
+        entry = knot_compiled_entry(knot, compiler, directory)
         loaded = compiled_knot.load_compiled(entry)
         if loaded is not None:
             return (*loaded, CacheOutcome(entry.library, "hit", compiled=True))
+        background_compile.start(knot, entry, compiler, label)
     if derivatives == "compiled":
         try:
-            return compiled_jacobian_and_hessian(knot, directory, compiler)
+            return compiled_jacobian_and_hessian(knot, directory, compiler, label)
         except (compiled_knot.CompileError, OutputWriteError) as exc:
             compiled_knot.warn(f"{exc}; planning with the uncompiled knot derivatives")
     return built_jacobian_and_hessian(knot)

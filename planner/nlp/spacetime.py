@@ -14,7 +14,8 @@ point (the multipliers restart, `WARM_START_DUALS`), pushed inside its bounds as
 IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the NLP un-expanded and
 hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
 "expanded" expands the whole NLP to SX (slow build); "compiled" is "knot" with J and H compiled
-to C once per robot (`planner.nlp.compiled_knot`; "knot" picks a compiled entry up). Same
+to C once per robot (`planner.nlp.compiled_knot`; "knot" picks a compiled entry up, and
+starts its compile in the background if there is none: `planner.nlp.background_compile`). Same
 optimum; see docs/results/planner_speed.md and planner_speed_compiled.md. With "knot" and
 "compiled" IPOPT's constraint Jacobian is assembled from one knot Jacobian per knot
 (`PlannerOptions.nlp_jacobian`, `planner.nlp.assembled_jacobian`; planner_speed_lifted.md).
@@ -239,7 +240,7 @@ class GaitPlanner:
         if self.options.derivatives in ("knot", "compiled"):
             plain = knot_function(self.model)
             jac, hess, self.derivative_cache = knot_jacobian_and_hessian(
-                plain, self.options.derivatives
+                plain, self.options.derivatives, label=robot.name
             )
             directions = directions_path(plain, n_knots, self.options)
             known = load_directions(directions)
