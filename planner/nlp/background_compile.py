@@ -54,11 +54,44 @@ MAX_ATTEMPTS = 3
 #: the compile process's niceness (it runs beside the command that started it, on the same cores)
 NICENESS = 10
 
+#: memory the compile may need: gcc -O1 peaked at 0.86 GB (quad12) to 1.82 GB (humanoid20)
+#: (docs/results/planner_speed_compiled.md, session 31); with less available (MemAvailable)
+#: the compile is not started, so a small board never swaps or meets the OOM killer over it
+MIN_AVAILABLE_MEMORY_BYTES = 2 * 1024**3
+
 #: the compile processes this process started (kept so they are not garbage-collected while
 #: they run: `subprocess.Popen` warns when one is)
 _started: list[subprocess.Popen[bytes]] = []
 #: warned once per process about an unrecognised value of `ENV_SWITCH`
 _warned_switch: list[str] = []
+#: said once per process that memory was short
+_warned_memory: list[int] = []
+
+
+def available_memory_bytes() -> int | None:
+    """The kernel's estimate of memory available without swapping (Linux ``MemAvailable``), or
+    None where it cannot be read (then the compile is not held back)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def _memory_allows() -> bool:
+    free = available_memory_bytes()
+    if free is None or free >= MIN_AVAILABLE_MEMORY_BYTES:
+        return True
+    if not _warned_memory:
+        _warned_memory.append(free)
+        compiled_knot.warn(
+            f"not compiling the knot derivatives in the background: {free / 1024**3:.1f} GB of "
+            f"memory available, the compiler may need {MIN_AVAILABLE_MEMORY_BYTES / 1024**3:.0f} "
+            "GB; `gaitsmith cache build ROBOT` compiles them when the machine is idle")
+    return False
 
 
 def enabled() -> bool:
@@ -193,11 +226,12 @@ class Started:
 def start(knot: ca.Function, entry: compiled_knot.CompiledEntry,
           compiler: compiled_knot.Compiler, label: str = "") -> Started | None:
     """Start compiling `knot`'s J and H into `entry` in a detached process, unless the switch is
-    off, another process is compiling this key, the key gave up (`Attempts.gave_up`) or the
-    entry is in the cache by now. Says so in one line on stderr when it starts one. A cache
+    off, less than `MIN_AVAILABLE_MEMORY_BYTES` of memory is available, another process is
+    compiling this key, the key gave up (`Attempts.gave_up`) or the entry is in the cache by
+    now. Says so in one line on stderr when it starts one. A cache
     folder that cannot be written or a process that cannot be started: nothing happens (the
     command plans on with the SX J and H)."""
-    if not enabled():
+    if not enabled() or not _memory_allows():
         return None
     try:
         entry.library.parent.mkdir(parents=True, exist_ok=True)

@@ -231,6 +231,23 @@ def test_the_switch_turns_it_off(cache: Path, capsys: pytest.CaptureFixture[str]
         assert lines == [] and again == []
 
 
+def test_short_memory_starts_nothing_and_says_so_once(
+    cache: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(background_compile, "available_memory_bytes", lambda: 512 * 1024**2)
+    monkeypatch.setattr(background_compile, "_warned_memory", [])
+    outcome, lines = _knot_build(capsys)
+    _, again = _knot_build(capsys)
+    assert not outcome.compiled and background_compile._started == []
+    assert len(lines) == 1 and "0.5 GB of memory available" in lines[0]
+    assert "gaitsmith cache build" in lines[0] and again == []
+
+
+def test_available_memory_is_read_from_the_kernel() -> None:
+    free = background_compile.available_memory_bytes()
+    assert free is None or free > 0
+
+
 def test_the_suite_itself_runs_with_the_switch_off() -> None:
     assert os.environ[background_compile.ENV_SWITCH] == "0"
     assert not background_compile.enabled()
