@@ -48,7 +48,7 @@ import numpy as np
 import robots
 from planner.errors import PlannerConfigError
 from planner.nlp import spacetime
-from planner.nlp.config import PlannerOptions
+from planner.nlp.config import COMPACT_ROWS, PlannerOptions
 from planner.nlp.constraints import knot_function
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import default_gait_for, make_schedule, templates_for
@@ -218,6 +218,18 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "compiled-ah": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="compiled", nlp_hessian="assembled")
     ),
+    # inequality rows in a smaller form, the same feasible set (`PlannerOptions.compact_rows`,
+    # docs/results/planner_speed_rows.md): every form, none, and each alone
+    "knot-rows": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(compact_rows=())),
+    "knot-compact": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(compact_rows=COMPACT_ROWS)
+    ),
+    **{
+        f"knot-c-{form.replace(' ', '-')}": (
+            lambda robot, n, form=form: GaitPlanner(robot, n, PlannerOptions(compact_rows=(form,)))
+        )
+        for form in COMPACT_ROWS
+    },
 }
 
 
