@@ -37,6 +37,7 @@ import statistics
 import tempfile
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -183,6 +184,10 @@ def _spread(times: list[float], iters: list[int]) -> str:
     )
 
 
+def _compact_planner(forms: tuple[str, ...], robot: robots.Robot, n_knots: int) -> GaitPlanner:
+    return GaitPlanner(robot, n_knots, PlannerOptions(compact_rows=forms))
+
+
 #: Solver paths `compare` can run, by name: each builds a planner for (robot, N). The first
 #: path named in ``--paths`` is the baseline every other one is compared against. A new solver
 #: path (issue #16) adds one entry here.
@@ -224,12 +229,8 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "knot-compact": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(compact_rows=COMPACT_ROWS)
     ),
-    **{
-        f"knot-c-{form.replace(' ', '-')}": (
-            lambda robot, n, form=form: GaitPlanner(robot, n, PlannerOptions(compact_rows=(form,)))
-        )
-        for form in COMPACT_ROWS
-    },
+    **{f"knot-c-{form.replace(' ', '-')}": partial(_compact_planner, (form,))
+       for form in COMPACT_ROWS},
 }
 
 

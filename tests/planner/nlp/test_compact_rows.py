@@ -98,7 +98,8 @@ def test_same_feasible_set_per_row(pair: tuple[GaitPlanner, GaitPlanner]) -> Non
     trot = make_schedule(robot, "trot")
     p = parameter_vector(trot, N, 0.25, rows.swing_clearance_m)
     lbx, ubx = compact._variable_bounds(trot)
-    seen = {name: set() for name in ("joint speed", "goal slope", "torque envelope", "swing force")}
+    families = ("joint speed", "goal slope", "torque envelope", "swing force")
+    seen: dict[str, set[bool]] = {name: set() for name in families}
     for _ in range(6):
         x = _random_point(rows, rng)
         inside_x = _met(x, lbx, ubx)
@@ -117,10 +118,10 @@ def test_same_feasible_set_per_row(pair: tuple[GaitPlanner, GaitPlanner]) -> Non
         new_value, *_ = _rows(compact, x, p, "servo goal speed")
         np.testing.assert_allclose(new_value, value[nj * N :], rtol=1e-12, atol=1e-12)
         # torque envelope: four faces met ⇔ both ranged rows met, per (joint, knot)
-        old = _met(*_rows(rows, x, p, "torque envelope")).reshape(4, -1).all(axis=0)
-        new = _met(*_rows(compact, x, p, "torque envelope")).reshape(2, -1).all(axis=0)
-        np.testing.assert_array_equal(old, new)
-        seen["torque envelope"] |= set(old.tolist())
+        faces = np.all(_met(*_rows(rows, x, p, "torque envelope")).reshape(4, -1), axis=0)
+        ranged = np.all(_met(*_rows(compact, x, p, "torque envelope")).reshape(2, -1), axis=0)
+        np.testing.assert_array_equal(faces, ranged)
+        seen["torque envelope"] |= set(np.asarray(faces, dtype=bool).tolist())
         # swing force: C·f_max − f_z ≥ 0 ⇔ f_z ≤ its per-solve upper bound
         old = _met(*_rows(rows, x, p, "swing force"))
         fz = force_indices(layout, 2)
