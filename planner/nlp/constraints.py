@@ -638,8 +638,13 @@ def _servo_goal_groups(
     ]
 
 
-def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
-    """Human-readable row labels for the groups that need them in reports."""
+def group_labels(
+    model: RobotModel, n_knots: int, compact_rows: tuple[str, ...] = ()
+) -> dict[str, list[str]]:
+    """Human-readable row labels for the groups that need them in reports; `compact_rows`:
+    `PlannerOptions.compact_rows` (the envelopes' ranged rows: two per joint and knot). Rows
+    given as bounds keep their labels (`planner.nlp.diagnostics.BoundRows` reports them)."""
+    faces = 2 if "torque envelope" in compact_rows else 4
     joints = model.robot.joint_names
     feet = model.robot.foot_names
     per_joint = [f"{j}@knot {k}" for k in range(n_knots) for j in joints]
@@ -672,8 +677,8 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
             for k in range(n_knots)
             for j in joints
         ],
-        "torque envelope": per_joint * 4,
-        "rotor reserve": per_joint * 4,
+        "torque envelope": per_joint * faces,
+        "rotor reserve": per_joint * faces,
         "line capture": line_capture_labels(feet, n_knots),
         "body clearance": [
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)

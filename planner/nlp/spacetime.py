@@ -279,7 +279,7 @@ class GaitPlanner:
             slices.append((grp.name, slice(start, start + size)))
             start += size
         self._slices = slices
-        self._labels = group_labels(self.model, n_knots)
+        self._labels = group_labels(self.model, n_knots, self.options.compact_rows)
         self._x_labels = self.layout.labels(self.robot.joint_names)
         self._lbx, self._ubx = variable_bounds(self.layout, self.model, self.options)
         #: rows given to IPOPT as variable bounds (`PlannerOptions.compact_rows`), reported

@@ -11,7 +11,11 @@ import robots
 from planner.errors import PlannerConfigError
 from planner.nlp import diagnostics
 from planner.nlp.config import COMPACT_ROWS, PlannerOptions
-from planner.nlp.constraints import GOAL_SPEED_INSIDE, GOAL_SPEED_SAMPLES_PER_KNOT
+from planner.nlp.constraints import (
+    GOAL_SPEED_INSIDE,
+    GOAL_SPEED_SAMPLES_PER_KNOT,
+    group_labels,
+)
 from planner.nlp.spacetime import GaitPlanner
 from planner.nlp.variables import (
     force_indices,
@@ -243,3 +247,16 @@ def test_binding_joint_speed_is_named_from_its_bounds() -> None:
     assert not result.feasible
     assert "joint speed" in dict(result.binding), result.message
     assert "joint speed (at its limit in " in result.message
+
+
+def test_stagewise_refuses_rows_as_bounds() -> None:
+    """The stage-wise NLP (FATROP) has rows only: the bound forms are refused in one line; the
+    ranged envelope is its rows' own form (labelled two per joint and knot)."""
+    from planner.nlp.model import RobotModel
+    from planner.nlp.stagewise import stage_functions
+
+    model = RobotModel(robots.load("quad12"))
+    with pytest.raises(PlannerConfigError, match="compact_rows joint speed"):
+        stage_functions(model, N, PlannerOptions(compact_rows=("joint speed", "torque envelope")))
+    labels = group_labels(model, N, ("torque envelope",))
+    assert len(labels["torque envelope"]) == 2 * model.n_joints * N
