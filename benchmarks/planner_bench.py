@@ -37,6 +37,7 @@ import statistics
 import tempfile
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +52,7 @@ import numpy as np
 import robots
 from planner.errors import PlannerConfigError
 from planner.nlp import spacetime
-from planner.nlp.config import PlannerOptions
+from planner.nlp.config import COMPACT_ROWS, PlannerOptions
 from planner.nlp.constraints import knot_function
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import default_gait_for, make_schedule, templates_for
@@ -186,6 +187,10 @@ def _spread(times: list[float], iters: list[int]) -> str:
     )
 
 
+def _compact_planner(forms: tuple[str, ...], robot: robots.Robot, n_knots: int) -> GaitPlanner:
+    return GaitPlanner(robot, n_knots, PlannerOptions(compact_rows=forms))
+
+
 #: Solver paths `compare` can run, by name: each builds a planner for (robot, N). The first
 #: path named in ``--paths`` is the baseline every other one is compared against. A new solver
 #: path (issue #16) adds one entry here.
@@ -221,6 +226,14 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "compiled-ah": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="compiled", nlp_hessian="assembled")
     ),
+    # inequality rows in a smaller form, the same feasible set (`PlannerOptions.compact_rows`,
+    # docs/results/planner_speed_rows.md): every form, none, and each alone
+    "knot-rows": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(compact_rows=())),
+    "knot-compact": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(compact_rows=COMPACT_ROWS)
+    ),
+    **{f"knot-c-{form.replace(' ', '-')}": partial(_compact_planner, (form,))
+       for form in COMPACT_ROWS},
 }
 
 

@@ -53,6 +53,11 @@ NLP_JACOBIANS = ("ad", "assembled")
 NLP_HESSIANS = ("ad", "assembled")
 #: `PlannerOptions.nlp_hessian`'s default (`gaitsmith plan --nlp-hessian` says it)
 DEFAULT_NLP_HESSIAN = "assembled"
+#: the inequality rows `PlannerOptions.compact_rows` can give IPOPT in a smaller form
+COMPACT_ROWS = ("joint speed", "goal slope", "torque envelope", "swing force")
+#: `PlannerOptions.compact_rows`' default: the one form that keeps IPOPT's barrier problem
+#: (docs/results/planner_speed_rows.md, session 31)
+DEFAULT_COMPACT_ROWS = ("torque envelope",)
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -309,6 +314,20 @@ class PlannerOptions:
       21 quad12/hex18 schedules, the same knife-edge counts on the 9 must-show robots,
       planner build 0.71–0.84× the CPU, solves 0.97–0.98× (quad12, hex18) and 0.80×
       (humanoid20) (docs/results/planner_speed.md, sessions 29 and 30).
+    - `compact_rows`: inequality rows handed to IPOPT in a smaller form with exactly the same
+      feasible set (`COMPACT_ROWS`; each inequality row costs the KKT system a slack and a
+      multiplier row): "joint speed" — |q̇| ≤ margin·ω₀ on the lifted rates as variable
+      bounds; "goal slope" — the servo-goal speed's sample at a knot (u = 0, the lifted spline
+      slope s_k) as a bound on s_k; "torque envelope" — the diamond's four faces per joint as
+      two ranged rows −1 ≤ τ/τ_s ± q̇/ω₀ ≤ 1 (also the rotor reserve's); "swing force" —
+      f_z ≤ C·f_max as a per-solve upper bound of f_z (0 in swing: IPOPT drops the variable).
+      Reports still name every row by its group (`planner.nlp.diagnostics.BoundRows`).
+      Default `DEFAULT_COMPACT_ROWS` ("torque envelope"): the ranged rows give IPOPT the same
+      barrier problem in a KKT system 1440 rows smaller (quad12, N = 30): the same optimum on
+      every feasible quad12 and hex18 schedule measured, 0.98× the CPU per iteration; the
+      bounds change IPOPT's start and path, took other iteration counts and on quad12's wave
+      another local optimum (+3.4 %). Measured in docs/results/planner_speed_rows.md
+      (session 31); () is the NLP before.
     """
 
     mu: float = 0.5
@@ -347,6 +366,7 @@ class PlannerOptions:
     knot_threads: int = 1
     nlp_jacobian: str = "assembled"
     nlp_hessian: str = DEFAULT_NLP_HESSIAN
+    compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS
 
     def __post_init__(self) -> None:
         checks = {
@@ -392,11 +412,16 @@ class PlannerOptions:
             and 1 <= self.knot_threads <= MAX_KNOT_THREADS,
             "nlp_jacobian": self.nlp_jacobian in NLP_JACOBIANS,
             "nlp_hessian": self.nlp_hessian in NLP_HESSIANS,
+            "compact_rows": isinstance(self.compact_rows, tuple)
+            and all(r in COMPACT_ROWS for r in self.compact_rows)
+            and len(set(self.compact_rows)) == len(self.compact_rows),
         }
         for name, ok in checks.items():
             if not ok:
+                hint = (f" (a tuple of distinct names from {', '.join(COMPACT_ROWS)})"
+                        if name == "compact_rows" else "")
                 raise PlannerConfigError(
-                    f"planner option {name}={getattr(self, name)!r} is out of range"
+                    f"planner option {name}={getattr(self, name)!r} is out of range{hint}"
                 )
 
     def max_iter_for(self, n_variables: int) -> int:

@@ -361,27 +361,24 @@ def build_groups(
             zeros(4 * nf * n),
             np.full(4 * nf * n, inf),
         ),
-        # unilateral contact with zero force in swing: 0 ≤ f_z ≤ C·f_max (f_z ≥ 0 is a bound)
-        Group(
+        # unilateral contact with zero force in swing: 0 ≤ f_z ≤ C·f_max (f_z ≥ 0 is a bound;
+        # with `compact_rows` "swing force" the upper side is a per-solve bound too)
+        *([] if "swing force" in options.compact_rows else [Group(
             "swing force",
             col(c * options.max_force_body_weights - fz),
             zeros(nf * n),
             np.full(nf * n, inf),
-        ),
-        # servo no-load speed |q̇| ≤ margin·ω₀
-        Group(
+        )]),
+        # servo no-load speed |q̇| ≤ margin·ω₀ (a bound of the lifted rates with
+        # `compact_rows` "joint speed", `planner.nlp.variables.variable_bounds`)
+        *([] if "joint speed" in options.compact_rows else [Group(
             "joint speed",
             col(qd_n),
             np.full(nj * n, -options.speed_margin),
             np.full(nj * n, options.speed_margin),
-        ),
+        )]),
         # torque–speed envelope |τ| ≤ margin·τ_stall·(1 − |q̇|/ω₀), the four faces of the diamond
-        Group(
-            "torque envelope",
-            envelope_faces(tau_n, qd_n),
-            np.full(4 * nj * n, -inf),
-            np.ones(4 * nj * n),
-        ),
+        envelope_group("torque envelope", tau_n, qd_n, "torque envelope" in options.compact_rows),
         # eq 6: remove the treadmill's translation invariance (mean base x, y at the origin)
         Group(
             "drift",
@@ -404,6 +401,24 @@ def build_groups(
     return spare_flat_foot_ankles(model, groups, n)
 
 
+def envelope_group(name: str, tau_n: Any, qd_n: Any, ranged: bool) -> Group:
+    """The torque–speed diamond |τ/τ_s| + |q̇/ω₀| ≤ 1 as its four faces ≤ 1 (`envelope_faces`)
+    or, `ranged`, as the same set in two ranged rows −1 ≤ τ/τ_s ± q̇/ω₀ ≤ 1
+    (`envelope_ranges`): IPOPT gives a ranged row one slack, so the KKT system loses two rows
+    per face pair."""
+    if ranged:
+        size = 2 * int(tau_n.numel())
+        return Group(name, envelope_ranges(tau_n, qd_n), -np.ones(size), np.ones(size))
+    size = 4 * int(tau_n.numel())
+    return Group(name, envelope_faces(tau_n, qd_n), np.full(size, -np.inf), np.ones(size))
+
+
+def envelope_ranges(tau_n: Any, qd_n: Any) -> Any:
+    """τ/τ_s + q̇/ω₀ and τ/τ_s − q̇/ω₀ (J × N each, stacked): the diamond is both in [−1, 1]
+    (faces 1 and 4 of `envelope_faces` are the first's two sides, faces 2 and 3 the second's)."""
+    return ca.vertcat(ca.vec(tau_n + qd_n), ca.vec(tau_n - qd_n))
+
+
 def envelope_faces(tau_n: Any, qd_n: Any) -> Any:
     """The four faces of the torque–speed diamond |τ/τ_s| + |q̇/ω₀| ≤ 1, each ≤ 1 (τ and q̇
     already divided by the margined stall torque and the no-load speed; J × N each)."""
@@ -423,9 +438,8 @@ def _rotor_reserve_groups(model: RobotModel, kq: KnotQuantities, n: int,
         return []
     tau = kq.tau_nm + rho * ca.diag(ca.DM(arm)) @ kq.qdd
     tau_n = tau / ca.repmat(stall * options.torque_margin, 1, n)
-    expr = envelope_faces(tau_n, qd_n)
-    size = int(expr.shape[0])
-    return [Group("rotor reserve", expr, np.full(size, -np.inf), np.ones(size))]
+    return [envelope_group("rotor reserve", tau_n, qd_n,
+                           "torque envelope" in options.compact_rows)]
 
 
 def _line_capture_groups(model: RobotModel, sym: Symbols, n: int, options: PlannerOptions,
@@ -598,12 +612,15 @@ def _servo_goal_groups(
     spline = tridiagonal - 3 * (cyclic_shift(goal, 1) - cyclic_shift(goal, -1)) * inv_h
     chord = (cyclic_shift(goal, 1) - goal) * inv_h
     samples = []
-    for u in np.arange(GOAL_SPEED_SAMPLES_PER_KNOT) / GOAL_SPEED_SAMPLES_PER_KNOT:
+    # with `compact_rows` "goal slope" the sample at u = 0 (the slope s_k itself) is a bound of
+    # s_k instead (`planner.nlp.variables.variable_bounds`)
+    first = 1 if "goal slope" in options.compact_rows else 0
+    for u in np.arange(first, GOAL_SPEED_SAMPLES_PER_KNOT) / GOAL_SPEED_SAMPLES_PER_KNOT:
         d = 6 * (u - u * u) * chord + (1 - 4 * u + 3 * u * u) * slope
         samples.append(d + (3 * u * u - 2 * u) * cyclic_shift(slope, 1))
     # rows ordered (sample, knot, joint); labels in group_labels follow the same order
     rate = ca.vertcat(*[ca.vec(d / ca.repmat(omega0, 1, n)) for d in samples])
-    rows = nj * n * GOAL_SPEED_SAMPLES_PER_KNOT
+    rows = nj * n * len(samples)
     return [
         Group("servo goal limits", ca.vec(goal), np.tile(lo + margin, n), np.tile(hi - margin, n)),
         Group(
@@ -621,8 +638,13 @@ def _servo_goal_groups(
     ]
 
 
-def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
-    """Human-readable row labels for the groups that need them in reports."""
+def group_labels(
+    model: RobotModel, n_knots: int, compact_rows: tuple[str, ...] = ()
+) -> dict[str, list[str]]:
+    """Human-readable row labels for the groups that need them in reports; `compact_rows`:
+    `PlannerOptions.compact_rows` (the envelopes' ranged rows: two per joint and knot). Rows
+    given as bounds keep their labels (`planner.nlp.diagnostics.BoundRows` reports them)."""
+    faces = 2 if "torque envelope" in compact_rows else 4
     joints = model.robot.joint_names
     feet = model.robot.foot_names
     per_joint = [f"{j}@knot {k}" for k in range(n_knots) for j in joints]
@@ -655,8 +677,8 @@ def group_labels(model: RobotModel, n_knots: int) -> dict[str, list[str]]:
             for k in range(n_knots)
             for j in joints
         ],
-        "torque envelope": per_joint * 4,
-        "rotor reserve": per_joint * 4,
+        "torque envelope": per_joint * faces,
+        "rotor reserve": per_joint * faces,
         "line capture": line_capture_labels(feet, n_knots),
         "body clearance": [
             f"body {b}@knot {k}" for k in range(n_knots) for b in range(model.n_bodies)

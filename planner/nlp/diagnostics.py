@@ -118,6 +118,64 @@ def group_reports(
     return out
 
 
+@dataclass(frozen=True)
+class BoundRows:
+    """Rows of a constraint group that the NLP gives IPOPT as variable bounds
+    (`planner.nlp.config.PlannerOptions.compact_rows`): row i is x[index[i]] / unit[i] with the
+    bounds divided likewise, and they come first in the group's labels (`group_labels`).
+    `upper_only`: only the upper bound is the group's (the lower one is another limit's, e.g.
+    f_z ≥ 0); the row is then reported as ub − x ≥ 0, as the group's row was."""
+
+    name: str
+    index: np.ndarray
+    unit: np.ndarray
+    upper_only: bool = False
+
+
+def with_bound_rows(
+    names_slices: list[tuple[str, slice]],
+    g: np.ndarray,
+    lbg: np.ndarray,
+    ubg: np.ndarray,
+    lam_g: np.ndarray,
+    bound_rows: tuple[BoundRows, ...],
+    x: np.ndarray,
+    lbx: np.ndarray,
+    ubx: np.ndarray,
+    lam_x: np.ndarray,
+) -> tuple[list[tuple[str, slice]], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(slices, g, lbg, ubg, λ_g) with every `BoundRows` put back as rows of its group, in the
+    group's units (its multipliers λ_x·unit), before the group's remaining rows; a group with
+    no rows left is appended. `group_reports` then reports it as it reported the rows."""
+    by_name = {b.name: b for b in bound_rows}
+    parts: list[tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def bound_part(b: BoundRows) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        unit = np.asarray(b.unit, dtype=float)
+        value, lo, hi = x[b.index] / unit, lbx[b.index] / unit, ubx[b.index] / unit
+        lam = lam_x[b.index] * unit
+        if b.upper_only:  # ub − x ≥ 0, its multiplier the upper bound's
+            return hi - value, np.zeros_like(value), np.full_like(value, np.inf), np.maximum(
+                lam, 0.0)
+        return value, lo, hi, lam
+
+    for name, sl in names_slices:
+        value, lo, hi, lam = g[sl], lbg[sl], ubg[sl], lam_g[sl]
+        if name in by_name:
+            b_value, b_lo, b_hi, b_lam = bound_part(by_name.pop(name))
+            value, lo, hi = np.r_[b_value, value], np.r_[b_lo, lo], np.r_[b_hi, hi]
+            lam = np.r_[b_lam, lam]
+        parts.append((name, value, lo, hi, lam))
+    parts += [(b.name, *bound_part(b)) for b in by_name.values()]
+    slices, start = [], 0
+    for name, value, *_ in parts:
+        slices.append((name, slice(start, start + value.size)))
+        start += value.size
+    g_all, lb_all, ub_all, lam_all = (np.concatenate([p[i] for p in parts]) if parts
+                                      else np.zeros(0) for i in range(1, 5))
+    return slices, g_all, lb_all, ub_all, lam_all
+
+
 def bound_report(
     name: str, x: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, lam_x: np.ndarray, labels: list[str]
 ) -> GroupReport:

@@ -55,8 +55,10 @@ class FatropPlanner(GaitPlanner):
         self.stagewise: StagewiseNLP | None = None
         # the base class builds the planner's MX NLP (its rows judge every result); "expanded"
         # keeps it from building IPOPT's knot derivatives, which FATROP does not use
+        # the stage-wise rows are the groups' own rows (`planner.nlp.stagewise`): no
+        # `compact_rows`
         super().__init__(robot, n_knots, dataclasses.replace(
-            options, derivatives="expanded", nlp_jacobian="ad",
+            options, derivatives="expanded", nlp_jacobian="ad", compact_rows=(),
         ))
 
     def _make_solver(self, warm: bool = False) -> Any:

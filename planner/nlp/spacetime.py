@@ -69,9 +69,11 @@ from planner.nlp.solver_cache import (
 )
 from planner.nlp.variables import (
     Layout,
+    force_indices,
     initial_guess,
     make_symbols,
     parameter_vector,
+    swing_force_upper_bounds,
     variable_bounds,
     variable_scale,
 )
@@ -278,9 +280,12 @@ class GaitPlanner:
             slices.append((grp.name, slice(start, start + size)))
             start += size
         self._slices = slices
-        self._labels = group_labels(self.model, n_knots)
+        self._labels = group_labels(self.model, n_knots, self.options.compact_rows)
         self._x_labels = self.layout.labels(self.robot.joint_names)
         self._lbx, self._ubx = variable_bounds(self.layout, self.model, self.options)
+        #: rows given to IPOPT as variable bounds (`PlannerOptions.compact_rows`), reported
+        #: as their groups' rows
+        self._bound_rows = bound_rows(self.layout, self.model, self.options)
         self._term_names = list(terms)
         self._evaluate = ca.Function(
             "evaluate", [sym.x, sym.p], [g, kq.tau_nm, kq.qd, *terms.values()]
@@ -450,6 +455,7 @@ class GaitPlanner:
             # this NLP's row count (a warm start may come from a planner with other rows)
             start = WarmStart(start.x, np.zeros_like(self._lbx), np.zeros_like(self._lbg))
         xs, gs = self._x_scale, self._g_scale
+        lbx, ubx = self._variable_bounds(schedule)
         lbg = self._row_lower_bounds(schedule) / gs
         abort = getattr(self, "_abort", None)
         if abort is not None:
@@ -461,8 +467,8 @@ class GaitPlanner:
                 lam_x0=start.lam_x * xs,
                 lam_g0=start.lam_g * gs,
                 p=p,
-                lbx=self._lbx / xs,
-                ubx=self._ubx / xs,
+                lbx=lbx / xs,
+                ubx=ubx / xs,
                 lbg=lbg,
                 ubg=self._ubg / gs,
             )
@@ -485,6 +491,15 @@ class GaitPlanner:
         if result.feasible:
             self._last = result.warm_start
         return result
+
+    def _variable_bounds(self, schedule: ContactSchedule) -> tuple[np.ndarray, np.ndarray]:
+        """The variable bounds for `schedule`: the built ones, with f_z ≤ C·f_max when the
+        "swing force" rows are bounds (`PlannerOptions.compact_rows`)."""
+        if "swing force" not in self.options.compact_rows:
+            return self._lbx, self._ubx
+        contact = schedule.contact_matrix(self.n_knots)
+        return self._lbx, swing_force_upper_bounds(
+            self.layout, self._ubx, contact, self.options.max_force_body_weights)
 
     def _row_lower_bounds(self, schedule: ContactSchedule) -> np.ndarray:
         """The rows' lower bounds for `schedule`: the built ones, with the line-capture rows
@@ -517,8 +532,12 @@ class GaitPlanner:
         lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
         g, tau, qd, *terms = (np.asarray(v) for v in self._evaluate(x / self._x_scale, p))
         g = g.ravel()
+        lbx, ubx = self._variable_bounds(schedule)
         reports = diagnostics.group_reports(
-            self._slices, g, self._lbg, self._ubg, lam_g, self._labels
+            *diagnostics.with_bound_rows(
+                self._slices, g, self._lbg, self._ubg, lam_g, self._bound_rows, x, lbx, ubx,
+                lam_x),
+            self._labels,
         )
         nb, nq = self.layout.n_base, self.layout.n_q
         names = [f"{n}@{k}" for k in range(self.n_knots) for n in self.robot.joint_names]
@@ -547,7 +566,7 @@ class GaitPlanner:
         # bound relaxation, but the verdict below must not take that on trust
         reports.append(
             diagnostics.bound_report(
-                "variable bounds", x, self._lbx, self._ubx, np.zeros_like(x), self._x_labels
+                "variable bounds", x, lbx, ubx, np.zeros_like(x), self._x_labels
             )
         )
         max_violation = max(r.max_violation for r in reports)
@@ -640,6 +659,29 @@ class GaitPlanner:
             planner=meta,
             expected_knots_rad=result.joint_angles_rad if self.options.servo_goals else None,
         )
+
+
+def bound_rows(
+    layout: Layout, model: RobotModel, options: PlannerOptions
+) -> tuple[diagnostics.BoundRows, ...]:
+    """The constraint rows `options.compact_rows` turns into variable bounds, as
+    `diagnostics.BoundRows` in their groups' units and label order
+    (`planner.nlp.constraints.group_labels`)."""
+    n, nj = layout.n_knots, layout.n_joints
+    omega0 = np.array([j.servo.no_load_speed_rad_s for j in model.robot.joints], dtype=float)
+    out = []
+    if "joint speed" in options.compact_rows:  # rows q̇/ω₀, labels knot-major
+        rates = layout.n_base + layout.n_q + layout.n_f
+        index = rates + (6 + nj) * np.arange(n)[:, None] + 6 + np.arange(nj)[None, :]
+        out.append(diagnostics.BoundRows("joint speed", index.ravel(), np.tile(omega0, n)))
+    if "goal slope" in options.compact_rows and options.servo_goals:  # servo goal speed, u = 0
+        slopes = layout.n_base + layout.n_q + layout.n_f + 2 * layout.n_rates + layout.n_q
+        out.append(diagnostics.BoundRows(
+            "servo goal speed", slopes + np.arange(n * nj), np.tile(omega0, n)))
+    if "swing force" in options.compact_rows:  # rows C·f_max − f_z ≥ 0, labels knot-major
+        index = force_indices(layout, 2)
+        out.append(diagnostics.BoundRows("swing force", index, np.ones(index.size), True))
+    return tuple(out)
 
 
 def _iteration_log(stats: dict[str, Any]) -> dict[str, list[float]]:

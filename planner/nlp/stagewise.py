@@ -206,6 +206,13 @@ def stage_functions(
         raise PlannerConfigError(
             "the stage-wise NLP does not support rotor_reserve yet; use the IPOPT planner"
         )
+    bounds = [form for form in options.compact_rows if form != "torque envelope"]
+    if bounds:
+        raise PlannerConfigError(
+            f"the stage-wise NLP keeps its rows as rows; compact_rows {', '.join(bounds)} (rows "
+            "as variable bounds) is not supported: leave only 'torque envelope' or use the "
+            "IPOPT planner"
+        )
     nj, nf = model.n_joints, model.n_feet
     sl = StageLayout(6 + nj, nj, nf, len(model.flat_feet), options.servo_goals)
     xs, us = ca.MX.sym("x", sl.nx), ca.MX.sym("u", sl.nu)
@@ -220,7 +227,7 @@ def stage_functions(
     wsym = _window_symbols(sl, x, u, pw, dummy)
     kq = knot_quantities(model, wsym, 3, knot)
     groups = build_groups(model, wsym, kq, 3, options)
-    labels = group_labels(model, 3)
+    labels = group_labels(model, 3, options.compact_rows)
     rows, lbs, ubs, names = [], [], [], []
     for grp in groups:
         if grp.name in _OWN_GROUPS:

@@ -287,12 +287,51 @@ def variable_bounds(
     f_lo[:, :, 2] = 0.0
     f_hi = np.full((n, layout.n_feet, 3), inf)
     free = np.full(2 * layout.n_rates + 2 * layout.n_q, inf)
+    omega0 = np.array([j.servo.no_load_speed_rad_s for j in model.robot.joints], dtype=float)
+    if "joint speed" in options.compact_rows:
+        # |q̇| ≤ margin·ω₀ on the lifted joint rates (the "joint speed" rows as bounds)
+        rates = free[: layout.n_rates].reshape(n, 6 + layout.n_joints)
+        rates[:, 6:] = options.speed_margin * omega0
+    slopes = free[2 * layout.n_rates + layout.n_q :]
     if not options.servo_goals:
-        free[2 * layout.n_rates + layout.n_q :] = 0.0  # no goals: slopes fixed (IPOPT drops them)
+        slopes[:] = 0.0  # no goals: slopes fixed (IPOPT drops them)
+    elif "goal slope" in options.compact_rows:
+        # the servo-goal speed at u = 0 of interval k is the knot slope s_k itself
+        # (`planner.nlp.constraints._servo_goal_groups`): that sample's rows as bounds
+        slopes[:] = np.tile(goal_slope_bound_rad_s(omega0, options), n)
     m_free = np.full(layout.n_m, inf)  # the contact wrench cone bounds them (planner.nlp.flat_foot)
     lo = layout.pack(base_lo, q_lo, f_lo, -free, -m_free)
     hi = layout.pack(base_hi, q_hi, f_hi, free, m_free)
     return lo, hi
+
+
+def goal_slope_bound_rad_s(omega0_rad_s: np.ndarray, options: PlannerOptions) -> np.ndarray:
+    """Per joint: the servo-goal spline's speed limit GOAL_SPEED_INSIDE·margin·ω₀ [rad/s]."""
+    from planner.nlp.constraints import GOAL_SPEED_INSIDE
+
+    return GOAL_SPEED_INSIDE * options.speed_margin * np.asarray(omega0_rad_s, dtype=float)
+
+
+def force_indices(layout: Layout, axis: int) -> np.ndarray:
+    """Indices in the decision vector of every foot's force component `axis` (0 x, 1 y, 2 z),
+    knot-major (knot k's feet in order), i.e. N × F in C order."""
+    start = layout.n_base + layout.n_q
+    return start + 3 * np.arange(layout.n_knots * layout.n_feet) + axis
+
+
+def swing_force_upper_bounds(
+    layout: Layout, ubx: np.ndarray, contact: np.ndarray, max_force_body_weights: float
+) -> np.ndarray:
+    """`ubx` with every normal force bounded by C·f_max for the contact matrix `contact`
+    (N × F, 0/1): the "swing force" rows 0 ≤ C·f_max − f_z as bounds of one solve. In swing the
+    bound is 0 = the lower bound, so IPOPT removes the variable."""
+    contact = np.asarray(contact, dtype=float)
+    if contact.shape != (layout.n_knots, layout.n_feet):
+        raise PlannerConfigError(f"swing force bounds: contact matrix {contact.shape}, expected "
+                                 f"{(layout.n_knots, layout.n_feet)}")
+    out = np.array(ubx, dtype=float, copy=True)
+    out[force_indices(layout, 2)] = contact.ravel() * max_force_body_weights
+    return out
 
 
 def initial_guess(layout: Layout, model: RobotModel, schedule: ContactSchedule) -> np.ndarray:

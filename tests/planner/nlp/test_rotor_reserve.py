@@ -3,6 +3,7 @@ knot torque with the servo rotor's share taken 1 + ρ times), docs/results/heavy
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -43,7 +44,7 @@ def test_rows_are_the_envelope_of_the_torque_with_the_rotor_share_grown() -> Non
     stall = np.array([j.servo.stall_torque_nm for j in robot.joints])
     omega0 = np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
     qd_n = qd / omega0[:, None]
-    options = PlannerOptions(rotor_reserve=rho)
+    options = PlannerOptions(rotor_reserve=rho, compact_rows=())
     (group,) = _rotor_reserve_groups(model, kq, n, options, ca.DM(stall), ca.DM(qd_n))
     assert group.name == "rotor reserve"
     arm = np.asarray(model.armature[6:])
@@ -55,6 +56,12 @@ def test_rows_are_the_envelope_of_the_torque_with_the_rotor_share_grown() -> Non
     np.testing.assert_allclose(got, want, rtol=1e-12)
     assert np.all(group.ub == 1) and np.all(group.lb == -np.inf)
     assert len(group_labels(model, n)["rotor reserve"]) == got.size
+    # the same diamond as two ranged rows (`PlannerOptions.compact_rows` "torque envelope")
+    ranged = dataclasses.replace(options, compact_rows=("torque envelope",))
+    (group,) = _rotor_reserve_groups(model, kq, n, ranged, ca.DM(stall), ca.DM(qd_n))
+    np.testing.assert_allclose(np.asarray(ca.DM(group.expr)).ravel(), want[: 2 * nj * n],
+                               rtol=1e-12)
+    assert np.all(group.ub == 1) and np.all(group.lb == -1)
 
 
 def test_no_rows_when_off_or_without_armature() -> None:
@@ -71,12 +78,13 @@ def test_no_rows_when_off_or_without_armature() -> None:
 
 def test_assembled_jacobian_with_the_rows_is_casadis_own() -> None:
     """The rows through `planner.nlp.assembled_jacobian`: CasADi's AD Jacobian to 1e-10, and
-    the NLP has exactly 4·J·N more rows than without them."""
+    the NLP has exactly 2·J·N more rows than without them (the diamond's two ranged rows per
+    joint and knot, `PlannerOptions.compact_rows`' default)."""
     robot = robots.load("quad12")
     n = 8
     pair = assembled_matches_ad(robot, n, PlannerOptions(rotor_reserve=0.2),
                                 make_schedule(robot, "walk"))
-    assert pair.ad.shape[0] == constraint_rows(robot, n) + 4 * len(robot.joints) * n
+    assert pair.ad.shape[0] == constraint_rows(robot, n) + 2 * len(robot.joints) * n
 
 
 @pytest.mark.parametrize(

@@ -214,14 +214,15 @@ def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
 
 def test_the_coarse_search_nlp_has_the_rotor_reserve_rows() -> None:
     """A worker's planner built by the factory (the search's 12-knot NLP, assembled Jacobian)
-    has the 4·J·N rotor-reserve rows and the given swing clearance."""
+    has the 2·J·N rotor-reserve rows (ranged, `PlannerOptions.compact_rows`) and the given
+    swing clearance."""
     from planner.nlp.config import PlannerOptions
 
     robot = robots.load("quad12")
     options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
     solver = TimingSolverFactory(str(robot.root_dir), 12, 0.2, True, options)()
     sizes = {name: sl.stop - sl.start for name, sl in solver.planner._slices}
-    assert sizes["rotor reserve"] == 4 * len(robot.joints) * 12
+    assert sizes["rotor reserve"] == 2 * len(robot.joints) * 12
     assert solver.planner.options.nlp_jacobian == "assembled"
     assert solver.planner.swing_clearance_m == 0.018
     plain = TimingSolverFactory(str(robot.root_dir), 12, 0.2, True)()
