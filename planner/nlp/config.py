@@ -53,6 +53,12 @@ NLP_JACOBIANS = ("ad", "assembled")
 NLP_HESSIANS = ("ad", "assembled")
 #: `PlannerOptions.nlp_hessian`'s default (`gaitsmith plan --nlp-hessian` says it)
 DEFAULT_NLP_HESSIAN = "assembled"
+#: values of `PlannerOptions.cold_start` (`planner.nlp.cold_start`)
+COLD_STARTS = ("stance", "balanced", "stride")
+#: values of `PlannerOptions.swing_wrench` (`planner.nlp.swing_wrench`)
+SWING_WRENCHES = ("rows", "bounds")
+#: `PlannerOptions.cold_start`'s default
+DEFAULT_COLD_START = "stance"
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -309,6 +315,14 @@ class PlannerOptions:
       21 quad12/hex18 schedules, the same knife-edge counts on the 9 must-show robots,
       planner build 0.71–0.84× the CPU, solves 0.97–0.98× (quad12, hex18) and 0.80×
       (humanoid20) (docs/results/planner_speed.md, sessions 29 and 30).
+    - `cold_start`: the start of a cold solve (`planner.nlp.cold_start`): "stance" (the
+      nominal stance at every knot, lifted variables zero), "balanced" (the same poses with the
+      wrench balancing the body and the torques its inverse dynamics) or "stride" (feet walking
+      the treadmill by IK, rates, wrench and torques consistent with it).
+      docs/results/planner_speed_init.md measures them.
+    - `swing_wrench`: how a swing foot's wrench is held at 0 (`planner.nlp.swing_wrench`):
+      "rows" (the schedule's rows and f_z ≥ 0 pin it from both sides) or "bounds" (fixed by
+      its bounds per solve, the rows it pins freed). The same feasible set.
     """
 
     mu: float = 0.5
@@ -347,6 +361,8 @@ class PlannerOptions:
     knot_threads: int = 1
     nlp_jacobian: str = "assembled"
     nlp_hessian: str = DEFAULT_NLP_HESSIAN
+    cold_start: str = DEFAULT_COLD_START
+    swing_wrench: str = "rows"
 
     def __post_init__(self) -> None:
         checks = {
@@ -393,6 +409,16 @@ class PlannerOptions:
             "nlp_jacobian": self.nlp_jacobian in NLP_JACOBIANS,
             "nlp_hessian": self.nlp_hessian in NLP_HESSIANS,
         }
+        if self.cold_start not in COLD_STARTS:
+            raise PlannerConfigError(
+                f"planner option cold_start={self.cold_start!r}: use one of "
+                f"{', '.join(COLD_STARTS)}"
+            )
+        if self.swing_wrench not in SWING_WRENCHES:
+            raise PlannerConfigError(
+                f"planner option swing_wrench={self.swing_wrench!r}: use one of "
+                f"{', '.join(SWING_WRENCHES)}"
+            )
         for name, ok in checks.items():
             if not ok:
                 raise PlannerConfigError(
