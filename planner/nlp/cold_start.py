@@ -205,7 +205,7 @@ class ColdStarter:
         w = w0.copy()
         for k in range(n):
             active = np.zeros(width, dtype=bool)
-            for foot in np.flatnonzero(contact[k]):
+            for foot in (int(i) for i in np.flatnonzero(contact[k])):
                 active[3 * foot : 3 * foot + 3] = True
                 if foot in flat_of:
                     active[3 * nf + 3 * flat_of[foot] : 3 * nf + 3 * flat_of[foot] + 3] = True

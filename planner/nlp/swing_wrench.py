@@ -63,6 +63,6 @@ def swing_wrench_bounds(
         lbg[np.arange(force.start, force.stop)[per_foot]] = -np.inf
     cone = slices.get("contact wrench cone")
     if cone is not None and flat:
-        rows = np.arange(cone.start, cone.stop).reshape(n, len(flat), _CWC_ROWS)
-        lbg[rows[swing[:, flat]].ravel()] = -np.inf
+        cone_rows = np.arange(cone.start, cone.stop).reshape(n, len(flat), _CWC_ROWS)
+        lbg[cone_rows[swing[:, flat]].ravel()] = -np.inf
     return lbx, ubx, lbg
