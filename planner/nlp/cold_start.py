@@ -35,6 +35,7 @@ import casadi as ca
 import numpy as np
 
 from planner.errors import PlannerConfigError
+from planner.nlp.command import VelocityCommand
 from planner.nlp.config import COLD_STARTS, PlannerOptions
 from planner.nlp.model import RobotModel
 from planner.nlp.variables import Layout, initial_guess, swing_height_profile
@@ -54,11 +55,10 @@ JOINT_INSIDE_RAD = 0.01
 
 @dataclass(frozen=True)
 class StartCommand:
-    """What a cold start depends on besides the schedule: the command and the swing clearance."""
+    """What a cold start depends on besides the schedule: the velocity command and the swing
+    clearance [m]."""
 
-    speed_m_s: float
-    vy_m_s: float
-    yaw_rate_rad_s: float
+    velocity: VelocityCommand
     swing_clearance_m: float
 
 
@@ -161,7 +161,7 @@ class ColdStarter:
             c = contact[:, foot]
             stuck = c | np.roll(c, -1) if self.options.vertical_contact_transitions else (
                 c & np.roll(c, -1))  # interval k → k+1 held still in the world
-            for axis, v in ((0, command.speed_m_s), (1, command.vy_m_s)):
+            for axis, v in ((0, command.velocity.vx_m_s), (1, command.velocity.vy_m_s)):
                 track = _cyclic_track(stuck, -v * h)
                 target[:, 3 * foot + axis] = feet0[foot, axis] + track
             target[:, 3 * foot + 2] = feet0[foot, 2] + SWING_LIFT_FACTOR * height[:, foot]
@@ -195,7 +195,7 @@ class ColdStarter:
         b[0:2, :] = 0.0  # the knot is evaluated at x = y = 0 (translation invariance)
         w0 = np.concatenate([f.reshape(n, 3 * nf), np.zeros((n, 3 * nflat))], axis=1)
         args = [b, q.T, vel[:6], vel[6:], acc[:6], acc[6:], w0[:, : 3 * nf].T,
-                command.speed_m_s, command.vy_m_s, command.yaw_rate_rad_s]
+                command.velocity.vx_m_s, command.velocity.vy_m_s, command.velocity.yaw_rate_rad_s]
         if nflat:
             args.append(w0[:, 3 * nf :].T)
         rows, _, jac = (np.asarray(v) for v in self._knot(*args))

@@ -40,7 +40,7 @@ from planner.nlp import diagnostics
 from planner.nlp.assembled_hessian import assembled_hessian
 from planner.nlp.assembled_jacobian import assembled_jacobian
 from planner.nlp.cold_start import ColdStarter, StartCommand
-from planner.nlp.command import check_command
+from planner.nlp.command import VelocityCommand, check_command
 from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import (
     build_groups,
@@ -436,7 +436,8 @@ class GaitPlanner:
         t0 = time.perf_counter()
         if start is None:
             x0 = self._cold_start(schedule, p, StartCommand(
-                float(speed_m_s), float(vy_m_s), float(yaw_rate_rad_s), self.swing_clearance_m))
+                VelocityCommand(float(speed_m_s), float(vy_m_s), float(yaw_rate_rad_s)),
+                self.swing_clearance_m))
             start = WarmStart(x0, np.zeros_like(x0), np.zeros_like(self._lbg))
         elif not WARM_START_DUALS:
             # this NLP's row count (a warm start may come from a planner with other rows)

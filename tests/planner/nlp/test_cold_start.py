@@ -9,6 +9,7 @@ import pytest
 import robots
 from planner.errors import PlannerConfigError
 from planner.nlp.cold_start import ColdStarter, StartCommand
+from planner.nlp.command import VelocityCommand
 from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import finite_difference_rates, knot_function
 from planner.nlp.model import RobotModel
@@ -37,7 +38,7 @@ def test_start_satisfies_the_rows_it_claims(quad_planner: GaitPlanner, kind: str
     schedule = make_schedule(quad_planner.robot, "trot")
     speed = 0.25
     p = parameter_vector(schedule, quad_planner.n_knots, speed, quad_planner.swing_clearance_m)
-    command = StartCommand(speed, 0.0, 0.0, quad_planner.swing_clearance_m)
+    command = StartCommand(VelocityCommand(speed), quad_planner.swing_clearance_m)
     stance = initial_guess(quad_planner.layout, quad_planner.model, schedule)
     starter = ColdStarter(
         quad_planner.layout, quad_planner.model, quad_planner.options,
@@ -87,7 +88,7 @@ def test_every_zoo_robot_gets_a_start_inside_its_bounds(name: str) -> None:
     lo, hi = variable_bounds(layout, model, PlannerOptions())
     held = np.array([j.held for j in robot.joints], dtype=bool)
     for kind in ("balanced", "stride"):
-        x = starter.start(kind, schedule, StartCommand(speed, 0.0, 0.0, clearance), p)
+        x = starter.start(kind, schedule, StartCommand(VelocityCommand(speed), clearance), p)
         assert np.all(np.isfinite(x)), (name, kind)
         assert np.all(x >= lo) and np.all(x <= hi), (name, kind)
         _, q, f = layout.unpack(x)
