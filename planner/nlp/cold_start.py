@@ -24,6 +24,11 @@ The other starts, computed in numpy from the NLP's own functions (no solve):
   fixed; the lifted rates are the cyclic finite differences of those poses (the NLP's own rows)
   and the wrench and torques are solved with the resulting accelerations.
   The command's yaw rate is not followed by the feet (the rates are still the NLP's own).
+
+Measured (docs/results/planner_speed_init.md, session 31): neither saves iterations — quad12's
+templates cold at N = 30 took 333 ("stance"), 346 ("balanced") and 475 ("stride") — so "stance"
+stays the default. The small first steps come from the swing feet's zero-width force box
+(`planner.nlp.swing_wrench`), not from the rows these starts satisfy.
 """
 
 from __future__ import annotations
