@@ -14,6 +14,8 @@ generations of the coarse (12-knot) NLP, then the final 30-knot solve of the bes
 `--warm-starts cold,nearest-retimed` runs each path with those search warm starts
 (`planner.search.gait_search.SEARCH_WARM_STARTS`; labelled ``knot+nearest-retimed`` etc.;
 measured in docs/results/planner_speed_search.md, session 30).
+`--swing-wrenches rows,bounds` and `--cold-starts stance,balanced` run each path with those
+`PlannerOptions.swing_wrench` / `cold_start` values (docs/results/planner_speed_init.md).
 `--coarse-aborts off,30/0.03` runs each path without and with the stall abort of the coarse
 solves (`planner.nlp.iteration_abort.StallAbort(after_iter=30, min_violation=0.03)`; labelled
 ``knot+abort30/0.03``), alternating, so their CPU ratio is measured under the same load.
@@ -47,7 +49,13 @@ import robots
 from gaitsmith.plan_cmd import DEFAULT_CYCLES
 from gaitsmith.search_options import sim_acceptance
 from gaitsmith.stance_options import stance_shaped
-from planner.nlp.config import DERIVATIVE_PATHS, CostWeights, PlannerOptions
+from planner.nlp.config import (
+    COLD_STARTS,
+    DERIVATIVE_PATHS,
+    SWING_WRENCHES,
+    CostWeights,
+    PlannerOptions,
+)
 from planner.nlp.iteration_abort import StallAbort
 from planner.search.executors import ExecutorKind
 from planner.search.gait_search import (
@@ -111,7 +119,8 @@ def _children_cpu_s() -> float:
 
 def run(robot_name: str, speed: float, generations: int, workers: int, seed: int,
         sim_accept: bool, derivatives: str, executor: str, knots: int,
-        warm_start: str = "cold", abort: str = "off") -> SearchRun:
+        warm_start: str = "cold", abort: str = "off", swing_wrench: str = "rows",
+        cold_start: str = "stance") -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call)."""
     robot = robots.load(robot_name)
@@ -120,7 +129,8 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     options = PlannerOptions(
         derivatives=derivatives,
         weights=CostWeights() if shaped.bounce is None else CostWeights(bounce_s2_m2=shaped.bounce),
-        normal_force_rate_weights_per_t0=shaped.force_rate or None)
+        normal_force_rate_weights_per_t0=shaped.force_rate or None,
+        swing_wrench=swing_wrench, cold_start=cold_start)
     t0, c0, w0 = time.perf_counter(), time.process_time(), _children_cpu_s()
     result = search_gait(
         robot, speed, n_knots=knots, options=options,
@@ -131,6 +141,8 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
     label += "" if abort == "off" else f"+abort{abort}"
+    label += "" if swing_wrench == "rows" else f"+swing-{swing_wrench}"
+    label += "" if cold_start == "stance" else f"+{cold_start}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 
@@ -204,11 +216,19 @@ def main() -> None:
     ap.add_argument("--coarse-aborts", default="off",
                     help="comma-separated: off | K/V (stall abort of the coarse solves from "
                          "iteration K above violation V), run alternately per path")
+    ap.add_argument("--swing-wrenches", default="rows",
+                    help=f"comma-separated `PlannerOptions.swing_wrench` values, run alternately "
+                         f"per path ({', '.join(SWING_WRENCHES)})")
+    ap.add_argument("--cold-starts", default="stance",
+                    help=f"comma-separated `PlannerOptions.cold_start` values, run alternately "
+                         f"per path ({', '.join(COLD_STARTS)})")
     ap.add_argument("--target", type=float, default=60.0, help="target wall time [s]")
     args = ap.parse_args()
     paths = _choices(args.derivatives, tuple(DERIVATIVE_PATHS), "--derivatives")
     executors = _choices(args.executors, get_args(ExecutorKind), "--executors")
     warm_starts = _choices(args.warm_starts, SEARCH_WARM_STARTS, "--warm-starts")
+    wrenches = _choices(args.swing_wrenches, SWING_WRENCHES, "--swing-wrenches")
+    colds = _choices(args.cold_starts, COLD_STARTS, "--cold-starts")
     aborts = [a.strip() for a in args.coarse_aborts.split(",") if a.strip()] or ["off"]
     for a in aborts:
         _abort_rule(a)  # validate before any search runs
@@ -222,12 +242,14 @@ def main() -> None:
     for derivatives in paths:
         for warm_start in warm_starts:
             for abort in aborts:
-                for executor in executors:
-                    r = run(args.robot, args.speed, args.generations, args.workers, args.seed,
-                            args.sim_accept, derivatives, executor, args.knots, warm_start,
-                            abort)
-                    runs.append(r)
-                    print(report(r, args.target), flush=True)
+                for wrench in wrenches:
+                    for cold in colds:
+                        for executor in executors:
+                            r = run(args.robot, args.speed, args.generations, args.workers,
+                                    args.seed, args.sim_accept, derivatives, executor,
+                                    args.knots, warm_start, abort, wrench, cold)
+                            runs.append(r)
+                            print(report(r, args.target), flush=True)
     for executor in executors:
         same = [r for r in runs if r.executor == executor]
         for r in same[1:]:

@@ -223,6 +223,15 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     # and CasADi's AD Hessian, each named whatever `PlannerOptions`' default is
     "knot-ah": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_hessian="assembled")),
     "knot-adh": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_hessian="ad")),
+    # docs/results/planner_speed_init.md: cold starts (`PlannerOptions.cold_start`) and the
+    # swing feet's wrench fixed by bounds (`PlannerOptions.swing_wrench`)
+    "knot-bal": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(cold_start="balanced")),
+    "knot-stride": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(cold_start="stride")),
+    "knot-swr": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(swing_wrench="rows")),
+    "knot-swb": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(swing_wrench="bounds")),
+    "knot-swb-bal": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(swing_wrench="bounds", cold_start="balanced")
+    ),
     "compiled-ah": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(derivatives="compiled", nlp_hessian="assembled")
     ),

@@ -58,6 +58,12 @@ COMPACT_ROWS = ("joint speed", "goal slope", "torque envelope", "swing force")
 #: `PlannerOptions.compact_rows`' default: the one form that keeps IPOPT's barrier problem
 #: (docs/results/planner_speed_rows.md, session 31)
 DEFAULT_COMPACT_ROWS = ("torque envelope",)
+#: values of `PlannerOptions.cold_start` (`planner.nlp.cold_start`)
+COLD_STARTS = ("stance", "balanced", "stride")
+#: values of `PlannerOptions.swing_wrench` (`planner.nlp.swing_wrench`)
+SWING_WRENCHES = ("rows", "bounds")
+#: `PlannerOptions.cold_start`'s default
+DEFAULT_COLD_START = "stance"
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -328,6 +334,14 @@ class PlannerOptions:
       bounds change IPOPT's start and path, took other iteration counts and on quad12's wave
       another local optimum (+3.4 %). Measured in docs/results/planner_speed_rows.md
       (session 31); () is the NLP before.
+    - `cold_start`: the start of a cold solve (`planner.nlp.cold_start`): "stance" (the
+      nominal stance at every knot, lifted variables zero), "balanced" (the same poses with the
+      wrench balancing the body and the torques its inverse dynamics) or "stride" (feet walking
+      the treadmill by IK, rates, wrench and torques consistent with it).
+      docs/results/planner_speed_init.md measures them.
+    - `swing_wrench`: how a swing foot's wrench is held at 0 (`planner.nlp.swing_wrench`):
+      "rows" (the schedule's rows and f_z ≥ 0 pin it from both sides) or "bounds" (fixed by
+      its bounds per solve, the rows it pins freed). The same feasible set.
     """
 
     mu: float = 0.5
@@ -367,6 +381,8 @@ class PlannerOptions:
     nlp_jacobian: str = "assembled"
     nlp_hessian: str = DEFAULT_NLP_HESSIAN
     compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS
+    cold_start: str = DEFAULT_COLD_START
+    swing_wrench: str = "rows"
 
     def __post_init__(self) -> None:
         checks = {
@@ -416,6 +432,16 @@ class PlannerOptions:
             and all(r in COMPACT_ROWS for r in self.compact_rows)
             and len(set(self.compact_rows)) == len(self.compact_rows),
         }
+        if self.cold_start not in COLD_STARTS:
+            raise PlannerConfigError(
+                f"planner option cold_start={self.cold_start!r}: use one of "
+                f"{', '.join(COLD_STARTS)}"
+            )
+        if self.swing_wrench not in SWING_WRENCHES:
+            raise PlannerConfigError(
+                f"planner option swing_wrench={self.swing_wrench!r}: use one of "
+                f"{', '.join(SWING_WRENCHES)}"
+            )
         for name, ok in checks.items():
             if not ok:
                 hint = (f" (a tuple of distinct names from {', '.join(COMPACT_ROWS)})"

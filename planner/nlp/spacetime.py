@@ -40,7 +40,8 @@ from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp import diagnostics
 from planner.nlp.assembled_hessian import assembled_hessian
 from planner.nlp.assembled_jacobian import assembled_jacobian
-from planner.nlp.command import check_command
+from planner.nlp.cold_start import ColdStarter, StartCommand
+from planner.nlp.command import VelocityCommand, check_command
 from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import (
     build_groups,
@@ -67,6 +68,7 @@ from planner.nlp.solver_cache import (
     used_directions,
     with_knot_derivatives,
 )
+from planner.nlp.swing_wrench import swing_wrench_bounds
 from planner.nlp.variables import (
     Layout,
     force_indices,
@@ -239,6 +241,7 @@ class GaitPlanner:
         #: derivative directions its solver used, so only those were created ("second command")
         self.directions_cached: bool | None = None
         knot, plain = None, None
+        self._cold_starter: ColdStarter | None = None  # `_cold_start`, built at first use
         if self.options.derivatives in ("knot", "compiled"):
             plain = knot_function(self.model)
             jac, hess, self.derivative_cache = knot_jacobian_and_hessian(
@@ -329,6 +332,7 @@ class GaitPlanner:
         if self.derived is not None:
             self.derived.save_used(self._solver)
         self._last: WarmStart | None = None
+        self._plain_knot = plain
         self.build_time_s = time.perf_counter() - t0
 
     @property
@@ -449,14 +453,16 @@ class GaitPlanner:
         solver = self._solver_for(warm=start is not None)  # before t0: a one-off build
         t0 = time.perf_counter()
         if start is None:
-            x0 = initial_guess(self.layout, self.model, schedule)
+            x0 = self._cold_start(schedule, p, StartCommand(
+                VelocityCommand(float(speed_m_s), float(vy_m_s), float(yaw_rate_rad_s)),
+                self.swing_clearance_m))
             start = WarmStart(x0, np.zeros_like(x0), np.zeros_like(self._lbg))
         elif not WARM_START_DUALS:
             # this NLP's row count (a warm start may come from a planner with other rows)
             start = WarmStart(start.x, np.zeros_like(self._lbx), np.zeros_like(self._lbg))
         xs, gs = self._x_scale, self._g_scale
-        lbx, ubx = self._variable_bounds(schedule)
-        lbg = self._row_lower_bounds(schedule) / gs
+        lbx, ubx, lbg = self._solve_bounds(schedule)
+        lbg = lbg / gs
         abort = getattr(self, "_abort", None)
         if abort is not None:
             abort.arm(lbg, self._ubg / gs)
@@ -500,6 +506,37 @@ class GaitPlanner:
         contact = schedule.contact_matrix(self.n_knots)
         return self._lbx, swing_force_upper_bounds(
             self.layout, self._ubx, contact, self.options.max_force_body_weights)
+
+    def _cold_start(self, schedule: ContactSchedule, p: np.ndarray,
+                    command: StartCommand) -> np.ndarray:
+        """The start of a cold solve (`PlannerOptions.cold_start`, `planner.nlp.cold_start`)."""
+        if self.options.cold_start == "stance":
+            return initial_guess(self.layout, self.model, schedule)
+        if self._cold_starter is None:
+            fd = dict(self._slices)["finite differences"]
+            scale = self._x_scale
+
+            def fd_residual(x: np.ndarray, p: np.ndarray) -> np.ndarray:
+                return np.asarray(self._evaluate(x / scale, p)[0]).ravel()[fd]
+
+            knot = self._plain_knot if self._plain_knot is not None else knot_function(
+                self.model)
+            self._cold_starter = ColdStarter(
+                self.layout, self.model, self.options, knot, fd_residual)
+        return self._cold_starter.start(self.options.cold_start, schedule, command, p)
+
+    def _solve_bounds(self, schedule: ContactSchedule
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(lbx, ubx, lbg) of a solve of `schedule` (physical units): the built ones, the rows
+        not in force freed (`_row_lower_bounds`) and with `PlannerOptions.swing_wrench`
+        "bounds" the swing feet's wrench fixed (`planner.nlp.swing_wrench`)."""
+        lbg = self._row_lower_bounds(schedule)
+        lbx, ubx = self._variable_bounds(schedule)
+        if self.options.swing_wrench == "rows":
+            return lbx, ubx, lbg
+        return swing_wrench_bounds(
+            self.layout, self.model, schedule.contact_matrix(self.n_knots), dict(self._slices),
+            lbx, ubx, lbg)
 
     def _row_lower_bounds(self, schedule: ContactSchedule) -> np.ndarray:
         """The rows' lower bounds for `schedule`: the built ones, with the line-capture rows

@@ -1,0 +1,90 @@
+"""The swing feet's wrench fixed by bounds (`PlannerOptions.swing_wrench`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import robots
+from planner.nlp.config import PlannerOptions
+from planner.nlp.spacetime import GaitPlanner
+from planner.nlp.swing_wrench import swing_wrench_bounds
+from planner.templates import make_schedule
+
+
+def test_bounds_fix_the_swing_wrench_and_free_only_its_rows(quad_planner: GaitPlanner) -> None:
+    pl = quad_planner
+    schedule = make_schedule(pl.robot, "walk")
+    contact = schedule.contact_matrix(pl.n_knots).astype(bool)
+    slices = dict(pl._slices)
+    lbg0 = pl._row_lower_bounds(schedule)
+    lbx, ubx, lbg = swing_wrench_bounds(pl.layout, pl.model, contact, slices, pl._lbx, pl._ubx,
+                                        lbg0)
+    n, nf = pl.n_knots, pl.layout.n_feet
+    start = pl.layout.n_base + pl.layout.n_q
+    f_lo = lbx[start : start + pl.layout.n_f].reshape(n, nf, 3)
+    f_hi = ubx[start : start + pl.layout.n_f].reshape(n, nf, 3)
+    assert np.all(f_lo[~contact] == 0.0) and np.all(f_hi[~contact] == 0.0)
+    base_lo = pl._lbx[start : start + pl.layout.n_f].reshape(n, nf, 3)
+    assert np.array_equal(f_lo[contact], base_lo[contact])  # stance forces untouched
+    outside = np.ones(start, dtype=bool)
+    assert np.array_equal(lbx[:start][outside], pl._lbx[:start])
+    freed = np.flatnonzero(lbg != lbg0)
+    assert np.all(np.isneginf(lbg[freed]))
+    swing_rows = int((~contact).sum())
+    assert freed.size == 5 * swing_rows  # 4 friction rows and the swing-force row each
+    friction, force = slices["friction"], slices["swing force"]
+    in_groups = ((freed >= friction.start) & (freed < friction.stop)) | (
+        (freed >= force.start) & (freed < force.stop))
+    assert in_groups.all()
+
+
+def test_bounds_give_the_same_optimum(quad_planner: GaitPlanner) -> None:
+    """The feasible set is the same: a trot reaches the rows' optimum (quad12 N = 30: 19 → 16
+    iterations, docs/results/planner_speed_init.md)."""
+    bounded = GaitPlanner(quad_planner.robot, quad_planner.n_knots,
+                          PlannerOptions(swing_wrench="bounds"))
+    schedule = make_schedule(quad_planner.robot, "trot")
+    a = quad_planner.solve(schedule, 0.25, warm_start=False)
+    b = bounded.solve(schedule, 0.25, warm_start=False)
+    assert a.feasible and b.feasible
+    assert b.cost == pytest.approx(a.cost, rel=1e-4)
+    swing = ~schedule.contact_matrix(quad_planner.n_knots).astype(bool)
+    assert np.all(b.contact_forces_n[swing] == 0.0)
+    assert b.iterations < a.iterations
+
+
+def test_flat_feet_moments_and_cone_rows() -> None:
+    robot = robots.load("biped")
+    pl = GaitPlanner(robot, 12)
+    schedule = make_schedule(robot, "biped_walk")
+    contact = schedule.contact_matrix(12).astype(bool)
+    slices = dict(pl._slices)
+    lbg0 = pl._row_lower_bounds(schedule)
+    lbx, ubx, lbg = swing_wrench_bounds(pl.layout, pl.model, contact, slices, pl._lbx, pl._ubx,
+                                        lbg0)
+    flat = list(pl.model.flat_feet)
+    m_lo = lbx[pl.layout.size - pl.layout.n_m :].reshape(12, len(flat), 3)
+    m_hi = ubx[pl.layout.size - pl.layout.n_m :].reshape(12, len(flat), 3)
+    swing = ~contact[:, flat]
+    assert np.all(m_lo[swing] == 0.0) and np.all(m_hi[swing] == 0.0)
+    assert np.all(np.isinf(m_lo[~swing]))
+    cone = slices["contact wrench cone"]
+    freed = np.flatnonzero(lbg[cone] != lbg0[cone])
+    assert freed.size == 16 * int(swing.sum())
+
+
+def test_bounds_with_the_swing_force_rows_already_bounds(quad_planner: GaitPlanner) -> None:
+    """`swing_wrench="bounds"` on top of `compact_rows` with "swing force" (no such rows left):
+    the same optimum as the rows."""
+    both = GaitPlanner(quad_planner.robot, quad_planner.n_knots,
+                       PlannerOptions(swing_wrench="bounds",
+                                      compact_rows=("torque envelope", "swing force")))
+    assert "swing force" not in dict(both._slices)
+    schedule = make_schedule(quad_planner.robot, "trot")
+    a = quad_planner.solve(schedule, 0.25, warm_start=False)
+    b = both.solve(schedule, 0.25, warm_start=False)
+    assert a.feasible and b.feasible
+    assert b.cost == pytest.approx(a.cost, rel=1e-4)
+    swing = ~schedule.contact_matrix(quad_planner.n_knots).astype(bool)
+    assert np.all(b.contact_forces_n[swing] == 0.0)
