@@ -126,6 +126,11 @@ def main(argv: list[str]) -> int:
     print(f"  CPU by issue #16's parts (of {cpu:.2f} s):")
     for name, v in parts:
         print(f"    {name:60s} {v:8.2f}  {v / cpu:6.1%}")
+    print("  final re-solves at full resolution, in the order tried:")
+    for plan, _, ok in res.final_solves:
+        verdict = {True: "MuJoCo pass", False: "MuJoCo FAIL", None: "not checked"}[ok]
+        print(f"    {gs.label_gait(plan.schedule, res.robot):16s} cost {plan.cost:.6g} "
+              f"({plan.iterations} it, {plan.status}) {verdict}")
     return code
 
 
