@@ -7,7 +7,7 @@ import pytest
 
 import robots
 from planner.nlp.config import PlannerOptions
-from planner.nlp.spacetime import GaitPlanner
+from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.nlp.swing_wrench import swing_wrench_bounds
 from planner.templates import make_schedule
 
@@ -44,13 +44,7 @@ def test_bounds_give_the_same_optimum(quad_planner: GaitPlanner) -> None:
     iterations, docs/results/planner_speed_init.md)."""
     bounded = GaitPlanner(quad_planner.robot, quad_planner.n_knots,
                           PlannerOptions(swing_wrench="bounds"))
-    schedule = make_schedule(quad_planner.robot, "trot")
-    a = quad_planner.solve(schedule, 0.25, warm_start=False)
-    b = bounded.solve(schedule, 0.25, warm_start=False)
-    assert a.feasible and b.feasible
-    assert b.cost == pytest.approx(a.cost, rel=1e-4)
-    swing = ~schedule.contact_matrix(quad_planner.n_knots).astype(bool)
-    assert np.all(b.contact_forces_n[swing] == 0.0)
+    a, b = _trot_optima(quad_planner, bounded)
     assert b.iterations < a.iterations
 
 
@@ -81,10 +75,17 @@ def test_bounds_with_the_swing_force_rows_already_bounds(quad_planner: GaitPlann
                        PlannerOptions(swing_wrench="bounds",
                                       compact_rows=("torque envelope", "swing force")))
     assert "swing force" not in dict(both._slices)
-    schedule = make_schedule(quad_planner.robot, "trot")
-    a = quad_planner.solve(schedule, 0.25, warm_start=False)
-    b = both.solve(schedule, 0.25, warm_start=False)
+    _trot_optima(quad_planner, both)
+
+
+def _trot_optima(rows: GaitPlanner, bounded: GaitPlanner) -> tuple[PlanResult, PlanResult]:
+    """Cold trot solves of both planners: both feasible, the same cost to 1e-4, the bounded
+    one's swing forces exactly 0."""
+    schedule = make_schedule(rows.robot, "trot")
+    a = rows.solve(schedule, 0.25, warm_start=False)
+    b = bounded.solve(schedule, 0.25, warm_start=False)
     assert a.feasible and b.feasible
     assert b.cost == pytest.approx(a.cost, rel=1e-4)
-    swing = ~schedule.contact_matrix(quad_planner.n_knots).astype(bool)
+    swing = ~schedule.contact_matrix(rows.n_knots).astype(bool)
     assert np.all(b.contact_forces_n[swing] == 0.0)
+    return a, b
