@@ -233,8 +233,28 @@ def main(argv: list[str] | None = None) -> int:
         return run_app(app, argv, (), _print_error, _print_interrupted)
     finally:
         if _LATCHED:  # the run is over (torque off): a late signal must not turn the exit code
-            for s in STOP_SIGNALS:  # into "killed" as Python restores default handlers at exit
-                signal.signal(s, signal.SIG_IGN)
+            _ignore_stop_signals()  # into "killed" as Python restores default handlers at exit
+
+
+def _ignore_stop_signals() -> None:
+    """Ignore the stop signals from now on, without a traceback on stderr.
+
+    A stop signal that the C handler has recorded but Python has not yet run would otherwise
+    meet SIG_IGN as its handler, and CPython prints "OSError: Signal N ignored due to race
+    condition" with a traceback (seen in a SIGINT storm while the player stopped). So the
+    signals are blocked first: the first `signal.signal` call still runs any recorded one with
+    the old (latching) handler, none arrives while the handlers change, and those the kernel
+    holds while blocked are discarded when SIG_IGN is their handler, at the unblock."""
+    stops = set(STOP_SIGNALS)
+    block = getattr(signal, "pthread_sigmask", None)
+    if block is not None:
+        block(signal.SIG_BLOCK, stops)
+    try:
+        for s in stops:
+            signal.signal(s, signal.SIG_IGN)
+    finally:
+        if block is not None:
+            block(signal.SIG_UNBLOCK, stops)
 
 
 if __name__ == "__main__":
