@@ -319,11 +319,6 @@ class CacheStatus:
     attempts: tuple[tuple[Path, Attempts], ...]
 
 
-def _scan_entry(directory: Path, key: str) -> compiled_knot.CompiledEntry:
-    return compiled_knot.CompiledEntry(key, directory / f"knot-{key}.so",
-                                       directory / f"knot-{key}.json", 0, 0)
-
-
 def cache_status(directory: Path) -> CacheStatus:
     """The compiled entries, running compiles and recorded attempts in `directory`."""
     compiled, busy, records = [], [], []
@@ -335,7 +330,7 @@ def cache_status(directory: Path) -> CacheStatus:
         if not name.startswith("knot-"):
             continue
         key = name.removeprefix("knot-").split(".", 1)[0]
-        entry = _scan_entry(directory, key)
+        entry = compiled_knot.entry_at(directory, key)
         if name == entry.manifest.name:
             try:
                 doc = json.loads(entry.manifest.read_text(encoding="utf-8"))

@@ -124,12 +124,17 @@ class CompiledEntry:
         return f"gaitsmith_H_{self.key}"
 
 
-def compiled_entry(sx_key: str, compiler: Compiler, directory: Path, n_u: int,
-                   n_y: int) -> CompiledEntry:
-    key = compiled_key(sx_key, compiler)
+def entry_at(directory: Path, key: str, n_u: int = 0, n_y: int = 0) -> CompiledEntry:
+    """The entry of compiled key `key` in the cache folder `directory`: ``knot-<key>.so`` and its
+    manifest ``knot-<key>.json`` (`n_u`, `n_y` 0 where only the files matter)."""
     return CompiledEntry(
         key, directory / f"knot-{key}.so", directory / f"knot-{key}.json", n_u, n_y
     )
+
+
+def compiled_entry(sx_key: str, compiler: Compiler, directory: Path, n_u: int,
+                   n_y: int) -> CompiledEntry:
+    return entry_at(directory, compiled_key(sx_key, compiler), n_u, n_y)
 
 
 def _manifest(entry: CompiledEntry, library_sha256: str, compiler: Compiler,
