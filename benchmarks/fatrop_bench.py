@@ -82,7 +82,8 @@ def _solve_stagewise_ipopt(
     assert sw is not None
     p = parameter_vector(schedule, planner.n_knots, speed, planner.swing_clearance_m)
     w0 = np.asarray(sw.to_stage(initial_guess(planner.layout, planner.model, schedule), p))
-    lbw, ubw = stage_bounds(sw, planner._lbx, planner._ubx)
+    bounds = planner.stage_solve_bounds()
+    lbw, ubw = stage_bounds(sw, bounds.lbx, bounds.ubx)
     t0 = time.perf_counter()
     sol = solver(x0=w0, p=p, lbx=lbw, ubx=ubw, lbg=sw.lbg, ubg=sw.ubg)
     elapsed = time.perf_counter() - t0
@@ -90,7 +91,7 @@ def _solve_stagewise_ipopt(
     x = np.asarray(sol["x"]).ravel()[sw.from_planner_index]
     plain = {"x": x, "lam_x": np.zeros_like(x), "lam_g": np.zeros_like(planner._lbg),
              "f": float(sol["f"])}
-    return planner._result(schedule, speed, p, plain, stats, elapsed)
+    return planner._result(schedule, speed, p, plain, stats, elapsed, bounds)
 
 
 def main() -> None:

@@ -284,10 +284,8 @@ def warm_start(motion: Motion, planner: GaitPlanner) -> WarmStart:
         goals = servo_goals_rad(motion.joint_angles_rad, vel[:, 6:], motion.joint_torques_nm,
                                 servo_loops(planner.robot, planner.options.servo_settings))
         slopes = PeriodicSpline(goals).derivative(np.arange(n) / n) / motion.schedule.period_s
-    lifted = np.concatenate(
-        [vel.ravel(), acc.ravel(), motion.joint_torques_nm.ravel(), slopes.ravel()]
-    )
-    x = planner.layout.pack(motion.base_pose, motion.joint_angles_rad, motion.forces_mg, lifted)
+    x = planner.layout.pack(motion.base_pose, motion.joint_angles_rad, motion.forces_mg,
+                            vel=vel, acc=acc, tau=motion.joint_torques_nm, goal_slope=slopes)
     return planner.primal_start(x, clip_to_bounds=True)
 
 

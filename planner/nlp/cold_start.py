@@ -127,26 +127,24 @@ class ColdStarter:
         x = initial_guess(layout, self.model, schedule)
         if kind == "stance":
             return x
-        n, nj = layout.n_knots, layout.n_joints
+        n = layout.n_knots
         base, q, f = layout.unpack(x)
         if kind == "stride":
             q = self._stride_joints(schedule, command, q)
         x = layout.pack(base, q, f)
-        # rates: the NLP's own cyclic differences of these poses (linear; identity in vel/acc)
-        lifted = np.zeros(2 * layout.n_rates + 2 * layout.n_q)
-        lifted[: 2 * layout.n_rates] = -np.asarray(self._fd_residual(x, p)).ravel()
-        vel = lifted[: layout.n_rates].reshape(n, 6 + nj).T
-        acc = lifted[layout.n_rates : 2 * layout.n_rates].reshape(n, 6 + nj).T
+        # rates: the NLP's own cyclic differences of these poses, the "finite differences" rows
+        # (vel − D₁·pose, then acc − D₂·pose, knot-major as the blocks) at zero rates negated
+        rates = -np.asarray(self._fd_residual(x, p)).ravel()
+        vel, acc = (r.reshape(n, layout.width("vel")).T for r in np.split(rates, 2))
         contact = schedule.contact_matrix(n).astype(bool)  # N × F
         wrench, tau = self._balanced_wrench(base, q, f, vel, acc, contact, command)
         f = wrench[:, : 3 * self._nf].reshape(n, self._nf, 3)
-        moments = wrench[:, 3 * self._nf :].ravel() if self._nflat else None
-        start = 2 * layout.n_rates
-        lifted[start : start + layout.n_q] = tau.ravel()
-        lifted[start + layout.n_q :] = self._goal_slopes(q, vel[6:, :].T, tau, schedule).ravel()
+        moments = wrench[:, 3 * self._nf :] if self._nflat else None
+        slopes = self._goal_slopes(q, vel[6:, :].T, tau, schedule)
         if not self.options.servo_goals:
-            lifted[start + layout.n_q :] = 0.0  # fixed at 0 by their bounds
-        return layout.pack(base, q, f, lifted, moments)
+            slopes = np.zeros_like(slopes)  # fixed at 0 by their bounds
+        return layout.pack(base, q, f, vel=vel.T, acc=acc.T, tau=tau, goal_slope=slopes,
+                           moments=moments)
 
     # -- pieces ------------------------------------------------------------------------------
 

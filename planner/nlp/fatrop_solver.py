@@ -24,7 +24,13 @@ import numpy as np
 
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
-from planner.nlp.spacetime import _USER_STOP, GaitPlanner, PlanResult, _sigint_watch
+from planner.nlp.spacetime import (
+    _USER_STOP,
+    GaitPlanner,
+    PlanResult,
+    SolveBounds,
+    _sigint_watch,
+)
 from planner.nlp.stagewise import StagewiseNLP, build_stagewise, stage_bounds
 from planner.nlp.variables import initial_guess, parameter_vector
 from robots import ContactSchedule, Robot
@@ -61,13 +67,20 @@ class FatropPlanner(GaitPlanner):
             options, derivatives="expanded", nlp_jacobian="ad", compact_rows=(),
         ))
 
+    def stage_solve_bounds(self) -> SolveBounds:
+        """The bounds of every stage-wise solve, on the planner's variables and rows: the built
+        ones (the stage-wise rows are the groups' own, `planner.nlp.stagewise`, and nothing is
+        freed or fixed per schedule)."""
+        return SolveBounds(self._lbx, self._ubx, self._lbg, self._ubg)
+
     def _make_solver(self, warm: bool = False) -> Any:
         """The FATROP instance (one for cold and warm solves: `warm` is IPOPT's, unused here;
         FATROP's warm start is primal only)."""
         o = self.options
         sw = build_stagewise(self.model, self.n_knots, o, self.layout)
         self.stagewise = sw
-        self._w_lbx, self._w_ubx = stage_bounds(sw, self._lbx, self._ubx)
+        bounds = self.stage_solve_bounds()
+        self._w_lbx, self._w_ubx = stage_bounds(sw, bounds.lbx, bounds.ubx)
         fatrop = {
             "tol": o.tol,
             "max_iter": o.max_iter,
@@ -128,7 +141,8 @@ class FatropPlanner(GaitPlanner):
             "f": float(sol["f"]),
         }
         facts = {"return_status": status, "iter_count": int(stats.get("iter_count", -1))}
-        result = self._result(schedule, speed_m_s, p, plain, facts, elapsed)
+        result = self._result(schedule, speed_m_s, p, plain, facts, elapsed,
+                              self.stage_solve_bounds())
         result = dataclasses.replace(
             result,
             vy_m_s=float(vy_m_s),

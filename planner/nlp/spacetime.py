@@ -169,6 +169,17 @@ def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
     return ipopt
 
 
+@dataclass(frozen=True, eq=False)
+class SolveBounds:
+    """The bounds one solve handed its solver, in physical units (`GaitPlanner._solve_bounds`);
+    the result's reports judge the point against these."""
+
+    lbx: np.ndarray
+    ubx: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+
+
 @dataclass(frozen=True)
 class WarmStart:
     """A primal/dual point to start IPOPT from."""
@@ -284,7 +295,7 @@ class GaitPlanner:
             start += size
         self._slices = slices
         self._labels = group_labels(self.model, n_knots, self.options.compact_rows)
-        self._x_labels = self.layout.labels(self.robot.joint_names)
+        self._x_labels = self.layout.labels(self.robot.joint_names, self.model.flat_feet)
         self._lbx, self._ubx = variable_bounds(self.layout, self.model, self.options)
         #: rows given to IPOPT as variable bounds (`PlannerOptions.compact_rows`), reported
         #: as their groups' rows
@@ -461,11 +472,11 @@ class GaitPlanner:
             # this NLP's row count (a warm start may come from a planner with other rows)
             start = WarmStart(start.x, np.zeros_like(self._lbx), np.zeros_like(self._lbg))
         xs, gs = self._x_scale, self._g_scale
-        lbx, ubx, lbg = self._solve_bounds(schedule)
-        lbg = lbg / gs
+        bounds = self._solve_bounds(schedule)
+        lbg, ubg = bounds.lbg / gs, bounds.ubg / gs
         abort = getattr(self, "_abort", None)
         if abort is not None:
-            abort.arm(lbg, self._ubg / gs)
+            abort.arm(lbg, ubg)
         with _sigint_watch() as interrupted:
             # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
             sol = solver(
@@ -473,10 +484,10 @@ class GaitPlanner:
                 lam_x0=start.lam_x * xs,
                 lam_g0=start.lam_g * gs,
                 p=p,
-                lbx=lbx / xs,
-                ubx=ubx / xs,
+                lbx=bounds.lbx / xs,
+                ubx=bounds.ubx / xs,
                 lbg=lbg,
-                ubg=self._ubg / gs,
+                ubg=ubg,
             )
         sol = {
             "x": np.asarray(sol["x"]).ravel() * xs,
@@ -491,7 +502,7 @@ class GaitPlanner:
             # User_Requested_Stop: either way the user stopped it, the gait is not infeasible
             raise KeyboardInterrupt(f"IPOPT stopped ({stats.get('return_status')})")
         elapsed = time.perf_counter() - t0
-        result = self._result(schedule, speed_m_s, p, sol, stats, elapsed)
+        result = self._result(schedule, speed_m_s, p, sol, stats, elapsed, bounds)
         result = dataclasses.replace(result, vy_m_s=float(vy_m_s),
                                      yaw_rate_rad_s=float(yaw_rate_rad_s))
         if result.feasible:
@@ -525,18 +536,17 @@ class GaitPlanner:
                 self.layout, self.model, self.options, knot, fd_residual)
         return self._cold_starter.start(self.options.cold_start, schedule, command, p)
 
-    def _solve_bounds(self, schedule: ContactSchedule
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(lbx, ubx, lbg) of a solve of `schedule` (physical units): the built ones, the rows
-        not in force freed (`_row_lower_bounds`) and with `PlannerOptions.swing_wrench`
-        "bounds" the swing feet's wrench fixed (`planner.nlp.swing_wrench`)."""
+    def _solve_bounds(self, schedule: ContactSchedule) -> SolveBounds:
+        """The bounds of a solve of `schedule` (physical units): the built ones, the rows not in
+        force freed (`_row_lower_bounds`) and with `PlannerOptions.swing_wrench` "bounds" the
+        swing feet's wrench fixed (`planner.nlp.swing_wrench`)."""
         lbg = self._row_lower_bounds(schedule)
         lbx, ubx = self._variable_bounds(schedule)
-        if self.options.swing_wrench == "rows":
-            return lbx, ubx, lbg
-        return swing_wrench_bounds(
-            self.layout, self.model, schedule.contact_matrix(self.n_knots), dict(self._slices),
-            lbx, ubx, lbg)
+        if self.options.swing_wrench == "bounds":
+            lbx, ubx, lbg = swing_wrench_bounds(
+                self.layout, self.model, schedule.contact_matrix(self.n_knots),
+                dict(self._slices), lbx, ubx, lbg)
+        return SolveBounds(lbx, ubx, lbg, self._ubg)
 
     def _row_lower_bounds(self, schedule: ContactSchedule) -> np.ndarray:
         """The rows' lower bounds for `schedule`: the built ones, with the line-capture rows
@@ -564,37 +574,35 @@ class GaitPlanner:
         sol: dict[str, Any],
         stats: dict[str, Any],
         elapsed: float,
+        bounds: SolveBounds,
     ) -> PlanResult:
+        """The result of a solve that ended at `sol` (physical units), judged against the
+        `bounds` it was handed."""
         x = np.asarray(sol["x"]).ravel()
         lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
         g, tau, qd, *terms = (np.asarray(v) for v in self._evaluate(x / self._x_scale, p))
         g = g.ravel()
-        lbx, ubx = self._variable_bounds(schedule)
+        lbx, ubx = bounds.lbx, bounds.ubx
         reports = diagnostics.group_reports(
             *diagnostics.with_bound_rows(
-                self._slices, g, self._lbg, self._ubg, lam_g, self._bound_rows, x, lbx, ubx,
+                self._slices, g, bounds.lbg, bounds.ubg, lam_g, self._bound_rows, x, lbx, ubx,
                 lam_x),
             self._labels,
         )
-        nb, nq = self.layout.n_base, self.layout.n_q
+        joints = self.layout.block("q")
         names = [f"{n}@{k}" for k in range(self.n_knots) for n in self.robot.joint_names]
         reports.append(
             diagnostics.bound_report(
-                "joint limits",
-                x[nb : nb + nq],
-                self._lbx[nb : nb + nq],
-                self._ubx[nb : nb + nq],
-                lam_x[nb : nb + nq],
-                names,
+                "joint limits", x[joints], lbx[joints], ubx[joints], lam_x[joints], names
             )
         )
-        tilt = np.r_[[np.arange(6 * k + 3, 6 * k + 6) for k in range(self.n_knots)]].ravel()
+        tilt = self.layout.indices("base")[:, 3:].ravel()  # roll, pitch, yaw
         reports.append(
             diagnostics.bound_report(
                 "tilt",
                 x[tilt],
-                self._lbx[tilt],
-                self._ubx[tilt],
+                lbx[tilt],
+                ubx[tilt],
                 lam_x[tilt],
                 [f"roll/pitch/yaw@{k}" for k in range(self.n_knots) for _ in range(3)],
             )
@@ -704,17 +712,15 @@ def bound_rows(
     """The constraint rows `options.compact_rows` turns into variable bounds, as
     `diagnostics.BoundRows` in their groups' units and label order
     (`planner.nlp.constraints.group_labels`)."""
-    n, nj = layout.n_knots, layout.n_joints
+    n = layout.n_knots
     omega0 = np.array([j.servo.no_load_speed_rad_s for j in model.robot.joints], dtype=float)
     out = []
     if "joint speed" in options.compact_rows:  # rows q̇/ω₀, labels knot-major
-        rates = layout.n_base + layout.n_q + layout.n_f
-        index = rates + (6 + nj) * np.arange(n)[:, None] + 6 + np.arange(nj)[None, :]
-        out.append(diagnostics.BoundRows("joint speed", index.ravel(), np.tile(omega0, n)))
+        index = layout.indices("vel")[:, 6:].ravel()  # the joint rates
+        out.append(diagnostics.BoundRows("joint speed", index, np.tile(omega0, n)))
     if "goal slope" in options.compact_rows and options.servo_goals:  # servo goal speed, u = 0
-        slopes = layout.n_base + layout.n_q + layout.n_f + 2 * layout.n_rates + layout.n_q
         out.append(diagnostics.BoundRows(
-            "servo goal speed", slopes + np.arange(n * nj), np.tile(omega0, n)))
+            "servo goal speed", layout.indices("goal_slope").ravel(), np.tile(omega0, n)))
     if "swing force" in options.compact_rows:  # rows C·f_max − f_z ≥ 0, labels knot-major
         index = force_indices(layout, 2)
         out.append(diagnostics.BoundRows("swing force", index, np.ones(index.size), True))

@@ -414,36 +414,21 @@ def build_stagewise(
 def _planner_index(sl: StageLayout, layout: Layout, n: int) -> np.ndarray:
     """For every entry of the planner's x (Layout order), its index in w."""
     stride = sl.nx + sl.nu
-    nj, nf, npose = sl.n_joints, sl.n_feet, sl.n_pose
     index = np.full(layout.size, -1, dtype=int)
-    # state offsets: P at 0; control offsets (after nx): Pn, f, v, a, tau, s, m
-    u0 = sl.nx
-    off_f = u0 + npose
-    off_v = off_f + 3 * nf
-    off_a = off_v + npose
-    off_tau = off_a + npose
-    off_s = off_tau + nj
-    off_m = off_s + sl.n_spline
-    nb, nq = layout.n_base, layout.n_q
-    for k in range(n):
-        s0 = k * stride
-        index[6 * k : 6 * k + 6] = s0 + np.arange(6)
-        index[nb + nj * k : nb + nj * (k + 1)] = s0 + 6 + np.arange(nj)
-        start = nb + nq
-        index[start + 3 * nf * k : start + 3 * nf * (k + 1)] = s0 + off_f + np.arange(3 * nf)
-        start += layout.n_f
-        index[start + npose * k : start + npose * (k + 1)] = s0 + off_v + np.arange(npose)
-        start += layout.n_rates
-        index[start + npose * k : start + npose * (k + 1)] = s0 + off_a + np.arange(npose)
-        start += layout.n_rates
-        index[start + nj * k : start + nj * (k + 1)] = s0 + off_tau + np.arange(nj)
-        start += layout.n_q
-        if sl.servo_goals:
-            index[start + nj * k : start + nj * (k + 1)] = s0 + off_s + np.arange(nj)
-        start += layout.n_q
-        nm = 3 * sl.n_flat_feet
-        if nm:
-            index[start + nm * k : start + nm * (k + 1)] = s0 + off_m + np.arange(nm)
+    # the state P = (base, q) at 0; the control (after nx): Pn, f, v, a, tau, s, m
+    off_f = sl.nx + sl.n_pose
+    off_v = off_f + 3 * sl.n_feet
+    off_a = off_v + sl.n_pose
+    off_tau = off_a + sl.n_pose
+    off_s = off_tau + sl.n_joints
+    offsets = {"base": 0, "q": 6, "forces": off_f, "vel": off_v, "acc": off_a, "tau": off_tau}
+    if sl.servo_goals:
+        offsets["goal_slope"] = off_s
+    if sl.n_flat_feet:
+        offsets["moments"] = off_s + sl.n_spline
+    knot_start = stride * np.arange(n)[:, None]
+    for name, offset in offsets.items():
+        index[layout.indices(name)] = knot_start + offset + np.arange(layout.width(name))
     return index
 
 

@@ -45,14 +45,11 @@ def swing_wrench_bounds(
     if swing.shape != (n, nf):
         raise ValueError(f"contact matrix {swing.shape}, expected {(n, nf)}")
     lbx, ubx, lbg = lbx.copy(), ubx.copy(), lbg.copy()
-    start = layout.n_base + layout.n_q
-    for bound in (lbx, ubx):
-        bound[start : start + layout.n_f].reshape(n, nf, 3)[swing] = 0.0
     flat = list(model.flat_feet)
-    if flat:
-        moments = layout.size - layout.n_m
-        for bound in (lbx, ubx):
-            bound[moments:].reshape(n, len(flat), 3)[swing[:, flat]] = 0.0
+    for bound in (lbx, ubx):
+        layout.view(bound, "forces").reshape(n, nf, 3)[swing] = 0.0
+        if flat:
+            layout.view(bound, "moments").reshape(n, len(flat), 3)[swing[:, flat]] = 0.0
     per_foot = swing.ravel()  # row k·F + f of a (foot, knot) group column
     friction = slices.get("friction")
     if friction is not None:

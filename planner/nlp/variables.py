@@ -52,13 +52,21 @@ def cyclic_shift(m: Any, k: int) -> Any:
     k %= n
     return m if k == 0 else ca.horzcat(m[:, k:], m[:, :k])
 
+#: The decision vector's blocks in packing order (`Layout`); the names are `Symbols`' fields.
+BLOCKS = ("base", "q", "forces", "vel", "acc", "tau", "goal_slope", "moments")
+_POSE_DOFS = ("x", "y", "z", "roll", "pitch", "yaw")
+
+
 @dataclass(frozen=True)
 class Layout:
-    """Sizes and packing order of the decision vector.
+    """Sizes and packing order of the decision vector: the one place that knows its offsets.
 
-    Order: [vec(B), vec(Q), vec(F), vec(V), vec(A), vec(τ), vec(S), vec(M)], each knot-major;
-    M: the flat feet's contact moments (3 per flat foot, units of m·g·L; `planner.nlp.flat_foot`),
-    absent without flat feet.
+    Order: `BLOCKS` = [vec(B), vec(Q), vec(F), vec(V), vec(A), vec(τ), vec(S), vec(M)], each
+    knot-major (knot k's entries together, `width` of them per knot): base pose (6), joint
+    angles (J), contact forces (3 per foot), pose rates and accelerations (6 + J each), joint
+    torques (J), servo-goal slopes (J), and M the flat feet's contact moments (3 per flat foot,
+    units of m·g·L; `planner.nlp.flat_foot`), absent without flat feet. `block`, `indices` and
+    `view` locate a block; every module reads and writes x through them.
     """
 
     n_knots: int
@@ -66,76 +74,120 @@ class Layout:
     n_feet: int
     n_flat_feet: int = 0
 
+    def width(self, name: str) -> int:
+        """Entries per knot of block `name` (one of `BLOCKS`)."""
+        nj = self.n_joints
+        widths = {"base": 6, "q": nj, "forces": 3 * self.n_feet, "vel": 6 + nj, "acc": 6 + nj,
+                  "tau": nj, "goal_slope": nj, "moments": 3 * self.n_flat_feet}
+        if name not in widths:
+            raise PlannerConfigError(
+                f"decision vector block {name!r}: use one of {', '.join(BLOCKS)}")
+        return widths[name]
+
+    def block(self, name: str) -> slice:
+        """Where block `name` sits in the flat vector."""
+        width = self.width(name)  # refuses an unknown name
+        start = sum(self.width(b) for b in BLOCKS[: BLOCKS.index(name)]) * self.n_knots
+        return slice(start, start + width * self.n_knots)
+
+    def indices(self, name: str) -> np.ndarray:
+        """N × width indices of block `name` in the flat vector (row k: knot k's entries)."""
+        sl = self.block(name)
+        return np.arange(sl.start, sl.stop).reshape(self.n_knots, self.width(name))
+
+    def view(self, x: np.ndarray, name: str) -> np.ndarray:
+        """Block `name` of the flat vector `x` as N × width: a view, so writing it writes x."""
+        return x[self.block(name)].reshape(self.n_knots, self.width(name))
+
     @property
     def n_m(self) -> int:
-        return 3 * self.n_flat_feet * self.n_knots
+        return self.width("moments") * self.n_knots
 
     @property
     def n_base(self) -> int:
-        return 6 * self.n_knots
+        return self.width("base") * self.n_knots
 
     @property
     def n_q(self) -> int:
-        return self.n_joints * self.n_knots
+        return self.width("q") * self.n_knots
 
     @property
     def n_f(self) -> int:
-        return 3 * self.n_feet * self.n_knots
+        return self.width("forces") * self.n_knots
 
     @property
     def n_rates(self) -> int:
-        return (6 + self.n_joints) * self.n_knots
+        return self.width("vel") * self.n_knots
 
     @property
     def size(self) -> int:
-        return self.n_base + self.n_q + self.n_f + 2 * self.n_rates + 2 * self.n_q + self.n_m
+        return self.block(BLOCKS[-1]).stop
 
     def unpack_moments(self, x: np.ndarray) -> np.ndarray:
         """N × F_flat × 3 flat-foot moments (units of m·g·L) from the flat vector."""
         x = np.asarray(x, dtype=float).ravel()
-        return x[self.size - self.n_m :].reshape(self.n_knots, self.n_flat_feet, 3)
+        return self.view(x, "moments").reshape(self.n_knots, self.n_flat_feet, 3)
 
     def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(base N×6, joints N×J, forces N×F×3 in units of m·g) from the flat vector."""
-        n = self.n_knots
         x = np.asarray(x, dtype=float).ravel()
-        base = x[: self.n_base].reshape(n, 6)
-        q = x[self.n_base : self.n_base + self.n_q].reshape(n, self.n_joints)
-        f = x[self.n_base + self.n_q : self.n_base + self.n_q + self.n_f].reshape(n, self.n_feet, 3)
-        return base, q, f
+        f = self.view(x, "forces").reshape(self.n_knots, self.n_feet, 3)
+        return self.view(x, "base"), self.view(x, "q"), f
 
-    def labels(self, joints: tuple[str, ...]) -> list[str]:
-        """A name for every entry of the decision vector (for reports)."""
-        n = self.n_knots
-        dofs = ["x", "y", "z", "roll", "pitch", "yaw", *joints]
-        out = [f"base {d}@knot {k}" for k in range(n) for d in dofs[:6]]
-        out += [f"{j}@knot {k}" for k in range(n) for j in joints]
-        out += [f"foot {f} f{a}@knot {k}" for k in range(n) for f in range(self.n_feet)
-                for a in "xyz"]
-        out += [f"d/dt {d}@knot {k}" for k in range(n) for d in dofs]
-        out += [f"d2/dt2 {d}@knot {k}" for k in range(n) for d in dofs]
-        out += [f"torque {j}@knot {k}" for k in range(n) for j in joints]
-        out += [f"goal slope {j}@knot {k}" for k in range(n) for j in joints]
+    def labels(self, joints: tuple[str, ...], flat_feet: tuple[int, ...] | None = None
+               ) -> list[str]:
+        """A name for every entry of the decision vector (for reports); `flat_feet`: the flat
+        feet's foot indices (`RobotModel.flat_feet`; 0, 1, … if not given)."""
+        dofs = [*_POSE_DOFS, *joints]
+        feet = range(self.n_feet)
+        flat = range(self.n_flat_feet) if flat_feet is None else flat_feet
+        per_knot = {
+            "base": [f"base {d}" for d in _POSE_DOFS],
+            "q": list(joints),
+            "forces": [f"foot {f} f{a}" for f in feet for a in "xyz"],
+            "vel": [f"d/dt {d}" for d in dofs],
+            "acc": [f"d2/dt2 {d}" for d in dofs],
+            "tau": [f"torque {j}" for j in joints],
+            "goal_slope": [f"goal slope {j}" for j in joints],
+            "moments": [f"foot {f} m{a}" for f in flat for a in "xyz"],
+        }
+        out = []
+        for name in BLOCKS:
+            if len(per_knot[name]) != self.width(name):
+                raise PlannerConfigError(
+                    f"labels: {len(per_knot[name])} names for block {name!r} of width "
+                    f"{self.width(name)} (joints or flat feet do not match the layout)")
+            out += [f"{e}@knot {k}" for k in range(self.n_knots) for e in per_knot[name]]
         return out
 
     def pack(
         self,
         base: np.ndarray,
         q: np.ndarray,
-        f: np.ndarray,
-        lifted: np.ndarray | None = None,
+        forces: np.ndarray,
+        *,
+        vel: np.ndarray | None = None,
+        acc: np.ndarray | None = None,
+        tau: np.ndarray | None = None,
+        goal_slope: np.ndarray | None = None,
         moments: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Flat vector; `lifted` = velocities, accelerations ((6+J)·N each), torques and goal
-        slopes (J·N each), zeros by default (consistent with a constant pose at rest);
-        `moments` = the flat feet's moments (zeros by default)."""
-        if lifted is None:
-            lifted = np.zeros(2 * self.n_rates + 2 * self.n_q)
-        if moments is None:
-            moments = np.zeros(self.n_m)
-        return np.concatenate(
-            [np.ravel(base), np.ravel(q), np.ravel(f), np.ravel(lifted), np.ravel(moments)]
-        )
+        """Flat vector from its blocks (each N × width, or anything of that size, knot-major);
+        a block not given is zeros (the lifted ones: consistent with a constant pose at rest)."""
+        x = np.zeros(self.size)
+        given = {"base": base, "q": q, "forces": forces, "vel": vel, "acc": acc, "tau": tau,
+                 "goal_slope": goal_slope, "moments": moments}
+        for name, value in given.items():
+            if value is None:
+                continue
+            value = np.asarray(value, dtype=float)
+            expected = self.n_knots * self.width(name)
+            if value.size != expected:
+                raise PlannerConfigError(
+                    f"Layout.pack: block {name!r} has {value.size} entries, expected {expected} "
+                    f"({self.n_knots} knots × {self.width(name)})")
+            self.view(x, name)[...] = value.reshape(self.n_knots, self.width(name))
+        return x
 
 
 @dataclass(frozen=True)
@@ -172,43 +224,33 @@ def variable_scale(layout: Layout, model: RobotModel) -> np.ndarray:
     and forces (already in m·g) by 1. Used with `PlannerOptions.nondimensional` (see there for
     the iteration counts measured with and without it).
     """
-    n, nj = layout.n_knots, layout.n_joints
     length = model.robot.leg_length_m
     t0 = time_unit_s(length, float(np.linalg.norm(model.gravity_m_s2)) or 9.81)
     torque = model.total_mass_kg * float(np.linalg.norm(model.gravity_m_s2)) * length
-    pose = np.r_[[length] * 3, [1.0] * 3]
-    rate = np.r_[[length / t0] * 3, [1.0 / t0] * 3, [1.0 / t0] * nj]
-    acc = rate / t0
-    return np.concatenate([
-        np.tile(pose, n),
-        np.ones(layout.n_q + layout.n_f),
-        np.tile(rate, n),
-        np.tile(acc, n),
-        np.full(layout.n_q, torque),
-        np.full(layout.n_q, 1.0 / t0),
-        np.ones(layout.n_m),  # flat feet's contact moments (appended last), in m·g·L already
-    ])
+    rate = np.r_[[length / t0] * 3, [1.0 / t0] * 3, [1.0 / t0] * layout.n_joints]
+    # angles, forces (already in m·g) and the flat feet's moments (in m·g·L) keep scale 1
+    scale = np.ones(layout.size)
+    layout.view(scale, "base")[:] = np.r_[[length] * 3, [1.0] * 3]
+    layout.view(scale, "vel")[:] = rate
+    layout.view(scale, "acc")[:] = rate / t0
+    layout.view(scale, "tau")[:] = torque
+    layout.view(scale, "goal_slope")[:] = 1.0 / t0
+    return scale
 
 
 def make_symbols(layout: Layout, scale: np.ndarray | None = None) -> Symbols:
     """Symbols of the NLP. With `scale`, `Symbols.x` is the solver's scaled vector x̃ and every
     other symbol is the physical quantity x = scale·x̃."""
-    n, nj, nf = layout.n_knots, layout.n_joints, layout.n_feet
+    n, nf = layout.n_knots, layout.n_feet
     xs = ca.MX.sym("x", layout.size)
     x = xs if scale is None else xs * ca.DM(np.asarray(scale, dtype=float))
-    # knot-major packing: column k holds knot k (reshape is column-major)
-    base = ca.reshape(x[: layout.n_base], 6, n)
-    q = ca.reshape(x[layout.n_base : layout.n_base + layout.n_q], nj, n)
-    start = layout.n_base + layout.n_q
-    forces = ca.reshape(x[start : start + layout.n_f], 3 * nf, n)
-    start += layout.n_f
-    vel = ca.reshape(x[start : start + layout.n_rates], 6 + nj, n)
-    acc = ca.reshape(x[start + layout.n_rates : start + 2 * layout.n_rates], 6 + nj, n)
-    start += 2 * layout.n_rates
-    tau = ca.reshape(x[start : start + layout.n_q], nj, n)
-    goal_slope = ca.reshape(x[start + layout.n_q : start + 2 * layout.n_q], nj, n)
-    start += 2 * layout.n_q
-    moments = ca.reshape(x[start:], 3 * layout.n_flat_feet, n) if layout.n_flat_feet else None
+
+    def block(name: str) -> Any:  # knot-major packing: column k holds knot k (column-major)
+        return ca.reshape(x[layout.block(name)], layout.width(name), n)
+
+    base, q, forces, vel, acc, tau, goal_slope = (
+        block(name) for name in ("base", "q", "forces", "vel", "acc", "tau", "goal_slope"))
+    moments = block("moments") if layout.n_flat_feet else None
     p = ca.MX.sym("p", 2 * nf * n + 2 + N_MOTION_PARAMETERS)
     contact = ca.reshape(p[: nf * n], nf, n)
     min_height = ca.reshape(p[nf * n : 2 * nf * n], nf, n)
@@ -270,38 +312,35 @@ def variable_bounds(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Box bounds: joint limits (minus a margin), held joints fixed at stance, tilt, unilateral
     normal force f_z ≥ 0."""
-    n = layout.n_knots
     tilt, inf = options.max_tilt_rad, np.inf
-    z_min = options.min_base_height_fraction * model.robot.stance_base_height_m
-    base_lo = np.tile([-inf, -inf, z_min, -tilt, -tilt, -tilt], (n, 1))
-    base_hi = np.tile([inf, inf, 2.0 * model.robot.leg_length_m + 0.5, tilt, tilt, tilt], (n, 1))
-    lo, hi = model.joint_limits_rad()
-    margin = options.joint_limit_margins_rad(lo, hi)
-    q_lo, q_hi = np.tile(lo + margin, (n, 1)), np.tile(hi - margin, (n, 1))
+    lo, hi = np.full(layout.size, -inf), np.full(layout.size, inf)
+    base_lo, base_hi = layout.view(lo, "base"), layout.view(hi, "base")
+    base_lo[:, 2] = options.min_base_height_fraction * model.robot.stance_base_height_m
+    base_hi[:, 2] = 2.0 * model.robot.leg_length_m + 0.5
+    base_lo[:, 3:], base_hi[:, 3:] = -tilt, tilt
+    q_lo, q_hi = model.joint_limits_rad()
+    margin = options.joint_limit_margins_rad(q_lo, q_hi)
+    layout.view(lo, "q")[:], layout.view(hi, "q")[:] = q_lo + margin, q_hi - margin
     # held joints (role = "hold": a head, arm, tail …) stay at their stance angle at every knot;
     # their torque is still the inverse dynamics' and still bounded by their servo's envelope
     held = np.array([j.held for j in model.robot.joints], dtype=bool)
     stance = np.asarray(model.robot.nominal_stance_rad, dtype=float)
-    q_lo[:, held] = q_hi[:, held] = stance[held]
-    f_lo = np.full((n, layout.n_feet, 3), -inf)
-    f_lo[:, :, 2] = 0.0
-    f_hi = np.full((n, layout.n_feet, 3), inf)
-    free = np.full(2 * layout.n_rates + 2 * layout.n_q, inf)
+    layout.view(lo, "q")[:, held] = layout.view(hi, "q")[:, held] = stance[held]
+    layout.view(lo, "forces").reshape(layout.n_knots, layout.n_feet, 3)[:, :, 2] = 0.0
     omega0 = np.array([j.servo.no_load_speed_rad_s for j in model.robot.joints], dtype=float)
     if "joint speed" in options.compact_rows:
         # |q̇| ≤ margin·ω₀ on the lifted joint rates (the "joint speed" rows as bounds)
-        rates = free[: layout.n_rates].reshape(n, 6 + layout.n_joints)
-        rates[:, 6:] = options.speed_margin * omega0
-    slopes = free[2 * layout.n_rates + layout.n_q :]
+        layout.view(hi, "vel")[:, 6:] = options.speed_margin * omega0
+        layout.view(lo, "vel")[:, 6:] = -layout.view(hi, "vel")[:, 6:]
     if not options.servo_goals:
-        slopes[:] = 0.0  # no goals: slopes fixed (IPOPT drops them)
+        layout.view(hi, "goal_slope")[:] = 0.0  # no goals: slopes fixed (IPOPT drops them)
+        layout.view(lo, "goal_slope")[:] = -layout.view(hi, "goal_slope")
     elif "goal slope" in options.compact_rows:
         # the servo-goal speed at u = 0 of interval k is the knot slope s_k itself
         # (`planner.nlp.constraints._servo_goal_groups`): that sample's rows as bounds
-        slopes[:] = np.tile(goal_slope_bound_rad_s(omega0, options), n)
-    m_free = np.full(layout.n_m, inf)  # the contact wrench cone bounds them (planner.nlp.flat_foot)
-    lo = layout.pack(base_lo, q_lo, f_lo, -free, -m_free)
-    hi = layout.pack(base_hi, q_hi, f_hi, free, m_free)
+        layout.view(hi, "goal_slope")[:] = goal_slope_bound_rad_s(omega0, options)
+        layout.view(lo, "goal_slope")[:] = -layout.view(hi, "goal_slope")
+    # the moments stay free: the contact wrench cone bounds them (planner.nlp.flat_foot)
     return lo, hi
 
 
@@ -315,8 +354,7 @@ def goal_slope_bound_rad_s(omega0_rad_s: np.ndarray, options: PlannerOptions) ->
 def force_indices(layout: Layout, axis: int) -> np.ndarray:
     """Indices in the decision vector of every foot's force component `axis` (0 x, 1 y, 2 z),
     knot-major (knot k's feet in order), i.e. N × F in C order."""
-    start = layout.n_base + layout.n_q
-    return start + 3 * np.arange(layout.n_knots * layout.n_feet) + axis
+    return layout.indices("forces")[:, axis::3].ravel()
 
 
 def swing_force_upper_bounds(
@@ -380,15 +418,11 @@ def retimed_start(
                              f"{(layout.n_knots, layout.n_feet)}")
     out = x.copy()
     rate = period_from_s / period_to_s
-    start = layout.n_base + layout.n_q
-    f = out[start : start + layout.n_f].reshape(layout.n_knots, layout.n_feet, 3)
+    f = layout.view(out, "forces").reshape(layout.n_knots, layout.n_feet, 3)
     share = 1.0 / np.maximum(contact.sum(axis=1, keepdims=True), 1)
     f[:, :, 2] = np.where(contact & ~was, np.broadcast_to(share, contact.shape), f[:, :, 2])
     f[~contact] = 0.0
-    start += layout.n_f
-    out[start : start + layout.n_rates] *= rate  # velocities
-    start += layout.n_rates
-    out[start : start + layout.n_rates] *= rate**2  # accelerations
-    start += layout.n_rates + layout.n_q  # torques unchanged
-    out[start : start + layout.n_q] *= rate  # servo-goal slopes [rad/s]
+    layout.view(out, "vel")[:] *= rate
+    layout.view(out, "acc")[:] *= rate**2
+    layout.view(out, "goal_slope")[:] *= rate  # [rad/s]; poses, torques and moments unchanged
     return out

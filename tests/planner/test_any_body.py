@@ -277,7 +277,7 @@ def test_variable_scale_uses_leg_length_time_unit_and_weight(mini4: robots.Robot
     assert scale.shape == (layout.size,) and np.all(scale > 0)
     length, t0 = mini4.leg_length_m, math.sqrt(mini4.leg_length_m / 9.81)
     assert scale[0] == pytest.approx(length) and scale[3] == 1.0  # base x, roll
-    tau = scale[layout.n_base + layout.n_q + layout.n_f + 2 * layout.n_rates]
+    tau = scale[layout.block("tau").start]
     assert tau == pytest.approx(model.total_mass_kg * 9.81 * length)
     assert scale[-1] == pytest.approx(1 / t0)
 
@@ -331,6 +331,7 @@ def test_a_feasible_point_at_the_iteration_cap_is_a_gait(mini4_planner: GaitPlan
         schedule, speed, p,
         {"x": ws.x, "lam_x": ws.lam_x, "lam_g": ws.lam_g, "f": done.cost},
         {"return_status": "Maximum_Iterations_Exceeded", "iter_count": 150}, 1.0,
+        mini4_planner._solve_bounds(schedule),
     )
     assert capped.feasible and not capped.optimal
     assert "Maximum_Iterations_Exceeded" in capped.message and "not proven" in capped.message

@@ -44,13 +44,9 @@ def _random_point(planner: GaitPlanner, rng: np.random.Generator) -> np.ndarray:
     omega0 = np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
     stall = np.array([j.servo.stall_torque_nm for j in robot.joints])
     x = rng.normal(scale=0.1, size=layout.size)
-    rates = layout.n_base + layout.n_q + layout.n_f
-    vel = x[rates : rates + layout.n_rates].reshape(n, 6 + nj)
-    vel[:, 6:] = omega0 * rng.uniform(-1.3, 1.3, size=(n, nj))
-    tau = layout.n_base + layout.n_q + layout.n_f + 2 * layout.n_rates
-    x[tau : tau + layout.n_q] = (stall * rng.uniform(-1.0, 1.0, size=(n, nj))).ravel()
-    slopes = tau + layout.n_q
-    x[slopes : slopes + layout.n_q] = (omega0 * rng.uniform(-1.3, 1.3, size=(n, nj))).ravel()
+    layout.view(x, "vel")[:, 6:] = omega0 * rng.uniform(-1.3, 1.3, size=(n, nj))
+    layout.view(x, "tau")[:] = stall * rng.uniform(-1.0, 1.0, size=(n, nj))
+    layout.view(x, "goal_slope")[:] = omega0 * rng.uniform(-1.3, 1.3, size=(n, nj))
     x[force_indices(layout, 2)] = rng.uniform(-0.5, 4.0, size=n * layout.n_feet)
     return x
 
@@ -109,15 +105,14 @@ def test_same_feasible_set_per_row(pair: tuple[GaitPlanner, GaitPlanner]) -> Non
         inside_x = _met(x, lbx, ubx)
         # joint speed: J·N rows q̇/ω₀ ∈ ±margin ⇔ the rates' bounds
         old = _met(*_rows(rows, x, p, "joint speed"))
-        rates = layout.n_base + layout.n_q + layout.n_f
-        index = rates + (6 + nj) * np.arange(N)[:, None] + 6 + np.arange(nj)[None, :]
+        index = layout.indices("vel")[:, 6:]  # the joint rates, knot-major
         np.testing.assert_array_equal(old, inside_x[index.ravel()])
         seen["joint speed"] |= set(old.tolist())
         # goal speed at u = 0: the first J·N rows ⇔ the slopes' bounds; the rest unchanged
         value, lo, hi = _rows(rows, x, p, "servo goal speed")
-        slopes = rates + 2 * layout.n_rates + layout.n_q
+        slopes = layout.block("goal_slope")
         old = _met(value[: nj * N], lo[: nj * N], hi[: nj * N])
-        np.testing.assert_array_equal(old, inside_x[slopes : slopes + nj * N])
+        np.testing.assert_array_equal(old, inside_x[slopes])
         seen["goal slope"] |= set(old.tolist())
         new_value, *_ = _rows(compact, x, p, "servo goal speed")
         np.testing.assert_allclose(new_value, value[nj * N :], rtol=1e-12, atol=1e-12)
@@ -144,7 +139,7 @@ def test_same_feasible_set_per_row(pair: tuple[GaitPlanner, GaitPlanner]) -> Non
     assert all(v == {True, False} for v in seen.values()), seen
     # the other bounds are the old ones
     keep = np.ones(layout.size, dtype=bool)
-    keep[index.ravel()] = keep[slopes : slopes + nj * N] = keep[force_indices(layout, 2)] = False
+    keep[index.ravel()] = keep[slopes] = keep[force_indices(layout, 2)] = False
     lbx_old, ubx_old = rows._variable_bounds(trot)
     np.testing.assert_array_equal(lbx[keep], lbx_old[keep])
     np.testing.assert_array_equal(ubx[keep], ubx_old[keep])
@@ -155,17 +150,14 @@ def test_bounds(pair: tuple[GaitPlanner, GaitPlanner]) -> None:
     """Joint rates ±margin·ω₀, slopes ±0.98·margin·ω₀, f_z ≤ C·f_max (0 in swing: fixed)."""
     _, compact = pair
     robot, layout, options = compact.robot, compact.layout, compact.options
-    nj = layout.n_joints
     omega0 = np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
-    rates = layout.n_base + layout.n_q + layout.n_f
-    vel_hi = compact._ubx[rates : rates + layout.n_rates].reshape(N, 6 + nj)
+    vel_hi = layout.view(compact._ubx, "vel")
     np.testing.assert_array_equal(vel_hi[:, 6:], np.tile(options.speed_margin * omega0, (N, 1)))
     assert np.all(np.isinf(vel_hi[:, :6]))
-    slopes = rates + 2 * layout.n_rates + layout.n_q
-    np.testing.assert_allclose(compact._ubx[slopes : slopes + layout.n_q],
+    slopes = layout.block("goal_slope")
+    np.testing.assert_allclose(compact._ubx[slopes],
                                np.tile(GOAL_SPEED_INSIDE * options.speed_margin * omega0, N))
-    np.testing.assert_array_equal(compact._lbx[slopes:slopes + layout.n_q],
-                                  -compact._ubx[slopes:slopes + layout.n_q])
+    np.testing.assert_array_equal(compact._lbx[slopes], -compact._ubx[slopes])
     trot = make_schedule(robot, "trot")
     lbx, ubx = compact._variable_bounds(trot)
     contact = trot.contact_matrix(N).astype(float)
@@ -190,20 +182,18 @@ def test_reports_name_the_rows_as_before(pair: tuple[GaitPlanner, GaitPlanner]) 
     near counts and multiplier sums (λ_x·ω₀ = the row's λ)."""
     rows, compact = pair
     layout, robot = rows.layout, rows.robot
-    nj = layout.n_joints
     rng = np.random.default_rng(5)
     trot = make_schedule(robot, "trot")
     p = parameter_vector(trot, N, 0.25, rows.swing_clearance_m)
     x = _random_point(rows, rng)
     # some rates exactly at their limit: "active" rows
-    rates = layout.n_base + layout.n_q + layout.n_f
     omega0 = np.array([j.servo.no_load_speed_rad_s for j in robot.joints])
-    x[rates + (6 + nj) * 2 + 6 + 3] = 0.9 * omega0[3]
+    index = layout.indices("vel")[:, 6:]  # the joint rates, knot-major
+    x[index[2, 3]] = 0.9 * omega0[3]
     lam_g = np.zeros(rows._lbg.size)
     sl = dict(rows._slices)["joint speed"]
     lam_g[sl] = rng.normal(size=sl.stop - sl.start)
     lam_x = np.zeros(layout.size)
-    index = rates + (6 + nj) * np.arange(N)[:, None] + 6 + np.arange(nj)[None, :]
     lam_x[index.ravel()] = lam_g[sl] / np.tile(omega0, N)
     old = _reports(rows, x, p, np.zeros(layout.size), lam_g, *rows._variable_bounds(trot))
     new = _reports(compact, x, p, lam_x, np.zeros(compact._lbg.size),

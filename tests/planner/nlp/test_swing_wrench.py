@@ -7,7 +7,7 @@ import pytest
 
 import robots
 from planner.nlp.config import PlannerOptions
-from planner.nlp.spacetime import GaitPlanner, PlanResult
+from planner.nlp.spacetime import GaitPlanner, PlanResult, SolveBounds
 from planner.nlp.swing_wrench import swing_wrench_bounds
 from planner.templates import make_schedule
 
@@ -21,14 +21,15 @@ def test_bounds_fix_the_swing_wrench_and_free_only_its_rows(quad_planner: GaitPl
     lbx, ubx, lbg = swing_wrench_bounds(pl.layout, pl.model, contact, slices, pl._lbx, pl._ubx,
                                         lbg0)
     n, nf = pl.n_knots, pl.layout.n_feet
-    start = pl.layout.n_base + pl.layout.n_q
-    f_lo = lbx[start : start + pl.layout.n_f].reshape(n, nf, 3)
-    f_hi = ubx[start : start + pl.layout.n_f].reshape(n, nf, 3)
+    f_lo = pl.layout.view(lbx, "forces").reshape(n, nf, 3)
+    f_hi = pl.layout.view(ubx, "forces").reshape(n, nf, 3)
     assert np.all(f_lo[~contact] == 0.0) and np.all(f_hi[~contact] == 0.0)
-    base_lo = pl._lbx[start : start + pl.layout.n_f].reshape(n, nf, 3)
+    base_lo = pl.layout.view(pl._lbx, "forces").reshape(n, nf, 3)
     assert np.array_equal(f_lo[contact], base_lo[contact])  # stance forces untouched
-    outside = np.ones(start, dtype=bool)
-    assert np.array_equal(lbx[:start][outside], pl._lbx[:start])
+    outside = np.ones(pl.layout.size, dtype=bool)
+    outside[pl.layout.block("forces")] = False
+    assert np.array_equal(lbx[outside], pl._lbx[outside])  # every other bound untouched
+    assert np.array_equal(ubx[outside], pl._ubx[outside])
     freed = np.flatnonzero(lbg != lbg0)
     assert np.all(np.isneginf(lbg[freed]))
     swing_rows = int((~contact).sum())
@@ -58,8 +59,8 @@ def test_flat_feet_moments_and_cone_rows() -> None:
     lbx, ubx, lbg = swing_wrench_bounds(pl.layout, pl.model, contact, slices, pl._lbx, pl._ubx,
                                         lbg0)
     flat = list(pl.model.flat_feet)
-    m_lo = lbx[pl.layout.size - pl.layout.n_m :].reshape(12, len(flat), 3)
-    m_hi = ubx[pl.layout.size - pl.layout.n_m :].reshape(12, len(flat), 3)
+    m_lo = pl.layout.view(lbx, "moments").reshape(12, len(flat), 3)
+    m_hi = pl.layout.view(ubx, "moments").reshape(12, len(flat), 3)
     swing = ~contact[:, flat]
     assert np.all(m_lo[swing] == 0.0) and np.all(m_hi[swing] == 0.0)
     assert np.all(np.isinf(m_lo[~swing]))
@@ -89,3 +90,40 @@ def _trot_optima(rows: GaitPlanner, bounded: GaitPlanner) -> tuple[PlanResult, P
     swing = ~schedule.contact_matrix(rows.n_knots).astype(bool)
     assert np.all(b.contact_forces_n[swing] == 0.0)
     return a, b
+
+
+def test_reports_judge_the_bounds_the_solve_used(quad_planner: GaitPlanner) -> None:
+    """`GaitPlanner._result` judges a point against the bounds it is handed, not the built
+    ones: a joint limit tightened below the optimum is reported violated where it is, and with
+    the swing wrench fixed (its friction rows freed) a swing foot's f_x is no friction
+    violation but still an infeasible point."""
+    pl = quad_planner
+    schedule = make_schedule(pl.robot, "walk")
+    done = pl.solve(schedule, 0.25, warm_start=False)
+    assert done.feasible, done.message
+    p = pl._solver_parameters(schedule, 0.25)
+    built = pl._solve_bounds(schedule)
+    stats = {"return_status": "Solve_Succeeded", "iter_count": 0}
+
+    def result(x: np.ndarray, bounds: SolveBounds) -> PlanResult:
+        ws = done.warm_start
+        return pl._result(schedule, 0.25, p, {"x": x, "lam_x": ws.lam_x, "lam_g": ws.lam_g,
+                                              "f": done.cost}, stats, 0.0, bounds)
+
+    x = done.warm_start.x.copy()
+    assert result(x, built).feasible
+    knot, joint = 7, 2
+    ubx = built.ubx.copy()
+    ubx[pl.layout.indices("q")[knot, joint]] = pl.layout.view(x, "q")[knot, joint] - 0.05
+    tight = result(x, SolveBounds(built.lbx, ubx, built.lbg, built.ubg))
+    assert not tight.feasible and dict(tight.binding)["joint limits"] == pytest.approx(0.05)
+    assert f"{pl.robot.joint_names[joint]}@{knot}" in tight.message
+    contact = schedule.contact_matrix(pl.n_knots).astype(bool)
+    k, foot = (int(i[0]) for i in np.nonzero(~contact))
+    pl.layout.view(x, "forces").reshape(pl.n_knots, -1, 3)[k, foot, 0] = 0.01
+    assert "friction" in dict(result(x, built).binding)
+    fixed = SolveBounds(*swing_wrench_bounds(pl.layout, pl.model, contact, dict(pl._slices),
+                                             built.lbx, built.ubx, built.lbg), built.ubg)
+    off = result(x, fixed)
+    assert not off.feasible and "friction" not in dict(off.binding)
+    assert off.max_violation >= 0.01 - 1e-12
