@@ -46,7 +46,7 @@ from planner.nlp.mirror import joint_mirror, mirror_labels, mirror_rows
 from planner.nlp.model import RobotModel
 from planner.nlp.sideways_locked import lateral_slip_bounds_m
 from planner.nlp.solver_cache import same_function
-from planner.nlp.variables import Symbols, cyclic_shift, time_unit_s
+from planner.nlp.variables import Layout, Symbols, cyclic_shift, time_unit_s, variable_scale
 from robots.robot import Robot
 
 GOAL_SPEED_SAMPLES_PER_KNOT = 8  # as the player's pre-flight (hardware.play.preflight)
@@ -286,13 +286,14 @@ def build_groups(
     clearance = options.body_clearance_for(model.robot.leg_length_m)
     vel_fd, acc_fd = finite_difference_rates(sym, n)
     inv_h = n / sym.period_s
-    n_rates = (6 + nj) * n
     # row scales (nondimensional NLP, see `planner.nlp.variables.variable_scale`): lengths in leg
-    # lengths, rates in units of √(L/g)
+    # lengths, times in √(L/g); the rows vel − D₁·pose, acc − D₂·pose as the rates they equal
     length = model.robot.leg_length_m
     t0 = time_unit_s(length, float(np.linalg.norm(model.gravity_m_s2)) or 9.81)
-    rate = np.r_[[length / t0] * 3, [1.0 / t0] * (3 + nj)]
-    fd_scale = np.r_[np.tile(rate, n), np.tile(rate / t0, n)]
+    layout = Layout.of(model, n)
+    n_rates = layout.n_rates
+    scale = variable_scale(layout, model)
+    fd_scale = np.r_[layout.view(scale, "vel").ravel(), layout.view(scale, "acc").ravel()]
     next_feet_x, next_feet_y = motion.next_in_frame(cyclic_shift(feet_x, 1),
                                                     cyclic_shift(feet_y, 1))
     lateral_lb, lateral_ub = lateral_slip_bounds_m(

@@ -232,9 +232,7 @@ class GaitPlanner:
         self.robot = robot
         self.n_knots = n_knots
         self.model = RobotModel(robot)
-        self.layout = Layout(
-            n_knots, self.model.n_joints, self.model.n_feet, len(self.model.flat_feet)
-        )
+        self.layout = Layout.of(self.model, n_knots)
         options = options or PlannerOptions()
         # the iteration cap of this NLP's size (`planner.nlp.config.iteration_cap`) unless set
         self.options = dataclasses.replace(options, max_iter=options.max_iter_for(self.layout.size))

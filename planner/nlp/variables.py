@@ -74,6 +74,11 @@ class Layout:
     n_feet: int
     n_flat_feet: int = 0
 
+    @classmethod
+    def of(cls, model: RobotModel, n_knots: int) -> Layout:
+        """The layout of `model`'s NLP at `n_knots` knots (its joints, feet and flat feet)."""
+        return cls(n_knots, model.n_joints, model.n_feet, len(model.flat_feet))
+
     def width(self, name: str) -> int:
         """Entries per knot of block `name` (one of `BLOCKS`)."""
         nj = self.n_joints
