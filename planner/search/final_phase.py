@@ -23,10 +23,11 @@ a task is the same bits on any worker and in this process.
 
 from __future__ import annotations
 
+import os
 import time
 import uuid
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult
@@ -78,6 +79,10 @@ class FinalOutcome:
     check_cpu_s: float = 0.0
     build_s: float = 0.0
     build_cpu_s: float = 0.0
+    #: the process that ran it and when (`time.time()`, s): for timelines of the final phase
+    pid: int = 0
+    started_at_s: float = 0.0
+    ended_at_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -95,15 +100,17 @@ class FinalChoice:
 def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                    schedule: ContactSchedule, speed_m_s: float) -> FinalOutcome:
     """Solve `schedule` cold at the planner's knots and, if feasible, judge its gait."""
-    c0 = time.process_time()
+    c0, started = time.process_time(), time.time()
     solved = planner.solve(schedule, speed_m_s, warm_start=False)
     solve_cpu_s = time.process_time() - c0
     if not solved.feasible:
-        return FinalOutcome(solved, 0.0, None, solve_cpu_s)
+        return FinalOutcome(solved, 0.0, None, solve_cpu_s, pid=os.getpid(),
+                            started_at_s=started, ended_at_s=time.time())
     t_check, c_check = time.perf_counter(), time.process_time()
     ok = None if check is None else bool(check(planner.to_gait(solved, CHECK_LABEL)).passed)  # type: ignore[attr-defined]
     return FinalOutcome(solved, time.perf_counter() - t_check, ok, solve_cpu_s,
-                        time.process_time() - c_check)
+                        time.process_time() - c_check, pid=os.getpid(), started_at_s=started,
+                        ended_at_s=time.time())
 
 
 #: this worker's final planner and check: (spec token, planner, check)
@@ -130,8 +137,7 @@ def worker_final_solve(task: FinalTask) -> FinalOutcome:
     assert _WORKER_FINAL is not None
     _, planner, check = _WORKER_FINAL
     out = evaluate_final(planner, check, task.schedule, task.spec.speed_m_s)
-    return FinalOutcome(out.plan, out.check_s, out.ok, out.solve_cpu_s, out.check_cpu_s,
-                        build_s, build_cpu_s)
+    return replace(out, build_s=build_s, build_cpu_s=build_cpu_s)
 
 
 def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
