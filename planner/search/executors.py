@@ -144,7 +144,6 @@ class OrderedResults:
             raise ExecutorError(f"ordered: ahead must be >= 1, got {ahead}")
         self._submit, self._items = submit, list(items)
         self._futures: list[Future[Any]] = []
-        self._slot_of: list[int] = []
         self._free = list(range(ahead))
         self._busy: dict[int, Future[Any]] = {}  # slot -> its future
         self._head = 0
