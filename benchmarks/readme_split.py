@@ -16,8 +16,11 @@ imports when it runs), and prints where the command's wall time and CPU time wen
   (`TimingResult.cpu_s`), the samples' MuJoCo checks (`TimingResult.accept_cpu_s`) and the rest
   (interpreter start, imports, NLP builds: the workers' total minus those two);
 - the four parts of issue #16's question: build, coarse solves, fine (30-knot) solves, MuJoCo —
-  CPU seconds; the final phase's CPU (`GaitSearchResult.phase_cpu_s`) is shared between its
-  re-solves and their MuJoCo checks in proportion to their wall times.
+  CPU seconds, from the CPU each final re-solve and check reports (`final_outcomes`), in this
+  process or, with the final phase on the workers (`final_on_workers`, the process pool's
+  default since session 32), in a worker; there the final planner's build overlaps the final
+  phase (its wall time is inside the final phase's) and the workers' CPU of speculative re-solves
+  nobody read, and of their final planners' builds, is in the workers' "build" part.
 
 The command's output is printed as usual; the split follows, with the load average before and
 after. Measured in docs/results/planner_speed_search.md (Session 29).
@@ -29,6 +32,8 @@ import os
 import resource
 import sys
 import time
+
+import numpy as np
 
 T_START = time.perf_counter()
 C_START = time.process_time()
@@ -42,6 +47,22 @@ DEFAULT_ARGS = ["plan", "quad12", "--speed", "0.25", "--search", "-o",
 def _children_cpu_s() -> float:
     use = resource.getrusage(resource.RUSAGE_CHILDREN)
     return use.ru_utime + use.ru_stime
+
+
+def _first_batch(res: object, schedule: object) -> str:
+    """"seeds", "gen K" or "-": the first batch of the search whose sample decodes to
+    `schedule` (templates: the seed batch; a fallback template's own schedule: "-")."""
+    import planner.search.gait_search as gs
+
+    assert isinstance(res, gs.GaitSearchResult)
+    space = gs.TimingSpace.for_robot(res.robot, res.symmetric)
+    n_seeds = len(res.template_costs)
+    per_gen = max(1, (len(res.samples) - n_seeds) // max(1, res.cma.n_generations))
+    lo, hi = space.bounds()
+    for i, (x, _) in enumerate(res.samples):
+        if gs.identical_schedules(space.decode(np.clip(x, lo, hi)), schedule):  # type: ignore[arg-type]
+            return "seeds" if i < n_seeds else f"gen {(i - n_seeds) // per_gen}"
+    return "-"
 
 
 def main(argv: list[str]) -> int:
@@ -59,6 +80,7 @@ def main(argv: list[str]) -> int:
         captured["w0"] = _children_cpu_s()
         result = inner(*a, **kw)  # type: ignore[arg-type]
         captured["t1"], captured["c1"] = time.perf_counter(), time.process_time()
+        captured["epoch1"] = time.time()
         captured["w1"] = _children_cpu_s()
         captured["result"] = result
         return result
@@ -85,8 +107,6 @@ def main(argv: list[str]) -> int:
     accept_cpu = sum(float(getattr(r, "accept_cpu_s", 0.0)) for r in samples)
     iterations = sum(max(r.n_fevals - 1, 0) for r in samples)
     workers_cpu = w1 - w0
-    fine_s = sum(plan.solve_time_s for plan, _, _ in res.final_solves)
-    final_check_s = sum(check_s for _, check_s, _ in res.final_solves)
     wall = t_end - T_START
     cpu = (c_end - C_START) + (w_end - 0.0)
     pc = res.phase_cpu_s
@@ -94,8 +114,11 @@ def main(argv: list[str]) -> int:
         ("start-up: imports, options, robot (this process)", t0 - T_START, c0 - C_START),
         ("seeding: pool start, worker builds, template solves", ph["seed"], pc["seed"]),
         ("basin-CMA generations", ph["cma"], pc["cma"]),
-        ("final NLP build (this process)", ph["final_build"], pc["final_build"]),
-        ("final re-solves + MuJoCo checks (this process)", ph["final"], pc["final"]),
+        ("final NLP build (this process)" + (", overlapped" if res.final_on_workers else ""),
+         ph["final_build"], pc["final_build"]),
+        ("final re-solves + MuJoCo checks " + ("(workers; wall incl. the build)"
+                                              if res.final_on_workers else "(this process)"),
+         ph["final"], pc["final"]),
         ("search, worker processes' CPU", None, workers_cpu),
         ("after the search: gait file, search log (this process)", t_end - t1, c_end - c1),
     ]
@@ -110,27 +133,39 @@ def main(argv: list[str]) -> int:
         print(f"  {name:62s} {'' if w is None else f'{w:8.2f}':>8s} "
               f"{'' if c is None else f'{c:8.2f}':>8s}")
     print(f"  {'total (wall; CPU of this process and its workers)':62s} {wall:8.2f} {cpu:8.2f}")
+    fine_cpu = sum(o.solve_cpu_s for o in res.final_outcomes)
+    final_check_cpu = sum(o.check_cpu_s for o in res.final_outcomes)
+    where = "workers" if res.final_on_workers else "this process"
     other_workers = workers_cpu - coarse_cpu - accept_cpu
-    fine_share = fine_s / max(fine_s + final_check_s, 1e-9)
-    fine_cpu, final_check_cpu = pc["final"] * fine_share, pc["final"] * (1.0 - fine_share)
-    main_other = (c_end - C_START) - pc["final"] - pc["final_build"]
+    main_other = (c_end - C_START) - pc["final_build"]
+    if res.final_on_workers:
+        other_workers -= fine_cpu + final_check_cpu
+    else:
+        main_other -= fine_cpu + final_check_cpu
     parts = [
-        ("build: workers' start, imports and NLP builds", other_workers),
+        ("build: workers' start, imports, NLP builds (+ unread final solves)", other_workers),
         ("build: final NLP (this process)", pc["final_build"]),
         ("coarse solves (workers)", coarse_cpu),
-        ("fine solves (this process)", fine_cpu),
+        (f"fine solves ({where})", fine_cpu),
         ("MuJoCo: samples' checks (workers)", accept_cpu),
-        ("MuJoCo: final checks (this process)", final_check_cpu),
+        (f"MuJoCo: final checks ({where})", final_check_cpu),
         ("the rest of this process (start-up, writing, bookkeeping)", main_other),
     ]
     print(f"  CPU by issue #16's parts (of {cpu:.2f} s):")
     for name, v in parts:
         print(f"    {name:60s} {v:8.2f}  {v / cpu:6.1%}")
-    print("  final re-solves at full resolution, in the order tried:")
-    for plan, _, ok in res.final_solves:
-        verdict = {True: "MuJoCo pass", False: "MuJoCo FAIL", None: "not checked"}[ok]
+    final_start = float(captured["epoch1"]) - ph["final"]  # type: ignore[arg-type]
+    print("  final re-solves at full resolution, in the order tried (the batch whose sample "
+          "first had the timing: when it was known; [pid: start-end s into the final phase]):")
+    for o in res.final_outcomes:
+        plan = o.plan
+        print(f"    [{_first_batch(res, plan.schedule)}]", end="")
+        verdict = {True: "MuJoCo pass", False: "MuJoCo FAIL", None: "not checked"}[o.ok]
         print(f"    {gs.label_gait(plan.schedule, res.robot):16s} cost {plan.cost:.6g} "
-              f"({plan.iterations} it, {plan.status}) {verdict}")
+              f"({plan.iterations} it, {plan.status}) {verdict}; CPU solve "
+              f"{o.solve_cpu_s:.2f} s, check {o.check_cpu_s:.2f} s"
+              + (f", final planner build {o.build_cpu_s:.2f} s" if o.build_cpu_s else "")
+              + f" [{o.pid}: {o.started_at_s - final_start:.1f}-{o.ended_at_s - final_start:.1f}]")
     return code
 
 

@@ -12,6 +12,18 @@ that function)::
     with make_executor("process", CecSolverFactory("g07"), workers=4) as ex:
         res = basin_cma(ex.local_solve, x0, sigma0, bounds, executor=ex)
 
+Besides ``map`` (a batch, all results), every executor has ``ordered(fn, xs)``: the results in
+order, one at a time, for a caller that stops at the first one it likes (the gait search's final
+phase: the first candidate in rank order that passes wins). The parallel executors evaluate up to
+``workers`` items ahead of the one the caller waits for (speculatively, so a later item may
+finish first; its result is still returned after the earlier ones), the serial one only the item
+asked for. Closing the run (``with ex.ordered(...) as results``) cancels the items not started;
+items still running are ignored, and closing the executor then stops their workers instead of
+waiting for them (a process pool terminates them; Ray kills its actors anyway).
+``idle_task = (fn, arg)`` on the process pool queues ``fn(arg)`` once per worker behind every
+``map`` batch: a worker with no sample left runs it while the batch's last samples finish (the
+generation barrier's idle time), e.g. to build what a later phase needs.
+
 Start method: workers are started with ``spawn`` by default.  ``fork`` copies a parent that may
 already run threads (CasADi/IPOPT's linear solvers, OpenMP/BLAS pools, Ray's IO threads); a
 forked child inherits their locks in whatever state they were and can deadlock.  ``spawn``
@@ -33,8 +45,8 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 import pickle
-from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from functools import partial
 from types import TracebackType
@@ -116,6 +128,76 @@ def _call(fn: Callable[[Any], Any], x: Any) -> Any:
     return fn(x)
 
 
+IdleTask = tuple[Callable[[Any], Any], Any]
+
+
+class OrderedResults:
+    """``fn(x)`` for each item, returned in order, evaluated up to `ahead` items ahead of the one
+    asked for (`submit(x, slot)` starts one on the free worker slot ``slot`` and returns its
+    future). Iterate it; `close` (or leaving ``with``) cancels what has not started and returns
+    the futures still running, which nobody will read."""
+
+    def __init__(self, submit: Callable[[Any, int], Future[Any]], items: Iterable[Any],
+                 ahead: int, on_close: Callable[[list[Future[Any]]], None] | None = None
+                 ) -> None:
+        if ahead < 1:
+            raise ExecutorError(f"ordered: ahead must be >= 1, got {ahead}")
+        self._submit, self._items = submit, list(items)
+        self._futures: list[Future[Any]] = []
+        self._free = list(range(ahead))
+        self._busy: dict[int, Future[Any]] = {}  # slot -> its future
+        self._head = 0
+        self._on_close = on_close
+        self._closed = False
+        self._top_up()
+
+    def _top_up(self) -> None:
+        for slot, fut in list(self._busy.items()):
+            if fut.done():
+                del self._busy[slot]
+                self._free.append(slot)
+        while self._free and len(self._futures) < len(self._items) and not self._closed:
+            slot = self._free.pop(0)
+            fut = self._submit(self._items[len(self._futures)], slot)
+            self._futures.append(fut)
+            self._busy[slot] = fut
+
+    def __iter__(self) -> Iterator[Any]:
+        return self
+
+    def __next__(self) -> Any:
+        if self._closed or self._head == len(self._items):
+            raise StopIteration
+        while self._head >= len(self._futures) or not self._futures[self._head].done():
+            wait(list(self._busy.values()), return_when=FIRST_COMPLETED)
+            self._top_up()
+        fut = self._futures[self._head]
+        self._head += 1
+        self._top_up()  # the slot of a result read early may already be free
+        try:
+            return fut.result()
+        except BrokenProcessPool as e:
+            raise ExecutorError("process pool broke: a worker died") from e
+
+    def close(self) -> list[Future[Any]]:
+        """Cancel the items not started; the ones still running (returned) are left to the
+        executor's `close`."""
+        if self._closed:
+            return []
+        self._closed = True
+        running = [f for f in self._futures if not f.cancel() and not f.done()]
+        if self._on_close is not None:
+            self._on_close(running)
+        return running
+
+    def __enter__(self) -> OrderedResults:
+        return self
+
+    def __exit__(self, et: type[BaseException] | None, ev: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+
 class _Closable:
     local_solve: Callable[[Any], Any] = staticmethod(worker_local_solve)
 
@@ -140,6 +222,27 @@ class SerialExecutor(_Closable):
 
     def map(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> list[Any]:
         return [fn(x) for x in xs]
+
+    def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> OrderedResults:
+        """``fn(x)`` in order, each evaluated only when asked for (nothing speculative)."""
+        return _LazyResults(fn, xs)
+
+
+class _LazyResults(OrderedResults):
+    """`OrderedResults` of the serial executor: evaluates an item when it is asked for."""
+
+    def __init__(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> None:
+        self._fn = fn
+        super().__init__(lambda x, slot: Future(), items, 1)
+
+    def _top_up(self) -> None:
+        pass
+
+    def __next__(self) -> Any:
+        if self._closed or self._head == len(self._items):
+            raise StopIteration
+        self._head += 1
+        return self._fn(self._items[self._head - 1])
 
 
 def _pickle_factory(factory: SolverFactory, dumps: Callable[[Any], bytes] = pickle.dumps
@@ -170,17 +273,46 @@ class ProcessExecutor(_Closable):
             max_workers=self.workers, mp_context=ctx,
             initializer=partial(_init_remote_worker, payload, threads_per_worker)
             if payload is not None else None)
+        #: queued once per worker behind every `map` batch (see the module docstring)
+        self.idle_task: IdleTask | None = None
+        self._ignored: list[Future[Any]] = []  # `ordered` items left running by their reader
 
     def map(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> list[Any]:
         items = list(xs)
         try:
-            return list(self._pool.map(_call, [fn] * len(items), items))
+            futures = [self._pool.submit(_call, fn, x) for x in items]
+            if self.idle_task is not None:
+                for _ in range(self.workers):  # behind the batch: run when a worker runs dry
+                    self._pool.submit(_call, *self.idle_task)
+            return [f.result() for f in futures]
         except BrokenProcessPool as e:
             raise ExecutorError("process pool broke: a worker died or its factory raised "
                                 "(run the factory in-process to see the error)") from e
 
+    def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> OrderedResults:
+        """``fn(x)`` in order, up to `workers` items evaluated ahead (module docstring)."""
+        return OrderedResults(lambda x, slot: self._pool.submit(_call, fn, x), xs,
+                              self.workers, self._ignored.extend)
+
     def close(self) -> None:
+        if any(not f.done() for f in self._ignored):
+            # an `ordered` reader stopped early: its workers' results are not wanted, and
+            # waiting for them would cost a solve's wall time; stop those processes
+            self._terminate_workers()
+        self._ignored = []
         self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def _terminate_workers(self) -> None:
+        """Terminate the pool's worker processes (the pool is broken afterwards: `close` only).
+        ``ProcessPoolExecutor`` has no public way to stop a running call before Python 3.14
+        (`terminate_workers`), so this reaches its ``_processes``."""
+        procs = list((getattr(self._pool, "_processes", None) or {}).values())
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        for proc in procs:
+            if proc.is_alive():
+                proc.terminate()
+        for proc in procs:
+            proc.join(timeout=10.0)
 
 
 class RayExecutor(_Closable):
@@ -230,6 +362,12 @@ class RayExecutor(_Closable):
             return list(self._pool.map(lambda a, x: a.run.remote(fn, x), list(xs)))
         except self._ray.exceptions.RayActorError as e:
             raise ExecutorError("a Ray actor died (its factory may have raised)") from e
+
+    def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> OrderedResults:
+        """``fn(x)`` in order, one item ahead per actor (module docstring); `close` kills the
+        actors, and with them any item still running."""
+        return OrderedResults(lambda x, slot: self._actors[slot].run.remote(fn, x).future(),
+                              xs, len(self._actors))
 
     def close(self) -> None:
         for a in self._actors:

@@ -43,6 +43,8 @@ are re-solved at `n_knots` and judged the same way (cheapest first), so the sear
 returns a gait that fails where its own starting template passes: the coarse acceptance can
 reject a timing that walks at full resolution (humanoid20's biped_walk template is rejected at
 12 knots and passes at 30; docs/results/zoo_gaits.md, "Session 25").
+With a process pool or Ray the final phase runs on the search's workers, speculatively and
+read in rank order (`planner.search.final_phase`), while this process builds the final planner.
 The 12-knot NLP builds in 2.8 s instead of 8.5 s and solves in about half the time of the
 30-knot one; it ranked quad12's four symmetric templates in the same order as the 30-knot NLP at
 0.15 and at 0.3 m/s, though its costs are lower (the final cost is reported next to the search
@@ -67,7 +69,16 @@ from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.nlp.variables import retimed_start
 from planner.search import defaults
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
-from planner.search.executors import Executor, make_executor
+from planner.search.executors import Executor, ProcessExecutor, make_executor
+from planner.search.final_phase import (
+    FinalOutcome,
+    FinalPlannerSpec,
+    FinalTask,
+    choose_final,
+    evaluate_final,
+    prepare_final,
+    worker_final_solve,
+)
 from planner.search.support import TippingCost
 from planner.templates import (
     circular_difference,
@@ -556,6 +567,12 @@ class GaitSearchResult:
     #: the template that won after no searched timing passed the final acceptance (None: a
     #: searched timing, or the normal ranking, won)
     fallback_template: str | None = None
+    #: the final phase's outcomes as read, in order (`final_solves` with the CPU seconds of
+    #: the process that ran each: this one, or a worker with `final_on_workers`)
+    final_outcomes: tuple[FinalOutcome, ...] = ()
+    #: the final phase ran on the executor's workers (`planner.search.final_phase`); the final
+    #: planner's build ("final_build") then overlapped it and is part of "final"'s wall time
+    final_on_workers: bool = False
 
     @property
     def froude(self) -> float:
@@ -663,8 +680,18 @@ def search_gait(
             progress(row)
 
     lo, hi = space.bounds()
+    final_check = final_acceptance or acceptance
+    # the final phase runs on the executor's workers unless they are this process (module
+    # `planner.search.final_phase`); they build its planner from the same robot and options
+    on_workers = executor != "serial"
+    spec = FinalPlannerSpec.new(robot if planner is None else planner.robot, n_knots,
+                                options if planner is None else planner.options, speed_m_s,
+                                final_check)
     t_seed, c_seed = time.perf_counter(), time.process_time()
     with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
+        if on_workers and isinstance(ex, ProcessExecutor):
+            # a worker out of samples at a generation barrier builds the final planner
+            ex.idle_task = (prepare_final, spec)
         # a warm policy picks each sample's start in this process (`WarmStartExecutor`)
         pool = RecordingExecutor(ex if warm_start == "cold"
                                  else WarmStartExecutor(ex, space, warm_start))
@@ -694,53 +721,45 @@ def search_gait(
                         max_generations=max_generations, restarts=restarts,
                         max_local_solves=max_local_solves, seed=seed, executor=pool,
                         callback=on_generation)
-    # 3. the cheapest timings, re-solved at full resolution; the first feasible (and accepted)
-    #    one wins, else the first feasible one (reported as not accepted)
-    t_final, c_final = time.perf_counter(), time.process_time()
-    final = planner or GaitPlanner(robot, n_knots, options)
-    final_build_s = 0.0 if planner is not None else time.perf_counter() - t_final
-    final_build_cpu_s = 0.0 if planner is not None else time.process_time() - c_final
-    final_check = final_acceptance or acceptance
-    check = final_check() if final_check is not None else None
-    candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
-    chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
-    final_solves: list[tuple[PlanResult, float, bool | None]] = []
-    for x, searched in candidates:
-        solved = final.solve(space.decode(x), speed_m_s, warm_start=False)
-        if not solved.feasible:
-            final_solves.append((solved, 0.0, None))
-            chosen = chosen or (solved, searched, None)
-            continue
-        t_check = time.perf_counter()
-        ok = None if check is None else bool(check(final.to_gait(solved, "search")).passed)
-        final_solves.append((solved, time.perf_counter() - t_check, ok))
-        if ok is not False:
-            chosen = (solved, searched, ok)
-            break
-        if chosen is None or not chosen[0].feasible:
-            chosen = (solved, searched, False)
-    fallback: str | None = None
-    if check is not None and (chosen is None or chosen[2] is not True):
-        # nothing searched passed: the templates the search started from, at full resolution,
-        # as the template command plans them (not their phase-rotated encodings)
-        tried = [space.decode(x) for x, _ in candidates]
-        for name in sorted(template_costs, key=lambda n: template_costs[n]):
-            own_schedule = seed_schedule[name]
-            if any(identical_schedules(own_schedule, t) for t in tried):
-                continue
-            solved = final.solve(own_schedule, speed_m_s, warm_start=False)
-            if not solved.feasible:
-                final_solves.append((solved, 0.0, None))
-                continue
-            t_check = time.perf_counter()
-            ok = bool(check(final.to_gait(solved, "search")).passed)
-            final_solves.append((solved, time.perf_counter() - t_check, ok))
-            if ok:
-                chosen = (solved, seed_results[name], True)
-                fallback = name
-                break
-    assert chosen is not None
-    best, won, accepted = chosen
+        # 3. the cheapest timings, re-solved at full resolution; the first feasible (and
+        #    accepted) one wins, else the templates, else the first feasible one (not accepted)
+        t_final, c_final = time.perf_counter(), time.process_time()
+        candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
+        tasks = [FinalTask(spec, space.decode(x)) for x, _ in candidates]
+        searched: list[LocalResult] = [r for _, r in candidates]
+        if final_check is not None:
+            # nothing searched may pass: the templates the search started from, at full
+            # resolution, as the template command plans them (not their phase-rotated encodings)
+            tried = [task.schedule for task in tasks]
+            for name in sorted(template_costs, key=lambda n: template_costs[n]):
+                own_schedule = seed_schedule[name]
+                if not any(identical_schedules(own_schedule, t) for t in tried):
+                    tasks.append(FinalTask(spec, own_schedule, name))
+                    searched.append(seed_results[name])
+        final_build_s = final_build_cpu_s = 0.0
+        if on_workers:
+            with ex.ordered(worker_final_solve, tasks) as outcomes:
+                # the workers solve the first candidates meanwhile
+                if planner is None:
+                    final = GaitPlanner(robot, n_knots, options)
+                    final_build_s = time.perf_counter() - t_final
+                    final_build_cpu_s = time.process_time() - c_final
+                else:
+                    final = planner
+                choice = choose_final(tasks, searched, outcomes)
+        else:
+            final = planner or GaitPlanner(robot, n_knots, options)
+            final_build_s = 0.0 if planner is not None else time.perf_counter() - t_final
+            final_build_cpu_s = 0.0 if planner is not None else time.process_time() - c_final
+            check = final_check() if final_check is not None else None
+            with ex.ordered(lambda task: evaluate_final(final, check, task.schedule, speed_m_s),
+                            tasks) as outcomes:
+                choice = choose_final(tasks, searched, outcomes)
+    # the final phase ends when the pool has shut down (workers still solving are stopped)
+    t_end, c_end = time.perf_counter(), time.process_time()
+    best, won, accepted, fallback = choice.plan, choice.searched, choice.accepted, \
+        choice.fallback_template
+    final_solves = [(o.plan, o.check_s, o.ok) for o in choice.read]
     schedule = best.schedule
     return GaitSearchResult(
         robot=robot, speed_m_s=speed_m_s, best=best, label=label_gait(schedule, robot),
@@ -751,11 +770,12 @@ def search_gait(
         cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
         accepted=accepted, planner=final, symmetric=symmetric, samples=tuple(pool.records),
         final_solves=tuple(final_solves), fallback_template=fallback,
+        final_outcomes=choice.read, final_on_workers=on_workers,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
-                 "final": time.perf_counter() - t_final - final_build_s},
+                 "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
         phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
                      "final_build": final_build_cpu_s,
-                     "final": time.process_time() - c_final - final_build_cpu_s,
+                     "final": c_end - c_final - final_build_cpu_s,
                      "total": time.process_time() - c0},
     )
 

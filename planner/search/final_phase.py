@@ -1,0 +1,181 @@
+"""The gait search's final phase: its cheapest timings re-solved at the gait file's resolution
+and judged by the final acceptance, first in rank order wins; then the seeding templates.
+
+The rule (`choose_final`), unchanged from the serial loop it replaces: the candidates in rank
+order (`planner.search.gait_search.final_candidates_of`), each solved cold at `n_knots`; the
+first that is feasible and accepted (or feasible, when nothing checks) wins. If none does and a
+check exists, the templates the search started from, cheapest first (their own schedules, as
+`gaitsmith plan` plans them, skipping any identical to a candidate tried), the first accepted
+wins; else the first feasible candidate, reported as not accepted (or the first one, infeasible).
+
+Where it runs: with the serial executor, in this process, one task at a time and only as far as
+the rule reads (`SerialExecutor.ordered`). With the process pool or Ray, on the search's workers:
+each task is evaluated speculatively, up to one per worker ahead of the one the rule waits for
+(`planner.search.executors.OrderedResults`), and the rule still reads the outcomes in rank order
+— a later candidate that finished and passed first does not win over an earlier one that passes.
+A worker builds the final planner and check once (`prepare_final`: lazily at its first task, or
+ahead in a generation barrier's idle time as the executor's `idle_task`) from a
+`FinalPlannerSpec` shipped with every task (the robot object itself, so a robot changed in memory,
+e.g. `robots.voltage.robot_at_voltage`, is planned as in this process). A cold solve does not
+depend on what the planner solved before (docs/results/planner_determinism.md), so the outcome of
+a task is the same bits on any worker and in this process.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import uuid
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, replace
+
+from planner.nlp.config import PlannerOptions
+from planner.nlp.spacetime import GaitPlanner, PlanResult
+from planner.search.basin_cma import LocalResult
+from robots import ContactSchedule, Gait, Robot
+
+#: the label of the gait the final check judges (as the serial loop wrote it)
+CHECK_LABEL = "search"
+
+
+@dataclass(frozen=True)
+class FinalPlannerSpec:
+    """What a worker needs to build the final planner and check: one per search (`token`)."""
+
+    robot: Robot
+    n_knots: int
+    options: PlannerOptions
+    speed_m_s: float
+    #: picklable factory of the final check (`gait_search.GaitAcceptance`); None: no check
+    acceptance: Callable[[], Callable[[Gait], object]] | None
+    token: str = ""
+
+    @staticmethod
+    def new(robot: Robot, n_knots: int, options: PlannerOptions, speed_m_s: float,
+            acceptance: Callable[[], Callable[[Gait], object]] | None) -> FinalPlannerSpec:
+        return FinalPlannerSpec(robot, n_knots, options, speed_m_s, acceptance, uuid.uuid4().hex)
+
+
+@dataclass(frozen=True)
+class FinalTask:
+    """One full-resolution solve of the final phase: a searched candidate (`template` None) or
+    the fallback's template `template`."""
+
+    spec: FinalPlannerSpec
+    schedule: ContactSchedule
+    template: str | None = None
+
+
+@dataclass(frozen=True)
+class FinalOutcome:
+    """A task's solve and verdict: `ok` None when the plan is infeasible or nothing checks;
+    `check_s` the check's wall time; CPU seconds of the process that ran it (`cpu` of the solve
+    and of the check); `build_s`, `build_cpu_s` the final planner's build if this task paid it."""
+
+    plan: PlanResult
+    check_s: float
+    ok: bool | None
+    solve_cpu_s: float = 0.0
+    check_cpu_s: float = 0.0
+    build_s: float = 0.0
+    build_cpu_s: float = 0.0
+    #: the process that ran it and when (`time.time()`, s): for timelines of the final phase
+    pid: int = 0
+    started_at_s: float = 0.0
+    ended_at_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class FinalChoice:
+    """What the rule chose: the plan, the search result of its timing, its verdict, the
+    fallback template (None: a candidate), and every outcome the rule read, in order."""
+
+    plan: PlanResult
+    searched: LocalResult
+    accepted: bool | None
+    fallback_template: str | None
+    read: tuple[FinalOutcome, ...]
+
+
+def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
+                   schedule: ContactSchedule, speed_m_s: float) -> FinalOutcome:
+    """Solve `schedule` cold at the planner's knots and, if feasible, judge its gait."""
+    c0, started = time.process_time(), time.time()
+    solved = planner.solve(schedule, speed_m_s, warm_start=False)
+    solve_cpu_s = time.process_time() - c0
+    if not solved.feasible:
+        return FinalOutcome(solved, 0.0, None, solve_cpu_s, pid=os.getpid(),
+                            started_at_s=started, ended_at_s=time.time())
+    t_check, c_check = time.perf_counter(), time.process_time()
+    ok = None if check is None else bool(check(planner.to_gait(solved, CHECK_LABEL)).passed)  # type: ignore[attr-defined]
+    return FinalOutcome(solved, time.perf_counter() - t_check, ok, solve_cpu_s,
+                        time.process_time() - c_check, pid=os.getpid(), started_at_s=started,
+                        ended_at_s=time.time())
+
+
+#: this worker's final planner and check: (spec token, planner, check)
+_WORKER_FINAL: tuple[str, GaitPlanner, Callable[[Gait], object] | None] | None = None
+
+
+def prepare_final(spec: FinalPlannerSpec) -> tuple[float, float]:
+    """Build this worker's final planner and check for `spec` unless built (wall and CPU
+    seconds spent; 0 if it was). The executor's `idle_task`, and the start of every task."""
+    global _WORKER_FINAL
+    if _WORKER_FINAL is not None and _WORKER_FINAL[0] == spec.token:
+        return 0.0, 0.0
+    t0, c0 = time.perf_counter(), time.process_time()
+    _WORKER_FINAL = None  # the last search's planner goes before this one is built
+    planner = GaitPlanner(spec.robot, spec.n_knots, spec.options)
+    check = spec.acceptance() if spec.acceptance is not None else None
+    _WORKER_FINAL = (spec.token, planner, check)
+    return time.perf_counter() - t0, time.process_time() - c0
+
+
+def worker_final_solve(task: FinalTask) -> FinalOutcome:
+    """A final task on an executor worker (picklable by reference)."""
+    build_s, build_cpu_s = prepare_final(task.spec)
+    assert _WORKER_FINAL is not None
+    _, planner, check = _WORKER_FINAL
+    out = evaluate_final(planner, check, task.schedule, task.spec.speed_m_s)
+    return replace(out, build_s=build_s, build_cpu_s=build_cpu_s)
+
+
+def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
+                 outcomes: Iterable[FinalOutcome]) -> FinalChoice:
+    """The module's rule over `outcomes`, read lazily in the order of `tasks` (candidates
+    first, then fallback templates, each with the search result of its timing in `searched`);
+    stops reading at the first winner. `tasks` must hold at least one candidate."""
+    chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
+    fallback: str | None = None
+    read: list[FinalOutcome] = []
+    for task, result, out in zip(tasks, searched, outcomes, strict=False):
+        read.append(out)
+        plan = out.plan
+        if task.template is None:
+            if not plan.feasible:
+                chosen = chosen or (plan, result, None)
+                continue
+            if out.ok is not False:
+                chosen = (plan, result, out.ok)
+                break
+            if chosen is None or not chosen[0].feasible:
+                chosen = (plan, result, False)
+        elif plan.feasible and out.ok:
+            chosen, fallback = (plan, result, True), task.template
+            break
+    if chosen is None:
+        raise ValueError("choose_final: no candidate was read (the tasks start with one)")
+    return FinalChoice(*chosen, fallback, tuple(read))
+
+
+__all__ = [
+    "CHECK_LABEL",
+    "FinalChoice",
+    "FinalOutcome",
+    "FinalPlannerSpec",
+    "FinalTask",
+    "choose_final",
+    "evaluate_final",
+    "prepare_final",
+    "worker_final_solve",
+]

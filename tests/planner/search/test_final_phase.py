@@ -1,0 +1,247 @@
+"""The search's final phase on the executors: the rank-order rule with speculative workers,
+serial and process pools agreeing, and an interruption that leaves no worker behind."""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import sys
+import time
+from concurrent.futures import Future
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import robots
+from planner.nlp.config import PlannerOptions
+from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
+from planner.search.basin_cma import LocalResult
+from planner.search.executors import (
+    ExecutorError,
+    OrderedResults,
+    ProcessExecutor,
+    SerialExecutor,
+    make_executor,
+)
+from planner.search.final_phase import (
+    FinalOutcome,
+    FinalPlannerSpec,
+    FinalTask,
+    choose_final,
+    prepare_final,
+)
+from planner.search.gait_search import search_gait
+from planner.templates import make_schedule
+from robots import Gait
+
+ROBOT = robots.load("quad12")
+SPEC = FinalPlannerSpec.new(ROBOT, 20, PlannerOptions(), 0.2, None)
+SCHEDULE = make_schedule(ROBOT, "trot")
+
+
+@dataclass(frozen=True)
+class Fake:
+    """A fake final task: sleeps `delay_s`, then returns a plan tagged `cost`, `feasible`, with
+    the verdict `ok` (None: not checked); `pid_dir` records which process started it;
+    `interrupt` raises KeyboardInterrupt instead (as IPOPT does on Ctrl-C, `GaitPlanner.solve`)."""
+
+    cost: float
+    delay_s: float
+    ok: bool | None
+    pid_dir: str = ""
+    interrupt: bool = False
+    feasible: bool = True
+
+
+def _plan(cost: float, feasible: bool) -> PlanResult:
+    n, j = 4, len(ROBOT.joints)
+    z = np.zeros(1)
+    return PlanResult(SCHEDULE, 0.2, np.zeros((n, 6)), np.zeros((n, j)), np.zeros((n, j)),
+                      np.zeros((n, 4, 3)), np.zeros((n, j)), cost, {}, feasible, "fake", 1,
+                      0.0, 0.0, (), "", WarmStart(z, z, z))
+
+
+def fake_final(fake: Fake) -> FinalOutcome:
+    """Module level: picklable by reference for the process pool's spawned workers."""
+    if fake.pid_dir:
+        Path(fake.pid_dir, f"{os.getpid()}-{fake.cost:g}").touch()
+    time.sleep(fake.delay_s)
+    if fake.interrupt:
+        raise KeyboardInterrupt("IPOPT stopped (User_Requested_Stop)")
+    return FinalOutcome(_plan(fake.cost, fake.feasible), 0.01, fake.ok if fake.feasible else None)
+
+
+def _tasks(fakes: list[Fake], templates: int = 0) -> tuple[list[FinalTask], list[LocalResult]]:
+    n = len(fakes) - templates
+    tasks = [FinalTask(SPEC, SCHEDULE, None if i < n else f"t{i}") for i in range(len(fakes))]
+    searched = [LocalResult(np.zeros(1), f.cost, True) for f in fakes]
+    return tasks, searched
+
+
+def _choose(ex: SerialExecutor | ProcessExecutor, fakes: list[Fake], templates: int = 0
+            ) -> tuple[float, bool | None, str | None, list[float]]:
+    tasks, searched = _tasks(fakes, templates)
+    with ex.ordered(fake_final, fakes) as outcomes:
+        choice = choose_final(tasks, searched, outcomes)
+    return (choice.plan.cost, choice.accepted, choice.fallback_template,
+            [o.plan.cost for o in choice.read])
+
+
+def test_a_higher_ranked_pass_wins_over_a_lower_ranked_one_that_finished_first(
+        tmp_path: Path) -> None:
+    """Candidate 2 passes long before candidate 1 does (two workers, both run at once): the
+    rule still waits for candidate 1 and takes it, reading nothing after it."""
+    fakes = [Fake(1.0, 2.0, True, str(tmp_path)), Fake(2.0, 0.0, True, str(tmp_path)),
+             Fake(3.0, 0.0, True, str(tmp_path))]
+    with ProcessExecutor(None, workers=2) as ex:
+        t0 = time.perf_counter()
+        got = _choose(ex, fakes)
+    assert got == (1.0, True, None, [1.0])
+    started = {float(p.name.split("-")[1]): int(p.name.split("-")[0]) for p in tmp_path.iterdir()}
+    # candidate 2 ran beside candidate 1 (speculatively, on the other worker), and it finished
+    # first: candidate 3 was started on its free worker while candidate 1 still ran
+    assert started[1.0] != started[2.0] and 3.0 in started
+    assert time.perf_counter() - t0 < 30.0
+    # a lower-ranked pass wins when the higher-ranked candidate fails
+    fakes = [Fake(1.0, 1.0, False), *fakes[1:]]
+    with ProcessExecutor(None, workers=2) as ex:
+        assert _choose(ex, fakes) == (2.0, True, None, [1.0, 2.0])
+
+
+INFEASIBLE = {"ok": None, "feasible": False}
+
+
+@pytest.mark.parametrize("fakes, templates, expected", [
+    # a failing candidate, an infeasible one, a failing template, a passing one: the fallback
+    ([Fake(1.0, 0.3, False), Fake(2.0, 0.0, **INFEASIBLE), Fake(5.0, 0.2, False),  # type: ignore[arg-type]
+      Fake(6.0, 0.0, True)], 2, (6.0, True, "t3", [1.0, 2.0, 5.0, 6.0])),
+    # nothing passes: the first feasible candidate, not accepted
+    ([Fake(1.0, 0.0, **INFEASIBLE), Fake(2.0, 0.3, False), Fake(5.0, 0.0, False)],  # type: ignore[arg-type]
+     1, (2.0, False, None, [1.0, 2.0, 5.0])),
+    # nothing feasible: the first candidate, infeasible
+    ([Fake(1.0, 0.2, **INFEASIBLE), Fake(2.0, 0.0, **INFEASIBLE)], 0,  # type: ignore[arg-type]
+     (1.0, None, None, [1.0, 2.0])),
+    # no check (feasible, ok None): the first feasible candidate wins at once
+    ([Fake(1.0, 0.3, **INFEASIBLE), Fake(2.0, 0.3, None), Fake(3.0, 0.0, None)], 0,  # type: ignore[arg-type]
+     (2.0, None, None, [1.0, 2.0])),
+])
+def test_serial_and_process_pools_choose_the_same(
+        fakes: list[Fake], templates: int,
+        expected: tuple[float, bool | None, str | None, list[float]]) -> None:
+    serial = _choose(SerialExecutor(), fakes, templates)
+    with ProcessExecutor(None, workers=2) as ex:
+        parallel = _choose(ex, fakes, templates)
+    assert serial == parallel == expected
+
+
+def test_an_interrupted_final_phase_leaves_no_worker_and_stays_an_interruption(
+        tmp_path: Path) -> None:
+    """Ctrl-C during candidate 1's solve while candidate 2 still runs on the other worker: the
+    rule raises KeyboardInterrupt (not "infeasible"), and closing the executor stops the worker
+    still solving instead of waiting for it."""
+    fakes = [Fake(1.0, 0.5, True, str(tmp_path), interrupt=True),
+             Fake(2.0, 120.0, True, str(tmp_path))]
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        with ProcessExecutor(None, workers=2) as ex:
+            _choose(ex, fakes)
+    assert time.perf_counter() - t0 < 60.0  # not the 120 s of candidate 2
+    pids = {int(p.name.split("-")[0]) for p in tmp_path.iterdir()}
+    assert len(pids) == 2
+    assert mp.active_children() == []
+    for pid in pids:
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
+def test_a_pool_read_to_the_end_stays_usable_and_reports_a_broken_worker() -> None:
+    with ProcessExecutor(None, workers=2) as ex:
+        fakes = [Fake(1.0, 0.1, False), Fake(2.0, 0.0, False)]
+        assert _choose(ex, fakes) == (1.0, False, None, [1.0, 2.0])
+        assert ex.map(abs, [-1, -2]) == [1, 2]  # nothing was stopped
+        with ex.ordered(os._exit, [3]) as out, pytest.raises(ExecutorError, match="broke"):
+            next(out)
+    with pytest.raises(ExecutorError, match="ahead"):
+        OrderedResults(lambda x, slot: Future(), [1], 0)
+
+
+def test_ray_reads_in_rank_order() -> None:
+    pytest.importorskip("ray", reason="ray is the optional extra gaitsmith[ray]; not installed")
+    from ray import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    try:
+        with make_executor("ray", None, workers=2) as ex:
+            tasks, searched = _tasks([Fake(1.0, 1.0, True), Fake(2.0, 0.0, True)])
+            with ex.ordered(fake_final, [Fake(1.0, 1.0, True), Fake(2.0, 0.0, True)]) as out:
+                choice = choose_final(tasks, searched, out)
+    finally:
+        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+    assert choice.plan.cost == 1.0 and len(choice.read) == 1
+
+
+@dataclass(frozen=True)
+class _Verdict:
+    passed: bool
+    badness: float
+
+
+@dataclass(frozen=True)
+class LongStanceCostly:
+    """A picklable final check factory: passes a gait whose every duty factor is above 0.7 and
+    whose cost is below 0.4. On the slow test's search (quad12 0.2 m/s, seed 1) it fails the
+    first two candidates and passes the third, as the README search's check does."""
+
+    def __call__(self) -> LongStanceCostlyCheck:
+        return LongStanceCostlyCheck()
+
+
+@dataclass(frozen=True)
+class LongStanceCostlyCheck:
+    def __call__(self, gait: Gait) -> _Verdict:
+        ok = min(gait.schedule.duty_factor) > 0.7 and float(gait.planner["objective"]) < 0.4
+        return _Verdict(ok, 0.0 if ok else 1.0)
+
+
+@dataclass(frozen=True)
+class Interrupting:
+    def __call__(self) -> InterruptingCheck:
+        return InterruptingCheck()
+
+
+@dataclass(frozen=True)
+class InterruptingCheck:
+    def __call__(self, gait: Gait) -> _Verdict:
+        raise KeyboardInterrupt("Ctrl-C during the final MuJoCo check")
+
+
+def test_prepare_final_builds_once_per_search() -> None:
+    spec = FinalPlannerSpec.new(ROBOT, 12, PlannerOptions(), 0.2, LongStanceCostly())
+    first = prepare_final(spec)
+    assert first[0] > 0 and prepare_final(spec) == (0.0, 0.0)
+    assert prepare_final(replace(spec, token="another search"))[0] > 0
+
+
+@pytest.mark.slow
+def test_the_search_gives_the_same_gait_on_serial_and_process_executors() -> None:
+    """The whole search, final phase included, serial vs two spawned workers: the same
+    candidates read in the same order, the same winner bit for bit."""
+    kw = dict(n_knots=16, search_knots=10, max_generations=1, popsize=4, seed=1,
+              final_candidates=3, final_acceptance=LongStanceCostly())
+    serial = search_gait(ROBOT, 0.2, executor="serial", **kw)  # type: ignore[arg-type]
+    par = search_gait(ROBOT, 0.2, executor="process", workers=2, **kw)  # type: ignore[arg-type]
+    assert par.final_on_workers and not serial.final_on_workers
+    assert [ok for _, _, ok in serial.final_solves] == [False, False, True]  # the premise
+    assert [p.cost for p, _, _ in serial.final_solves] == [p.cost for p, _, _ in par.final_solves]
+    assert [ok for _, _, ok in serial.final_solves] == [ok for _, _, ok in par.final_solves]
+    assert serial.fallback_template == par.fallback_template
+    assert serial.accepted == par.accepted
+    assert np.array_equal(serial.best.joint_angles_rad, par.best.joint_angles_rad)
+    assert serial.best.cost == par.best.cost
+    assert isinstance(par.planner, GaitPlanner) and par.planner.n_knots == 16
+    with pytest.raises(KeyboardInterrupt):
+        search_gait(ROBOT, 0.2, executor="process", workers=2,
+                    **{**kw, "acceptance": None, "final_acceptance": Interrupting()})  # type: ignore[arg-type]
+    assert mp.active_children() == []
