@@ -16,6 +16,10 @@ generations of the coarse (12-knot) NLP, then the final 30-knot solve of the bes
 measured in docs/results/planner_speed_search.md, session 30).
 `--swing-wrenches rows,bounds` and `--cold-starts stance,balanced` run each path with those
 `PlannerOptions.swing_wrench` / `cold_start` values (docs/results/planner_speed_init.md).
+`--compact-rows "none,torque envelope"` runs each path with `PlannerOptions.compact_rows` = ()
+(the torque envelope's four faces, the form before session 31) and then ("torque envelope",)
+(its two ranged rows, today's default); "+" joins several row names into one value
+(docs/results/planner_speed_rows.md, session 32).
 `--coarse-aborts off,30/0.03` runs each path without and with the stall abort of the coarse
 solves (`planner.nlp.iteration_abort.StallAbort(after_iter=30, min_violation=0.03)`; labelled
 ``knot+abort30/0.03``), alternating, so their CPU ratio is measured under the same load.
@@ -51,6 +55,8 @@ from gaitsmith.search_options import sim_acceptance
 from gaitsmith.stance_options import stance_shaped
 from planner.nlp.config import (
     COLD_STARTS,
+    COMPACT_ROWS,
+    DEFAULT_COMPACT_ROWS,
     DERIVATIVE_PATHS,
     SWING_WRENCHES,
     CostWeights,
@@ -120,7 +126,8 @@ def _children_cpu_s() -> float:
 def run(robot_name: str, speed: float, generations: int, workers: int, seed: int,
         sim_accept: bool, derivatives: str, executor: str, knots: int,
         warm_start: str = "cold", abort: str = "off", swing_wrench: str = "rows",
-        cold_start: str = "stance") -> SearchRun:
+        cold_start: str = "stance",
+        compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call)."""
     robot = robots.load(robot_name)
@@ -130,7 +137,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         derivatives=derivatives,
         weights=CostWeights() if shaped.bounce is None else CostWeights(bounce_s2_m2=shaped.bounce),
         normal_force_rate_weights_per_t0=shaped.force_rate or None,
-        swing_wrench=swing_wrench, cold_start=cold_start)
+        swing_wrench=swing_wrench, cold_start=cold_start, compact_rows=compact_rows)
     t0, c0, w0 = time.perf_counter(), time.process_time(), _children_cpu_s()
     result = search_gait(
         robot, speed, n_knots=knots, options=options,
@@ -143,6 +150,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if abort == "off" else f"+abort{abort}"
     label += "" if swing_wrench == "rows" else f"+swing-{swing_wrench}"
     label += "" if cold_start == "stance" else f"+{cold_start}"
+    label += "" if compact_rows == DEFAULT_COMPACT_ROWS else f"+rows-{_rows_label(compact_rows)}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 
@@ -156,6 +164,25 @@ def _abort_rule(text: str) -> StallAbort | None:
     except ValueError as e:
         raise SystemExit(f"--coarse-aborts: expected off or K/V (e.g. 30/0.03), got {text!r}"
                          ) from e
+
+
+def _rows_label(rows: tuple[str, ...]) -> str:
+    """`compact_rows` as `--compact-rows` spells it: "none" or names joined by "+"."""
+    return "+".join(rows) if rows else "none"
+
+
+def compact_rows_values(text: str) -> list[tuple[str, ...]]:
+    """`--compact-rows`: comma-separated `PlannerOptions.compact_rows` values, each "none" (the
+    empty tuple) or row names of `COMPACT_ROWS` joined by "+"; duplicates are refused."""
+    values: list[tuple[str, ...]] = []
+    for item in (v.strip() for v in text.split(",")):
+        rows = () if item == "none" else tuple(n.strip() for n in item.split("+"))
+        if not item or any(n not in COMPACT_ROWS for n in rows) or len(set(rows)) < len(rows):
+            raise SystemExit(
+                f"--compact-rows: expected comma-separated values, each none or names joined by "
+                f"+ from {', '.join(COMPACT_ROWS)} (e.g. \"none,torque envelope\"), got {text!r}")
+        values.append(rows)
+    return values
 
 
 def report(r: SearchRun, target_s: float) -> str:
@@ -222,6 +249,9 @@ def main() -> None:
     ap.add_argument("--cold-starts", default="stance",
                     help=f"comma-separated `PlannerOptions.cold_start` values, run alternately "
                          f"per path ({', '.join(COLD_STARTS)})")
+    ap.add_argument("--compact-rows", default=_rows_label(DEFAULT_COMPACT_ROWS),
+                    help=f"comma-separated `PlannerOptions.compact_rows` values, run alternately "
+                         f"per path: none or names joined by + ({', '.join(COMPACT_ROWS)})")
     ap.add_argument("--target", type=float, default=60.0, help="target wall time [s]")
     args = ap.parse_args()
     paths = _choices(args.derivatives, tuple(DERIVATIVE_PATHS), "--derivatives")
@@ -229,6 +259,7 @@ def main() -> None:
     warm_starts = _choices(args.warm_starts, SEARCH_WARM_STARTS, "--warm-starts")
     wrenches = _choices(args.swing_wrenches, SWING_WRENCHES, "--swing-wrenches")
     colds = _choices(args.cold_starts, COLD_STARTS, "--cold-starts")
+    row_forms = compact_rows_values(args.compact_rows)
     aborts = [a.strip() for a in args.coarse_aborts.split(",") if a.strip()] or ["off"]
     for a in aborts:
         _abort_rule(a)  # validate before any search runs
@@ -244,12 +275,13 @@ def main() -> None:
             for abort in aborts:
                 for wrench in wrenches:
                     for cold in colds:
-                        for executor in executors:
-                            r = run(args.robot, args.speed, args.generations, args.workers,
-                                    args.seed, args.sim_accept, derivatives, executor,
-                                    args.knots, warm_start, abort, wrench, cold)
-                            runs.append(r)
-                            print(report(r, args.target), flush=True)
+                        for rows in row_forms:
+                            for executor in executors:
+                                r = run(args.robot, args.speed, args.generations, args.workers,
+                                        args.seed, args.sim_accept, derivatives, executor,
+                                        args.knots, warm_start, abort, wrench, cold, rows)
+                                runs.append(r)
+                                print(report(r, args.target), flush=True)
     for executor in executors:
         same = [r for r in runs if r.executor == executor]
         for r in same[1:]:
