@@ -20,6 +20,7 @@ from gaitsmith.options import (
     check_speed,
 )
 from gaitsmith.plan_options import planner_options, search_planner_options
+from gaitsmith.plan_output import DEFAULT_CYCLES
 from gaitsmith.search_options import (
     check_search_options,
     executor_option,
@@ -62,7 +63,9 @@ def sweep(
     sim_accept: bool = sim_accept_option(),
     simulate: bool = typer.Option(
         False, "--simulate", help="validate each speed's gait in MuJoCo (pass/fail column)"),
-    cycles: int = typer.Option(12, "--cycles", help="cycles to simulate (--simulate)"),
+    cycles: int = typer.Option(
+        DEFAULT_CYCLES, "--cycles",
+        help=f"cycles to simulate (--simulate, --sim-accept; default {DEFAULT_CYCLES}, as plan)"),
     attitude_gain: float | None = attitude_gain_option(),
 ) -> None:
     """Search the best gait at each speed; table + plot of gait, duty factor and CoT vs Froude."""
