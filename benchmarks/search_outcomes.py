@@ -122,7 +122,10 @@ def record(search: Search, setting: Setting, r: SearchRun, load_start: float) ->
         "search": search.key, "setting": setting.name, **asdict(setting),
         "utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
         "load_start": load_start, "load_end": os.getloadavg()[0],
-        "wall_s": r.wall_s, "cpu_s": r.cpu_s + r.worker_cpu_s, "solves": r.solves,
+        "wall_s": r.wall_s, "cpu_s": r.cpu_s + r.worker_cpu_s, "main_cpu_s": r.cpu_s,
+        "worker_cpu_s": r.worker_cpu_s, "phase_cpu_s": res.phase_cpu_s,
+        "worker_solve_s": r.worker_s("solve_s"), "worker_accept_s": r.worker_s("accept_s"),
+        "solves": r.solves,
         "iterations": r.iterations, "accepted": r.count("accepted"),
         "rejected": r.count("rejected"), "infeasible": r.count("infeasible"),
         "stopped": r.stopped(), "winner": res.label, "search_cost": res.search_cost,
@@ -188,7 +191,7 @@ def summary(rows: list[dict], baseline: str) -> list[str]:
     if baseline not in settings:
         raise SystemExit(f"--baseline: no run of setting {baseline!r} (have {', '.join(settings)})")
     lines = ["| setting | searches | CPU total ratio | CPU median ratio | iterations ratio | "
-             "final cost ratio median / mean | better / same / worse | sign test p | "
+             "final cost ratio median / mean (best, worst) | better / same / worse | sign test p | "
              "no passing gait (baseline) |", "|---|---|---|---|---|---|---|---|---|"]
     for s in settings:
         pairs = [(by[(k, baseline)], by[(k, s)]) for k in searches
@@ -204,10 +207,11 @@ def summary(rows: list[dict], baseline: str) -> list[str]:
         worse = sum(q > 1 + SAME_REL for q in ratios)
         med = statistics.median(ratios) if ratios else math.nan
         mean = statistics.fmean(ratios) if ratios else math.nan
+        lo, hi = (min(ratios), max(ratios)) if ratios else (math.nan, math.nan)
         lines.append(
             f"| {s} | {len(pairs)} | {sum(cpu[1]) / sum(cpu[0]):.3f} | "
             f"{statistics.median(r / b for b, r in zip(*cpu, strict=True)):.3f} | "
-            f"{it[1] / it[0]:.3f} | {med:.4f} / {mean:.4f} | {better} / "
+            f"{it[1] / it[0]:.3f} | {med:.4f} / {mean:.4f} ({lo:.3f}, {hi:.3f}) | {better} / "
             f"{len(ratios) - better - worse} / {worse} | {sign_test_p(better, worse):.2f} | "
             f"{sum(not passing(r) for _, r in pairs)} ({sum(not passing(b) for b, _ in pairs)}) |")
     return lines
