@@ -34,6 +34,8 @@ import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from scipy.stats import t as student_t
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gait_search_bench import COARSE_BOUNDS, SearchRun, _abort_rule, run
@@ -183,6 +185,16 @@ def sign_test_p(better: int, worse: int) -> float:
     return min(1.0, 2 * tail)
 
 
+def geo_ci(ratios: list[float]) -> str:
+    """Geometric mean of the ratios and its two-sided 95 % Student-t interval (on the logs)."""
+    if len(ratios) < 2:
+        return "—"
+    logs = [math.log(q) for q in ratios]
+    m, se = statistics.fmean(logs), statistics.stdev(logs) / math.sqrt(len(logs))
+    h = float(student_t.ppf(0.975, len(logs) - 1)) * se
+    return f"{math.exp(m):.3f} [{math.exp(m - h):.3f}, {math.exp(m + h):.3f}]"
+
+
 def summary(rows: list[dict], baseline: str) -> list[str]:
     """Per setting against `baseline`, over the searches both ran."""
     by = {(r["search"], r["setting"]): r for r in rows}
@@ -190,9 +202,11 @@ def summary(rows: list[dict], baseline: str) -> list[str]:
     settings = list(dict.fromkeys(r["setting"] for r in rows))
     if baseline not in settings:
         raise SystemExit(f"--baseline: no run of setting {baseline!r} (have {', '.join(settings)})")
-    lines = ["| setting | searches | CPU total ratio | CPU median ratio | iterations ratio | "
-             "final cost ratio median / mean (best, worst) | better / same / worse | sign test p | "
-             "no passing gait (baseline) |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| setting | searches | CPU total ratio | CPU median ratio | CPU geometric mean "
+             "[95 % CI] | iterations ratio | "
+             "final cost ratio median / mean (best, worst) | geometric mean [95 % CI] | "
+             "better / same / worse | sign test p | "
+             "no passing gait (baseline) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in settings:
         pairs = [(by[(k, baseline)], by[(k, s)]) for k in searches
                  if (k, baseline) in by and (k, s) in by]
@@ -211,7 +225,9 @@ def summary(rows: list[dict], baseline: str) -> list[str]:
         lines.append(
             f"| {s} | {len(pairs)} | {sum(cpu[1]) / sum(cpu[0]):.3f} | "
             f"{statistics.median(r / b for b, r in zip(*cpu, strict=True)):.3f} | "
-            f"{it[1] / it[0]:.3f} | {med:.4f} / {mean:.4f} ({lo:.3f}, {hi:.3f}) | {better} / "
+            f"{geo_ci([r / b for b, r in zip(*cpu, strict=True)])} | "
+            f"{it[1] / it[0]:.3f} | {med:.4f} / {mean:.4f} ({lo:.3f}, {hi:.3f}) | "
+            f"{geo_ci(ratios)} | {better} / "
             f"{len(ratios) - better - worse} / {worse} | {sign_test_p(better, worse):.2f} | "
             f"{sum(not passing(r) for _, r in pairs)} ({sum(not passing(b) for b, _ in pairs)}) |")
     return lines
