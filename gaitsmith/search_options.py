@@ -13,11 +13,12 @@ from planner.nlp.config import SWING_WRENCHES
 from planner.search.defaults import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
 
 EXECUTORS = ("serial", "process", "ray")
-#: `plan --search --search-swing-wrench`'s default: the coarse solves hold a swing foot's wrench
-#: at 0 by its bounds, the final re-solves by the rows (`search_gait(search_swing_wrench=...)`):
-#: 0.81x the iterations, 0.92x the CPU and the same distribution of written gaits over 16
-#: searches (docs/results/planner_speed_search.md, session 32); "rows" is the search before
-DEFAULT_SEARCH_SWING_WRENCH = "bounds"
+#: `plan --search --search-swing-wrench`'s default, how the coarse solves hold a swing foot's
+#: wrench at 0 (`search_gait(search_swing_wrench=...)`; the final re-solves keep "rows"): "bounds"
+#: took 0.81x the iterations and 0.92x the CPU over 16 searches with the same distribution of
+#: written gaits, but the README command 1.07x the CPU and 1.18x the wall time (more 30-knot
+#: re-solves before its gait), so "rows" stays (docs/results/planner_speed_search.md, session 32)
+DEFAULT_SEARCH_SWING_WRENCH = "rows"
 
 
 def executor_option() -> Any:
@@ -40,9 +41,9 @@ def tipping_weight_option() -> Any:
 
 def search_swing_wrench_option() -> Any:
     return typer.Option(DEFAULT_SEARCH_SWING_WRENCH, "--search-swing-wrench",
-                        help="how the coarse solves hold a swing foot's wrench at 0: bounds "
-                        "(fewer iterations) | rows (the search before session 32); the final "
-                        "re-solves use rows either way")
+                        help="how the coarse solves hold a swing foot's wrench at 0: rows | "
+                        "bounds (fewer iterations, other local optima); the final re-solves use "
+                        "rows either way")
 
 
 def check_search_swing_wrench(value: str) -> None:

@@ -70,12 +70,12 @@ def test_the_search_acceptance_gets_the_asked_gain_or_the_rule(
         assert seen[-1] == expected
 
 
-def test_the_coarse_swing_wrench_is_bounds_by_default_and_rows_when_asked(
+def test_the_coarse_swing_wrench_is_rows_by_default_and_bounds_when_asked(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """`plan --search` gives `search_gait` the coarse solves' swing wrench: "bounds" by default
-    (docs/results/planner_speed_search.md, session 32), "rows" with --search-swing-wrench rows;
-    the final planner's options keep "rows" either way."""
+    """`plan --search` gives `search_gait` the coarse solves' swing wrench: "rows" by default
+    (docs/results/planner_speed_search.md, session 32), "bounds" with --search-swing-wrench
+    bounds; the final planner's options keep "rows" either way."""
     import planner.search.gait_search as gs
     from gaitsmith.cli import main
 
@@ -86,7 +86,7 @@ def test_the_coarse_swing_wrench_is_bounds_by_default_and_rows_when_asked(
         raise _Recorded
 
     monkeypatch.setattr(gs, "search_gait", record)
-    for extra, expected in (([], "bounds"), (["--search-swing-wrench", "rows"], "rows")):
+    for extra, expected in (([], "rows"), (["--search-swing-wrench", "bounds"], "bounds")):
         with pytest.raises(_Recorded):
             main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
                   "-o", str(tmp_path / "g.json")])
