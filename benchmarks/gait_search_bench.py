@@ -15,7 +15,9 @@ generations of the coarse (12-knot) NLP, then the final 30-knot solve of the bes
 (`planner.search.gait_search.SEARCH_WARM_STARTS`; labelled ``knot+nearest-retimed`` etc.;
 measured in docs/results/planner_speed_search.md, session 30).
 `--swing-wrenches rows,bounds` and `--cold-starts stance,balanced` run each path with those
-`PlannerOptions.swing_wrench` / `cold_start` values (docs/results/planner_speed_init.md).
+`PlannerOptions.swing_wrench` / `cold_start` values (docs/results/planner_speed_init.md);
+"coarse-bounds" is "bounds" in the coarse solves only, the final re-solves keep "rows"
+(`search_gait(search_swing_wrench=...)`, planner_speed_search.md session 32).
 `--compact-rows "none,torque envelope"` runs each path with `PlannerOptions.compact_rows` = ()
 (the torque envelope's four faces, the form before session 31) and then ("torque envelope",)
 (its two ranged rows, today's default); "+" joins several row names into one value
@@ -70,6 +72,9 @@ from planner.search.gait_search import (
     GaitSearchResult,
     search_gait,
 )
+
+#: `--swing-wrenches` value: "bounds" in the coarse solves, "rows" in the final re-solves
+COARSE_BOUNDS = "coarse-bounds"
 
 
 @dataclass(frozen=True)
@@ -127,9 +132,11 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         sim_accept: bool, derivatives: str, executor: str, knots: int,
         warm_start: str = "cold", abort: str = "off", swing_wrench: str = "rows",
         cold_start: str = "stance",
-        compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS) -> SearchRun:
+        compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS,
+        search_swing_wrench: str | None = None) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
-    NLP, the final one included, is built inside the timed call)."""
+    NLP, the final one included, is built inside the timed call). `swing_wrench` is every
+    NLP's; `search_swing_wrench` (not None) the coarse solves' only."""
     robot = robots.load(robot_name)
     # the options `gaitsmith plan ROBOT --search` uses with no flags (stance-compliance rule)
     shaped = stance_shaped(robot, None, None, None, None)
@@ -143,12 +150,14 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         robot, speed, n_knots=knots, options=options,
         max_generations=generations, seed=seed, executor=executor, workers=workers,
         warm_start=warm_start, coarse_abort=_abort_rule(abort),
+        search_swing_wrench=search_swing_wrench,
         **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES, shaped.entry or 1),
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
     label += "" if abort == "off" else f"+abort{abort}"
     label += "" if swing_wrench == "rows" else f"+swing-{swing_wrench}"
+    label += "" if search_swing_wrench in (None, swing_wrench) else f"+coarse-{search_swing_wrench}"
     label += "" if cold_start == "stance" else f"+{cold_start}"
     label += "" if compact_rows == DEFAULT_COMPACT_ROWS else f"+rows-{_rows_label(compact_rows)}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
@@ -245,7 +254,8 @@ def main() -> None:
                          "iteration K above violation V), run alternately per path")
     ap.add_argument("--swing-wrenches", default="rows",
                     help=f"comma-separated `PlannerOptions.swing_wrench` values, run alternately "
-                         f"per path ({', '.join(SWING_WRENCHES)})")
+                         f"per path ({', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}: bounds in "
+                         f"the coarse solves only)")
     ap.add_argument("--cold-starts", default="stance",
                     help=f"comma-separated `PlannerOptions.cold_start` values, run alternately "
                          f"per path ({', '.join(COLD_STARTS)})")
@@ -257,7 +267,7 @@ def main() -> None:
     paths = _choices(args.derivatives, tuple(DERIVATIVE_PATHS), "--derivatives")
     executors = _choices(args.executors, get_args(ExecutorKind), "--executors")
     warm_starts = _choices(args.warm_starts, SEARCH_WARM_STARTS, "--warm-starts")
-    wrenches = _choices(args.swing_wrenches, SWING_WRENCHES, "--swing-wrenches")
+    wrenches = _choices(args.swing_wrenches, (*SWING_WRENCHES, COARSE_BOUNDS), "--swing-wrenches")
     colds = _choices(args.cold_starts, COLD_STARTS, "--cold-starts")
     row_forms = compact_rows_values(args.compact_rows)
     aborts = [a.strip() for a in args.coarse_aborts.split(",") if a.strip()] or ["off"]
@@ -277,9 +287,12 @@ def main() -> None:
                     for cold in colds:
                         for rows in row_forms:
                             for executor in executors:
+                                coarse = wrench == COARSE_BOUNDS
                                 r = run(args.robot, args.speed, args.generations, args.workers,
                                         args.seed, args.sim_accept, derivatives, executor,
-                                        args.knots, warm_start, abort, wrench, cold, rows)
+                                        args.knots, warm_start, abort,
+                                        "rows" if coarse else wrench, cold, rows,
+                                        "bounds" if coarse else None)
                                 runs.append(r)
                                 print(report(r, args.target), flush=True)
     for executor in executors:

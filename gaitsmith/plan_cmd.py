@@ -56,6 +56,7 @@ from gaitsmith.plan_search import SearchSettings, plan_search, user_seed
 from gaitsmith.search_options import (
     executor_option,
     search_knots_option,
+    search_swing_wrench_option,
     sim_accept_option,
     tipping_weight_option,
     workers_option,
@@ -197,6 +198,7 @@ def plan(
     search_knots: int = search_knots_option(),
     tipping_weight: float = tipping_weight_option(),
     sim_accept: bool = sim_accept_option(),
+    search_swing_wrench: str = search_swing_wrench_option(),
     simulate: bool = typer.Option(
         False, "--simulate", help="validate in MuJoCo and write the verdict into the gait file"
     ),
@@ -219,7 +221,8 @@ def plan(
     # where each option goes (template path, --search, refused with --search): OPTION_ROUTES
     given = dict(locals())  # the parsed options by parameter name
     settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
-                              address, search_knots, tipping_weight, sim_accept)
+                              address, search_knots, tipping_weight, sim_accept,
+                              search_swing_wrench)
     check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     check_command(speed, vy, yaw_rate)
     refuse_with_search(search, given)  # --vy, --yaw-rate, --knife-edge, --mirror, ...

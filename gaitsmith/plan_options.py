@@ -25,7 +25,7 @@ from gaitsmith.options import (
     check_velocity,
 )
 from gaitsmith.plan_search import SearchSettings
-from gaitsmith.search_options import check_search_options
+from gaitsmith.search_options import check_search_options, check_search_swing_wrench
 from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, StanceShaped
 from planner.nlp.config import (
     COP_SOLE_FRACTION,
@@ -108,6 +108,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--search-knots", "search_knots", "", SEARCH),
     OptionRoute("--tipping-weight", "tipping_weight", "", SEARCH),
     OptionRoute("--sim-accept", "sim_accept", "", SEARCH),
+    OptionRoute("--search-swing-wrench", "search_swing_wrench", "", SEARCH),
     OptionRoute("--simulate", "simulate", VALIDATION, VALIDATION),
     OptionRoute("--cycles", "cycles", VALIDATION, ACCEPTANCE),
     OptionRoute("--supply-v", "supply_v", "the servo envelope; gait-file metadata",
@@ -151,6 +152,7 @@ def check_options(speed: float | None, knots: int, period: float | None, duty: s
     if search:
         check_search_options(st.executor, st.generations, st.popsize, st.workers,
                              st.search_knots, st.tipping_weight)
+        check_search_swing_wrench(st.search_swing_wrench)
     if cycles is not None and (simulate or (search and st.sim_accept)):
         check_cycles("--cycles", cycles)
 

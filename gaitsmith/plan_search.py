@@ -13,7 +13,7 @@ import robots
 from gaitsmith.attitude_options import attitude_settings, resolved_gain
 from gaitsmith.console import console
 from gaitsmith.plan_output import DEFAULT_CYCLES, write_gait
-from gaitsmith.search_options import sim_acceptance
+from gaitsmith.search_options import DEFAULT_SEARCH_SWING_WRENCH, sim_acceptance
 from planner.errors import InfeasibleGaitError
 from planner.nlp.config import PlannerOptions
 from planner.templates import default_gait_for
@@ -37,6 +37,8 @@ class SearchSettings:
     search_knots: int
     tipping_weight: float
     sim_accept: bool
+    #: `PlannerOptions.swing_wrench` of the coarse solves (`--search-swing-wrench`)
+    search_swing_wrench: str = DEFAULT_SEARCH_SWING_WRENCH
 
 
 def user_seed(bot: robots.Robot, gait: str | None, period: float | None, duty: str | None,
@@ -91,6 +93,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
+        search_swing_wrench=st.search_swing_wrench,
         seed_schedules=None if seed_schedule is None else {USER_SEED: seed_schedule},
         **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles,
                          attitude_gain),
@@ -128,6 +131,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         "best_template": result.best_template, "search_cost": result.search_cost,
         "search_feasible": result.search_feasible,
         "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
+        "search_swing_wrench": st.search_swing_wrench,
         "tipping_amplification": result.tipping_amplification,
         "sim_accepted": result.accepted, "fallback_template": result.fallback_template,
         "cost_of_transport": result.cost_of_transport,

@@ -9,9 +9,16 @@ import typer
 import robots
 from gaitsmith.errors import OptionError
 from gaitsmith.options import check_integer, check_knots, check_number
+from planner.nlp.config import SWING_WRENCHES
 from planner.search.defaults import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
 
 EXECUTORS = ("serial", "process", "ray")
+#: `plan --search --search-swing-wrench`'s default, how the coarse solves hold a swing foot's
+#: wrench at 0 (`search_gait(search_swing_wrench=...)`; the final re-solves keep "rows"): "bounds"
+#: took 0.81x the iterations and 0.92x the CPU over 16 searches with the same distribution of
+#: written gaits, but the README command 1.07x the CPU and 1.18x the wall time (more 30-knot
+#: re-solves before its gait), so "rows" stays (docs/results/planner_speed_search.md, session 32)
+DEFAULT_SEARCH_SWING_WRENCH = "rows"
 
 
 def executor_option() -> Any:
@@ -30,6 +37,19 @@ def search_knots_option() -> Any:
 def tipping_weight_option() -> Any:
     return typer.Option(DEFAULT_TIPPING_WEIGHT, "--tipping-weight",
                         help="weight of the open-loop tipping term; 0: the pure W&P objective")
+
+
+def search_swing_wrench_option() -> Any:
+    return typer.Option(DEFAULT_SEARCH_SWING_WRENCH, "--search-swing-wrench",
+                        help="how the coarse solves hold a swing foot's wrench at 0: rows | "
+                        "bounds (fewer iterations, other local optima); the final re-solves use "
+                        "rows either way")
+
+
+def check_search_swing_wrench(value: str) -> None:
+    if value not in SWING_WRENCHES:
+        raise OptionError(f"--search-swing-wrench must be {' or '.join(SWING_WRENCHES)}, "
+                          f"got {value!r}")
 
 
 def sim_accept_option() -> Any:

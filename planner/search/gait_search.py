@@ -63,7 +63,7 @@ from typing import Protocol
 import numpy as np
 
 from planner.errors import PlannerConfigError
-from planner.nlp.config import PlannerOptions
+from planner.nlp.config import SWING_WRENCHES, PlannerOptions
 from planner.nlp.iteration_abort import StallAbort
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.nlp.variables import retimed_start
@@ -615,6 +615,7 @@ def search_gait(
     warm_start: str = "cold",
     seed_schedules: Mapping[str, ContactSchedule] | None = None,
     coarse_abort: StallAbort | None = None,
+    search_swing_wrench: str | None = None,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -630,6 +631,9 @@ def search_gait(
     period box grows to hold their periods with `SEED_PERIOD_ROOM` to spare.
     `coarse_abort`: stop coarse solves whose constraint violation stalls and rank them last
     (`planner.nlp.iteration_abort`; None, the default: every solve runs to IPOPT's stop).
+    `search_swing_wrench`: `PlannerOptions.swing_wrench` of the coarse solves only ("rows" or
+    "bounds"; None, the default: `options.swing_wrench`); the final re-solves keep `options`',
+    so final costs compare between settings (docs/results/planner_speed_search.md, session 32).
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
@@ -645,6 +649,9 @@ def search_gait(
         )
     if not 0 < sigma_fraction <= 1:
         raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
+    if search_swing_wrench is not None and search_swing_wrench not in SWING_WRENCHES:
+        raise PlannerConfigError(f"search_swing_wrench must be one of {', '.join(SWING_WRENCHES)}"
+                                 f" (or None: the options' own), got {search_swing_wrench!r}")
     space = TimingSpace.for_robot(robot, symmetric)
     # each template as `gaitsmith plan` would plan it: the seeds, and the fallback's schedules
     # (a template's encoding starts the first foot at phase 0, a phase-rotated copy whose knots
@@ -664,7 +671,8 @@ def search_gait(
                                                 max(hi_s, max(periods) * SEED_PERIOD_ROOM)))
     tipping = TippingCost.for_robot(robot, tipping_weight)
     search_options = replace(options, max_iter=search_max_iter if options.max_iter is None
-                             else min(options.max_iter, search_max_iter))
+                             else min(options.max_iter, search_max_iter),
+                             swing_wrench=search_swing_wrench or options.swing_wrench)
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
                                   search_options, tipping_weight, acceptance, warm_start,
                                   space.period_bounds_s if seeds else None, coarse_abort)

@@ -62,6 +62,8 @@ PLAN_MISTAKES = [
     (["--search", "--search-knots", "500"], "--search-knots must be an integer in [8, 200]"),
     (["--search", "--tipping-weight", "-1"], "--tipping-weight must be"),
     (["--search", "--executor", "gpu"], "--executor must be serial, process or ray"),
+    (["--search", "--search-swing-wrench", "free"],
+     "--search-swing-wrench must be rows or bounds, got 'free'"),
     (["--search", "--cycles", "1"], "--cycles must be"),  # --sim-accept is on by default
     (["--entry-cycles", "0"], "--entry-cycles must be an integer in [1, 20], got 0"),
     (["--search", "--entry-cycles", "21"], "--entry-cycles must be an integer in [1, 20]"),

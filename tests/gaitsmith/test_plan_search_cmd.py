@@ -68,3 +68,26 @@ def test_the_search_acceptance_gets_the_asked_gain_or_the_rule(
             main(["plan", "biped", "--speed", "0.2", "--search", "--simulate", *extra,
                   "-o", str(tmp_path / "g.json")])
         assert seen[-1] == expected
+
+
+def test_the_coarse_swing_wrench_is_rows_by_default_and_bounds_when_asked(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`plan --search` gives `search_gait` the coarse solves' swing wrench: "rows" by default
+    (docs/results/planner_speed_search.md, session 32), "bounds" with --search-swing-wrench
+    bounds; the final planner's options keep "rows" either way."""
+    import planner.search.gait_search as gs
+    from gaitsmith.cli import main
+
+    seen: list[tuple[str | None, str]] = []
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.append((kwargs.get("search_swing_wrench"), kwargs["options"].swing_wrench))
+        raise _Recorded
+
+    monkeypatch.setattr(gs, "search_gait", record)
+    for extra, expected in (([], "rows"), (["--search-swing-wrench", "bounds"], "bounds")):
+        with pytest.raises(_Recorded):
+            main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
+                  "-o", str(tmp_path / "g.json")])
+        assert seen[-1] == (expected, "rows")

@@ -167,19 +167,14 @@ class _PlannerBuilt(Exception):
     """Raised by the stub final planner: the search got as far as building it."""
 
 
-def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """`rotor_reserve` and `swing_clearance_m` reach every NLP of the search: the workers'
-    coarse planners (through the picklable factory the process/Ray workers get) and the final
-    full-resolution planner (which writes the gait file's metadata); `max_iter` is the only
-    option the search changes for its coarse NLP."""
+def _planners_of_a_search(monkeypatch: pytest.MonkeyPatch, options: Any, **kwargs: Any,
+                          ) -> tuple[list[TimingSolverFactory], list[tuple[int, Any]]]:
+    """The coarse planners' factory (as a worker receives it) and the final planner's (knots,
+    options) of a `search_gait` on quad12 whose solves are stubbed (nothing is solved)."""
     import planner.search.gait_search as gs
-    from planner.nlp.config import PlannerOptions
 
-    options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
     factories: list[TimingSolverFactory] = []
-    built: list[tuple[int, PlannerOptions]] = []
+    built: list[tuple[int, Any]] = []
 
     class FakeExecutor:
         def __init__(self, factory: TimingSolverFactory) -> None:
@@ -197,7 +192,7 @@ def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
         def map(self, fn: Any, xs: Any) -> list[Any]:
             return [fn(x) for x in xs]
 
-    def stub_planner(robot: Any, n_knots: int, opts: PlannerOptions) -> GaitPlanner:
+    def stub_planner(robot: Any, n_knots: int, opts: Any) -> GaitPlanner:
         built.append((n_knots, opts))
         raise _PlannerBuilt
 
@@ -205,11 +200,49 @@ def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
     monkeypatch.setattr(gs, "GaitPlanner", stub_planner)
     with pytest.raises(_PlannerBuilt):
         search_gait(robots.load("quad12"), 0.2, n_knots=20, options=options, max_generations=1,
-                    popsize=2, search_knots=12, search_max_iter=50)
-    (factory,) = factories
+                    popsize=2, search_knots=12, **kwargs)
+    return factories, built
+
+
+def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`rotor_reserve` and `swing_clearance_m` reach every NLP of the search: the workers'
+    coarse planners (through the picklable factory the process/Ray workers get) and the final
+    full-resolution planner (which writes the gait file's metadata); `max_iter` is the only
+    option the search changes for its coarse NLP."""
+    from planner.nlp.config import PlannerOptions
+
+    options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
+    (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=50)
     assert factory.n_knots == 12
     assert factory.options == replace(options, max_iter=50)
     assert built == [(20, options)]
+
+
+@pytest.mark.parametrize(("own", "coarse"), [
+    ("rows", None), ("rows", "bounds"), ("bounds", "rows"), ("bounds", None),
+])
+def test_search_swing_wrench_reaches_the_coarse_solves_only(
+    monkeypatch: pytest.MonkeyPatch, own: str, coarse: str | None,
+) -> None:
+    """`search_swing_wrench` is the coarse NLP's `swing_wrench`; the final planner keeps the
+    options' own (so final costs compare between settings); None: the options' own for both."""
+    from planner.nlp.config import PlannerOptions
+
+    options = PlannerOptions(swing_wrench=own)
+    (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=60,
+                                              search_swing_wrench=coarse)
+    assert factory.options.swing_wrench == (coarse or own)
+    assert factory.options == replace(options, max_iter=60, swing_wrench=coarse or own)
+    assert built == [(20, options)]
+
+
+def test_unknown_search_swing_wrench_is_one_line_before_any_solve() -> None:
+    with pytest.raises(PlannerConfigError,
+                       match=r"search_swing_wrench must be one of rows, bounds.*'free'") as err:
+        search_gait(robots.load("quad12"), 0.25, search_swing_wrench="free")
+    assert "\n" not in str(err.value)
 
 
 def test_the_coarse_search_nlp_has_the_rotor_reserve_rows() -> None:

@@ -1,0 +1,268 @@
+"""A search setting judged by its outcomes over many searches, at its CPU cost.
+
+    python benchmarks/search_outcomes.py run --searches quad12@0.25:0-4,hex18@0.15:0-2 \\
+        --settings base,coarse-bounds,coarse-bounds+nearest-retimed --out RUNS.jsonl
+    python benchmarks/search_outcomes.py table RUNS.jsonl [--baseline base]
+
+Basin-CMA is a stochastic optimiser: whether one seed's winner survives a change of its
+settings says little; the distribution of the written gaits over searches (robot, speed, seed)
+does. `run` runs every setting of one search back to back (so their CPU ratios share the
+machine's load), search after search, each as `gaitsmith plan ROBOT --speed V --search --seed S`
+runs it (`gait_search_bench.run`: the command line's options, process executor, MuJoCo
+acceptance on), and appends one JSON line per run to `--out` (a run already there is skipped, so
+an interrupted study resumes). `table` prints every run and, per setting against the baseline:
+total and median CPU ratio, iterations ratio, the final cost ratio's median and mean over
+searches, how many searches ended better / the same (within 1e-4 relative) / worse, a two-sided
+sign test on better vs worse, and how many searches did not write a MuJoCo-passing gait.
+
+A setting is "+"-joined tokens: "base" (today's defaults), a `PlannerOptions.swing_wrench`
+value (every NLP of the search), "coarse-bounds" ("bounds" in the coarse solves only, the final
+re-solves keep "rows", so final costs compare), a `SEARCH_WARM_STARTS` policy, "abortK/V" (the
+coarse stall abort `StallAbort(K, V)`). Measured in docs/results/planner_speed_search.md,
+session 32.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from scipy.stats import t as student_t
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from gait_search_bench import COARSE_BOUNDS, SearchRun, _abort_rule, run
+
+from planner.nlp.config import SWING_WRENCHES
+from planner.search.gait_search import SEARCH_WARM_STARTS
+
+#: relative final-cost change below which two searches' gaits count as the same
+SAME_REL = 1e-4
+
+
+@dataclass(frozen=True)
+class Setting:
+    """Search options of one setting (see the module docstring for the tokens)."""
+
+    name: str
+    swing_wrench: str = "rows"
+    search_swing_wrench: str | None = None
+    warm_start: str = "cold"
+    abort: str = "off"
+
+
+def parse_setting(text: str) -> Setting:
+    """A "+"-joined setting; one-line `SystemExit` naming the bad token."""
+    fields: dict[str, str | None] = {}
+    for token in text.split("+"):
+        if token == "base":
+            continue
+        if token in SWING_WRENCHES:
+            key, value = "swing_wrench", token
+        elif token == COARSE_BOUNDS:
+            key, value = "search_swing_wrench", "bounds"
+        elif token in SEARCH_WARM_STARTS:
+            key, value = "warm_start", token
+        elif token.startswith("abort"):
+            key, value = "abort", token.removeprefix("abort")
+            _abort_rule(value)
+        else:
+            raise SystemExit(
+                f"--settings: unknown token {token!r} in {text!r}; use base, "
+                f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)} "
+                "or abortK/V, joined by +")
+        if key in fields:
+            raise SystemExit(f"--settings: {text!r} sets {key} twice")
+        fields[key] = value
+    return Setting(text, **fields)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class Search:
+    robot: str
+    speed_m_s: float
+    seed: int
+
+    @property
+    def key(self) -> str:
+        return f"{self.robot}@{self.speed_m_s:g}:{self.seed}"
+
+
+def parse_searches(text: str) -> list[Search]:
+    """"ROBOT@SPEED:SEEDS,..." with SEEDS "3" or "0-4"; one-line `SystemExit` on a bad item."""
+    out: list[Search] = []
+    for item in (t.strip() for t in text.split(",") if t.strip()):
+        try:
+            robot, rest = item.split("@")
+            speed, seeds = rest.split(":")
+            lo, _, hi = seeds.partition("-")
+            first, last = int(lo), int(hi or lo)
+            v = float(speed)
+        except ValueError:
+            raise SystemExit(f"--searches: expected ROBOT@SPEED:SEEDS (e.g. quad12@0.25:0-4), "
+                             f"got {item!r}") from None
+        if not robot or not (v > 0 and math.isfinite(v)) or first < 0 or last < first:
+            raise SystemExit(f"--searches: {item!r} needs a robot, a speed > 0 and seeds "
+                             "FIRST-LAST with 0 ≤ FIRST ≤ LAST")
+        out.extend(Search(robot, v, s) for s in range(first, last + 1))
+    if not out:
+        raise SystemExit("--searches: no search given")
+    return out
+
+
+def record(search: Search, setting: Setting, r: SearchRun, load_start: float) -> dict[str, object]:
+    """One run as a JSON-able row."""
+    res = r.result
+    return {
+        "search": search.key, "setting": setting.name, **asdict(setting),
+        "utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
+        "load_start": load_start, "load_end": os.getloadavg()[0],
+        "wall_s": r.wall_s, "cpu_s": r.cpu_s + r.worker_cpu_s, "main_cpu_s": r.cpu_s,
+        "worker_cpu_s": r.worker_cpu_s, "phase_cpu_s": res.phase_cpu_s,
+        "worker_solve_s": r.worker_s("solve_s"), "worker_accept_s": r.worker_s("accept_s"),
+        "solves": r.solves,
+        "iterations": r.iterations, "accepted": r.count("accepted"),
+        "rejected": r.count("rejected"), "infeasible": r.count("infeasible"),
+        "stopped": r.stopped(), "winner": res.label, "search_cost": res.search_cost,
+        "best_template": res.best_template, "fallback_template": res.fallback_template,
+        "final_cost": res.best.cost if res.best.feasible else None,
+        "final_solves": len(res.final_solves), "verdict": r.verdict(),
+    }
+
+
+def cmd_run(args: argparse.Namespace) -> None:
+    settings = [parse_setting(s.strip()) for s in args.settings.split(",") if s.strip()]
+    if not settings:
+        raise SystemExit("--settings: no setting given")
+    searches = parse_searches(args.searches)
+    out = Path(args.out)
+    done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
+    for search in searches:
+        for setting in settings:
+            if (search.key, setting.name) in done:
+                continue
+            load = os.getloadavg()[0]
+            r = run(search.robot, search.speed_m_s, args.generations, args.workers, search.seed,
+                    True, "knot", "process", args.knots, setting.warm_start, setting.abort,
+                    setting.swing_wrench, "stance",
+                    search_swing_wrench=setting.search_swing_wrench)
+            row = record(search, setting, r, load)
+            with out.open("a") as f:
+                f.write(json.dumps(row) + "\n")
+            print(_line(row), flush=True)
+
+
+def _rows(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def _line(row: dict) -> str:
+    cost = "—" if row["final_cost"] is None else f"{row['final_cost']:.6g}"
+    fb = f" (fallback {row['fallback_template']})" if row["fallback_template"] else ""
+    return (f"| {row['search']} | {row['setting']} | {row['cpu_s']:.1f} | {row['iterations']} | "
+            f"{row['solves']} | {row['winner']}{fb} | {row['search_cost']:.5g} | {cost} | "
+            f"{row['verdict']} | {row['utc'][11:16]} | {row['load_start']:.1f}→"
+            f"{row['load_end']:.1f} |")
+
+
+def passing(row: dict) -> bool:
+    return row["verdict"] == "MuJoCo pass"
+
+
+def sign_test_p(better: int, worse: int) -> float:
+    """Two-sided exact sign test of `better` vs `worse` (ties dropped)."""
+    n = better + worse
+    if n == 0:
+        return 1.0
+    k = min(better, worse)
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2**n
+    return min(1.0, 2 * tail)
+
+
+def geo_ci(ratios: list[float]) -> str:
+    """Geometric mean of the ratios and its two-sided 95 % Student-t interval (on the logs)."""
+    if len(ratios) < 2:
+        return "—"
+    logs = [math.log(q) for q in ratios]
+    m, se = statistics.fmean(logs), statistics.stdev(logs) / math.sqrt(len(logs))
+    h = float(student_t.ppf(0.975, len(logs) - 1)) * se
+    return f"{math.exp(m):.3f} [{math.exp(m - h):.3f}, {math.exp(m + h):.3f}]"
+
+
+def summary(rows: list[dict], baseline: str) -> list[str]:
+    """Per setting against `baseline`, over the searches both ran."""
+    by = {(r["search"], r["setting"]): r for r in rows}
+    searches = list(dict.fromkeys(r["search"] for r in rows))
+    settings = list(dict.fromkeys(r["setting"] for r in rows))
+    if baseline not in settings:
+        raise SystemExit(f"--baseline: no run of setting {baseline!r} (have {', '.join(settings)})")
+    lines = ["| setting | searches | CPU total ratio | CPU median ratio | CPU geometric mean "
+             "[95 % CI] | iterations ratio | "
+             "final cost ratio median / mean (best, worst) | geometric mean [95 % CI] | "
+             "better / same / worse | sign test p | "
+             "no passing gait (baseline) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for s in settings:
+        pairs = [(by[(k, baseline)], by[(k, s)]) for k in searches
+                 if (k, baseline) in by and (k, s) in by]
+        if not pairs:
+            continue
+        cpu = [b["cpu_s"] for b, _ in pairs], [r["cpu_s"] for _, r in pairs]
+        it = sum(b["iterations"] for b, _ in pairs), sum(r["iterations"] for _, r in pairs)
+        costs = [(b["final_cost"], r["final_cost"]) for b, r in pairs
+                 if passing(b) and passing(r)]
+        ratios = [c / cb for cb, c in costs]
+        better = sum(q < 1 - SAME_REL for q in ratios)
+        worse = sum(q > 1 + SAME_REL for q in ratios)
+        med = statistics.median(ratios) if ratios else math.nan
+        mean = statistics.fmean(ratios) if ratios else math.nan
+        lo, hi = (min(ratios), max(ratios)) if ratios else (math.nan, math.nan)
+        lines.append(
+            f"| {s} | {len(pairs)} | {sum(cpu[1]) / sum(cpu[0]):.3f} | "
+            f"{statistics.median(r / b for b, r in zip(*cpu, strict=True)):.3f} | "
+            f"{geo_ci([r / b for b, r in zip(*cpu, strict=True)])} | "
+            f"{it[1] / it[0]:.3f} | {med:.4f} / {mean:.4f} ({lo:.3f}, {hi:.3f}) | "
+            f"{geo_ci(ratios)} | {better} / "
+            f"{len(ratios) - better - worse} / {worse} | {sign_test_p(better, worse):.2f} | "
+            f"{sum(not passing(r) for _, r in pairs)} ({sum(not passing(b) for b, _ in pairs)}) |")
+    return lines
+
+
+def cmd_table(args: argparse.Namespace) -> None:
+    rows = _rows(Path(args.runs))
+    print("| search | setting | CPU [s] | iterations | solves | winner | search cost | "
+          "final cost | MuJoCo | UTC | load |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for row in rows:
+        print(_line(row))
+    print()
+    print("\n".join(summary(rows, args.baseline)))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run the searches under every setting")
+    r.add_argument("--searches", required=True, help="ROBOT@SPEED:SEEDS,... (seeds 3 or 0-4)")
+    r.add_argument("--settings", default="base,coarse-bounds",
+                   help="comma-separated settings, each +-joined tokens (see above)")
+    r.add_argument("--out", required=True, help="JSON-lines file the runs are appended to")
+    r.add_argument("--generations", type=int, default=6)
+    r.add_argument("--workers", type=int, default=2)
+    r.add_argument("--knots", type=int, default=30, help="knots of the final gait")
+    t = sub.add_parser("table", help="every run, and each setting against the baseline")
+    t.add_argument("runs", help="the JSON-lines file of `run --out`")
+    t.add_argument("--baseline", default="base")
+    args = ap.parse_args()
+    {"run": cmd_run, "table": cmd_table}[args.command](args)
+
+
+if __name__ == "__main__":
+    main()
