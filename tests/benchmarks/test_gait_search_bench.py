@@ -3,13 +3,22 @@ handed to the searches' `PlannerOptions.compact_rows`."""
 
 from __future__ import annotations
 
+import importlib.util
 import sys
+from pathlib import Path
 from typing import Any
 
 import pytest
 
-from benchmarks import gait_search_bench as bench
 from planner.nlp.config import COMPACT_ROWS, DEFAULT_COMPACT_ROWS
+
+# the benchmark is a script beside the packages, not an installed module: load it from its file
+_BENCH_PY = Path(__file__).resolve().parents[2] / "benchmarks" / "gait_search_bench.py"
+_SPEC = importlib.util.spec_from_file_location("gait_search_bench", _BENCH_PY)
+assert _SPEC is not None and _SPEC.loader is not None
+bench = importlib.util.module_from_spec(_SPEC)
+sys.modules[_SPEC.name] = bench  # dataclasses resolve their module by name
+_SPEC.loader.exec_module(bench)
 
 
 def test_compact_rows_values_parse_none_single_and_joined_names() -> None:
