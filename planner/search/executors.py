@@ -45,6 +45,7 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 import pickle
+import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -313,6 +314,12 @@ class ProcessExecutor(_Closable):
                 proc.terminate()
         for proc in procs:
             proc.join(timeout=10.0)
+        # the pool's manager thread may reap a worker before this thread does; `join` then sees
+        # no child (ECHILD) and returns with the process still listed as alive until the
+        # manager thread records its exit status: wait for that, so nothing looks alive after
+        deadline = time.monotonic() + 10.0
+        while any(proc.is_alive() for proc in procs) and time.monotonic() < deadline:
+            time.sleep(0.01)
 
 
 class RayExecutor(_Closable):

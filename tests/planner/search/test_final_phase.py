@@ -150,7 +150,7 @@ def test_an_interrupted_final_phase_leaves_no_worker_and_stays_an_interruption(
     assert time.perf_counter() - t0 < 60.0  # not the 120 s of candidate 2
     pids = {int(p.name.split("-")[0]) for p in tmp_path.iterdir()}
     assert len(pids) == 2
-    assert mp.active_children() == []
+    assert _children_after(5.0) == []  # not the 120 s of candidate 2
     for pid in pids:
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
@@ -244,4 +244,15 @@ def test_the_search_gives_the_same_gait_on_serial_and_process_executors() -> Non
     with pytest.raises(KeyboardInterrupt):
         search_gait(ROBOT, 0.2, executor="process", workers=2,
                     **{**kw, "acceptance": None, "final_acceptance": Interrupting()})  # type: ignore[arg-type]
-    assert mp.active_children() == []
+    assert _children_after(5.0) == []
+
+
+def _children_after(deadline_s: float) -> list[str]:
+    """This process's children still alive after up to `deadline_s`: a stopped worker is
+    reaped by the pool's manager thread or by `ProcessExecutor.close`, whichever comes first
+    (the executor now waits for that; CI once saw one listed for a moment), while an orphan
+    still solving stays."""
+    t_end = time.perf_counter() + deadline_s
+    while mp.active_children() and time.perf_counter() < t_end:
+        time.sleep(0.2)
+    return [f"{c.name} pid {c.pid}" for c in mp.active_children()]
