@@ -15,7 +15,7 @@ from planner.search.defaults import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
 EXECUTORS = ("serial", "process", "ray")
 #: `plan --search --search-swing-wrench`'s default, how the coarse solves hold a swing foot's
 #: wrench at 0 (`search_gait(search_swing_wrench=...)`; the final re-solves keep "rows"): "bounds"
-#: took 0.81x the iterations and 0.92x the CPU over 16 searches with the same distribution of
+#: took 0.80x the iterations and 0.90x the CPU over 18 searches with the same distribution of
 #: written gaits, but the README command 1.07x the CPU and 1.18x the wall time (more 30-knot
 #: re-solves before its gait), so "rows" stays (docs/results/planner_speed_search.md, session 32)
 DEFAULT_SEARCH_SWING_WRENCH = "rows"
