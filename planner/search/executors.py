@@ -312,11 +312,9 @@ class ProcessExecutor(_Closable):
         for proc in procs:
             if proc.is_alive():
                 proc.terminate()
-        for proc in procs:
-            proc.join(timeout=10.0)
-        # the pool's manager thread may reap a worker before this thread does; `join` then sees
-        # no child (ECHILD) and returns with the process still listed as alive until the
-        # manager thread records its exit status: wait for that, so nothing looks alive after
+        # wait until none is listed alive (`is_alive` reaps a dead worker). Not `join`: the
+        # pool's manager thread may reap a worker first, `join` then sees no child (ECHILD) and
+        # returns with the process still listed alive until that thread records its status
         deadline = time.monotonic() + 10.0
         while any(proc.is_alive() for proc in procs) and time.monotonic() < deadline:
             time.sleep(0.01)
