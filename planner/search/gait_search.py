@@ -744,21 +744,21 @@ def search_gait(
                 if not any(identical_schedules(own_schedule, t) for t in tried):
                     tasks.append(FinalTask(spec, own_schedule, name))
                     searched.append(seed_results[name])
-        final_build_s = final_build_cpu_s = 0.0
+
+        def final_planner() -> tuple[GaitPlanner, float, float]:
+            """The final planner (passed in, or built here) and its build's wall and CPU s."""
+            if planner is not None:
+                return planner, 0.0, 0.0
+            built = GaitPlanner(robot, n_knots, options)
+            return built, time.perf_counter() - t_final, time.process_time() - c_final
+
         if on_workers:
             with ex.ordered(worker_final_solve, tasks) as outcomes:
                 # the workers solve the first candidates meanwhile
-                if planner is None:
-                    final = GaitPlanner(robot, n_knots, options)
-                    final_build_s = time.perf_counter() - t_final
-                    final_build_cpu_s = time.process_time() - c_final
-                else:
-                    final = planner
+                final, final_build_s, final_build_cpu_s = final_planner()
                 choice = choose_final(tasks, searched, outcomes)
         else:
-            final = planner or GaitPlanner(robot, n_knots, options)
-            final_build_s = 0.0 if planner is not None else time.perf_counter() - t_final
-            final_build_cpu_s = 0.0 if planner is not None else time.process_time() - c_final
+            final, final_build_s, final_build_cpu_s = final_planner()
             check = final_check() if final_check is not None else None
             with ex.ordered(lambda task: evaluate_final(final, check, task.schedule, speed_m_s),
                             tasks) as outcomes:
