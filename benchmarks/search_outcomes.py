@@ -34,6 +34,7 @@ import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from scipy.stats import binomtest
 from scipy.stats import t as student_t
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -177,13 +178,10 @@ def passing(row: dict) -> bool:
 
 
 def sign_test_p(better: int, worse: int) -> float:
-    """Two-sided exact sign test of `better` vs `worse` (ties dropped)."""
+    """Two-sided exact sign test of `better` vs `worse` (ties dropped): scipy's binomial test
+    at p = 1/2."""
     n = better + worse
-    if n == 0:
-        return 1.0
-    k = min(better, worse)
-    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2**n
-    return min(1.0, 2 * tail)
+    return 1.0 if n == 0 else float(binomtest(better, n, 0.5).pvalue)
 
 
 def geo_ci(ratios: list[float]) -> str:
