@@ -60,6 +60,7 @@ ExecutorKind = Literal["serial", "process", "ray"]
 
 _WORKER_SOLVE: Callable[[Any], Any] | None = None
 _E = TypeVar("_E", bound="_Closable")
+_R = TypeVar("_R", bound="OrderedResults")
 
 
 class ExecutorError(BasinCmaError):
@@ -132,11 +133,55 @@ def _call(fn: Callable[[Any], Any], x: Any) -> Any:
 IdleTask = tuple[Callable[[Any], Any], Any]
 
 
-class OrderedResults:
-    """``fn(x)`` for each item, returned in order, evaluated up to `ahead` items ahead of the one
+class OrderedResults(Protocol):
+    """``fn(x)`` for each item, returned in order, one at a time (``ordered(fn, xs)`` of every
+    executor). Iterate it; `close` (or leaving ``with``) stops evaluating the items not read.
+    Two implementations: `LazyResults` (evaluates an item when it is asked for) and
+    `AheadResults` (evaluates up to `ahead` items ahead on the workers)."""
+
+    def __next__(self) -> Any:
+        """The next item's result (StopIteration after the last one, or once closed)."""
+        ...
+
+    def close(self) -> None:
+        """Evaluate nothing more; an item still running is left to the executor's `close`."""
+        ...
+
+    def __iter__(self) -> Iterator[Any]:
+        return self
+
+    def __enter__(self: _R) -> _R:
+        return self
+
+    def __exit__(self, et: type[BaseException] | None, ev: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+
+class LazyResults(OrderedResults):
+    """`OrderedResults` of the serial executor: ``fn(x)`` of an item, in this process, when it
+    is asked for (nothing speculative)."""
+
+    def __init__(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> None:
+        self._fn, self._items = fn, list(items)
+        self._head = 0
+        self._closed = False
+
+    def __next__(self) -> Any:
+        if self._closed or self._head == len(self._items):
+            raise StopIteration
+        self._head += 1
+        return self._fn(self._items[self._head - 1])
+
+    def close(self) -> None:
+        self._closed = True
+
+
+class AheadResults(OrderedResults):
+    """`OrderedResults` of the parallel executors: evaluated up to `ahead` items ahead of the one
     asked for (`submit(x, slot)` starts one on the free worker slot ``slot`` and returns its
-    future). Iterate it; `close` (or leaving ``with``) cancels what has not started and returns
-    the futures still running, which nobody will read."""
+    future). `close` cancels what has not started and hands the futures still running, which
+    nobody will read, to `on_close`."""
 
     def __init__(self, submit: Callable[[Any, int], Future[Any]], items: Iterable[Any],
                  ahead: int, on_close: Callable[[list[Future[Any]]], None] | None = None
@@ -163,9 +208,6 @@ class OrderedResults:
             self._futures.append(fut)
             self._busy[slot] = fut
 
-    def __iter__(self) -> Iterator[Any]:
-        return self
-
     def __next__(self) -> Any:
         if self._closed or self._head == len(self._items):
             raise StopIteration
@@ -180,23 +222,15 @@ class OrderedResults:
         except BrokenProcessPool as e:
             raise ExecutorError("process pool broke: a worker died") from e
 
-    def close(self) -> list[Future[Any]]:
-        """Cancel the items not started; the ones still running (returned) are left to the
-        executor's `close`."""
+    def close(self) -> None:
+        """Cancel the items not started; the ones still running go to `on_close` (the
+        executor's `close` stops their workers)."""
         if self._closed:
-            return []
+            return
         self._closed = True
         running = [f for f in self._futures if not f.cancel() and not f.done()]
         if self._on_close is not None:
             self._on_close(running)
-        return running
-
-    def __enter__(self) -> OrderedResults:
-        return self
-
-    def __exit__(self, et: type[BaseException] | None, ev: BaseException | None,
-                 tb: TracebackType | None) -> None:
-        self.close()
 
 
 class _Closable:
@@ -224,26 +258,9 @@ class SerialExecutor(_Closable):
     def map(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> list[Any]:
         return [fn(x) for x in xs]
 
-    def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> OrderedResults:
+    def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> LazyResults:
         """``fn(x)`` in order, each evaluated only when asked for (nothing speculative)."""
-        return _LazyResults(fn, xs)
-
-
-class _LazyResults(OrderedResults):
-    """`OrderedResults` of the serial executor: evaluates an item when it is asked for."""
-
-    def __init__(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> None:
-        self._fn = fn
-        super().__init__(lambda x, slot: Future(), items, 1)
-
-    def _top_up(self) -> None:
-        pass
-
-    def __next__(self) -> Any:
-        if self._closed or self._head == len(self._items):
-            raise StopIteration
-        self._head += 1
-        return self._fn(self._items[self._head - 1])
+        return LazyResults(fn, xs)
 
 
 def _pickle_factory(factory: SolverFactory, dumps: Callable[[Any], bytes] = pickle.dumps
@@ -290,9 +307,9 @@ class ProcessExecutor(_Closable):
             raise ExecutorError("process pool broke: a worker died or its factory raised "
                                 "(run the factory in-process to see the error)") from e
 
-    def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> OrderedResults:
+    def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> AheadResults:
         """``fn(x)`` in order, up to `workers` items evaluated ahead (module docstring)."""
-        return OrderedResults(lambda x, slot: self._pool.submit(_call, fn, x), xs,
+        return AheadResults(lambda x, slot: self._pool.submit(_call, fn, x), xs,
                               self.workers, self._ignored.extend)
 
     def close(self) -> None:
@@ -368,10 +385,10 @@ class RayExecutor(_Closable):
         except self._ray.exceptions.RayActorError as e:
             raise ExecutorError("a Ray actor died (its factory may have raised)") from e
 
-    def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> OrderedResults:
+    def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> AheadResults:
         """``fn(x)`` in order, one item ahead per actor (module docstring); `close` kills the
         actors, and with them any item still running."""
-        return OrderedResults(lambda x, slot: self._actors[slot].run.remote(fn, x).future(),
+        return AheadResults(lambda x, slot: self._actors[slot].run.remote(fn, x).future(),
                               xs, len(self._actors))
 
     def close(self) -> None:

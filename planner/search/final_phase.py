@@ -11,7 +11,7 @@ wins; else the first feasible candidate, reported as not accepted (or the first 
 Where it runs: with the serial executor, in this process, one task at a time and only as far as
 the rule reads (`SerialExecutor.ordered`). With the process pool or Ray, on the search's workers:
 each task is evaluated speculatively, up to one per worker ahead of the one the rule waits for
-(`planner.search.executors.OrderedResults`), and the rule still reads the outcomes in rank order
+(`planner.search.executors.AheadResults`), and the rule still reads the outcomes in rank order
 — a later candidate that finished and passed first does not win over an earlier one that passes.
 A worker builds the final planner and check once (`prepare_final`: lazily at its first task, or
 ahead in a generation barrier's idle time as the executor's `idle_task`) from a

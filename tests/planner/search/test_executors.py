@@ -19,6 +19,7 @@ from planner.search.cec2006 import CecSolverFactory, get_problem, initial_search
 from planner.search.executors import (
     Executor,
     ExecutorError,
+    OrderedResults,
     ProcessExecutor,
     SerialExecutor,
     make_executor,
@@ -54,6 +55,32 @@ def test_serial_executor_builds_once_and_keeps_order(tmp_path: Path) -> None:
     assert [v for _, v in out] == [1.0, 4.0, 9.0]
     assert len(list(tmp_path.iterdir())) == 1
     assert ex.map(lambda x: x + 1, [1, 2]) == [2, 3]
+
+
+def _first_two(results: OrderedResults) -> list[Any]:
+    """Read two results through the protocol, then close the run (leaving ``with``)."""
+    with results as out:
+        return [next(out), next(out)]
+
+
+def test_serial_ordered_evaluates_only_what_is_read() -> None:
+    calls: list[int] = []
+
+    def double(x: int) -> int:
+        calls.append(x)
+        return 2 * x
+
+    results = SerialExecutor().ordered(double, [1, 2, 3, 4])
+    assert calls == []  # nothing before the first read
+    assert _first_two(results) == [2, 4] and calls == [1, 2]
+    assert list(results) == [] and calls == [1, 2]  # closed: the rest is never evaluated
+    assert list(SerialExecutor().ordered(double, [5, 6])) == [10, 12]
+
+
+def test_pool_ordered_reads_in_order_through_the_protocol() -> None:
+    with ProcessExecutor(None, workers=2) as ex:
+        assert _first_two(ex.ordered(abs, [-3, -1, -2])) == [3, 1]
+        assert list(ex.ordered(abs, [-5, 6])) == [5, 6]
 
 
 def test_process_executor_builds_once_per_worker(tmp_path: Path) -> None:

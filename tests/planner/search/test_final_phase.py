@@ -19,8 +19,8 @@ from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.search.basin_cma import LocalResult
 from planner.search.executors import (
+    AheadResults,
     ExecutorError,
-    OrderedResults,
     ProcessExecutor,
     SerialExecutor,
     make_executor,
@@ -164,7 +164,7 @@ def test_a_pool_read_to_the_end_stays_usable_and_reports_a_broken_worker() -> No
         with ex.ordered(os._exit, [3]) as out, pytest.raises(ExecutorError, match="broke"):
             next(out)
     with pytest.raises(ExecutorError, match="ahead"):
-        OrderedResults(lambda x, slot: Future(), [1], 0)
+        AheadResults(lambda x, slot: Future(), [1], 0)
 
 
 def test_ray_reads_in_rank_order() -> None:
