@@ -43,8 +43,8 @@ import argparse
 import os
 import resource
 import time
-from dataclasses import dataclass
-from typing import get_args
+from dataclasses import dataclass, replace
+from typing import Any, get_args
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 # a "knot" build on an empty cache would start compiling the robot's J and H in the background
@@ -53,6 +53,7 @@ os.environ.setdefault("GAITSMITH_BACKGROUND_COMPILE", "0")
 
 import robots
 from gaitsmith.plan_cmd import DEFAULT_CYCLES
+from gaitsmith.plan_options import DEFAULT_MU, planner_options, search_planner_options
 from gaitsmith.search_options import sim_acceptance
 from gaitsmith.stance_options import stance_shaped
 from planner.nlp.config import (
@@ -61,8 +62,6 @@ from planner.nlp.config import (
     DEFAULT_COMPACT_ROWS,
     DERIVATIVE_PATHS,
     SWING_WRENCHES,
-    CostWeights,
-    PlannerOptions,
 )
 from planner.nlp.iteration_abort import StallAbort
 from planner.search.executors import ExecutorKind
@@ -138,20 +137,15 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
     NLP's; `search_swing_wrench` (not None) the coarse solves' only."""
     robot = robots.load(robot_name)
-    # the options `gaitsmith plan ROBOT --search` uses with no flags (stance-compliance rule)
-    shaped = stance_shaped(robot, None, None, None, None)
-    options = PlannerOptions(
-        derivatives=derivatives,
-        weights=CostWeights() if shaped.bounce is None else CostWeights(bounce_s2_m2=shaped.bounce),
-        normal_force_rate_weights_per_t0=shaped.force_rate or None,
-        swing_wrench=swing_wrench, cold_start=cold_start, compact_rows=compact_rows)
+    cli = cli_search_kwargs(robot, derivatives, sim_accept)
+    cli["options"] = replace(cli["options"], swing_wrench=swing_wrench, cold_start=cold_start,
+                             compact_rows=compact_rows)
     t0, c0, w0 = time.perf_counter(), time.process_time(), _children_cpu_s()
     result = search_gait(
-        robot, speed, n_knots=knots, options=options,
+        robot, speed, n_knots=knots,
         max_generations=generations, seed=seed, executor=executor, workers=workers,
         warm_start=warm_start, coarse_abort=_abort_rule(abort),
-        search_swing_wrench=search_swing_wrench,
-        **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES, shaped.entry or 1),
+        search_swing_wrench=search_swing_wrench, **cli,
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
@@ -161,6 +155,20 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if cold_start == "stance" else f"+{cold_start}"
     label += "" if compact_rows == DEFAULT_COMPACT_ROWS else f"+rows-{_rows_label(compact_rows)}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
+
+
+def cli_search_kwargs(robot: robots.Robot, derivatives: str, sim_accept: bool
+                      ) -> dict[str, Any]:
+    """`options` and the MuJoCo checks (`acceptance`, `final_acceptance`; none without
+    `sim_accept`) that `gaitsmith plan ROBOT --search --solver DERIVATIVES` gives `search_gait`
+    with no other flag, built by the command line's own functions (the stance-compliance rule,
+    `planner_options`, `search_planner_options`, `sim_acceptance`), so the two cannot drift
+    apart (tests/benchmarks/test_gait_search_bench.py compares them). Not the servo-limited
+    timing (`planner.servo_limited`, knee8 only), which also seeds the search."""
+    shaped = stance_shaped(robot, None, None, None, None)
+    options = search_planner_options(planner_options(DEFAULT_MU, derivatives, shaped, None, None))
+    return {"options": options,
+            **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES, shaped.entry or 1)}
 
 
 def _abort_rule(text: str) -> StallAbort | None:

@@ -42,6 +42,7 @@ from gaitsmith.gait_choice import (
 )
 from gaitsmith.options import check_output_file, check_supply_v, check_yaw_rate
 from gaitsmith.plan_options import (
+    DEFAULT_MU,
     check_command,
     check_nlp_options,
     check_options,
@@ -114,7 +115,8 @@ def plan(
     schedule_file: Path | None = typer.Option(
         None, "--schedule", help="JSON/TOML file: touchdown_phase and duty_factor per leg name "
         "(replaces the template)"),
-    mu: float = typer.Option(0.5, "--mu", help="friction coefficient of the contact cone"),
+    mu: float = typer.Option(DEFAULT_MU, "--mu",
+                             help="friction coefficient of the contact cone"),
     solver: str = typer.Option(
         "knot", "--solver", help="IPOPT+MUMPS derivative path: knot (default: one knot's "
         "Jacobian and Hessian, cached; fast build; uses compiled ones if cached), expanded (whole "

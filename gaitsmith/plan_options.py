@@ -37,6 +37,7 @@ from planner.nlp.config import (
 from robots.gait import ENTRY_CYCLES_KEY, MAX_ENTRY_CYCLES
 from robots.servo_params import ServoSetting
 
+DEFAULT_MU = 0.5  # --mu: the contact cone's friction coefficient
 MAX_FORCE_RATE = 100.0  # --force-rate: body weights per √(L/g); 3-10 are the useful values
 MAX_COST_WEIGHT = 1e6  # --bounce-weight: the objective's default weights are 1e-5-10
 

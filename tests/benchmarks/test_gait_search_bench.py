@@ -10,7 +10,10 @@ from typing import Any
 
 import pytest
 
+import planner.search.gait_search
 from planner.nlp.config import COMPACT_ROWS, DEFAULT_COMPACT_ROWS
+from tests.gaitsmith.capture import Started, captured_kwargs
+from tests.zoo.fixtures import ZOO
 
 # the benchmark is a script beside the packages, not an installed module: load it from its file
 _BENCH_PY = Path(__file__).resolve().parents[2] / "benchmarks" / "gait_search_bench.py"
@@ -62,3 +65,42 @@ def test_run_hands_compact_rows_to_the_search_and_labels_it(
     assert [o.compact_rows for o in seen] == [(), DEFAULT_COMPACT_ROWS]
     assert (before.derivatives, after.derivatives) == ("knot+rows-none", "knot")
     assert before.result == "result"
+
+
+@pytest.mark.parametrize("robot, speed, sim_accept", [
+    ("quad12", "0.25", True),  # the README search
+    ("hex18", "0.15", False),
+    (str(ZOO / "humanoid20"), "0.215", True),  # the stance-compliance rule fills three options
+])
+@pytest.mark.parametrize("solver", ["knot", "expanded"])
+def test_run_searches_with_the_command_lines_options_and_checks(
+    robot: str, speed: str, sim_accept: bool, solver: str, monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+) -> None:
+    """`run` gives `search_gait` the `PlannerOptions` and MuJoCo checks that `gaitsmith plan
+    ROBOT --search --solver S` gives it with no other flag: a default changed on either side
+    fails here."""
+    argv = ["plan", robot, "--speed", speed, "--search", "--solver", solver,
+            "--sim-accept" if sim_accept else "--no-sim-accept", "-o", str(tmp_path / "g.json")]
+    command = captured_kwargs(monkeypatch, planner.search.gait_search, "search_gait", argv)
+    bench_kw = captured_kwargs_of(monkeypatch, lambda: bench.run(
+        robot, float(speed), 1, 2, 0, sim_accept, solver, "process", 30))
+    keys = {"options", "acceptance", "final_acceptance"}
+    assert keys & set(command) == keys & set(bench_kw) == (
+        keys if sim_accept else {"options"})
+    for key in keys & set(command):
+        assert bench_kw[key] == command[key], key
+
+
+def captured_kwargs_of(monkeypatch: pytest.MonkeyPatch, call: Any) -> dict[str, Any]:
+    """The keyword arguments `call()` gives the benchmark's `search_gait` (which then stops)."""
+    seen: dict[str, Any] = {}
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.update(kwargs)
+        raise Started
+
+    monkeypatch.setattr(bench, "search_gait", record)
+    with pytest.raises(Started):
+        call()
+    return seen
