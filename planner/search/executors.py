@@ -50,8 +50,10 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from functools import partial
+from multiprocessing.context import BaseContext
+from multiprocessing.process import BaseProcess
 from types import TracebackType
-from typing import Any, Literal, Protocol, TypeVar, runtime_checkable
+from typing import Any, Literal, Protocol, TypeVar, cast, runtime_checkable
 
 from planner.search.basin_cma import BasinCmaError
 
@@ -272,6 +274,25 @@ def _pickle_factory(factory: SolverFactory, dumps: Callable[[Any], bytes] = pick
                             f"(use a module-level function or class): {e}") from e
 
 
+class _WorkerContext:
+    """A multiprocessing context that keeps the processes it starts: given to the pool as its
+    ``mp_context``, it lists the pool's workers, so the executor can stop them and wait for
+    them without reaching into ``ProcessPoolExecutor``'s private state. Everything else is the
+    wrapped context's."""
+
+    def __init__(self, ctx: BaseContext) -> None:
+        self._ctx = ctx
+        self.processes: list[BaseProcess] = []
+
+    def Process(self, *args: Any, **kwargs: Any) -> BaseProcess:  # the context API's name
+        proc = self._ctx.Process(*args, **kwargs)  # type: ignore[attr-defined]
+        self.processes.append(proc)
+        return proc  # type: ignore[no-any-return]
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._ctx, name)
+
+
 class ProcessExecutor(_Closable):
     """``concurrent.futures.ProcessPoolExecutor`` whose workers each build the local solve
     once with ``factory()`` (in the pool initializer)."""
@@ -286,9 +307,9 @@ class ProcessExecutor(_Closable):
         self.workers = workers if workers is not None else max(1, os.cpu_count() or 1)
         if self.workers < 1:
             raise ExecutorError(f"workers must be >= 1, got {self.workers}")
-        ctx = mp.get_context(start_method)
+        self._context = _WorkerContext(mp.get_context(start_method))
         self._pool = ProcessPoolExecutor(
-            max_workers=self.workers, mp_context=ctx,
+            max_workers=self.workers, mp_context=cast(BaseContext, self._context),
             initializer=partial(_init_remote_worker, payload, threads_per_worker)
             if payload is not None else None)
         #: queued once per worker behind every `map` batch (see the module docstring)
@@ -321,14 +342,19 @@ class ProcessExecutor(_Closable):
         self._pool.shutdown(wait=True, cancel_futures=True)
 
     def _terminate_workers(self) -> None:
-        """Terminate the pool's worker processes (the pool is broken afterwards: `close` only).
-        ``ProcessPoolExecutor`` has no public way to stop a running call before Python 3.14
-        (`terminate_workers`), so this reaches its ``_processes``."""
-        procs = list((getattr(self._pool, "_processes", None) or {}).values())
-        self._pool.shutdown(wait=False, cancel_futures=True)
-        for proc in procs:
-            if proc.is_alive():
-                proc.terminate()
+        """Terminate the pool's worker processes (the pool is broken afterwards: `close` only):
+        ``ProcessPoolExecutor.terminate_workers`` on Python ≥ 3.14; before it, which has no public
+        way to stop a running call, the pool is shut down without waiting and each worker the
+        pool started (`_WorkerContext`) still alive is terminated, as 3.14's method does."""
+        procs = list(self._context.processes)
+        terminate_workers = getattr(self._pool, "terminate_workers", None)
+        if terminate_workers is not None:  # Python ≥ 3.14 (it shuts the pool down too)
+            terminate_workers()
+        else:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                if proc.is_alive():
+                    proc.terminate()
         # wait until none is listed alive (`is_alive` reaps a dead worker). Not `join`: the
         # pool's manager thread may reap a worker first, `join` then sees no child (ECHILD) and
         # returns with the process still listed alive until that thread records its status

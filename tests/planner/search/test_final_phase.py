@@ -156,6 +156,34 @@ def test_an_interrupted_final_phase_leaves_no_worker_and_stays_an_interruption(
             os.kill(pid, 0)
 
 
+def test_stopping_unread_workers_uses_the_pools_terminate_workers_where_it_has_one() -> None:
+    """Python ≥ 3.14's `ProcessPoolExecutor.terminate_workers` stops the worker still solving an
+    unread task (emulated on older Pythons by what 3.14's does: shut down without waiting,
+    terminate the live workers); the fallback (no such method) is what the test above runs on
+    Python < 3.14."""
+    calls: list[int] = []
+    t0 = time.perf_counter()
+    with ProcessExecutor(None, workers=2) as ex:
+        pool = ex._pool
+        real = getattr(pool, "terminate_workers", None)
+
+        def terminate_workers() -> None:
+            calls.append(len(ex._context.processes))
+            if real is not None:
+                real()
+                return
+            pool.shutdown(wait=False, cancel_futures=True)
+            for proc in ex._context.processes:
+                proc.terminate()
+
+        pool.terminate_workers = terminate_workers  # type: ignore[attr-defined]
+        with ex.ordered(fake_final, [Fake(1.0, 0.0, True), Fake(2.0, 120.0, True)]) as out:
+            assert next(out).plan.cost == 1.0  # the second is still solving, unread
+    assert calls == [2]  # both workers were started, and known to the executor
+    assert time.perf_counter() - t0 < 60.0  # not the 120 s of the unread task
+    assert _children_after(5.0) == []
+
+
 def test_a_pool_read_to_the_end_stays_usable_and_reports_a_broken_worker() -> None:
     with ProcessExecutor(None, workers=2) as ex:
         fakes = [Fake(1.0, 0.1, False), Fake(2.0, 0.0, False)]
