@@ -2,7 +2,7 @@
 commands on the same robot, N and options spend ≤ 1 s before the first solve").
 
     python benchmarks/startup_bench.py [ROBOT] [--gait trot] [--repeats 3]
-        [--baseline DIR] [--cache DIR] [-- extra plan options]
+        [--baseline DIR] [--cache DIR] [--search] [-- extra plan options]
 
 Each repeat is a fresh interpreter (`python -c`, as the `gaitsmith` script is) that takes its
 clock first thing, imports `gaitsmith.cli`, runs `gaitsmith plan ROBOT --gait GAIT --speed 0.25`
@@ -18,6 +18,17 @@ of gaitsmith (e.g. `git archive <commit> | tar -x -C DIR`) timed the same way, a
 this one repeat by repeat, each with its own cache folder. `PYTHONDONTWRITEBYTECODE` is dropped
 from the children's environment (a user's Python caches bytecode; without it every repeat compiles
 gaitsmith's ~90 modules again, ≈ 0.2 s). Interpreter start-up itself (≈ 20 ms) is not counted.
+
+`--search`: `gaitsmith plan ROBOT --speed 0.25 --search` instead (extra options after --), run
+from a script file as the `gaitsmith` console script runs it (so the pool's spawned workers
+import `gaitsmith.cli` as it, their `__mp_main__`), stopped when the search's seeding batch (the
+template solves) has its results. Printed per repeat: this process's CPU up to the first worker
+start (`ProcessPoolExecutor.submit`) and from it to the end of seeding, the wall time to both,
+and the workers' CPU split into the template solves, their MuJoCo checks and the rest
+(interpreter, imports, NLP builds); the template costs and iterations must agree between
+checkouts. What starting the pool earlier is worth on two dedicated cores is between half and
+all of this process's CPU after the first worker start (docs/results/planner_speed_search.md,
+session 33).
 """
 
 from __future__ import annotations
@@ -28,7 +39,9 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
+from typing import Any
 
 _CHILD = r"""
 import json, resource, sys, time
@@ -81,6 +94,114 @@ sys.exit(1)
 """
 
 
+_SEARCH_CHILD = r"""
+import json, resource, sys, time
+T0, C0 = time.perf_counter(), time.process_time()
+import gaitsmith.cli as cli  # the console script's one import: spawned workers run it too
+
+
+def _main():
+    import concurrent.futures
+    import planner.search.basin_cma as basin
+
+    marks = {}
+    submit = concurrent.futures.ProcessPoolExecutor.submit
+
+    def first_submit(self, *args, **kwargs):
+        marks.setdefault("spawn", (time.perf_counter() - T0, time.process_time() - C0))
+        return submit(self, *args, **kwargs)
+
+    class Seeded(Exception):
+        pass
+
+    seen = []
+
+    def stop(local_solve, x0, *args, executor=None, **kwargs):
+        marks["seeded"] = (time.perf_counter() - T0, time.process_time() - C0)
+        seen.extend(r for _, r in executor.records)
+        raise Seeded
+
+    concurrent.futures.ProcessPoolExecutor.submit = first_submit
+    basin.basin_cma = stop  # imported before the search's module binds it
+    try:
+        cli.main(sys.argv[1:])
+    except Seeded:
+        pass
+    if "seeded" not in marks or "spawn" not in marks:
+        print(json.dumps({"error": "the command ran no search on a process pool"}))
+        sys.exit(1)
+    use = resource.getrusage(resource.RUSAGE_CHILDREN)  # the workers, after the pool closed
+    print(json.dumps({
+        "spawn_s": marks["spawn"][0], "cpu_spawn_s": marks["spawn"][1],
+        "seeded_s": marks["seeded"][0], "cpu_seeded_s": marks["seeded"][1],
+        "workers_cpu_s": use.ru_utime + use.ru_stime,
+        "solves_cpu_s": sum(r.cpu_s for r in seen),
+        "checks_cpu_s": sum(r.accept_cpu_s for r in seen),
+        "costs": [r.cost for r in seen], "iterations": [r.n_fevals - 1 for r in seen]}))
+
+
+if __name__ == "__main__":
+    _main()
+"""
+
+
+def _run_search(code_dir: Path, cache: Path, cmd: list[str], script: Path) -> dict[str, Any]:
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env.update(PYTHONPATH=str(code_dir), GAITSMITH_CACHE=str(cache))
+    env.setdefault("GAITSMITH_BACKGROUND_COMPILE", "0")
+    out = subprocess.run([sys.executable, str(script), *cmd], capture_output=True, text=True,
+                         check=False, env=env, cwd=code_dir)
+    last = out.stdout.strip().splitlines()[-1] if out.stdout.strip() else "{}"
+    rec: dict[str, Any] = json.loads(last) if last.startswith("{") else {}
+    if "seeded_s" not in rec:
+        sys.exit(f"{code_dir}: {rec.get('error', out.stderr.strip()[-400:])}")
+    return rec
+
+
+def _search_line(label: str, i: int, rec: dict[str, Any]) -> str:
+    """One repeat of `--search`: this process's CPU before and after the first worker start,
+    wall times, the workers' CPU split."""
+    rest = rec["workers_cpu_s"] - rec["solves_cpu_s"] - rec["checks_cpu_s"]
+    return (
+        f"{label:>8} {i + 1}: this process CPU to the first worker start "
+        f"{rec['cpu_spawn_s']:.3f} s, after it to the end of seeding "
+        f"{rec['cpu_seeded_s'] - rec['cpu_spawn_s']:.3f} s | wall to the first worker start "
+        f"{rec['spawn_s']:.2f} s, to the end of seeding {rec['seeded_s']:.2f} s | workers CPU "
+        f"{rec['workers_cpu_s']:.2f} s: template solves {rec['solves_cpu_s']:.2f}, checks "
+        f"{rec['checks_cpu_s']:.2f}, start-up and builds {rest:.2f} | load "
+        f"{os.getloadavg()[0]:.2f}"
+    )
+
+
+def _search_main(args: argparse.Namespace, checkouts: list[tuple[str, Path]]) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        script = Path(tmp, "gaitsmith_search_child.py")
+        script.write_text(_SEARCH_CHILD)
+        cmd = ["plan", args.robot, "--speed", "0.25", "--search", "-o", f"{tmp}/g.json",
+               *args.extra]
+        print(f"gaitsmith {' '.join(cmd)}  (stopped when the seeding batch is solved), "
+              f"{time.strftime('%H:%M:%S', time.gmtime())} UTC")
+        records: dict[str, list[dict[str, Any]]] = {label: [] for label, _ in checkouts}
+        for i in range(args.repeats):
+            for label, code_dir in checkouts:
+                cache = (args.cache or Path(tmp) / "cache") / label
+                rec = _run_search(code_dir, cache, cmd, script)
+                records[label].append(rec)
+                print(_search_line(label, i, rec), flush=True)
+        if args.baseline is not None:
+            same = all(r["costs"] == records["this"][0]["costs"]
+                       and r["iterations"] == records["this"][0]["iterations"]
+                       for rs in records.values() for r in rs)
+            print("template solves: " + ("the same costs and iterations in every repeat" if same
+                                         else "DIFFERENT costs or iterations between repeats"))
+            for key, name in (("seeded_s", "wall to the end of seeding"),
+                              ("cpu_seeded_s", "this process's CPU")):
+                new = sorted(r[key] for r in records["this"])
+                old = sorted(r[key] for r in records["baseline"])
+                print(f"median {name}: this {new[len(new) // 2]:.3f} s, baseline "
+                      f"{old[len(old) // 2]:.3f} s")
+
+
 def _run(code_dir: Path, cache: Path, cmd: list[str]) -> dict[str, float]:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     env.update(PYTHONPATH=str(code_dir), GAITSMITH_CACHE=str(cache))
@@ -116,12 +237,17 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--baseline", type=Path, help="another gaitsmith checkout to time too")
     parser.add_argument("--cache", type=Path, help="cache folder (default: a fresh temporary one)")
+    parser.add_argument("--search", action="store_true",
+                        help="time `plan ROBOT --speed 0.25 --search` to the end of its seeding")
     parser.add_argument("extra", nargs="*", help="more `gaitsmith plan` options (after --)")
     args = parser.parse_args()
     here = Path(__file__).resolve().parent.parent
     checkouts = [("this", here)]
     if args.baseline is not None:
         checkouts.append(("baseline", args.baseline.resolve()))
+    if args.search:
+        _search_main(args, checkouts)
+        return
     with tempfile.TemporaryDirectory() as tmp:
         cmd = ["plan", args.robot, "--gait", args.gait, "--speed", "0.25", "-o", f"{tmp}/g.json"]
         cmd += args.extra
