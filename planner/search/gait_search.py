@@ -560,7 +560,8 @@ class GaitSearchResult:
     #: the full-resolution candidates re-solved: (plan, acceptance wall time [s], verdict)
     final_solves: tuple[tuple[PlanResult, float, bool | None], ...] = ()
     #: wall time [s] of the search's phases: "final_build" (the final planner, 0 if passed in),
-    #: "seed" (executor start, worker builds, template solves), "cma", "final" (re-solves + checks)
+    #: "seed" (executor start, or the binding of an executor passed in, whose workers may still
+    #: be starting; worker builds, template solves), "cma", "final" (re-solves + checks)
     phase_s: dict[str, float] = field(default_factory=dict)
     #: this process's CPU seconds (`time.process_time`) in the same phases
     phase_cpu_s: dict[str, float] = field(default_factory=dict)
