@@ -9,9 +9,8 @@ keeps the `GaitSearchResult` the command computed (by wrapping `search_gait`, wh
 imports when it runs), and prints where the command's wall time and CPU time went:
 
 - wall: start-up (imports, options, robot), the search's phases (`GaitSearchResult.phase_s`:
-  seeding = the rest of the workers' start-up (`gaitsmith plan` starts the pool before the
-  search, `gaitsmith.plan_search.search_pool`) + worker builds + template solves, basin-CMA,
-  final NLP build, final re-solves + their MuJoCo checks) and the writing after the search;
+  seeding = pool start + worker builds + template solves, basin-CMA, final NLP build, final
+  re-solves + their MuJoCo checks) and the writing after the search;
 - CPU: this process (`time.process_time`) before, during and after the search, and the worker
   processes (`RUSAGE_CHILDREN`, read after the pool has shut down), split into the coarse solves
   (`TimingResult.cpu_s`), the samples' MuJoCo checks (`TimingResult.accept_cpu_s`) and the rest
@@ -112,9 +111,8 @@ def main(argv: list[str]) -> int:
     cpu = (c_end - C_START) + (w_end - 0.0)
     pc = res.phase_cpu_s
     rows = [
-        ("start-up: imports, options, robot, pool start (this process)", t0 - T_START,
-         c0 - C_START),
-        ("seeding: workers' start-up, builds, template solves", ph["seed"], pc["seed"]),
+        ("start-up: imports, options, robot (this process)", t0 - T_START, c0 - C_START),
+        ("seeding: pool start, worker builds, template solves", ph["seed"], pc["seed"]),
         ("basin-CMA generations", ph["cma"], pc["cma"]),
         ("final NLP build (this process)" + (", overlapped" if res.final_on_workers else ""),
          ph["final_build"], pc["final_build"]),

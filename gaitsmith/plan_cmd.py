@@ -53,7 +53,7 @@ from gaitsmith.plan_options import (
     standing,
 )
 from gaitsmith.plan_output import DEFAULT_CYCLES, STAND_S, simulated_cycles, write_gait
-from gaitsmith.plan_search import SearchSettings, plan_search, search_pool, user_seed
+from gaitsmith.plan_search import SearchSettings, plan_search, user_seed
 from gaitsmith.search_options import (
     executor_option,
     search_knots_option,
@@ -267,18 +267,15 @@ def plan(
                               nlp_hessian=nlp_hessian, cop_sole_fraction=cop_sole_fraction)
     meta = gait_metadata(supply_v, servo_params_path, shaped)
     if search:
-        # the options are checked: the search's workers start up while this process prepares it
-        with search_pool(settings) as pool:
-            limited = (servo_limited(bot, default_gait_for(bot), speed, options)
-                       if gait is None and not stand and not vy and not yaw_rate
-                       and all(v is None for v in (period, duty, phases, schedule_file))
-                       else None)
-            if limited is not None:  # the search starts from the rule's timing, with its options
-                duty, period, options = _servo_limited_timing(limited, options)
-            gait, seed_schedule = user_seed(bot, gait, period, duty, phases, schedule_file)
-            plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
-                        search_planner_options(options), shaped.entry or 1, seed_schedule, meta,
-                        attitude_gain, pool)
+        limited = (servo_limited(bot, default_gait_for(bot), speed, options)
+                   if gait is None and not stand and not vy and not yaw_rate
+                   and all(v is None for v in (period, duty, phases, schedule_file)) else None)
+        if limited is not None:  # the search starts from the rule's timing, with its options
+            duty, period, options = _servo_limited_timing(limited, options)
+        gait, seed_schedule = user_seed(bot, gait, period, duty, phases, schedule_file)
+        plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
+                    search_planner_options(options), shaped.entry or 1, seed_schedule, meta,
+                    attitude_gain)
         return
     custom = phases is not None or schedule_file is not None
     if gait is None and (custom or stand):

@@ -5,11 +5,9 @@ written next to each other (`planner.search.gait_search`)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import robots
 from gaitsmith.attitude_options import attitude_settings, resolved_gain
@@ -21,9 +19,6 @@ from planner.nlp.config import PlannerOptions
 from planner.templates import default_gait_for
 from planner.user_schedule import command_schedule
 from robots.voltage import voltage_margin
-
-if TYPE_CHECKING:
-    from planner.search.executors import ProcessExecutor
 
 USER_SEED = "your schedule"  # the name the user's --period/--duty/--phases/--schedule seed has
 
@@ -46,34 +41,6 @@ class SearchSettings:
     search_swing_wrench: str = DEFAULT_SEARCH_SWING_WRENCH
 
 
-#: what a search's workers import while they wait for the search (`search_pool`): what
-#: unpickling the search's factory (`planner.search.gait_search.TimingSolverFactory`) imports
-SEARCH_WORKER_MODULES = ("planner.search.gait_search",)
-#: ... and with the MuJoCo acceptance (`sim.acceptance.SimAcceptance`)
-ACCEPTANCE_WORKER_MODULES = ("sim.acceptance",)
-
-
-@contextmanager
-def search_pool(st: SearchSettings) -> Iterator[ProcessExecutor | None]:
-    """The search's process pool, started now (`--executor process`; None otherwise): its
-    workers start their interpreters and imports while this process prepares the search, which
-    then binds its factory to the pool (`planner.search.gait_search.search_gait`) and closes it.
-    An error or Ctrl-C before then terminates the workers: no pool is left behind."""
-    if st.executor != "process":
-        yield None
-        return
-    from planner.search.executors import ProcessExecutor
-
-    preload = SEARCH_WORKER_MODULES + (ACCEPTANCE_WORKER_MODULES if st.sim_accept else ())
-    pool = ProcessExecutor(None, st.workers, preload=preload).start()
-    try:
-        yield pool
-    except BaseException:
-        pool.terminate()
-        raise
-    pool.close()
-
-
 def user_seed(bot: robots.Robot, gait: str | None, period: float | None, duty: str | None,
               phases: str | None, schedule_file: Path | None,
               ) -> tuple[str | None, robots.ContactSchedule | None]:
@@ -92,14 +59,11 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
                 supply_v: float | None, options: PlannerOptions, entry_cycles: int,
                 seed_schedule: robots.ContactSchedule | None = None,
                 extra_meta: dict[str, Any] | None = None,
-                attitude_gain: float | None = None,
-                pool: ProcessExecutor | None = None) -> None:
+                attitude_gain: float | None = None) -> None:
     """Search, print its progress and result, write the best gait (with `extra_meta` and the
     search's own record) and the search log. Every MuJoCo run — the acceptance of each sample
     and candidate, `--simulate`'s verdict — uses the attitude feedback the gait gets
-    (`attitude_gain`, else the robot's rule per gait: `robots.attitude.gait_attitude_gain`).
-    `pool`: the search's workers, started early (`search_pool`); None: the search makes its
-    executor (`st.executor`)."""
+    (`attitude_gain`, else the robot's rule per gait: `robots.attitude.gait_attitude_gain`)."""
     from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
@@ -126,10 +90,8 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
 
     result = search_gait(
         bot, speed, n_knots=knots, options=options, symmetric=st.symmetric,
-        max_generations=st.generations, popsize=st.popsize, seed=st.seed,
-        executor=st.executor if pool is None else pool,
-        workers=st.workers if pool is None else None,
-        address=st.address if pool is None else None, search_knots=st.search_knots,
+        max_generations=st.generations, popsize=st.popsize, seed=st.seed, executor=st.executor,
+        workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
         search_swing_wrench=st.search_swing_wrench,
         seed_schedules=None if seed_schedule is None else {USER_SEED: seed_schedule},

@@ -42,13 +42,11 @@ plugins is when the first ``nlpsol`` is built.
 
 from __future__ import annotations
 
-import importlib
 import multiprocessing as mp
 import os
 import pickle
 import time
-import uuid
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from functools import partial
@@ -63,9 +61,6 @@ SolverFactory = Callable[[], Callable[[Any], Any]]
 ExecutorKind = Literal["serial", "process", "ray"]
 
 _WORKER_SOLVE: Callable[[Any], Any] | None = None
-#: the token of the factory this worker built `_WORKER_SOLVE` from when the factory came with the
-#: tasks (`ProcessExecutor.bind`); None: built by the pool initializer, or not at all
-_WORKER_BOUND: str | None = None
 _E = TypeVar("_E", bound="_Closable")
 _R = TypeVar("_R", bound="OrderedResults")
 
@@ -115,19 +110,14 @@ def _tune_worker_malloc() -> None:
         mallopt(param, value)
 
 
-def _init_remote_worker(payload: bytes | None, threads_per_worker: int | None,
-                        preload: tuple[str, ...] = ()) -> None:
-    """Pool initializer / actor constructor: cap native thread pools, tune the allocator, import
-    the `preload` modules, then unpickle the factory (which may import casadi) and build the
-    local solve once (no factory: later, `_call_bound`)."""
+def _init_remote_worker(payload: bytes, threads_per_worker: int | None) -> None:
+    """Pool initializer / actor constructor: cap native thread pools, tune the allocator, then
+    unpickle the factory (which may import casadi) and build the local solve once."""
     if threads_per_worker is not None:
         for var in _THREAD_VARS:
             os.environ[var] = str(threads_per_worker)
     _tune_worker_malloc()
-    for module in preload:
-        importlib.import_module(module)
-    if payload is not None:
-        _init_worker(pickle.loads(payload))
+    _init_worker(pickle.loads(payload))
 
 
 def worker_local_solve(x: Any) -> Any:
@@ -139,17 +129,6 @@ def worker_local_solve(x: Any) -> Any:
 
 
 def _call(fn: Callable[[Any], Any], x: Any) -> Any:
-    return fn(x)
-
-
-def _call_bound(bound: tuple[str, bytes], fn: Callable[[Any], Any], x: Any) -> Any:
-    """`fn(x)` on a worker whose factory comes with its tasks (`ProcessExecutor.bind`: a token
-    and the pickled factory): the worker builds the local solve at the first such task."""
-    global _WORKER_BOUND
-    token, payload = bound
-    if _WORKER_BOUND != token:
-        _init_worker(pickle.loads(payload))
-        _WORKER_BOUND = token
     return fn(x)
 
 
@@ -278,10 +257,6 @@ class SerialExecutor(_Closable):
         if factory is not None:
             _init_worker(factory)
 
-    def bind(self, factory: SolverFactory) -> None:
-        """Build `factory()` now, in this process (as `ProcessExecutor.bind` has its workers do)."""
-        _init_worker(factory)
-
     def map(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> list[Any]:
         return [fn(x) for x in xs]
 
@@ -320,16 +295,11 @@ class _WorkerContext:
 
 class ProcessExecutor(_Closable):
     """``concurrent.futures.ProcessPoolExecutor`` whose workers each build the local solve
-    once with ``factory()`` (in the pool initializer).
-
-    A pool can also start before its factory is known: ``ProcessExecutor(None, workers,
-    preload=modules).start()`` starts the workers at once (each imports `preload`, e.g. the
-    modules the factory will need, while this process goes on), and ``bind(factory)`` later
-    sends the factory with every task: each worker builds the local solve at its first one."""
+    once with ``factory()`` (in the pool initializer)."""
 
     def __init__(self, factory: SolverFactory | None = None, workers: int | None = None, *,
                  start_method: Literal["spawn", "forkserver"] = "spawn",
-                 threads_per_worker: int | None = 1, preload: Sequence[str] = ()) -> None:
+                 threads_per_worker: int | None = 1) -> None:
         if start_method not in ("spawn", "forkserver"):
             raise ExecutorError(f"start_method must be 'spawn' or 'forkserver' ('fork' is not "
                                 f"safe with CasADi/IPOPT threads), got {start_method!r}")
@@ -340,35 +310,16 @@ class ProcessExecutor(_Closable):
         self._context = _WorkerContext(mp.get_context(start_method))
         self._pool = ProcessPoolExecutor(
             max_workers=self.workers, mp_context=cast(BaseContext, self._context),
-            initializer=partial(_init_remote_worker, payload, threads_per_worker, tuple(preload))
-            if payload is not None or preload else None)
+            initializer=partial(_init_remote_worker, payload, threads_per_worker)
+            if payload is not None else None)
         #: queued once per worker behind every `map` batch (see the module docstring)
         self.idle_task: IdleTask | None = None
         self._ignored: list[Future[Any]] = []  # `ordered` items left running by their reader
-        self._has_factory = payload is not None
-        #: how a task runs on a worker: `_call`, or `_call_bound` with the factory of `bind`
-        self._task: Callable[..., Any] = _call
-
-    def start(self) -> ProcessExecutor:
-        """Start every worker now rather than at the first tasks (their interpreter, thread caps,
-        `preload` imports and factory run while this process goes on); returns the executor."""
-        for _ in range(self.workers):  # the pool starts a worker per task while none is idle
-            self._pool.submit(int)
-        return self
-
-    def bind(self, factory: SolverFactory) -> None:
-        """Give a pool made without a factory one: every later task carries it (pickled, a few
-        kB) and each worker builds ``factory()`` once, at its first such task. A factory that
-        raises there raises its own error from that task."""
-        if self._has_factory:
-            raise ExecutorError("bind: this executor's workers already have a factory")
-        self._task = partial(_call_bound, (uuid.uuid4().hex, _pickle_factory(factory)))
-        self._has_factory = True
 
     def map(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> list[Any]:
         items = list(xs)
         try:
-            futures = [self._pool.submit(self._task, fn, x) for x in items]
+            futures = [self._pool.submit(_call, fn, x) for x in items]
             if self.idle_task is not None:
                 for _ in range(self.workers):  # behind the batch: run when a worker runs dry
                     self._pool.submit(_call, *self.idle_task)
@@ -379,15 +330,8 @@ class ProcessExecutor(_Closable):
 
     def ordered(self, fn: Callable[[Any], Any], xs: Iterable[Any]) -> AheadResults:
         """``fn(x)`` in order, up to `workers` items evaluated ahead (module docstring)."""
-        return AheadResults(lambda x, slot: self._pool.submit(self._task, fn, x), xs,
-                            self.workers, self._ignored.extend)
-
-    def terminate(self) -> None:
-        """Stop the workers now, whatever they run, and shut the pool down (e.g. a command that
-        started the pool and then failed or was interrupted before it used it)."""
-        self._ignored = []
-        self._terminate_workers()
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        return AheadResults(lambda x, slot: self._pool.submit(_call, fn, x), xs,
+                              self.workers, self._ignored.extend)
 
     def close(self) -> None:
         if any(not f.done() for f in self._ignored):

@@ -69,7 +69,7 @@ from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.nlp.variables import retimed_start
 from planner.search import defaults
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
-from planner.search.executors import Executor, ProcessExecutor, SerialExecutor, make_executor
+from planner.search.executors import Executor, ProcessExecutor, make_executor
 from planner.search.final_phase import (
     FinalOutcome,
     FinalPlannerSpec,
@@ -560,8 +560,7 @@ class GaitSearchResult:
     #: the full-resolution candidates re-solved: (plan, acceptance wall time [s], verdict)
     final_solves: tuple[tuple[PlanResult, float, bool | None], ...] = ()
     #: wall time [s] of the search's phases: "final_build" (the final planner, 0 if passed in),
-    #: "seed" (executor start, or the binding of an executor passed in, whose workers may still
-    #: be starting; worker builds, template solves), "cma", "final" (re-solves + checks)
+    #: "seed" (executor start, worker builds, template solves), "cma", "final" (re-solves + checks)
     phase_s: dict[str, float] = field(default_factory=dict)
     #: this process's CPU seconds (`time.process_time`) in the same phases
     phase_cpu_s: dict[str, float] = field(default_factory=dict)
@@ -601,7 +600,7 @@ def search_gait(
     restarts: int = 0,
     max_local_solves: int | None = None,
     seed: int = 0,
-    executor: str | SerialExecutor | ProcessExecutor = "serial",
+    executor: str = "serial",
     workers: int | None = None,
     address: str | None = None,
     planner: GaitPlanner | None = None,
@@ -635,12 +634,6 @@ def search_gait(
     `search_swing_wrench`: `PlannerOptions.swing_wrench` of the coarse solves only ("rows" or
     "bounds"; None, the default: `options.swing_wrench`); the final re-solves keep `options`',
     so final costs compare between settings (docs/results/planner_speed_search.md, session 32).
-    `executor`: "serial", "process" or "ray" (made here with `workers`, `address`), or an
-    executor made by the caller without a factory, e.g. a `ProcessExecutor` started early
-    (`ProcessExecutor.start`, so its workers start up while the caller prepares the search):
-    the search binds its factory to it (`bind`), uses it and closes it when it ends (keep it
-    in a ``with`` as well: closing twice is harmless, and an error before the search starts
-    leaves it open).
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
@@ -656,9 +649,6 @@ def search_gait(
         )
     if not 0 < sigma_fraction <= 1:
         raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
-    if not isinstance(executor, str) and (workers is not None or address is not None):
-        raise PlannerConfigError("workers and address are the executor's own when it is passed "
-                                 "in; pass executor=\"process\" or \"ray\" to have them used")
     if search_swing_wrench is not None and search_swing_wrench not in SWING_WRENCHES:
         raise PlannerConfigError(f"search_swing_wrench must be one of {', '.join(SWING_WRENCHES)}"
                                  f" (or None: the options' own), got {search_swing_wrench!r}")
@@ -701,17 +691,12 @@ def search_gait(
     final_check = final_acceptance or acceptance
     # the final phase runs on the executor's workers unless they are this process (module
     # `planner.search.final_phase`); they build its planner from the same robot and options
-    on_workers = not isinstance(executor, SerialExecutor) and executor != "serial"
+    on_workers = executor != "serial"
     spec = FinalPlannerSpec.new(robot if planner is None else planner.robot, n_knots,
                                 options if planner is None else planner.options, speed_m_s,
                                 final_check)
     t_seed, c_seed = time.perf_counter(), time.process_time()
-    if isinstance(executor, str):
-        made = make_executor(executor, factory, workers=workers, address=address)  # type: ignore[arg-type]
-    else:
-        executor.bind(factory)
-        made = executor
-    with made as ex:
+    with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
         if on_workers and isinstance(ex, ProcessExecutor):
             # a worker out of samples at a generation barrier builds the final planner
             ex.idle_task = (prepare_final, spec)

@@ -108,46 +108,6 @@ def test_process_executor_matches_serial_basin_cma() -> None:
     assert serial.n_fevals == par.n_fevals > 0
 
 
-def _imported(module: str) -> bool:
-    return module in sys.modules
-
-
-def test_a_pool_started_before_its_factory_builds_it_once_per_worker(tmp_path: Path) -> None:
-    """`start` starts the workers (with their `preload` imports) before any task; `bind` then
-    sends the factory with the tasks and each worker builds it once, at its first one."""
-    with ProcessExecutor(None, workers=2, preload=("colorsys",)).start() as ex:
-        assert len(ex._context.processes) == 2  # started, before any task of ours
-        assert ex.map(_imported, ["colorsys", "wave"]) == [True, False]
-        ex.bind(CountingFactory(str(tmp_path)))
-        xs = [float(i) for i in range(40)]
-        out = ex.map(ex.local_solve, xs)
-        assert [v for _, v in out] == [x * x for x in xs]
-        assert [v for _, v in ex.map(ex.local_solve, xs)] == [x * x for x in xs]
-        with ex.ordered(ex.local_solve, [3.0]) as results:
-            assert [v for _, v in results] == [9.0]
-        with pytest.raises(ExecutorError, match="already"):
-            ex.bind(CountingFactory(str(tmp_path)))
-    builds = {int(b.name.split("-")[0]) for b in tmp_path.iterdir()}
-    assert len(list(tmp_path.iterdir())) == len(builds) <= 2  # once per worker
-    assert {pid for pid, _ in out} <= builds and os.getpid() not in builds
-    with ProcessExecutor(CountingFactory(str(tmp_path)), workers=1) as ex, \
-            pytest.raises(ExecutorError, match="already"):
-        ex.bind(CountingFactory(str(tmp_path)))
-    with ProcessExecutor(None, workers=1).start() as ex:  # a bound factory raises its own error
-        ex.bind(FailingFactory())
-        with pytest.raises(RuntimeError, match="cannot build the NLP"):
-            ex.map(ex.local_solve, [1.0])
-
-
-def test_terminate_stops_a_started_pool_at_once() -> None:
-    """An error right after `start` (workers still importing): `terminate` leaves none."""
-    ex = ProcessExecutor(None, workers=2, preload=("planner.search.gait_search",)).start()
-    procs = list(ex._context.processes)
-    ex.terminate()
-    assert len(procs) == 2 and not any(p.is_alive() for p in procs)
-    ex.close()  # closing after it is harmless
-
-
 def test_factory_errors_are_typed(tmp_path: Path) -> None:
     with pytest.raises(ExecutorError, match="picklable"):
         ProcessExecutor(lambda: (lambda x: x))   # spawn cannot ship a lambda
