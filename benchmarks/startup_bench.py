@@ -26,9 +26,10 @@ template solves) has its results. Printed per repeat: this process's CPU up to t
 start (`ProcessPoolExecutor.submit`) and from it to the end of seeding, the wall time to both,
 and the workers' CPU split into the template solves, their MuJoCo checks and the rest
 (interpreter, imports, NLP builds); the template costs and iterations must agree between
-checkouts. What starting the pool earlier is worth on two dedicated cores is between half and
-all of this process's CPU after the first worker start (docs/results/planner_speed_search.md,
-session 33).
+checkouts. This process's CPU after the first worker start runs beside the workers' start-up;
+on two dedicated cores that is worth about half of it in wall time (three processes share the
+two cores), all of it at most (docs/results/planner_speed_search.md, session 33: starting the
+pool before the search, measured and left out).
 """
 
 from __future__ import annotations
