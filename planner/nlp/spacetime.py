@@ -507,12 +507,15 @@ class GaitPlanner:
             self._last = result.warm_start
         return result
 
-    def _variable_bounds(self, schedule: ContactSchedule) -> tuple[np.ndarray, np.ndarray]:
+    def _variable_bounds(self, schedule: ContactSchedule, contact: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
         """The variable bounds for `schedule`: the built ones, with f_z ≤ C·f_max when the
-        "swing force" rows are bounds (`PlannerOptions.compact_rows`)."""
+        "swing force" rows are bounds (`PlannerOptions.compact_rows`). `contact`: the
+        schedule's contact matrix at this planner's knots, if already computed."""
         if "swing force" not in self.options.compact_rows:
             return self._lbx, self._ubx
-        contact = schedule.contact_matrix(self.n_knots)
+        if contact is None:
+            contact = schedule.contact_matrix(self.n_knots)
         return self._lbx, swing_force_upper_bounds(
             self.layout, self._ubx, contact, self.options.max_force_body_weights)
 
@@ -537,18 +540,24 @@ class GaitPlanner:
     def _solve_bounds(self, schedule: ContactSchedule) -> SolveBounds:
         """The bounds of a solve of `schedule` (physical units): the built ones, the rows not in
         force freed (`_row_lower_bounds`) and with `PlannerOptions.swing_wrench` "bounds" the
-        swing feet's wrench fixed (`planner.nlp.swing_wrench`)."""
-        lbg = self._row_lower_bounds(schedule)
-        lbx, ubx = self._variable_bounds(schedule)
+        swing feet's wrench fixed (`planner.nlp.swing_wrench`). The schedule's contact matrix,
+        which each of the three needs when its option is on, is computed once."""
+        uses = ("line capture" in dict(self._slices), "swing force" in self.options.compact_rows,
+                self.options.swing_wrench == "bounds")
+        contact = schedule.contact_matrix(self.n_knots) if any(uses) else None
+        lbg = self._row_lower_bounds(schedule, contact)
+        lbx, ubx = self._variable_bounds(schedule, contact)
         if self.options.swing_wrench == "bounds":
+            assert contact is not None
             lbx, ubx, lbg = swing_wrench_bounds(
-                self.layout, self.model, schedule.contact_matrix(self.n_knots),
-                dict(self._slices), lbx, ubx, lbg)
+                self.layout, self.model, contact, dict(self._slices), lbx, ubx, lbg)
         return SolveBounds(lbx, ubx, lbg, self._ubg)
 
-    def _row_lower_bounds(self, schedule: ContactSchedule) -> np.ndarray:
+    def _row_lower_bounds(self, schedule: ContactSchedule, contact: np.ndarray | None = None
+                          ) -> np.ndarray:
         """The rows' lower bounds for `schedule`: the built ones, with the line-capture rows
-        that are not in force for it freed (`planner.nlp.line_capture.rows_in_force`)."""
+        that are not in force for it freed (`planner.nlp.line_capture.rows_in_force`).
+        `contact`: the schedule's contact matrix at this planner's knots, if already computed."""
         rows = dict(self._slices).get("line capture")
         if rows is None:
             return self._lbg
@@ -556,8 +565,10 @@ class GaitPlanner:
         from planner.templates import stance_foot_positions_m
 
         lbg = self._lbg.copy()
-        contact = np.asarray(schedule.contact_matrix(self.n_knots), dtype=float).T
-        free = ~rows_in_force(contact, stance_foot_positions_m(self.robot)[:, :2])
+        if contact is None:
+            contact = schedule.contact_matrix(self.n_knots)
+        free = ~rows_in_force(np.asarray(contact, dtype=float).T,
+                              stance_foot_positions_m(self.robot)[:, :2])
         lbg[rows][free] = -np.inf
         return lbg
 

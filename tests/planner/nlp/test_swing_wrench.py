@@ -127,3 +127,30 @@ def test_reports_judge_the_bounds_the_solve_used(quad_planner: GaitPlanner) -> N
     off = result(x, fixed)
     assert not off.feasible and "friction" not in dict(off.binding)
     assert off.max_violation >= 0.01 - 1e-12
+
+
+def test_solve_bounds_compute_the_contact_matrix_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Swing-force rows as bounds, the swing wrench by bounds and line-capture rows all depend
+    on the schedule's contact matrix: `_solve_bounds` computes it once for the three, and its
+    bounds are those each computes on its own."""
+    bot = robots.load("quad12")
+    options = PlannerOptions(compact_rows=("torque envelope", "swing force"),
+                             swing_wrench="bounds", line_capture_margin_leg_lengths=0.1)
+    pl = GaitPlanner(bot, 12, options)
+    schedule = make_schedule(bot, "walk")
+    contact = schedule.contact_matrix(pl.n_knots)
+    lbx, ubx = pl._variable_bounds(schedule)
+    separate = swing_wrench_bounds(pl.layout, pl.model, contact, dict(pl._slices), lbx, ubx,
+                                   pl._row_lower_bounds(schedule))
+    calls: list[int] = []
+    matrix = type(schedule).contact_matrix
+
+    def counted(self: robots.ContactSchedule, n: int) -> np.ndarray:
+        calls.append(n)
+        return matrix(self, n)
+
+    monkeypatch.setattr(type(schedule), "contact_matrix", counted)
+    once = pl._solve_bounds(schedule)
+    assert calls == [pl.n_knots]
+    for a, b in zip((once.lbx, once.ubx, once.lbg), separate, strict=True):
+        assert np.array_equal(a, b)
