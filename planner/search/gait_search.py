@@ -588,30 +588,6 @@ class GaitSearchResult:
         return self.best.cost + self.support_cost
 
 
-def cma_start_template(seed_results: Mapping[str, LocalResult]) -> str:
-    """The seed whose timing becomes basin-CMA's initial mean: the cheapest whose coarse plan
-    solved (`TimingResult.plan_feasible`), by the search's cost (NLP + support term), whatever
-    the coarse acceptance said of its gait; if no plan solved, the least violated.
-
-    Not the cheapest *accepted* seed: at a slow speed the coarse MuJoCo verdict is a knife edge.
-    quad12 at 0.05 m/s (docs/results/planner_speed_rows.md, session 33): the walk and diagonal
-    walk templates (search cost 0.190, 0.178) miss the ±0.01 m/s speed band by 2.7 and 6.9 mm/s
-    and the trot (0.358) lands 0.4 mm/s inside it, in one of its two local optima (the other,
-    0.325, is rejected; which one IPOPT reaches is round-off: the torque envelope's row form
-    decided it); started from the trot, the search wrote a pace at 2.3x the cost reaching 84 %
-    of the speed. Of that search's 38 plan-feasible timings, 1 of the 5 the coarse check
-    accepted passed at 30 knots and 2 of the 33 it rejected did. The ranking of the samples
-    (and so the final candidates) still puts accepted samples first; only the start moves."""
-
-    def rank(name: str) -> tuple[int, float]:
-        r = seed_results[name]
-        if getattr(r, "plan_feasible", r.feasible) and math.isfinite(r.cost):
-            return (0, float(r.cost))
-        return (1, float(r.violation) if math.isfinite(r.violation) else math.inf)
-
-    return min(seed_results, key=rank)
-
-
 def search_gait(
     robot: Robot,
     speed_m_s: float,
@@ -744,10 +720,8 @@ def search_gait(
         seed_schedule = {name: (seed_schedules or {}).get(name) or own[name]
                          for name, _ in named_x}
         # CMA starts from the user's own schedule when one is given (their intent), else from
-        # the cheapest template whose coarse plan solved, whatever its coarse MuJoCo verdict
-        # (`cma_start_template`)
-        start = next(iter(seeds)) if seeds else cma_start_template(seed_results)
-        x0 = seed_x[start]
+        # the cheapest template
+        x0 = next(iter(seeds.values())) if seeds else seed_x[best_template]
         t_cma, c_cma = time.perf_counter(), time.process_time()
         # 2. basin-CMA over the timings (projection = coarse spacetime solve)
         cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),
@@ -758,7 +732,7 @@ def search_gait(
         # 3. the cheapest timings, re-solved at full resolution; the first feasible (and
         #    accepted) one wins, else the templates, else the first feasible one (not accepted)
         t_final, c_final = time.perf_counter(), time.process_time()
-        candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[start])]
+        candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
         tasks = [FinalTask(spec, space.decode(x)) for x, _ in candidates]
         searched: list[LocalResult] = [r for _, r in candidates]
         if final_check is not None:
@@ -856,7 +830,6 @@ __all__ = [
     "TimingSolver",
     "TimingSolverFactory",
     "TimingSpace",
-    "cma_start_template",
     "cost_of_transport",
     "search_gait",
     "searchable_templates",
