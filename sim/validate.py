@@ -131,6 +131,27 @@ def _drift_check(m: Metrics, c: PassCriteria, leg_length_m: float) -> tuple[str,
     )
 
 
+def _speed_check(m: Metrics, c: PassCriteria) -> tuple[str, bool, str]:
+    """|achieved − commanded| within `speed_rel_tol` of the command or `speed_abs_tol_m_s`,
+    whichever is larger. Where the absolute floor is the larger (slow commands: below 0.1 m/s
+    with the defaults) the detail says so and gives the band as a share of the command, so a
+    pass that reaches 84 % of a 0.05 m/s command is seen as one that only the floor let pass."""
+    cmd = m.commanded_speed_m_s
+    rel_tol = c.speed_rel_tol * cmd
+    tol = max(rel_tol, c.speed_abs_tol_m_s)
+    share = f" = {m.achieved_speed_m_s / cmd:.0%} of it" if cmd > 0.0 else ""
+    band = f"±{tol:.3f}"
+    if c.speed_abs_tol_m_s > rel_tol and cmd > 0.0:
+        band += (f": the {c.speed_abs_tol_m_s:.3f} m/s floor, ±{tol / cmd:.0%} of the command "
+                 f"instead of ±{c.speed_rel_tol:.0%}")
+    return (
+        "speed",
+        abs(m.achieved_speed_m_s - cmd) <= tol,
+        f"achieved {m.achieved_speed_m_s:.3f} m/s vs commanded {cmd:.3f} m/s{share} "
+        f"(tolerance {band})",
+    )
+
+
 def judge(
     m: Metrics, c: PassCriteria, leg_length_m: float
 ) -> tuple[tuple[str, bool, str], ...]:
@@ -139,15 +160,7 @@ def judge(
     if standing_command(m):
         checks.append(_drift_check(m, c, leg_length_m))
     else:
-        tol = max(c.speed_rel_tol * m.commanded_speed_m_s, c.speed_abs_tol_m_s)
-        checks.append(
-            (
-                "speed",
-                abs(m.achieved_speed_m_s - m.commanded_speed_m_s) <= tol,
-                f"achieved {m.achieved_speed_m_s:.3f} m/s vs commanded "
-                f"{m.commanded_speed_m_s:.3f} m/s (tolerance ±{tol:.3f})",
-            )
-        )
+        checks.append(_speed_check(m, c))
     checks.append(
         (
             "no fall",

@@ -95,3 +95,20 @@ def test_quad12_side_steps_in_mujoco_with_the_commanded_gait_choice() -> None:
     verdict = validate(planner.to_gait(result, choice.gait), bot, cycles=10)
     assert verdict.passed, verdict.reasons
     assert abs(verdict.metrics.achieved_vy_m_s - vy) <= 0.15 * vy
+
+
+def test_a_slow_pass_says_when_only_the_speed_floor_let_it_pass() -> None:
+    # session 32's quad12 sweep: a pace reaching 0.042 of 0.05 m/s passed on the 0.01 m/s floor
+    slow = _metrics(commanded_speed_m_s=0.05, achieved_speed_m_s=0.0423)
+    ok, detail = _check(slow, "speed")
+    assert ok and "= 85% of it" in detail
+    assert "the 0.010 m/s floor, ±20% of the command instead of ±10%" in detail
+    too_slow = _metrics(commanded_speed_m_s=0.05, achieved_speed_m_s=0.039)
+    assert _check(too_slow, "speed")[0] is False
+
+
+def test_a_pass_inside_ten_percent_does_not_mention_the_floor() -> None:
+    m = _metrics(commanded_speed_m_s=0.25, achieved_speed_m_s=0.24)
+    ok, detail = _check(m, "speed")
+    assert ok and "floor" not in detail and "= 96% of it" in detail and "±0.025" in detail
+    assert _check(_metrics(commanded_speed_m_s=0.25, achieved_speed_m_s=0.22), "speed")[0] is False
