@@ -271,7 +271,11 @@ def test_final_tasks_are_the_candidates_then_the_other_templates_by_cost() -> No
     robot = robots.load("quad12")
     space = TimingSpace.for_robot(robot)
     own = {name: make_schedule(robot, name) for name in ("trot", "walk", "pace")}
-    x_of = {name: space.encode(s) for name, s in own.items()}
+    x_of: dict[str, np.ndarray] = {}
+    for name, schedule in own.items():
+        x = space.encode(schedule)
+        assert x is not None
+        x_of[name] = x
     seeds = {"trot": TimingResult(x_of["trot"], 0.6, True, 0, 0.0, True),
              "walk": TimingResult(x_of["walk"], 0.5, True, 0, 0.0, True),
              "pace": TimingResult(x_of["pace"], 0.1, False, 0, 1.0, False)}
