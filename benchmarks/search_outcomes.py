@@ -34,9 +34,11 @@ so that search is the recording truncated after generation k; its final phase �
 record's candidates (`gait_search.final_tasks`) re-solved cold at 30 knots and checked in MuJoCo,
 then the template fallback — is really run here (in this process, serially; a cold solve is the
 same bits in any process, `planner.search.final_phase`; identical schedules are solved once).
-Each k appends a row "SETTING+genK" whose iterations are the truncated record's, and whose CPU is
-an estimate: the recorded run's CPU minus the dropped samples' worker CPU (solve + check) minus
-the recorded final phase's solve + check CPU plus the replayed one's.
+`--final-candidates C` re-solves up to C timings instead of `FINAL_CANDIDATES` (rows
+"SETTING+genK+finalC"). Each k appends a row "SETTING+genK" whose iterations are the truncated
+record's, and whose CPU is an estimate: the recorded run's CPU minus the dropped samples'
+worker CPU (solve + check) minus the recorded final phase's solve + check CPU plus the
+replayed one's.
 """
 
 from __future__ import annotations
@@ -279,8 +281,10 @@ class FinalReplayer:
                                                  self.search.speed_m_s)
             yield self.cache[key]
 
-    def truncated(self, rec: dict, k: int) -> dict[str, object]:
-        """The row of `rec`'s search stopped after generation k (module docstring)."""
+    def truncated(self, rec: dict, k: int, candidates: int = FINAL_CANDIDATES
+                  ) -> dict[str, object]:
+        """The row of `rec`'s search stopped after generation k (module docstring), its final
+        phase re-solving up to `candidates` timings (`search_gait(final_candidates=...)`)."""
         records: list = rec["records"]
         names: list[str] = rec["templates"]
         n_t = len(names)
@@ -291,8 +295,8 @@ class FinalReplayer:
         start = (records[names.index(best)][0], seed_results[best])
         space = TimingSpace.for_robot(self.robot, rec["symmetric"])
         own = {name: make_schedule(self.robot, name) for name in names}
-        tasks, searched = final_tasks(self.spec, space, cut, FINAL_CANDIDATES, start,
-                                      seed_results, own)
+        tasks, searched = final_tasks(self.spec, space, cut, candidates, start, seed_results,
+                                      own)
         c0 = time.process_time()
         choice = choose_final(tasks, searched, self.outcomes(tasks))
         replay_cpu = sum(o.solve_cpu_s + o.check_cpu_s for o in choice.read)
@@ -303,7 +307,8 @@ class FinalReplayer:
                    {True: "MuJoCo pass", False: "MuJoCo FAIL", None: "not simulated"}[
                        choice.accepted])
         return {
-            **base, "setting": f"{base['setting']}+gen{k}", "generations": k,
+            **base, "setting": replay_setting(base["setting"], k, candidates), "generations": k,
+            "final_candidates": candidates,
             "utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
             "load_start": os.getloadavg()[0], "load_end": os.getloadavg()[0],
             "cpu_s": base["cpu_s"] - dropped - rec["final_cpu_s"] + replay_cpu,
@@ -316,8 +321,16 @@ class FinalReplayer:
         }
 
 
+def replay_setting(setting: str, k: int, candidates: int) -> str:
+    """The name of a replayed row: "SETTING+genK", "+finalC" if C is not the default."""
+    return f"{setting}+gen{k}" + ("" if candidates == FINAL_CANDIDATES else f"+final{candidates}")
+
+
 def cmd_replay(args: argparse.Namespace) -> None:
     ks = _generations(args.generations)
+    if args.final_candidates < 1:
+        raise SystemExit(f"--final-candidates: expected an integer ≥ 1, "
+                         f"got {args.final_candidates}")
     recs = []
     for name in args.recordings:
         try:
@@ -331,13 +344,14 @@ def cmd_replay(args: argparse.Namespace) -> None:
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
         for k in ks:
-            if k > rec["generations"] or (search.key, f"{setting.name}+gen{k}") in done:
+            name = replay_setting(setting.name, k, args.final_candidates)
+            if k > rec["generations"] or (search.key, name) in done:
                 continue
             key = (search.key, setting.swing_wrench, rec["knots"])
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
                 replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"])
-            row = replayers[key].truncated(rec, k)
+            row = replayers[key].truncated(rec, k, args.final_candidates)
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
             print(_line(row), flush=True)
@@ -454,6 +468,9 @@ def main() -> None:
     p.add_argument("recordings", nargs="+", help="pickles written by `run --save`")
     p.add_argument("--generations", default="2,3,4,5,6",
                    help="comma-separated k (a k above the recording's generations is skipped)")
+    p.add_argument("--final-candidates", type=int, default=FINAL_CANDIDATES,
+                   help="timings the final phase re-solves (the search's default: "
+                        f"{FINAL_CANDIDATES}); rows named SETTING+genK+finalC if not the default")
     p.add_argument("--out", required=True, help="JSON-lines file the rows are appended to")
     t = sub.add_parser("table", help="every run, and each setting against the baseline")
     t.add_argument("runs", help="the JSON-lines file of `run --out`")

@@ -139,3 +139,8 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     assert (two["search_cost"], two["verdict"], two["iterations"]) == (0.2, "MuJoCo FAIL", 100)
     assert two["final_solves"] == 5 and len(solved) == 3 + 3  # the encodings were solved before
     assert np.isclose(two["cpu_s"], 50.0 - 3.0 + 5 * 1.25)
+    # with 5 final candidates sample 1 (0.8) is one again, and passes
+    five = replayer.truncated(rec, 2, 5)
+    assert (five["setting"], five["search_cost"], five["verdict"]) == (
+        "base+gen2+final5", 0.8, "MuJoCo pass")
+    assert len(solved) == 6  # every schedule it read was solved before
