@@ -62,11 +62,13 @@ from planner.nlp.config import (
     DEFAULT_COMPACT_ROWS,
     DERIVATIVE_PATHS,
     SWING_WRENCHES,
+    PlannerOptions,
 )
 from planner.nlp.iteration_abort import StallAbort
 from planner.search.executors import ExecutorKind
 from planner.search.gait_search import (
     ABORTED_STATUS,
+    DEFAULT_SEARCH_MAX_ITER,
     SEARCH_WARM_STARTS,
     GaitSearchResult,
     search_gait,
@@ -127,25 +129,40 @@ def _children_cpu_s() -> float:
     return use.ru_utime + use.ru_stime
 
 
+def cli_search_options(robot: robots.Robot, derivatives: str = "knot", swing_wrench: str = "rows",
+                       cold_start: str = "stance",
+                       compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS,
+                       sim_accept: bool = True) -> tuple[PlannerOptions, dict[str, Any]]:
+    """The planner options and `search_gait` acceptance keywords `gaitsmith plan ROBOT
+    --search` uses with no flags (`cli_search_kwargs`), with these benchmark options."""
+    cli = cli_search_kwargs(robot, derivatives, sim_accept)
+    options = replace(cli.pop("options"), swing_wrench=swing_wrench, cold_start=cold_start,
+                      compact_rows=compact_rows)
+    return options, cli
+
+
 def run(robot_name: str, speed: float, generations: int, workers: int, seed: int,
         sim_accept: bool, derivatives: str, executor: str, knots: int,
         warm_start: str = "cold", abort: str = "off", swing_wrench: str = "rows",
         cold_start: str = "stance",
         compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS,
-        search_swing_wrench: str | None = None) -> SearchRun:
+        search_swing_wrench: str | None = None,
+        search_max_iter: int = DEFAULT_SEARCH_MAX_ITER,
+        search_tol: float | None = None) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
-    NLP's; `search_swing_wrench` (not None) the coarse solves' only."""
+    NLP's; `search_swing_wrench` (not None), `search_max_iter` and `search_tol` (not None) the
+    coarse solves' only."""
     robot = robots.load(robot_name)
-    cli = cli_search_kwargs(robot, derivatives, sim_accept)
-    cli["options"] = replace(cli["options"], swing_wrench=swing_wrench, cold_start=cold_start,
-                             compact_rows=compact_rows)
+    options, acceptance = cli_search_options(robot, derivatives, swing_wrench, cold_start,
+                                             compact_rows, sim_accept)
     t0, c0, w0 = time.perf_counter(), time.process_time(), _children_cpu_s()
     result = search_gait(
-        robot, speed, n_knots=knots,
+        robot, speed, n_knots=knots, options=options,
         max_generations=generations, seed=seed, executor=executor, workers=workers,
         warm_start=warm_start, coarse_abort=_abort_rule(abort),
-        search_swing_wrench=search_swing_wrench, **cli,
+        search_swing_wrench=search_swing_wrench, search_max_iter=search_max_iter,
+        search_tol=search_tol, **acceptance,
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
@@ -154,6 +171,8 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if search_swing_wrench in (None, swing_wrench) else f"+coarse-{search_swing_wrench}"
     label += "" if cold_start == "stance" else f"+{cold_start}"
     label += "" if compact_rows == DEFAULT_COMPACT_ROWS else f"+rows-{_rows_label(compact_rows)}"
+    label += "" if search_max_iter == DEFAULT_SEARCH_MAX_ITER else f"+cap{search_max_iter}"
+    label += "" if search_tol is None else f"+tol{search_tol:g}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 

@@ -18,8 +18,27 @@ sign test on better vs worse, and how many searches did not write a MuJoCo-passi
 A setting is "+"-joined tokens: "base" (today's defaults), a `PlannerOptions.swing_wrench`
 value (every NLP of the search), "coarse-bounds" ("bounds" in the coarse solves only, the final
 re-solves keep "rows", so final costs compare), a `SEARCH_WARM_STARTS` policy, "abortK/V" (the
-coarse stall abort `StallAbort(K, V)`). Measured in docs/results/planner_speed_search.md,
-session 32.
+coarse stall abort `StallAbort(K, V)`), "capN" (the coarse solves' IPOPT iteration cap,
+`search_gait(search_max_iter=N)`, default 60), "tolX" (the coarse solves' IPOPT `tol`,
+`search_gait(search_tol=X)`; the final re-solves keep 1e-6), "genK" (K basin-CMA generations
+instead of `--generations`). Measured in docs/results/planner_speed_search.md, sessions 32-33.
+
+    python benchmarks/search_outcomes.py run ... --save DIR
+    python benchmarks/search_outcomes.py replay DIR/*.pkl --generations 2,3,4,5,6 --out RUNS.jsonl
+
+`--save` pickles each run's recording (every local solve, template seeds first) into DIR.
+`replay` evaluates "the same search with --generations k" exactly on a recording: basin-CMA
+draws each generation from its seeded generator and nothing in it depends on the total count
+(`max_generations` only bounds the loop; the stall stop needs 10 generations, restarts are off),
+so that search is the recording truncated after generation k; its final phase — the k-truncated
+record's candidates (`gait_search.final_tasks`) re-solved cold at 30 knots and checked in MuJoCo,
+then the template fallback — is really run here (in this process, serially; a cold solve is the
+same bits in any process, `planner.search.final_phase`; identical schedules are solved once).
+`--final-candidates C` re-solves up to C timings instead of `FINAL_CANDIDATES` (rows
+"SETTING+genK+finalC"). Each k appends a row "SETTING+genK" whose iterations are the truncated
+record's, and whose CPU is an estimate: the recorded run's CPU minus the dropped samples'
+worker CPU (solve + check) minus the recorded final phase's solve + check CPU plus the
+replayed one's.
 """
 
 from __future__ import annotations
@@ -28,9 +47,11 @@ import argparse
 import json
 import math
 import os
+import pickle
 import statistics
 import sys
 import time
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -39,10 +60,27 @@ from scipy.stats import t as student_t
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from gait_search_bench import COARSE_BOUNDS, SearchRun, _abort_rule, run
+from gait_search_bench import COARSE_BOUNDS, SearchRun, _abort_rule, cli_search_options, run
 
+import robots
 from planner.nlp.config import SWING_WRENCHES
-from planner.search.gait_search import SEARCH_WARM_STARTS
+from planner.nlp.spacetime import GaitPlanner
+from planner.search.basin_cma import LocalResult
+from planner.search.final_phase import (
+    FinalOutcome,
+    FinalPlannerSpec,
+    FinalTask,
+    choose_final,
+    evaluate_final,
+)
+from planner.search.gait_search import (
+    DEFAULT_SEARCH_MAX_ITER,
+    FINAL_CANDIDATES,
+    SEARCH_WARM_STARTS,
+    TimingSpace,
+    final_tasks,
+)
+from planner.templates import label_gait, make_schedule
 
 #: relative final-cost change below which two searches' gaits count as the same
 SAME_REL = 1e-4
@@ -57,12 +95,31 @@ class Setting:
     search_swing_wrench: str | None = None
     warm_start: str = "cold"
     abort: str = "off"
+    search_max_iter: int = DEFAULT_SEARCH_MAX_ITER
+    search_tol: float | None = None
+    generations: int | None = None
+
+
+def _number(token: str, prefix: str, kind: type[int] | type[float], text: str) -> int | float:
+    """The number after `prefix` in `token` (capN ≥ 1, genK ≥ 1, 0 < tolX < 1); one-line
+    `SystemExit` otherwise."""
+    try:
+        value = kind(token.removeprefix(prefix))
+    except ValueError:
+        value = math.nan
+    ok = 0 < value < 1 if kind is float else value >= 1
+    if not ok:
+        want = "a number in (0, 1)" if kind is float else "an integer ≥ 1"
+        raise SystemExit(f"--settings: {token!r} in {text!r} needs {want} after {prefix!r} "
+                         f"(e.g. {prefix}{'1e-4' if kind is float else 40})")
+    return value
 
 
 def parse_setting(text: str) -> Setting:
     """A "+"-joined setting; one-line `SystemExit` naming the bad token."""
-    fields: dict[str, str | None] = {}
+    fields: dict[str, str | int | float | None] = {}
     for token in text.split("+"):
+        value: str | int | float | None
         if token == "base":
             continue
         if token in SWING_WRENCHES:
@@ -74,11 +131,17 @@ def parse_setting(text: str) -> Setting:
         elif token.startswith("abort"):
             key, value = "abort", token.removeprefix("abort")
             _abort_rule(value)
+        elif token.startswith("cap"):
+            key, value = "search_max_iter", _number(token, "cap", int, text)
+        elif token.startswith("tol"):
+            key, value = "search_tol", _number(token, "tol", float, text)
+        elif token.startswith("gen"):
+            key, value = "generations", _number(token, "gen", int, text)
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
-                f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)} "
-                "or abortK/V, joined by +")
+                f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)}, "
+                "abortK/V, capN, tolX or genK, joined by +")
         if key in fields:
             raise SystemExit(f"--settings: {text!r} sets {key} twice")
         fields[key] = value
@@ -144,20 +207,165 @@ def cmd_run(args: argparse.Namespace) -> None:
         raise SystemExit("--settings: no setting given")
     searches = parse_searches(args.searches)
     out = Path(args.out)
+    save = Path(args.save) if args.save else None
+    if save is not None and not save.is_dir():
+        raise SystemExit(f"--save: {save} is not a directory; create it first")
     done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
     for search in searches:
         for setting in settings:
             if (search.key, setting.name) in done:
                 continue
             load = os.getloadavg()[0]
-            r = run(search.robot, search.speed_m_s, args.generations, args.workers, search.seed,
-                    True, "knot", "process", args.knots, setting.warm_start, setting.abort,
-                    setting.swing_wrench, "stance",
-                    search_swing_wrench=setting.search_swing_wrench)
+            r = run(search.robot, search.speed_m_s, setting.generations or args.generations,
+                    args.workers, search.seed, True, "knot", "process", args.knots,
+                    setting.warm_start, setting.abort, setting.swing_wrench, "stance",
+                    search_swing_wrench=setting.search_swing_wrench,
+                    search_max_iter=setting.search_max_iter, search_tol=setting.search_tol)
             row = record(search, setting, r, load)
+            if save is not None:
+                with (save / recording_name(search.key, setting.name)).open("wb") as fh:
+                    pickle.dump(recording(search, setting, r, row, args.knots), fh)
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
             print(_line(row), flush=True)
+
+
+def recording_name(search: str, setting: str) -> str:
+    """The file a run's recording is saved to (no "/" from a robot path)."""
+    return f"{search}__{setting}.pkl".replace("/", "_")
+
+
+def recording(search: Search, setting: Setting, r: SearchRun, row: dict, knots: int
+              ) -> dict[str, object]:
+    """What `replay` needs of a run: its local solves (template seeds first), the template
+    names in seeding order, λ, and the recorded final phase's CPU (solve + check)."""
+    res = r.result
+    n_templates = len(res.template_costs)
+    generations = res.cma.n_generations
+    return {"search": asdict(search), "setting": asdict(setting), "row": row, "knots": knots,
+            "records": list(res.samples), "templates": list(res.template_costs),
+            "symmetric": res.symmetric, "generations": generations,
+            "lam": (len(res.samples) - n_templates) // max(generations, 1),
+            "final_cpu_s": sum(o.solve_cpu_s + o.check_cpu_s for o in res.final_outcomes)}
+
+
+def _sample_cpu_s(result: LocalResult) -> float:
+    return float(getattr(result, "cpu_s", 0.0)) + float(getattr(result, "accept_cpu_s", 0.0))
+
+
+@dataclass
+class FinalReplayer:
+    """The final phase of one search (robot, speed, final options), run in this process; each
+    schedule is solved and checked once (a cold solve is a function of the schedule)."""
+
+    search: Search
+    swing_wrench: str
+    knots: int
+
+    def __post_init__(self) -> None:
+        self.robot = robots.load(self.search.robot)
+        self.options, acceptance = cli_search_options(self.robot, swing_wrench=self.swing_wrench)
+        factory = acceptance["final_acceptance"]
+        self.spec = FinalPlannerSpec.new(self.robot, self.knots, self.options,
+                                         self.search.speed_m_s, factory)
+        self.planner = GaitPlanner(self.robot, self.knots, self.options)
+        self.check = factory()
+        self.cache: dict[tuple[float, ...], FinalOutcome] = {}
+
+    def outcomes(self, tasks: Sequence[FinalTask]) -> Iterator[FinalOutcome]:
+        for task in tasks:
+            sch = task.schedule
+            key = (sch.period_s, *sch.touchdown_phase, *sch.duty_factor)
+            if key not in self.cache:
+                self.cache[key] = evaluate_final(self.planner, self.check, sch,
+                                                 self.search.speed_m_s)
+            yield self.cache[key]
+
+    def truncated(self, rec: dict, k: int, candidates: int = FINAL_CANDIDATES
+                  ) -> dict[str, object]:
+        """The row of `rec`'s search stopped after generation k (module docstring), its final
+        phase re-solving up to `candidates` timings (`search_gait(final_candidates=...)`)."""
+        records: list = rec["records"]
+        names: list[str] = rec["templates"]
+        n_t = len(names)
+        cut = records[: n_t + rec["lam"] * k]
+        seed_results = {name: r for name, (_, r) in zip(names, records[:n_t], strict=True)}
+        costs = {name: (r.cost if r.feasible else math.inf) for name, r in seed_results.items()}
+        best = min(costs, key=lambda n: costs[n])
+        start = (records[names.index(best)][0], seed_results[best])
+        space = TimingSpace.for_robot(self.robot, rec["symmetric"])
+        own = {name: make_schedule(self.robot, name) for name in names}
+        tasks, searched = final_tasks(self.spec, space, cut, candidates, start, seed_results,
+                                      own)
+        c0 = time.process_time()
+        choice = choose_final(tasks, searched, self.outcomes(tasks))
+        replay_cpu = sum(o.solve_cpu_s + o.check_cpu_s for o in choice.read)
+        base: dict = rec["row"]
+        dropped = sum(_sample_cpu_s(r) for _, r in records[len(cut):])
+        plan = choice.plan
+        verdict = ("infeasible" if not plan.feasible else
+                   {True: "MuJoCo pass", False: "MuJoCo FAIL", None: "not simulated"}[
+                       choice.accepted])
+        return {
+            **base, "setting": replay_setting(base["setting"], k, candidates), "generations": k,
+            "final_candidates": candidates,
+            "utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
+            "load_start": os.getloadavg()[0], "load_end": os.getloadavg()[0],
+            "cpu_s": base["cpu_s"] - dropped - rec["final_cpu_s"] + replay_cpu,
+            "solves": len(cut), "iterations": sum(max(r.n_fevals - 1, 0) for _, r in cut),
+            "winner": label_gait(plan.schedule, self.robot), "search_cost": choice.searched.cost,
+            "best_template": best, "fallback_template": choice.fallback_template,
+            "final_cost": plan.cost if plan.feasible else None,
+            "final_solves": len(choice.read), "verdict": verdict, "replayed": True,
+            "replay_cpu_s": time.process_time() - c0,
+        }
+
+
+def replay_setting(setting: str, k: int, candidates: int) -> str:
+    """The name of a replayed row: "SETTING+genK", "+finalC" if C is not the default."""
+    return f"{setting}+gen{k}" + ("" if candidates == FINAL_CANDIDATES else f"+final{candidates}")
+
+
+def cmd_replay(args: argparse.Namespace) -> None:
+    ks = _generations(args.generations)
+    if args.final_candidates < 1:
+        raise SystemExit(f"--final-candidates: expected an integer ≥ 1, "
+                         f"got {args.final_candidates}")
+    recs = []
+    for name in args.recordings:
+        try:
+            with open(name, "rb") as fh:
+                recs.append(pickle.load(fh))
+        except (OSError, pickle.UnpicklingError, EOFError) as e:
+            raise SystemExit(f"replay: cannot read recording {name}: {e}") from None
+    out = Path(args.out)
+    done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
+    replayers: dict[tuple[str, str, int], FinalReplayer] = {}
+    for rec in recs:
+        search, setting = Search(**rec["search"]), Setting(**rec["setting"])
+        for k in ks:
+            name = replay_setting(setting.name, k, args.final_candidates)
+            if k > rec["generations"] or (search.key, name) in done:
+                continue
+            key = (search.key, setting.swing_wrench, rec["knots"])
+            if key not in replayers:
+                replayers.clear()  # one search's planner at a time
+                replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"])
+            row = replayers[key].truncated(rec, k, args.final_candidates)
+            with out.open("a") as f:
+                f.write(json.dumps(row) + "\n")
+            print(_line(row), flush=True)
+
+
+def _generations(text: str) -> list[int]:
+    try:
+        ks = [int(k) for k in text.split(",") if k.strip()]
+    except ValueError:
+        ks = []
+    if not ks or min(ks) < 1:
+        raise SystemExit(f"--generations: expected comma-separated integers ≥ 1 "
+                         f"(e.g. 2,3,4,5,6), got {text!r}")
+    return ks
 
 
 def _rows(path: Path) -> list[dict]:
@@ -255,11 +463,20 @@ def main() -> None:
     r.add_argument("--generations", type=int, default=6)
     r.add_argument("--workers", type=int, default=2)
     r.add_argument("--knots", type=int, default=30, help="knots of the final gait")
+    r.add_argument("--save", help="directory to pickle each run's recording into (for replay)")
+    p = sub.add_parser("replay", help="--generations k evaluated exactly on saved recordings")
+    p.add_argument("recordings", nargs="+", help="pickles written by `run --save`")
+    p.add_argument("--generations", default="2,3,4,5,6",
+                   help="comma-separated k (a k above the recording's generations is skipped)")
+    p.add_argument("--final-candidates", type=int, default=FINAL_CANDIDATES,
+                   help="timings the final phase re-solves (the search's default: "
+                        f"{FINAL_CANDIDATES}); rows named SETTING+genK+finalC if not the default")
+    p.add_argument("--out", required=True, help="JSON-lines file the rows are appended to")
     t = sub.add_parser("table", help="every run, and each setting against the baseline")
     t.add_argument("runs", help="the JSON-lines file of `run --out`")
     t.add_argument("--baseline", default="base")
     args = ap.parse_args()
-    {"run": cmd_run, "table": cmd_table}[args.command](args)
+    {"run": cmd_run, "table": cmd_table, "replay": cmd_replay}[args.command](args)
 
 
 if __name__ == "__main__":

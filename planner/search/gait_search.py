@@ -616,6 +616,7 @@ def search_gait(
     seed_schedules: Mapping[str, ContactSchedule] | None = None,
     coarse_abort: StallAbort | None = None,
     search_swing_wrench: str | None = None,
+    search_tol: float | None = None,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -634,6 +635,8 @@ def search_gait(
     `search_swing_wrench`: `PlannerOptions.swing_wrench` of the coarse solves only ("rows" or
     "bounds"; None, the default: `options.swing_wrench`); the final re-solves keep `options`',
     so final costs compare between settings (docs/results/planner_speed_search.md, session 32).
+    `search_tol`: IPOPT's `tol` of the coarse solves only (None, the default: `options.tol`);
+    the final re-solves keep `options.tol` (planner_speed_search.md, session 33).
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
@@ -652,6 +655,9 @@ def search_gait(
     if search_swing_wrench is not None and search_swing_wrench not in SWING_WRENCHES:
         raise PlannerConfigError(f"search_swing_wrench must be one of {', '.join(SWING_WRENCHES)}"
                                  f" (or None: the options' own), got {search_swing_wrench!r}")
+    if search_tol is not None and not 0 < search_tol < 1:
+        raise PlannerConfigError(f"search_tol must be in (0, 1) (or None: the options' own), "
+                                 f"got {search_tol!r}")
     space = TimingSpace.for_robot(robot, symmetric)
     # each template as `gaitsmith plan` would plan it: the seeds, and the fallback's schedules
     # (a template's encoding starts the first foot at phase 0, a phase-rotated copy whose knots
@@ -672,7 +678,8 @@ def search_gait(
     tipping = TippingCost.for_robot(robot, tipping_weight)
     search_options = replace(options, max_iter=search_max_iter if options.max_iter is None
                              else min(options.max_iter, search_max_iter),
-                             swing_wrench=search_swing_wrench or options.swing_wrench)
+                             swing_wrench=search_swing_wrench or options.swing_wrench,
+                             tol=options.tol if search_tol is None else search_tol)
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
                                   search_options, tipping_weight, acceptance, warm_start,
                                   space.period_bounds_s if seeds else None, coarse_abort)
@@ -732,18 +739,9 @@ def search_gait(
         # 3. the cheapest timings, re-solved at full resolution; the first feasible (and
         #    accepted) one wins, else the templates, else the first feasible one (not accepted)
         t_final, c_final = time.perf_counter(), time.process_time()
-        candidates = pool.best_feasible(final_candidates) or [(x0, seed_results[best_template])]
-        tasks = [FinalTask(spec, space.decode(x)) for x, _ in candidates]
-        searched: list[LocalResult] = [r for _, r in candidates]
-        if final_check is not None:
-            # nothing searched may pass: the templates the search started from, at full
-            # resolution, as the template command plans them (not their phase-rotated encodings)
-            tried = [task.schedule for task in tasks]
-            for name in sorted(template_costs, key=lambda n: template_costs[n]):
-                own_schedule = seed_schedule[name]
-                if not any(identical_schedules(own_schedule, t) for t in tried):
-                    tasks.append(FinalTask(spec, own_schedule, name))
-                    searched.append(seed_results[name])
+        tasks, searched = final_tasks(
+            spec, space, pool.records, final_candidates, (x0, seed_results[best_template]),
+            seed_results, seed_schedule if final_check is not None else None)
 
         def final_planner() -> tuple[GaitPlanner, float, float]:
             """The final planner (passed in, or built here) and its build's wall and CPU s."""
@@ -786,6 +784,33 @@ def search_gait(
                      "final": c_end - c_final - final_build_cpu_s,
                      "total": time.process_time() - c0},
     )
+
+
+def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
+                records: Iterable[tuple[np.ndarray, LocalResult]], final_candidates: int,
+                start: tuple[np.ndarray, LocalResult], seed_results: Mapping[str, LocalResult],
+                seed_schedules: Mapping[str, ContactSchedule] | None,
+                ) -> tuple[list[FinalTask], list[LocalResult]]:
+    """The final phase's tasks in the order `choose_final` reads them, with the search result of
+    each one's timing: the `final_candidates` cheapest usable samples of `records`
+    (`final_candidates_of`; `start`, CMA's first mean and its seed's result, if none is usable),
+    then, when `seed_schedules` is given (a final check exists), the seeds by their search cost,
+    as their own schedules, skipping any identical to a candidate. A search stopped after
+    generation k is its recording truncated there (`benchmarks/search_outcomes.py replay`)."""
+    candidates = final_candidates_of(records, final_candidates) or [start]
+    tasks = [FinalTask(spec, space.decode(x)) for x, _ in candidates]
+    searched: list[LocalResult] = [r for _, r in candidates]
+    if seed_schedules is not None:
+        # nothing searched may pass: the templates the search started from, at full
+        # resolution, as the template command plans them (not their phase-rotated encodings)
+        tried = [task.schedule for task in tasks]
+        costs = {name: (r.cost if r.feasible else math.inf) for name, r in seed_results.items()}
+        for name in sorted(costs, key=lambda n: costs[n]):
+            own_schedule = seed_schedules[name]
+            if not any(identical_schedules(own_schedule, t) for t in tried):
+                tasks.append(FinalTask(spec, own_schedule, name))
+                searched.append(seed_results[name])
+    return tasks, searched
 
 
 def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
@@ -831,6 +856,7 @@ __all__ = [
     "TimingSolverFactory",
     "TimingSpace",
     "cost_of_transport",
+    "final_tasks",
     "search_gait",
     "searchable_templates",
     "write_search_log",

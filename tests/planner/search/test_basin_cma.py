@@ -97,6 +97,31 @@ def test_reproducible_with_seed() -> None:
     assert a.n_fevals == 3 * a.n_local_solves
 
 
+def test_fewer_generations_are_the_longer_run_truncated() -> None:
+    """Nothing in a run depends on `max_generations` but where it stops (the stall stop needs
+    `stall_generations`, restarts are off): a run of k generations evaluates exactly the first
+    k generations' samples of a longer one, so a recorded search truncated after generation k
+    is the search with k generations (benchmarks/search_outcomes.py replay)."""
+    g = _sphere_projection(np.array([1.0, -2.0, 0.5]))
+
+    def samples(k: int) -> list[np.ndarray]:
+        seen: list[np.ndarray] = []
+
+        def recording(x: np.ndarray) -> LocalResult:
+            seen.append(np.array(x))
+            return g(x)
+
+        basin_cma(recording, np.zeros(3), 2.0, (-5, 5), seed=7, max_generations=k,
+                  restarts=0, popsize=8)
+        return seen
+
+    full = samples(6)
+    assert len(full) == 48
+    for k in range(1, 6):
+        assert all(np.array_equal(a, b) for a, b in zip(samples(k), full[: 8 * k], strict=False))
+        assert len(samples(k)) == 8 * k
+
+
 def test_bounds_respected_and_converges() -> None:
     lb, ub = np.array([-1.0, 0.0]), np.array([1.0, 3.0])
     seen: list[np.ndarray] = []

@@ -238,6 +238,70 @@ def test_search_swing_wrench_reaches_the_coarse_solves_only(
     assert built == [(20, options)]
 
 
+@pytest.mark.parametrize("tol", [None, 1e-4])
+def test_search_tol_reaches_the_coarse_solves_only(
+    monkeypatch: pytest.MonkeyPatch, tol: float | None,
+) -> None:
+    """`search_tol` is the coarse NLP's IPOPT `tol`; the final planner keeps the options' own
+    (so final costs compare between settings); None: the options' own for both."""
+    from planner.nlp.config import PlannerOptions
+
+    options = PlannerOptions()
+    (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=40,
+                                              search_tol=tol)
+    assert factory.options == replace(options, max_iter=40, tol=options.tol if tol is None
+                                      else tol)
+    assert built == [(20, options)]
+
+
+@pytest.mark.parametrize("tol", [0.0, 1.0, -1e-4, math.nan])
+def test_a_bad_search_tol_is_one_line_before_any_solve(tol: float) -> None:
+    with pytest.raises(PlannerConfigError, match=r"search_tol must be in \(0, 1\)") as err:
+        search_gait(robots.load("quad12"), 0.25, search_tol=tol)
+    assert "\n" not in str(err.value)
+
+
+def test_final_tasks_are_the_candidates_then_the_other_templates_by_cost() -> None:
+    """The final phase's order: the cheapest usable samples (`final_candidates_of`), then — with
+    a check — the seeds by search cost (infeasible last), as their own schedules, skipping one
+    identical to a candidate; with nothing usable, CMA's start."""
+    from planner.search.final_phase import FinalPlannerSpec
+    from planner.search.gait_search import final_tasks
+
+    robot = robots.load("quad12")
+    space = TimingSpace.for_robot(robot)
+    own = {name: make_schedule(robot, name) for name in ("trot", "walk", "pace")}
+    x_of: dict[str, np.ndarray] = {}
+    for name, schedule in own.items():
+        x = space.encode(schedule)
+        assert x is not None
+        x_of[name] = x
+    seeds = {"trot": TimingResult(x_of["trot"], 0.6, True, 0, 0.0, True),
+             "walk": TimingResult(x_of["walk"], 0.5, True, 0, 0.0, True),
+             "pace": TimingResult(x_of["pace"], 0.1, False, 0, 1.0, False)}
+    lo, hi = space.bounds()
+    sample = TimingResult(0.5 * (lo + hi), 0.3, True, 0, 0.0, True)
+    spec = FinalPlannerSpec.new(robot, 30, None, 0.25, None)  # type: ignore[arg-type]
+    records = [(x_of[n], r) for n, r in seeds.items()] + [(sample.x_projected, sample)]
+    tasks, searched = final_tasks(spec, space, records, 2, (x_of["walk"], seeds["walk"]), seeds,
+                                  own)
+    # candidates: the sample (0.3) and the walk's encoding (0.5); then walk, trot, pace own
+    assert [t.template for t in tasks] == [None, None, "walk", "trot", "pace"]
+    assert [id(r) for r in searched] == [id(r) for r in (sample, seeds["walk"], seeds["walk"],
+                                                         seeds["trot"], seeds["pace"])]
+    assert identical_schedules(tasks[2].schedule, own["walk"])
+    # the trot's encoding starts its first foot at 0 as the template does: not re-solved twice
+    trot_first = [(x_of["trot"], seeds["trot"])]
+    tasks, _ = final_tasks(spec, space, trot_first, 2, trot_first[0], seeds, own)
+    assert identical_schedules(space.decode(x_of["trot"]), own["trot"])
+    assert [t.template for t in tasks] == [None, "walk", "pace"]
+    # no check: the candidates only; nothing usable: CMA's start
+    tasks, searched = final_tasks(spec, space, records[2:3], 4, (x_of["walk"], seeds["walk"]),
+                                  seeds, None)
+    assert [t.template for t in tasks] == [None] and searched[0] is seeds["walk"]
+    assert identical_schedules(tasks[0].schedule, space.decode(x_of["walk"]))
+
+
 def test_unknown_search_swing_wrench_is_one_line_before_any_solve() -> None:
     with pytest.raises(PlannerConfigError,
                        match=r"search_swing_wrench must be one of rows, bounds.*'free'") as err:

@@ -1,0 +1,146 @@
+"""`benchmarks/search_outcomes.py`: setting tokens parsed and validated before any search, handed
+to the search; `replay` truncates a recording after generation k and runs its final phase."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import robots
+from planner.search.final_phase import FinalOutcome
+from planner.search.gait_search import TimingResult, TimingSpace
+from planner.templates import make_schedule
+
+_DIR = Path(__file__).resolve().parents[2] / "benchmarks"
+sys.path.insert(0, str(_DIR))  # search_outcomes imports gait_search_bench from beside it
+_SPEC = importlib.util.spec_from_file_location("search_outcomes", _DIR / "search_outcomes.py")
+assert _SPEC is not None and _SPEC.loader is not None
+so = importlib.util.module_from_spec(_SPEC)
+sys.modules[_SPEC.name] = so  # dataclasses resolve their module by name
+_SPEC.loader.exec_module(so)
+
+
+def test_cap_tol_and_gen_tokens_set_the_coarse_options_and_generations() -> None:
+    s = so.parse_setting("coarse-bounds+cap40+tol1e-4+gen4")
+    assert (s.search_swing_wrench, s.search_max_iter, s.search_tol, s.generations) == (
+        "bounds", 40, 1e-4, 4)
+    base = so.parse_setting("base")
+    assert (base.search_max_iter, base.search_tol, base.generations) == (60, None, None)
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("cap0", r"'cap0' in 'cap0' needs an integer ≥ 1 after 'cap'"),
+    ("capx", r"needs an integer ≥ 1 after 'cap'"),
+    ("tol1", r"'tol1' .* needs a number in \(0, 1\) after 'tol'"),
+    ("tol-", r"needs a number in \(0, 1\)"),
+    ("gen0", r"needs an integer ≥ 1 after 'gen'"),
+    ("cap40+cap50", r"sets search_max_iter twice"),
+    ("fast", r"unknown token 'fast'.*capN, tolX or genK"),
+])
+def test_bad_tokens_are_one_line(text: str, match: str) -> None:
+    with pytest.raises(SystemExit, match=match) as err:
+        so.parse_setting(text)
+    assert "\n" not in str(err.value)
+
+
+def test_run_hands_the_tokens_to_the_search(monkeypatch: pytest.MonkeyPatch,
+                                            tmp_path: Path) -> None:
+    seen: list[tuple[Any, ...]] = []
+
+    def fake_run(robot: str, speed: float, generations: int, *args: Any, **kwargs: Any) -> str:
+        seen.append((generations, kwargs["search_max_iter"], kwargs["search_tol"]))
+        return "run"
+
+    monkeypatch.setattr(so, "run", fake_run)
+    monkeypatch.setattr(so, "record", lambda search, setting, r, load: {
+        "search": search.key, "setting": setting.name, "cpu_s": 1.0, "iterations": 1,
+        "solves": 1, "winner": "trot", "fallback_template": None, "search_cost": 1.0,
+        "final_cost": 1.0, "verdict": "MuJoCo pass", "utc": "2026-12-05 08:00:00",
+        "load_start": 0.0, "load_end": 0.0})
+    out = tmp_path / "runs.jsonl"
+    monkeypatch.setattr(sys, "argv", ["so", "run", "--searches", "quad12@0.25:0", "--settings",
+                                      "base,cap40+tol1e-4+gen4", "--out", str(out)])
+    so.main()
+    assert seen == [(6, 60, None), (4, 40, 1e-4)]
+    assert len(out.read_text().splitlines()) == 2
+
+
+def test_save_needs_an_existing_directory(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setattr(so, "run", lambda *a, **k: pytest.fail("a search ran"))
+    monkeypatch.setattr(sys, "argv", ["so", "run", "--searches", "quad12@0.25:0", "--out",
+                                      str(tmp_path / "r.jsonl"), "--save", str(tmp_path / "no")])
+    with pytest.raises(SystemExit, match=r"--save: .*no is not a directory"):
+        so.main()
+
+
+@pytest.mark.parametrize("text", ["", "0,2", "two"])
+def test_bad_replay_generations_are_one_line(text: str) -> None:
+    with pytest.raises(SystemExit, match=r"--generations: expected comma-separated integers"):
+        so._generations(text)
+
+
+class _Plan:
+    def __init__(self, schedule: Any, cost: float) -> None:
+        self.schedule, self.cost, self.feasible = schedule, cost, True
+
+
+def test_replay_truncates_the_record_and_runs_its_final_phase(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Generation k's record is the templates + k·λ samples; its final phase re-solves the
+    truncated record's candidates (each schedule once) and the row carries its iterations and
+    the CPU estimate; the template fallback follows when no candidate passes."""
+    robot = robots.load("quad12")
+    space = TimingSpace.for_robot(robot)
+    names = ["trot", "walk"]
+    encoded = [space.encode(make_schedule(robot, n)) for n in names]
+    xs = [x for x in encoded if x is not None]
+    assert len(xs) == 2
+    lo, hi = space.bounds()
+    gen = [lo + f * (hi - lo) for f in (0.2, 0.4, 0.6, 0.8)]
+    cost = {0: 0.9, 1: 0.8, 2: 0.5, 3: 0.2}  # generation 0: samples 0-1, generation 1: 2-3
+    records = [(x, TimingResult(x, c, True, 11, 0.0, True, cpu_s=1.0))
+               for x, c in zip(xs, (0.7, 0.6), strict=True)]
+    records += [(x, TimingResult(x, cost[i], True, 21, 0.0, True, cpu_s=2.0, accept_cpu_s=0.5))
+                for i, x in enumerate(gen)]
+    row = {"search": "quad12@0.25:0", "setting": "base", "cpu_s": 50.0, "iterations": 100,
+           "solves": 6}
+    rec = {"records": records, "templates": names, "symmetric": True, "generations": 2,
+           "lam": 2, "final_cpu_s": 3.0, "row": row, "knots": 30}
+    solved: list[float] = []
+
+    def fake_evaluate(planner: Any, check: Any, schedule: Any, speed: float) -> FinalOutcome:
+        solved.append(schedule.period_s)
+        passes = math.isclose(schedule.period_s, space.decode(gen[1]).period_s)
+        return FinalOutcome(_Plan(schedule, 0.4), 0.0, passes, solve_cpu_s=1.0,  # type: ignore[arg-type]
+                            check_cpu_s=0.25)
+
+    monkeypatch.setattr(so, "GaitPlanner", lambda *a: None)
+    monkeypatch.setattr(so, "evaluate_final", fake_evaluate)
+    replayer = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30)
+    one = replayer.truncated(rec, 1)
+    # candidates after generation 0: walk template (0.6), trot (0.7), sample 1 (0.8), sample 0
+    assert one["solves"] == 4 and one["iterations"] == 2 * 10 + 2 * 20
+    assert one["setting"] == "base+gen1" and one["verdict"] == "MuJoCo pass"
+    assert one["search_cost"] == 0.8  # the first candidate that passes: sample 1
+    assert len(solved) == 3 and one["final_solves"] == 3
+    # dropped: generation 1's two samples (2.5 CPU-s each); final phase 3 → 3 × 1.25
+    assert one["cpu_s"] == pytest.approx(50.0 - 5.0 - 3.0 + 3.75)
+    two = replayer.truncated(rec, 2)
+    # candidates: generation 1's samples (0.2, 0.5), the walk's and the trot's encodings; none
+    # passes, nor does the fallback (the walk's own schedule; the trot's is its encoding), so
+    # the first candidate is written, failed; sample 1 (0.8) is no longer a candidate
+    assert (two["search_cost"], two["verdict"], two["iterations"]) == (0.2, "MuJoCo FAIL", 100)
+    assert two["final_solves"] == 5 and len(solved) == 3 + 3  # the encodings were solved before
+    assert np.isclose(two["cpu_s"], 50.0 - 3.0 + 5 * 1.25)
+    # with 5 final candidates sample 1 (0.8) is one again, and passes
+    five = replayer.truncated(rec, 2, 5)
+    assert (five["setting"], five["search_cost"], five["verdict"]) == (
+        "base+gen2+final5", 0.8, "MuJoCo pass")
+    assert len(solved) == 6  # every schedule it read was solved before
