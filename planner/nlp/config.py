@@ -63,7 +63,7 @@ COLD_STARTS = ("stance", "balanced", "stride")
 #: values of `PlannerOptions.swing_wrench` (`planner.nlp.swing_wrench`)
 SWING_WRENCHES = ("rows", "bounds")
 #: values of `PlannerOptions.inactive_rows` (`planner.nlp.inactive_rows`)
-INACTIVE_ROWS = ("rows", "free")
+INACTIVE_ROWS = ("rows", "free", "regularised")
 #: `PlannerOptions.cold_start`'s default
 DEFAULT_COLD_START = "stance"
 #: upper bound of `PlannerOptions.knot_threads`
@@ -347,8 +347,10 @@ class PlannerOptions:
     - `inactive_rows`: the equality rows the schedule switches off (a swing foot's "stance
       height", "stance no-slip" over two swing knots, a flat foot's "sole level" and "sole yaw
       hold"; each reads 0 = 0 and makes the constraint Jacobian rank-deficient,
-      `planner.nlp.inactive_rows`): "rows" keeps them as 0 = 0, "free" unbounds them per solve.
-      The same feasible set.
+      `planner.nlp.inactive_rows`): "rows" keeps them as 0 = 0, "free" unbounds them per solve,
+      "regularised" keeps them and has IPOPT regularise the constraint block from the first
+      iteration (``perturb_always_cd``) instead of after its degeneracy test. The same
+      feasible set.
     """
 
     mu: float = 0.5

@@ -154,6 +154,9 @@ def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
         # 22 iterations); scaling and memory options made no further difference.
         ipopt["mumps_pivot_order"] = 5
         ipopt["mumps_mem_percent"] = MUMPS_MEM_PERCENT
+    if options.inactive_rows == "regularised":
+        # the Jacobian is rank-deficient (`planner.nlp.inactive_rows`): δ_c > 0 from the start
+        ipopt["perturb_always_cd"] = "yes"
     tuned_warm = warm and options.ipopt_tuning == "tuned"
     push = TUNED_WARM_BOUND_PUSH if tuned_warm else 1e-6
     ipopt.update(
