@@ -10,7 +10,7 @@ import robots
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.inactive_rows import RowActivity, free_inactive_rows
-from planner.nlp.spacetime import GaitPlanner
+from planner.nlp.spacetime import GaitPlanner, ipopt_options
 from planner.nlp.variables import parameter_vector
 from planner.templates import make_schedule
 
@@ -70,6 +70,24 @@ def test_free_reaches_the_same_trot_optimum(quad_planner: GaitPlanner) -> None:
     assert a.feasible and b.feasible and a.optimal and b.optimal
     assert b.cost <= a.cost * (1 + 1e-4)
     assert b.max_violation < 1e-5
+
+
+def test_regularised_keeps_the_rows_and_reaches_the_same_trot_optimum(
+        quad_planner: GaitPlanner) -> None:
+    """"regularised" hands IPOPT the same rows and bounds with δ_c > 0 from the start (as "rows"
+    after IPOPT's degeneracy test): the same optimum (the iterates differ by rounding, so the
+    iteration counts may too: 19 and 22 on this trot, docs/results/planner_speed_ipopt.md)."""
+    options = PlannerOptions(inactive_rows="regularised")
+    assert ipopt_options(options, False)["perturb_always_cd"] == "yes"
+    assert "perturb_always_cd" not in ipopt_options(PlannerOptions(), False)
+    reg = GaitPlanner(quad_planner.robot, quad_planner.n_knots, options)
+    schedule = make_schedule(quad_planner.robot, "trot")
+    bounds = reg._solve_bounds(schedule)
+    assert np.array_equal(bounds.lbg, reg._lbg) and np.array_equal(bounds.ubg, reg._ubg)
+    a = quad_planner.solve(schedule, 0.25, warm_start=False)
+    b = reg.solve(schedule, 0.25, warm_start=False)
+    assert a.optimal and b.optimal
+    assert b.cost <= a.cost * (1 + 1e-4)
 
 
 def test_free_keeps_rows_whose_bounds_exclude_zero() -> None:
