@@ -62,6 +62,8 @@ DEFAULT_COMPACT_ROWS = ("torque envelope",)
 COLD_STARTS = ("stance", "balanced", "stride")
 #: values of `PlannerOptions.swing_wrench` (`planner.nlp.swing_wrench`)
 SWING_WRENCHES = ("rows", "bounds")
+#: values of `PlannerOptions.inactive_rows` (`planner.nlp.inactive_rows`)
+INACTIVE_ROWS = ("rows", "free", "regularised")
 #: `PlannerOptions.cold_start`'s default
 DEFAULT_COLD_START = "stance"
 #: upper bound of `PlannerOptions.knot_threads`
@@ -342,6 +344,13 @@ class PlannerOptions:
     - `swing_wrench`: how a swing foot's wrench is held at 0 (`planner.nlp.swing_wrench`):
       "rows" (the schedule's rows and f_z ≥ 0 pin it from both sides) or "bounds" (fixed by
       its bounds per solve, the rows it pins freed). The same feasible set.
+    - `inactive_rows`: the equality rows the schedule switches off (a swing foot's "stance
+      height", "stance no-slip" over two swing knots, a flat foot's "sole level" and "sole yaw
+      hold"; each reads 0 = 0 and makes the constraint Jacobian rank-deficient,
+      `planner.nlp.inactive_rows`): "rows" keeps them as 0 = 0, "free" unbounds them per solve,
+      "regularised" keeps them and has IPOPT regularise the constraint block from the first
+      iteration (``perturb_always_cd``) instead of after its degeneracy test. The same
+      feasible set.
     """
 
     mu: float = 0.5
@@ -383,6 +392,7 @@ class PlannerOptions:
     compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS
     cold_start: str = DEFAULT_COLD_START
     swing_wrench: str = "rows"
+    inactive_rows: str = "rows"
 
     def __post_init__(self) -> None:
         checks = {
@@ -441,6 +451,11 @@ class PlannerOptions:
             raise PlannerConfigError(
                 f"planner option swing_wrench={self.swing_wrench!r}: use one of "
                 f"{', '.join(SWING_WRENCHES)}"
+            )
+        if self.inactive_rows not in INACTIVE_ROWS:
+            raise PlannerConfigError(
+                f"planner option inactive_rows={self.inactive_rows!r}: use one of "
+                f"{', '.join(INACTIVE_ROWS)}"
             )
         for name, ok in checks.items():
             if not ok:

@@ -64,6 +64,10 @@ class Group:
     #: typical magnitude of a row (group units); the solver sees expr / scale (see
     #: `row_scales`), reports and bounds stay in group units
     scale: float | np.ndarray = 1.0
+    #: the schedule's factor on each row of an equality group (a column of MX in the contact
+    #: parameters C, as many rows as `expr`) or None: where it is 0 the row reads 0 = 0 whatever
+    #: x is (`planner.nlp.inactive_rows`, `PlannerOptions.inactive_rows`)
+    activity: Any = None
 
 
 @dataclass(frozen=True)
@@ -320,7 +324,8 @@ def build_groups(
             zeros(nj * n),
         ),
         # eq 2: stance foot-sphere centre at the sphere radius
-        Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n), length),
+        Group("stance height", col(c * (feet_z - r)), zeros(nf * n), zeros(nf * n), length,
+              col(c)),
         # eq 3: stance feet stay put in the world: knot k+1's foot, in the command frame of knot
         # k, is where it was at k (on a treadmill: moves at −v along x, not sideways); with
         # `vertical_contact_transitions` also over the last swing interval before touchdown and
@@ -336,6 +341,7 @@ def build_groups(
             np.r_[zeros(nf * n), lateral_lb],
             np.r_[zeros(nf * n), lateral_ub],
             length,
+            ca.vertcat(col(stick), col(stick)),
         ),
         # eq 1 for feet + anti-scuffing clearance profile in swing
         Group(

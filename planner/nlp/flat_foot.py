@@ -257,8 +257,10 @@ def flat_foot_groups(
             ca.vertcat(ca.vec(c * normal[0::2, :]), ca.vec(c * normal[1::2, :])),
             zeros(2 * nff * n),
             zeros(2 * nff * n),
+            activity=ca.vertcat(ca.vec(c), ca.vec(c)),
         ),
-        group("sole yaw hold", ca.vec(hold * yaw_slip), zeros(nff * n), zeros(nff * n)),
+        group("sole yaw hold", ca.vec(hold * yaw_slip), zeros(nff * n), zeros(nff * n),
+              activity=ca.vec(hold)),
         group(
             "sole clearance",
             ca.vertcat(*corner_rows),

@@ -52,6 +52,7 @@ from planner.nlp.constraints import (
     stacked_knot,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
+from planner.nlp.inactive_rows import RowActivity, free_inactive_rows
 from planner.nlp.iteration_abort import AbortCallback, StallAbort
 from planner.nlp.mirror import check_mirror
 from planner.nlp.model import RobotModel
@@ -153,6 +154,9 @@ def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
         # 22 iterations); scaling and memory options made no further difference.
         ipopt["mumps_pivot_order"] = 5
         ipopt["mumps_mem_percent"] = MUMPS_MEM_PERCENT
+    if options.inactive_rows == "regularised":
+        # the Jacobian is rank-deficient (`planner.nlp.inactive_rows`): δ_c > 0 from the start
+        ipopt["perturb_always_cd"] = "yes"
     tuned_warm = warm and options.ipopt_tuning == "tuned"
     push = TUNED_WARM_BOUND_PUSH if tuned_warm else 1e-6
     ipopt.update(
@@ -292,6 +296,9 @@ class GaitPlanner:
             slices.append((grp.name, slice(start, start + size)))
             start += size
         self._slices = slices
+        #: `PlannerOptions.inactive_rows` "free": which rows the schedule switches off
+        self._row_activity = _row_activity(groups, slices, sym.p, self.layout) if (
+            self.options.inactive_rows == "free") else None
         self._labels = group_labels(self.model, n_knots, self.options.compact_rows)
         self._x_labels = self.layout.labels(self.robot.joint_names, self.model.flat_feet)
         self._lbx, self._ubx = variable_bounds(self.layout, self.model, self.options)
@@ -543,15 +550,19 @@ class GaitPlanner:
         swing feet's wrench fixed (`planner.nlp.swing_wrench`). The schedule's contact matrix,
         which each of the three needs when its option is on, is computed once."""
         uses = ("line capture" in dict(self._slices), "swing force" in self.options.compact_rows,
-                self.options.swing_wrench == "bounds")
+                self.options.swing_wrench == "bounds", self._row_activity is not None)
         contact = schedule.contact_matrix(self.n_knots) if any(uses) else None
         lbg = self._row_lower_bounds(schedule, contact)
         lbx, ubx = self._variable_bounds(schedule, contact)
+        ubg = self._ubg
         if self.options.swing_wrench == "bounds":
             assert contact is not None
             lbx, ubx, lbg = swing_wrench_bounds(
                 self.layout, self.model, contact, dict(self._slices), lbx, ubx, lbg)
-        return SolveBounds(lbx, ubx, lbg, self._ubg)
+        if self._row_activity is not None:
+            assert contact is not None
+            lbg, ubg = free_inactive_rows(self._row_activity.inactive(contact), lbg, ubg)
+        return SolveBounds(lbx, ubx, lbg, ubg)
 
     def _row_lower_bounds(self, schedule: ContactSchedule, contact: np.ndarray | None = None
                           ) -> np.ndarray:
@@ -713,6 +724,21 @@ class GaitPlanner:
             planner=meta,
             expected_knots_rad=result.joint_angles_rad if self.options.servo_goals else None,
         )
+
+
+def _row_activity(groups: list[Any], slices: list[tuple[str, slice]], p: Any,
+                  layout: Layout) -> RowActivity | None:
+    """The activity factors of the groups that have them (`planner.nlp.inactive_rows`), or None
+    if none has."""
+    rows, factors = [], []
+    for grp, (_, sl) in zip(groups, slices, strict=True):
+        if grp.activity is not None:
+            rows.append(np.arange(sl.start, sl.stop))
+            factors.append(grp.activity)
+    if not rows:
+        return None
+    return RowActivity(p, np.concatenate(rows), ca.vertcat(*factors),
+                       layout.n_knots * layout.n_feet)
 
 
 def bound_rows(
