@@ -1,8 +1,11 @@
 """`PlannerOptions.inactive_rows`' values side by side, in one process (issue #16).
 
     python benchmarks/inactive_rows_bench.py --knots 30 --random 4 --warm 4
+    python benchmarks/inactive_rows_bench.py --robot biped,tests/zoo/star5 --variants rows,free
 
-For quad12 (trot, 0.25 m/s) and hex18 (tripod, 0.15 m/s): one planner per value of
+For quad12 (trot, 0.25 m/s) and hex18 (tripod, 0.15 m/s) (`--robot`: other robots, by name or
+folder; the biped walks at 0.2 m/s, the rest their default template at Froude 0.02, `case`): one
+planner per value of
 `--variants` (the first is the baseline), every template and `--random` random schedules
 (`planner_bench.random_schedule`, the seed as `planner_bench compare`) solved cold by each,
 alternating, then a chain of `--warm` perturbed
@@ -37,9 +40,10 @@ import numpy as np
 import robots
 from planner.errors import PlannerConfigError
 from planner.nlp import spacetime
-from planner.nlp.config import INACTIVE_ROWS, PlannerOptions
+from planner.nlp.config import INACTIVE_ROWS, PlannerOptions, speed_for_froude
 from planner.nlp.spacetime import GaitPlanner, PlanResult
-from planner.templates import make_schedule, templates_for
+from planner.templates import default_gait_for, make_schedule, templates_for
+from robots.errors import RobotsError
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from planner_bench import SAME_COST_RTOL, perturbed, random_schedule
@@ -109,6 +113,14 @@ def log_counts(text: str) -> dict[str, Any]:
     }
 
 
+def log_path(work: Path, robot: robots.Robot, n_knots: int, variant: str) -> Path:
+    """The IPOPT log file of one planner in `work`: named by the robot's own name (not the
+    path it was loaded from: IPOPT refuses an output file in a folder that does not exist),
+    N and the variant, with anything but letters, digits, '.', '_' and '-' replaced by '_'."""
+    stem = re.sub(r"[^A-Za-z0-9._-]", "_", f"{robot.name}_{n_knots}_{variant}")
+    return work / f"{stem}.log"
+
+
 def _same(a: PlanResult, b: PlanResult) -> tuple[bool, float]:
     rel = (b.cost - a.cost) / max(abs(a.cost), 1e-12)
     if a.feasible != b.feasible:
@@ -120,8 +132,8 @@ def run(robot_name: str, gait: str, speed: float, n_knots: int, n_random: int, n
         seed: int, work: Path, variants: list[str]) -> None:
     """Every variant on the same schedules, alternating; the first is the baseline."""
     robot = robots.load(robot_name)
-    planners = {name: LoggedPlanner(robot, n_knots, name, work / f"{robot_name}_{n_knots}_{name}"
-                                    ".log") for name in variants}
+    planners = {name: LoggedPlanner(robot, n_knots, name, log_path(work, robot, n_knots, name))
+                for name in variants}
     rng = np.random.default_rng(seed)
     base = make_schedule(robot, gait)
     schedules = [(name, make_schedule(robot, name)) for name in templates_for(robot)]
@@ -188,13 +200,28 @@ def run(robot_name: str, gait: str, speed: float, n_knots: int, n_random: int, n
               f"{worst[name]:.1e})")
 
 
+#: the gait and speed of the robots measured before (planner_speed_ipopt.md, session 33)
+CASES = {"quad12": ("trot", 0.25), "hex18": ("tripod", 0.15), "biped": ("biped_walk", 0.2)}
+#: other robots: their default template at this Froude number (`zoo_must_show.py`'s default)
+FROUDE = 0.02
+
+
+def case(robot: robots.Robot) -> tuple[str, float]:
+    """(gait, speed in m/s) a robot is benchmarked at: `CASES`, else its default template
+    (`planner.templates.default_gait_for`) at Froude number `FROUDE` (v = √(Fr·g·L))."""
+    if robot.name in CASES:
+        return CASES[robot.name]
+    return default_gait_for(robot), round(speed_for_froude(FROUDE, robot.leg_length_m), 3)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--knots", type=int, default=30)
     ap.add_argument("--random", type=int, default=4)
     ap.add_argument("--warm", type=int, default=4)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--robot", default="both", help="both, quad12 or hex18")
+    ap.add_argument("--robot", default="both",
+                    help="both (quad12 and hex18), or robots by name or folder, comma-separated")
     ap.add_argument("--variants", default=",".join(INACTIVE_ROWS),
                     help="values of PlannerOptions.inactive_rows, baseline first")
     args = ap.parse_args()
@@ -202,13 +229,21 @@ def main() -> None:
     unknown = sorted(set(variants) - set(INACTIVE_ROWS))
     if unknown or len(variants) < 2:
         ap.error(f"--variants {args.variants!r}: name two or more of {', '.join(INACTIVE_ROWS)}")
+    names = ["quad12", "hex18"] if args.robot == "both" else [
+        r.strip() for r in args.robot.split(",") if r.strip()]
+    loaded = []
+    for name in names:
+        try:
+            loaded.append((name, robots.load(name)))
+        except RobotsError as exc:
+            ap.error(f"--robot {name!r}: {exc}")
+    if not loaded:
+        ap.error(f"--robot {args.robot!r}: name a robot (a built-in name or a robot folder)")
     with tempfile.TemporaryDirectory(prefix="inactive_rows_") as work:
-        if args.robot in ("both", "quad12"):
-            run("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed,
-                Path(work), variants)
-        if args.robot in ("both", "hex18"):
-            run("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed,
-                Path(work), variants)
+        for name, robot in loaded:
+            gait, speed = case(robot)
+            run(name, gait, speed, args.knots, args.random, args.warm, args.seed, Path(work),
+                variants)
 
 
 if __name__ == "__main__":
