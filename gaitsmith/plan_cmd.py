@@ -66,7 +66,9 @@ from gaitsmith.stance_options import StanceShaped, stance_shaped
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp.config import (
     DEFAULT_FROUDE,
+    DEFAULT_INACTIVE_ROWS,
     DEFAULT_NLP_HESSIAN,
+    INACTIVE_ROWS,
     PlannerOptions,
     default_speed_m_s,
 )
@@ -128,6 +130,11 @@ def plan(
         "assembled (one knot Hessian per knot weighted by its multipliers, "
         "`planner.nlp.assembled_hessian`); the same Hessian to rounding, not the same bits "
         "(docs/results/planner_speed.md, sessions 29-30)"),
+    inactive_rows: str = typer.Option(
+        DEFAULT_INACTIVE_ROWS, "--inactive-rows", help="the equality rows the contact schedule "
+        "switches off (0 = 0; `PlannerOptions.inactive_rows`): "
+        + " | ".join(INACTIVE_ROWS) + "; the same feasible set. With --search only the final "
+        "re-solves use it, the coarse solves keep rows (docs/results/planner_speed_ipopt.md)"),
     background_compile: bool = typer.Option(
         True, "--background-compile/--no-background-compile", help="with --solver knot and a "
         "C compiler: if the robot's knot derivatives are not compiled yet, compile them in a "
@@ -235,7 +242,7 @@ def plan(
                           "--yaw-rate) and no --search")
     check_nlp_options(force_rate, bounce_weight, entry_cycles, rotor_reserve, swing_clearance,
                       solver, mirror, knots, line_capture_margin, nlp_hessian,
-                      cop_sole_fraction)
+                      cop_sole_fraction, inactive_rows)
     check_output_file("--output", output)
     if not background_compile:  # this process and the search's workers (they inherit it)
         from planner.nlp.background_compile import ENV_SWITCH
@@ -264,7 +271,8 @@ def plan(
     options = planner_options(mu, solver, shaped, rotor_reserve, swing_clearance,
                               verbose=verbose, servo_settings=servo_settings, mirror=mirror,
                               line_capture_margin=line_capture_margin,
-                              nlp_hessian=nlp_hessian, cop_sole_fraction=cop_sole_fraction)
+                              nlp_hessian=nlp_hessian, cop_sole_fraction=cop_sole_fraction,
+                              inactive_rows=inactive_rows)
     meta = gait_metadata(supply_v, servo_params_path, shaped)
     if search:
         limited = (servo_limited(bot, default_gait_for(bot), speed, options)

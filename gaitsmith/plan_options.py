@@ -29,8 +29,10 @@ from gaitsmith.search_options import check_search_options, check_search_swing_wr
 from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, StanceShaped
 from planner.nlp.config import (
     COP_SOLE_FRACTION,
+    DEFAULT_INACTIVE_ROWS,
     DEFAULT_NLP_HESSIAN,
     DERIVATIVE_PATHS,
+    INACTIVE_ROWS,
     NLP_HESSIANS,
     PlannerOptions,
 )
@@ -83,6 +85,9 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--mu", "mu", NLP, NLP),
     OptionRoute("--solver", "solver", NLP, NLP),
     OptionRoute("--nlp-hessian", "nlp_hessian", NLP, NLP),
+    OptionRoute("--inactive-rows", "inactive_rows", NLP + "; gait-file metadata",
+                "PlannerOptions of the final re-solves (the coarse solves keep rows); "
+                "gait-file metadata"),
     OptionRoute("--background-compile", "background_compile", BACKGROUND, BACKGROUND),
     OptionRoute("--verbose", "verbose", "PlannerOptions.print_level", ""),
     OptionRoute("--knife-edge", "knife_edge", "re-plans and simulations after --simulate", "",
@@ -171,7 +176,8 @@ def check_nlp_options(force_rate: float | None, bounce_weight: float | None,
                       swing_clearance: float | None, solver: str, mirror: bool,
                       knots: int, line_capture_margin: float | None = None,
                       nlp_hessian: str = DEFAULT_NLP_HESSIAN,
-                      cop_sole_fraction: float | None = None) -> None:
+                      cop_sole_fraction: float | None = None,
+                      inactive_rows: str = DEFAULT_INACTIVE_ROWS) -> None:
     """The NLP-shaping options (each None unless given) in the ranges the planner accepts."""
     check_number("--force-rate", force_rate, 0.0, MAX_FORCE_RATE,
                  unit="body weights per √(L/g)")  # 0: no rows (overrides the stance rule)
@@ -189,6 +195,9 @@ def check_nlp_options(force_rate: float | None, bounce_weight: float | None,
         raise OptionError(f"--solver {solver!r}: use one of {', '.join(DERIVATIVE_PATHS)}")
     if nlp_hessian not in NLP_HESSIANS:
         raise OptionError(f"--nlp-hessian {nlp_hessian!r}: use one of {', '.join(NLP_HESSIANS)}")
+    if inactive_rows not in INACTIVE_ROWS:
+        raise OptionError(f"--inactive-rows {inactive_rows!r}: use one of "
+                          f"{', '.join(repr(v) for v in INACTIVE_ROWS)}")
 
 
 def standing(vx: float, vy: float, yaw_rate: float, duty: str | None, phases: str | None,
@@ -204,7 +213,8 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
                     mirror: bool = False,
                     line_capture_margin: float | None = None,
                     nlp_hessian: str = DEFAULT_NLP_HESSIAN,
-                    cop_sole_fraction: float | None = None) -> PlannerOptions:
+                    cop_sole_fraction: float | None = None,
+                    inactive_rows: str = DEFAULT_INACTIVE_ROWS) -> PlannerOptions:
     """The `PlannerOptions` of the command line (both paths; `search_planner_options` drops
     what `--search` does not take)."""
     return PlannerOptions(mu=mu, print_level=5 if verbose else 0, servo_settings=servo_settings,
@@ -213,7 +223,7 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
                           weights=shaped.weights, rotor_reserve=rotor_reserve,
                           swing_clearance_m=swing_clearance,
                           line_capture_margin_leg_lengths=line_capture_margin,
-                          nlp_hessian=nlp_hessian,
+                          nlp_hessian=nlp_hessian, inactive_rows=inactive_rows,
                           cop_sole_fraction=(COP_SOLE_FRACTION if cop_sole_fraction is None
                                              else cop_sole_fraction))
 

@@ -16,6 +16,7 @@ from gaitsmith.plan_output import DEFAULT_CYCLES, write_gait
 from gaitsmith.search_options import DEFAULT_SEARCH_SWING_WRENCH, sim_acceptance
 from planner.errors import InfeasibleGaitError
 from planner.nlp.config import PlannerOptions
+from planner.search.defaults import SEARCH_INACTIVE_ROWS
 from planner.templates import default_gait_for
 from planner.user_schedule import command_schedule
 from robots.voltage import voltage_margin
@@ -132,6 +133,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         "search_feasible": result.search_feasible,
         "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
         "search_swing_wrench": st.search_swing_wrench,
+        "search_inactive_rows": SEARCH_INACTIVE_ROWS,  # the final solves': planner.solver
         "tipping_amplification": result.tipping_amplification,
         "sim_accepted": result.accepted, "fallback_template": result.fallback_template,
         "cost_of_transport": result.cost_of_transport,

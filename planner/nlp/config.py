@@ -63,7 +63,17 @@ COLD_STARTS = ("stance", "balanced", "stride")
 #: values of `PlannerOptions.swing_wrench` (`planner.nlp.swing_wrench`)
 SWING_WRENCHES = ("rows", "bounds")
 #: values of `PlannerOptions.inactive_rows` (`planner.nlp.inactive_rows`)
-INACTIVE_ROWS = ("rows", "free", "regularised")
+INACTIVE_ROWS = ("rows", "free", "free stance", "free sole", "regularised")
+#: `PlannerOptions.inactive_rows`' default (the 30-knot solves; the search's coarse solves use
+#: `planner.search.defaults.SEARCH_INACTIVE_ROWS`)
+DEFAULT_INACTIVE_ROWS = "rows"
+#: the groups whose switched-off rows each "free…" value of `PlannerOptions.inactive_rows`
+#: unbounds (None: every group that has an activity factor)
+FREED_GROUPS: dict[str, tuple[str, ...] | None] = {
+    "free": None,
+    "free stance": ("stance height", "stance no-slip"),
+    "free sole": ("sole level", "sole yaw hold"),
+}
 #: `PlannerOptions.cold_start`'s default
 DEFAULT_COLD_START = "stance"
 #: upper bound of `PlannerOptions.knot_threads`
@@ -392,7 +402,7 @@ class PlannerOptions:
     compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS
     cold_start: str = DEFAULT_COLD_START
     swing_wrench: str = "rows"
-    inactive_rows: str = "rows"
+    inactive_rows: str = DEFAULT_INACTIVE_ROWS
 
     def __post_init__(self) -> None:
         checks = {

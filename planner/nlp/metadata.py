@@ -121,6 +121,7 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
             "max_violation": result.max_violation,
             "optimal": result.optimal,
             "message": result.message,
+            "inactive_rows": o.inactive_rows,
         },
         "active_limits": [[name, float(v)] for name, v in result.binding],
         "servo_load": servo_load(planner, result),

@@ -42,7 +42,7 @@ from planner.nlp.assembled_hessian import assembled_hessian
 from planner.nlp.assembled_jacobian import assembled_jacobian
 from planner.nlp.cold_start import ColdStarter, StartCommand
 from planner.nlp.command import VelocityCommand, check_command
-from planner.nlp.config import PlannerOptions
+from planner.nlp.config import FREED_GROUPS, PlannerOptions
 from planner.nlp.constraints import (
     build_groups,
     group_labels,
@@ -297,8 +297,9 @@ class GaitPlanner:
             start += size
         self._slices = slices
         #: `PlannerOptions.inactive_rows` "free": which rows the schedule switches off
-        self._row_activity = _row_activity(groups, slices, sym.p, self.layout) if (
-            self.options.inactive_rows == "free") else None
+        self._row_activity = _row_activity(
+            groups, slices, sym.p, self.layout, FREED_GROUPS[self.options.inactive_rows]) if (
+            self.options.inactive_rows in FREED_GROUPS) else None
         self._labels = group_labels(self.model, n_knots, self.options.compact_rows)
         self._x_labels = self.layout.labels(self.robot.joint_names, self.model.flat_feet)
         self._lbx, self._ubx = variable_bounds(self.layout, self.model, self.options)
@@ -727,12 +728,12 @@ class GaitPlanner:
 
 
 def _row_activity(groups: list[Any], slices: list[tuple[str, slice]], p: Any,
-                  layout: Layout) -> RowActivity | None:
-    """The activity factors of the groups that have them (`planner.nlp.inactive_rows`), or None
-    if none has."""
+                  layout: Layout, names: tuple[str, ...] | None = None) -> RowActivity | None:
+    """The activity factors of the groups that have them (`planner.nlp.inactive_rows`), only
+    those of the groups named in `names` if given, or None if none has."""
     rows, factors = [], []
     for grp, (_, sl) in zip(groups, slices, strict=True):
-        if grp.activity is not None:
+        if grp.activity is not None and (names is None or grp.name in names):
             rows.append(np.arange(sl.start, sl.stop))
             factors.append(grp.activity)
     if not rows:

@@ -9,3 +9,7 @@ from __future__ import annotations
 DEFAULT_TIPPING_WEIGHT = 0.05
 #: Coarse NLP of the search (see `planner.search.gait_search`) and the final solves it hands on.
 DEFAULT_SEARCH_KNOTS = 12
+#: `PlannerOptions.inactive_rows` of the search's coarse solves, whatever the final solves use:
+#: at N = 12 "free" ended on another local optimum on 2 of 35 quad12/hex18 schedules
+#: (docs/results/planner_speed_ipopt.md, session 33, branch rank)
+SEARCH_INACTIVE_ROWS = "rows"

@@ -63,7 +63,7 @@ from typing import Protocol
 import numpy as np
 
 from planner.errors import PlannerConfigError
-from planner.nlp.config import SWING_WRENCHES, PlannerOptions
+from planner.nlp.config import INACTIVE_ROWS, SWING_WRENCHES, PlannerOptions
 from planner.nlp.iteration_abort import StallAbort
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.nlp.variables import retimed_start
@@ -617,6 +617,7 @@ def search_gait(
     coarse_abort: StallAbort | None = None,
     search_swing_wrench: str | None = None,
     search_tol: float | None = None,
+    search_inactive_rows: str = defaults.SEARCH_INACTIVE_ROWS,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -637,6 +638,9 @@ def search_gait(
     so final costs compare between settings (docs/results/planner_speed_search.md, session 32).
     `search_tol`: IPOPT's `tol` of the coarse solves only (None, the default: `options.tol`);
     the final re-solves keep `options.tol` (planner_speed_search.md, session 33).
+    `search_inactive_rows`: `PlannerOptions.inactive_rows` of the coarse solves only (default
+    `planner.search.defaults.SEARCH_INACTIVE_ROWS`, "rows", whatever `options` has); the final
+    re-solves keep `options.inactive_rows` (planner_speed_ipopt.md, session 34).
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
@@ -655,6 +659,9 @@ def search_gait(
     if search_swing_wrench is not None and search_swing_wrench not in SWING_WRENCHES:
         raise PlannerConfigError(f"search_swing_wrench must be one of {', '.join(SWING_WRENCHES)}"
                                  f" (or None: the options' own), got {search_swing_wrench!r}")
+    if search_inactive_rows not in INACTIVE_ROWS:
+        raise PlannerConfigError(f"search_inactive_rows must be one of {', '.join(INACTIVE_ROWS)},"
+                                 f" got {search_inactive_rows!r}")
     if search_tol is not None and not 0 < search_tol < 1:
         raise PlannerConfigError(f"search_tol must be in (0, 1) (or None: the options' own), "
                                  f"got {search_tol!r}")
@@ -679,7 +686,8 @@ def search_gait(
     search_options = replace(options, max_iter=search_max_iter if options.max_iter is None
                              else min(options.max_iter, search_max_iter),
                              swing_wrench=search_swing_wrench or options.swing_wrench,
-                             tol=options.tol if search_tol is None else search_tol)
+                             tol=options.tol if search_tol is None else search_tol,
+                             inactive_rows=search_inactive_rows)
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
                                   search_options, tipping_weight, acceptance, warm_start,
                                   space.period_bounds_s if seeds else None, coarse_abort)

@@ -92,3 +92,36 @@ def test_plan_nlp_hessian_reaches_the_planner(
     with pytest.raises(_Built) as caught:
         main(["plan", "quad12", "--gait", "trot", "-o", str(tmp_path / "g.json"), *flag])
     assert caught.value.args[0] == (flag[1] if flag else PlannerOptions().nlp_hessian)
+
+
+def test_plan_rejects_an_unknown_inactive_rows_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from planner.nlp.config import INACTIVE_ROWS
+
+    out = tmp_path / "g.json"
+    assert main(["plan", "quad12", "-o", str(out), "--inactive-rows", "none"]) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert lines == ["error: --inactive-rows 'none': use one of "
+                     + ", ".join(repr(v) for v in INACTIVE_ROWS)]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("flag", [[], ["--inactive-rows", "rows"],
+                                  ["--inactive-rows", "free stance"]],
+                         ids=["default", "rows", "free stance"])
+def test_plan_inactive_rows_reaches_the_planner(
+    flag: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`plan` (no --search) builds its planner with --inactive-rows, by default
+    `PlannerOptions.inactive_rows`' default."""
+    import gaitsmith.plan_cmd as plan_cmd
+    from planner.nlp.config import DEFAULT_INACTIVE_ROWS, PlannerOptions
+
+    def built(*args: object, options: PlannerOptions, **kwargs: object) -> None:
+        raise _Built(options.inactive_rows)
+
+    monkeypatch.setattr(plan_cmd, "GaitPlanner", built)
+    with pytest.raises(_Built) as caught:
+        main(["plan", "quad12", "--gait", "trot", "-o", str(tmp_path / "g.json"), *flag])
+    assert caught.value.args[0] == (flag[1] if flag else DEFAULT_INACTIVE_ROWS)

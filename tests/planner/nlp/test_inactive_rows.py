@@ -53,6 +53,33 @@ def test_free_unbounds_exactly_the_zero_rows_and_leaves_full_rank(
     assert np.linalg.matrix_rank(block) == eq.size
 
 
+
+def _freed_groups(pl: GaitPlanner, gait: str) -> dict[str, int]:
+    """How many rows of each group the solve's bounds free (equalities built, not in the solve)."""
+    bounds = pl._solve_bounds(make_schedule(pl.robot, gait))
+    freed = np.flatnonzero((pl._lbg == pl._ubg) & (bounds.lbg != bounds.ubg))
+    return {n: int(((freed >= sl.start) & (freed < sl.stop)).sum()) for n, sl in pl._slices
+            if ((freed >= sl.start) & (freed < sl.stop)).any()}
+
+
+def test_free_stance_frees_the_stance_rows_only() -> None:
+    """"free stance" frees a swing foot's "stance height" and "stance no-slip" rows as "free"
+    does and keeps a flat foot's "sole level" and "sole yaw hold" rows (0 = 0) as rows; on point
+    feet, which have no sole rows, it gives the solve the same bounds as "free"."""
+    quad = robots.load("quad12")
+    point = {v: GaitPlanner(quad, 10, PlannerOptions(inactive_rows=v))
+             for v in ("free", "free stance")}
+    a, b = (point[v]._solve_bounds(make_schedule(quad, "walk")) for v in ("free", "free stance"))
+    assert np.array_equal(a.lbg, b.lbg) and np.array_equal(a.ubg, b.ubg)
+    biped = robots.load("biped")
+    freed = {v: _freed_groups(GaitPlanner(biped, 10, PlannerOptions(inactive_rows=v)),
+                              "biped_walk") for v in ("free", "free stance")}
+    assert set(freed["free"]) == {"stance height", "stance no-slip", "sole level",
+                                  "sole yaw hold"}
+    assert freed["free stance"] == {k: freed["free"][k]
+                                    for k in ("stance height", "stance no-slip")}
+
+
 def test_rows_keeps_every_equality(quad_planner: GaitPlanner) -> None:
     schedule = make_schedule(quad_planner.robot, "trot")
     bounds = quad_planner._solve_bounds(schedule)
@@ -110,5 +137,6 @@ def test_activity_must_depend_on_the_contacts_only() -> None:
 
 
 def test_unknown_value_is_refused() -> None:
-    with pytest.raises(PlannerConfigError, match="inactive_rows='none'"):
+    with pytest.raises(PlannerConfigError, match="inactive_rows='none'") as err:
         PlannerOptions(inactive_rows="none")
+    assert "\n" not in str(err.value) and "free stance" in str(err.value)

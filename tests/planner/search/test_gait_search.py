@@ -238,6 +238,31 @@ def test_search_swing_wrench_reaches_the_coarse_solves_only(
     assert built == [(20, options)]
 
 
+@pytest.mark.parametrize(("own", "coarse"), [
+    ("free stance", None), ("free", None), ("rows", None), ("free stance", "free"),
+])
+def test_coarse_solves_keep_rows_and_the_final_planner_the_options_inactive_rows(
+    monkeypatch: pytest.MonkeyPatch, own: str, coarse: str | None,
+) -> None:
+    """The coarse (12-knot) NLP gets `search_inactive_rows` ("rows" unless asked: "free" lost
+    2 of 35 optima at N = 12, planner_speed_ipopt.md session 33), whatever the options say; the
+    final planner is built with the options' own `inactive_rows`."""
+    from planner.nlp.config import PlannerOptions
+
+    options = PlannerOptions(inactive_rows=own)
+    kwargs = {} if coarse is None else {"search_inactive_rows": coarse}
+    (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=60, **kwargs)
+    assert factory.options == replace(options, max_iter=60, inactive_rows=coarse or "rows")
+    assert built == [(20, options)]
+
+
+def test_unknown_search_inactive_rows_is_one_line_before_any_solve() -> None:
+    with pytest.raises(PlannerConfigError,
+                       match=r"search_inactive_rows must be one of rows, free.*'none'") as err:
+        search_gait(robots.load("quad12"), 0.25, search_inactive_rows="none")
+    assert "\n" not in str(err.value)
+
+
 @pytest.mark.parametrize("tol", [None, 1e-4])
 def test_search_tol_reaches_the_coarse_solves_only(
     monkeypatch: pytest.MonkeyPatch, tol: float | None,
