@@ -229,6 +229,12 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "knot-stride": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(cold_start="stride")),
     "knot-swr": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(swing_wrench="rows")),
     "knot-swb": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(swing_wrench="bounds")),
+    # the schedule's switched-off equality rows (`PlannerOptions.inactive_rows`,
+    # docs/results/planner_speed_ipopt.md, sessions 33-34), each named whatever the default is
+    "knot-ir-rows": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(inactive_rows="rows")),
+    "knot-ir-free-stance": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(inactive_rows="free stance")
+    ),
     "knot-swb-bal": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(swing_wrench="bounds", cold_start="balanced")
     ),

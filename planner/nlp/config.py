@@ -63,7 +63,7 @@ COLD_STARTS = ("stance", "balanced", "stride")
 #: values of `PlannerOptions.swing_wrench` (`planner.nlp.swing_wrench`)
 SWING_WRENCHES = ("rows", "bounds")
 #: values of `PlannerOptions.inactive_rows` (`planner.nlp.inactive_rows`)
-INACTIVE_ROWS = ("rows", "free", "free stance", "free sole", "regularised")
+INACTIVE_ROWS = ("rows", "free", "free stance", "regularised")
 #: `PlannerOptions.inactive_rows`' default (the 30-knot solves; the search's coarse solves use
 #: `planner.search.defaults.SEARCH_INACTIVE_ROWS`)
 DEFAULT_INACTIVE_ROWS = "rows"
@@ -72,7 +72,6 @@ DEFAULT_INACTIVE_ROWS = "rows"
 FREED_GROUPS: dict[str, tuple[str, ...] | None] = {
     "free": None,
     "free stance": ("stance height", "stance no-slip"),
-    "free sole": ("sole level", "sole yaw hold"),
 }
 #: `PlannerOptions.cold_start`'s default
 DEFAULT_COLD_START = "stance"
@@ -358,9 +357,11 @@ class PlannerOptions:
       height", "stance no-slip" over two swing knots, a flat foot's "sole level" and "sole yaw
       hold"; each reads 0 = 0 and makes the constraint Jacobian rank-deficient,
       `planner.nlp.inactive_rows`): "rows" keeps them as 0 = 0, "free" unbounds them per solve,
-      "regularised" keeps them and has IPOPT regularise the constraint block from the first
-      iteration (``perturb_always_cd``) instead of after its degeneracy test. The same
-      feasible set.
+      "free stance" unbounds only the "stance height" and "stance no-slip" ones (all of them on
+      point feet; a flat foot's sole rows stay rows), "regularised" keeps them and has IPOPT
+      regularise the constraint block from the first iteration (``perturb_always_cd``) instead
+      of after its degeneracy test. The same feasible set. The search's coarse solves use
+      `planner.search.defaults.SEARCH_INACTIVE_ROWS` whatever this says.
     """
 
     mu: float = 0.5
