@@ -17,10 +17,20 @@ which δ_c > 0 always (Wächter & Biegler 2006, §3.1, the inertia correction).
 "free" gives those rows the bounds −∞ ≤ 0 ≤ ∞ for the solve instead of 0 ≤ 0 ≤ 0: the same
 feasible set (the row is 0 at every x), but IPOPT now counts it as an inequality d(x) − s = 0
 with a free slack s, whose KKT block [0, −1; −1, 0] is non-singular, so J_c has full row rank.
+"free stance" frees only the "stance height" and "stance no-slip" rows: on point feet that is
+every zero row (the same bounds as "free"); on flat feet the sole rows stay 0 = 0, so the
+Jacobian stays rank-deficient and IPOPT follows "rows"' path (the same iteration counts on 12 of
+12 converged biped solves).
 "regularised" keeps the rows and has IPOPT use δ_c > 0 from the first iteration
-(``perturb_always_cd``, `planner.nlp.spacetime.ipopt_options`). Both save the 3 singular
-factorisations of every solve; neither won at both N = 12 and N = 30 (IPOPT's path changes by
-more than that), so "rows" stays the default.
+(``perturb_always_cd``, `planner.nlp.spacetime.ipopt_options`). Each of "free" and
+"regularised" saves the 3 singular factorisations of every solve; neither won at both N = 12
+and N = 30 (IPOPT's path changes by more than that); "free" at N = 30 kept every optimum on
+point feet but ended a biped schedule at another local optimum, 0.46 % costlier (both are
+local optima of the same NLP: each variant warm-started from the other's stays there);
+"free stance" kept every optimum on the biped (its path) but on point feet it is "free", which
+ended bittle8's template walk at N = 30 2.7 % costlier. So "rows" stays the default
+(`config.DEFAULT_INACTIVE_ROWS`), and the search's coarse solves use "rows" whatever the options
+say (docs/results/planner_speed_ipopt.md, sessions 33–34).
 """
 
 from __future__ import annotations

@@ -87,10 +87,13 @@ def test_rows_keeps_every_equality(quad_planner: GaitPlanner) -> None:
     assert np.array_equal(bounds.ubg, quad_planner._ubg)
 
 
-def test_free_reaches_the_same_trot_optimum(quad_planner: GaitPlanner) -> None:
-    """The same feasible set: the quad12 trot at N = 30 ends at the same optimum."""
+@pytest.mark.parametrize("variant", ["free", "free stance"])
+def test_free_reaches_the_same_trot_optimum(quad_planner: GaitPlanner, variant: str) -> None:
+    """The same feasible set: the quad12 trot at N = 30 ends at the same optimum (on point feet
+    "free stance" frees the same rows as "free")."""
+    assert quad_planner.options.inactive_rows == "rows"  # the default
     free = GaitPlanner(quad_planner.robot, quad_planner.n_knots,
-                       PlannerOptions(inactive_rows="free"))
+                       PlannerOptions(inactive_rows=variant))
     schedule = make_schedule(quad_planner.robot, "trot")
     a = quad_planner.solve(schedule, 0.25, warm_start=False)
     b = free.solve(schedule, 0.25, warm_start=False)

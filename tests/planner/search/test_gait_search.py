@@ -209,14 +209,15 @@ def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
 ) -> None:
     """`rotor_reserve` and `swing_clearance_m` reach every NLP of the search: the workers'
     coarse planners (through the picklable factory the process/Ray workers get) and the final
-    full-resolution planner (which writes the gait file's metadata); `max_iter` is the only
-    option the search changes for its coarse NLP."""
+    full-resolution planner (which writes the gait file's metadata); `max_iter` and
+    `inactive_rows` ("rows" for the coarse solves) are the only options the search changes for
+    its coarse NLP."""
     from planner.nlp.config import PlannerOptions
 
     options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=50)
     assert factory.n_knots == 12
-    assert factory.options == replace(options, max_iter=50)
+    assert factory.options == replace(options, max_iter=50, inactive_rows="rows")
     assert built == [(20, options)]
 
 
@@ -234,7 +235,8 @@ def test_search_swing_wrench_reaches_the_coarse_solves_only(
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=60,
                                               search_swing_wrench=coarse)
     assert factory.options.swing_wrench == (coarse or own)
-    assert factory.options == replace(options, max_iter=60, swing_wrench=coarse or own)
+    assert factory.options == replace(options, max_iter=60, swing_wrench=coarse or own,
+                                      inactive_rows="rows")
     assert built == [(20, options)]
 
 
@@ -274,7 +276,8 @@ def test_search_tol_reaches_the_coarse_solves_only(
     options = PlannerOptions()
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=40,
                                               search_tol=tol)
-    assert factory.options == replace(options, max_iter=40, tol=options.tol if tol is None
+    assert factory.options == replace(options, max_iter=40, inactive_rows="rows",
+                                      tol=options.tol if tol is None
                                       else tol)
     assert built == [(20, options)]
 
