@@ -66,8 +66,9 @@ SWING_WRENCHES = ("rows", "bounds")
 INACTIVE_ROWS = ("rows", "free", "free stance", "regularised")
 #: `PlannerOptions.inactive_rows`' default ("rows"; the search's coarse solves use
 #: `planner.search.defaults.SEARCH_INACTIVE_ROWS` whatever the options say). "free stance" at
-#: N = 30 kept every optimum on quad12, hex18, the flat-footed biped, star5 and spotmicro, but
-#: ended bittle8's template walk 2.7 % costlier (docs/results/planner_speed_ipopt.md, session 34)
+#: N = 30 kept every optimum on quad12 and hex18 (as "free", session 33), the biped, humanoid20,
+#: star5, spotmicro, knee8 and phantomx18, but ended bittle8's template walk 2.7 % costlier
+#: (docs/results/planner_speed_ipopt.md, session 34)
 DEFAULT_INACTIVE_ROWS = "rows"
 #: the groups whose switched-off rows each "free…" value of `PlannerOptions.inactive_rows`
 #: unbounds (None: every group that has an activity factor)
