@@ -39,6 +39,15 @@ same bits in any process, `planner.search.final_phase`; identical schedules are 
 record's, and whose CPU is an estimate: the recorded run's CPU minus the dropped samples'
 worker CPU (solve + check) minus the recorded final phase's solve + check CPU plus the
 replayed one's.
+
+    python benchmarks/search_outcomes.py rule DIR/*.pkl --runs RUNS.jsonl --out RULE.jsonl
+
+`rule` writes, per recording, the row of the search under today's budget rule
+(`planner.search.budget`: the generations by the timing space's dimension, 8 final candidates
+when the truncated record accepted no sample), named "SETTING+rule": it is the replayed row
+"SETTING+genK" or "SETTING+genK+final8" the rule picks (a replay is exact, so the rule's search
+is that row), read from `--runs`; a missing row is named with the `replay` command that makes it.
+It prints each search's dimension, λ, samples accepted and the rule's choice.
 """
 
 from __future__ import annotations
@@ -66,6 +75,7 @@ import robots
 from planner.nlp.config import SWING_WRENCHES
 from planner.nlp.spacetime import GaitPlanner
 from planner.search.basin_cma import LocalResult
+from planner.search.budget import any_accepted, final_candidate_count, search_budget
 from planner.search.final_phase import (
     FinalOutcome,
     FinalPlannerSpec,
@@ -357,6 +367,52 @@ def cmd_replay(args: argparse.Namespace) -> None:
             print(_line(row), flush=True)
 
 
+def rule_row(rec: dict, rows: dict[tuple[str, str], dict]) -> tuple[dict, str]:
+    """`rec`'s search under the budget rule (module docstring): its replayed row renamed
+    "SETTING+rule", and a line saying what the rule chose and why."""
+    records: list = rec["records"]
+    n_t, lam = len(rec["templates"]), rec["lam"]
+    dim = len(records[0][0])
+    budget = search_budget(dim)
+    k = budget.generations
+    if k > rec["generations"]:
+        raise SystemExit(f"rule: {rec['row']['search']} was recorded with {rec['generations']} "
+                         f"generations, the rule asks for {k}")
+    cut = records[: n_t + lam * k]
+    candidates = final_candidate_count(cut)
+    setting = rec["row"]["setting"]
+    name = replay_setting(setting, k, candidates)
+    key = (rec["row"]["search"], name)
+    if key not in rows:
+        raise SystemExit(f"rule: no row {name!r} of {key[0]} in --runs; make it with "
+                         f"`replay RECORDING --generations {k} --final-candidates {candidates}`")
+    accepted = sum(1 for _, r in cut if r.feasible)
+    row = {**rows[key], "setting": f"{setting}+rule", "rule": name, "dim": dim, "lam": lam,
+           "rule_generations": k, "rule_final_candidates": candidates,
+           "coarse_accepted": accepted}
+    line = (f"{key[0]}: dimension {dim}, λ {lam}, {budget.reason} → {k} generations; "
+            f"{accepted} of {len(cut)} samples accepted → {candidates} final candidates"
+            f"{'' if any_accepted(cut) else ' (none accepted)'}: {name}")
+    return row, line
+
+
+def cmd_rule(args: argparse.Namespace) -> None:
+    rows = {(r["search"], r["setting"]): r for r in _rows(Path(args.runs))}
+    out = Path(args.out)
+    done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
+    for name in args.recordings:
+        try:
+            with open(name, "rb") as fh:
+                rec = pickle.load(fh)
+        except (OSError, pickle.UnpicklingError, EOFError) as e:
+            raise SystemExit(f"rule: cannot read recording {name}: {e}") from None
+        row, line = rule_row(rec, rows)
+        print(line, flush=True)
+        if (row["search"], row["setting"]) not in done:
+            with out.open("a") as f:
+                f.write(json.dumps(row) + "\n")
+
+
 def _generations(text: str) -> list[int]:
     try:
         ks = [int(k) for k in text.split(",") if k.strip()]
@@ -472,11 +528,15 @@ def main() -> None:
                    help="timings the final phase re-solves (the search's default: "
                         f"{FINAL_CANDIDATES}); rows named SETTING+genK+finalC if not the default")
     p.add_argument("--out", required=True, help="JSON-lines file the rows are appended to")
+    u = sub.add_parser("rule", help="each recording's replayed row under the budget rule")
+    u.add_argument("recordings", nargs="+", help="pickles written by `run --save`")
+    u.add_argument("--runs", required=True, help="JSON lines holding the replayed rows")
+    u.add_argument("--out", required=True, help="JSON-lines file the rule's rows are appended to")
     t = sub.add_parser("table", help="every run, and each setting against the baseline")
     t.add_argument("runs", help="the JSON-lines file of `run --out`")
     t.add_argument("--baseline", default="base")
     args = ap.parse_args()
-    {"run": cmd_run, "table": cmd_table, "replay": cmd_replay}[args.command](args)
+    {"run": cmd_run, "table": cmd_table, "replay": cmd_replay, "rule": cmd_rule}[args.command](args)
 
 
 if __name__ == "__main__":

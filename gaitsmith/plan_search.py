@@ -27,7 +27,8 @@ USER_SEED = "your schedule"  # the name the user's --period/--duty/--phases/--sc
 class SearchSettings:
     """The `--search` options, as given on the command line."""
 
-    generations: int
+    #: None: by the search's size (`planner.search.budget.search_budget`)
+    generations: int | None
     popsize: int | None
     seed: int
     symmetric: bool
@@ -64,7 +65,13 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
     search's own record) and the search log. Every MuJoCo run — the acceptance of each sample
     and candidate, `--simulate`'s verdict — uses the attitude feedback the gait gets
     (`attitude_gain`, else the robot's rule per gait: `robots.attitude.gait_attitude_gain`)."""
-    from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
+    from planner.search.budget import search_budget
+    from planner.search.gait_search import (
+        SearchLogRow,
+        search_gait,
+        search_space,
+        write_search_log,
+    )
 
     if gait is not None:
         console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")
@@ -72,8 +79,10 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         console.print(f"  seeding also with your schedule (period {seed_schedule.period_s:.3f} "
                       f"s, duty {'/'.join(f'{d:.2f}' for d in seed_schedule.duty_factor)}): "
                       f"\"{USER_SEED}\"")
+    budget = search_budget(search_space(bot, st.symmetric).dim, st.generations)
+    why = "" if st.generations is not None else f" ({budget.reason})"
     console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "
-                  f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
+                  f"(basin-CMA, {budget.generations} generations{why}, executor {st.executor}, "
                   f"samples scored at {st.search_knots} knots"
                   + (", MuJoCo acceptance" if st.sim_accept else "") + ")")
 
@@ -123,6 +132,9 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
                       f"{result.fallback_template} re-solved at {knots} knots did: writing it[/]")
     meta: dict[str, object] = {"search": {
         "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
+        # the budget: the generations asked for, and why (`planner.search.budget`)
+        "budget_generations": result.budget.generations, "budget_rule": result.budget.reason,
+        "final_candidates": result.final_candidates,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
         "seed": st.seed, "symmetric": result.symmetric,  # as searched (a star has no pairs)
         "template_costs": {  # JSON has no inf: null = infeasible or rejected

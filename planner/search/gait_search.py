@@ -33,11 +33,17 @@ search optimises over gaits that walk as played, not only over plans that satisf
 optimised timings exploit the model (feet that barely touch, knife-edge balance) in ways the
 templates do not. `planner` never imports `sim`; the CLI wires them.
 
+Budget (`planner.search.budget`): unless `max_generations` is given, a search over at most
+`SMALL_SEARCH_DIM` timing variables (a symmetric quadruped or biped) runs
+`SMALL_SEARCH_GENERATIONS` generations, a larger one (a hexapod, a five-leg star)
+`DEFAULT_GENERATIONS`; `GaitSearchResult.budget` says which and why.
+
 Resolution: the search projects each sample with a coarse NLP (`search_knots`, default 12, and
 IPOPT capped at `search_max_iter`; a sample stopped by the cap counts as feasible only if the
 point it stopped at meets every constraint — `planner.nlp.diagnostics.judge` — and its cost is then
 an upper bound of its local optimum), then re-solves up to `FINAL_CANDIDATES` of the best
-timings at the full `n_knots` for the gait file, judged by `final_acceptance`; the first that
+timings (`FINAL_CANDIDATES_NONE_ACCEPTED` when the coarse check accepted no sample) at the full
+`n_knots` for the gait file, judged by `final_acceptance`; the first that
 is feasible and accepted wins. If none is accepted, the templates the search was seeded with
 are re-solved at `n_knots` and judged the same way (cheapest first), so the search never
 returns a gait that fails where its own starting template passes: the coarse acceptance can
@@ -69,6 +75,13 @@ from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.nlp.variables import retimed_start
 from planner.search import defaults
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
+from planner.search.budget import (
+    FINAL_CANDIDATES,
+    FINAL_CANDIDATES_NONE_ACCEPTED,
+    SearchBudget,
+    final_candidate_count,
+    search_budget,
+)
 from planner.search.executors import Executor, ProcessExecutor, make_executor
 from planner.search.final_phase import (
     FinalOutcome,
@@ -101,7 +114,6 @@ SEED_PERIOD_ROOM = 1.25
 DEFAULT_TIPPING_WEIGHT = defaults.DEFAULT_TIPPING_WEIGHT
 DEFAULT_SEARCH_KNOTS = defaults.DEFAULT_SEARCH_KNOTS
 DEFAULT_SEARCH_MAX_ITER = 60
-FINAL_CANDIDATES = 4
 #: Initial CMA spread as a fraction of each box width: W&P §5 cover the box (⅓). A narrower start
 #: around the best template (⅙) was tried on quad12 with MuJoCo acceptance: with 4 generations it
 #: beat ⅓ at 0.15 and 0.25 m/s (search cost 0.249 vs 0.284, 0.423 vs 0.562) and tied at 0.35; with
@@ -208,6 +220,19 @@ class TimingSpace:
                     return None
         s = list(self.searched)
         return np.r_[schedule.period_s, rel[s[1:]], du[s]].astype(float)
+
+
+def search_space(robot: Robot, symmetric: bool = True,
+                 templates: Mapping[str, ContactSchedule] | None = None) -> TimingSpace:
+    """The timing space `search_gait` searches for `robot`: `TimingSpace.for_robot`, but every
+    foot's timing when mirror pairs exist and no template (`templates`, default: the searchable
+    ones) runs them half a period apart (e.g. the azimuth wave/ripple of a 5-leg star)."""
+    space = TimingSpace.for_robot(robot, symmetric)
+    if templates is None:
+        templates = {name: make_schedule(robot, name) for name in searchable_templates(robot)}
+    if space.symmetric and all(space.encode(schedule) is None for schedule in templates.values()):
+        return TimingSpace.for_robot(robot, False)
+    return space
 
 
 def identical_schedules(a: ContactSchedule, b: ContactSchedule, tol: float = 1e-9) -> bool:
@@ -573,6 +598,10 @@ class GaitSearchResult:
     #: the final phase ran on the executor's workers (`planner.search.final_phase`); the final
     #: planner's build ("final_build") then overlapped it and is part of "final"'s wall time
     final_on_workers: bool = False
+    #: the generations the search was given and why (`planner.search.budget.search_budget`)
+    budget: SearchBudget = SearchBudget(6, "given")
+    #: the timings the final phase could re-solve (`budget.final_candidate_count`)
+    final_candidates: int = FINAL_CANDIDATES
 
     @property
     def froude(self) -> float:
@@ -595,7 +624,7 @@ def search_gait(
     n_knots: int = 30,
     options: PlannerOptions | None = None,
     symmetric: bool = True,
-    max_generations: int = 6,
+    max_generations: int | None = None,
     popsize: int | None = None,
     restarts: int = 0,
     max_local_solves: int | None = None,
@@ -611,7 +640,7 @@ def search_gait(
     final_acceptance: Callable[[], GaitAcceptance] | None = None,
     sigma_fraction: float = DEFAULT_SIGMA_FRACTION,
     progress: Callable[[SearchLogRow], None] | None = None,
-    final_candidates: int = FINAL_CANDIDATES,
+    final_candidates: int | None = None,
     warm_start: str = "cold",
     seed_schedules: Mapping[str, ContactSchedule] | None = None,
     coarse_abort: StallAbort | None = None,
@@ -624,7 +653,11 @@ def search_gait(
     The executor's workers each build the coarse search NLP once (`search_knots`).
     `acceptance` judges every feasible sample, `final_acceptance` (default: `acceptance`) the
     full-resolution candidates — the final judge may be stricter than the coarse one;
-    `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins.
+    `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins
+    (None, the default: `FINAL_CANDIDATES`, or `FINAL_CANDIDATES_NONE_ACCEPTED` if no sample
+    was accepted; `planner.search.budget`).
+    `max_generations`: basin-CMA's generations (None, the default: by the timing space's
+    dimension, `planner.search.budget.search_budget`).
     `warm_start`: where each coarse sample's solve starts (`SEARCH_WARM_STARTS`; "cold").
     `seed_schedules`: more named seeds beside the templates (e.g. the user's own schedule,
     `gaitsmith plan --search --period/--duty/--phases/--schedule`): CMA starts from the first of
@@ -644,8 +677,10 @@ def search_gait(
         raise PlannerConfigError(f"planner has {planner.n_knots} knots, search asked for {n_knots}")
     if search_max_iter < 1:
         raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
-    if final_candidates < 1:
+    if final_candidates is not None and final_candidates < 1:
         raise PlannerConfigError(f"final_candidates must be ≥ 1, got {final_candidates}")
+    if max_generations is not None and max_generations < 1:
+        raise PlannerConfigError(f"max_generations must be ≥ 1, got {max_generations}")
     if warm_start not in SEARCH_WARM_STARTS:
         raise PlannerConfigError(
             f"warm_start must be one of {', '.join(SEARCH_WARM_STARTS)}, got {warm_start!r}"
@@ -658,17 +693,14 @@ def search_gait(
     if search_tol is not None and not 0 < search_tol < 1:
         raise PlannerConfigError(f"search_tol must be in (0, 1) (or None: the options' own), "
                                  f"got {search_tol!r}")
-    space = TimingSpace.for_robot(robot, symmetric)
     # each template as `gaitsmith plan` would plan it: the seeds, and the fallback's schedules
     # (a template's encoding starts the first foot at phase 0, a phase-rotated copy whose knots
     # fall elsewhere in the cycle, so IPOPT can end on another local optimum — bittle8's walk
     # at 0.13 m/s: the template passes MuJoCo, its rotated copy turns −7.4°)
     own = {name: make_schedule(robot, name) for name in searchable_templates(robot)}
-    if space.symmetric and all(space.encode(schedule) is None for schedule in own.values()):
-        # mirror pairs exist but no template runs them half a period apart (e.g. the azimuth
-        # wave/ripple of a 5-leg star): search every foot's timing instead
-        space = TimingSpace.for_robot(robot, False)
+    space = search_space(robot, symmetric, own)
     symmetric = space.symmetric
+    budget = search_budget(space.dim, max_generations)
     seeds = _encoded_seeds(space, seed_schedules or {})
     if seeds:
         periods = [float(x[0]) for x in seeds.values()]
@@ -733,14 +765,15 @@ def search_gait(
         # 2. basin-CMA over the timings (projection = coarse spacetime solve)
         cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),
                         popsize=popsize,
-                        max_generations=max_generations, restarts=restarts,
+                        max_generations=budget.generations, restarts=restarts,
                         max_local_solves=max_local_solves, seed=seed, executor=pool,
                         callback=on_generation)
         # 3. the cheapest timings, re-solved at full resolution; the first feasible (and
         #    accepted) one wins, else the templates, else the first feasible one (not accepted)
         t_final, c_final = time.perf_counter(), time.process_time()
+        n_final = final_candidate_count(pool.records, final_candidates)
         tasks, searched = final_tasks(
-            spec, space, pool.records, final_candidates, (x0, seed_results[best_template]),
+            spec, space, pool.records, n_final, (x0, seed_results[best_template]),
             seed_results, seed_schedule if final_check is not None else None)
 
         def final_planner() -> tuple[GaitPlanner, float, float]:
@@ -776,7 +809,8 @@ def search_gait(
         cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
         accepted=accepted, planner=final, symmetric=symmetric, samples=tuple(pool.records),
         final_solves=tuple(final_solves), fallback_template=fallback,
-        final_outcomes=choice.read, final_on_workers=on_workers,
+        final_outcomes=choice.read, final_on_workers=on_workers, budget=budget,
+        final_candidates=n_final,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
         phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
@@ -830,6 +864,9 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
         lines.append(",".join(str(c) for c in cells))
     for name, cost in result.template_costs.items():
         lines.append(f"# template {name}: search cost {cost:.6g}")
+    lines.append(f"# budget: {result.budget.generations} generations ({result.budget.reason}), "
+                 f"{result.cma.n_local_solves} local solves; up to {result.final_candidates} "
+                 "final candidates")
     lines.append(f"# search: {result.search_knots} knots; winner search cost "
                  f"{result.search_cost:.6g} (support term {result.support_cost:.6g}, open-loop "
                  f"tipping amplification {result.tipping_amplification:.4g})")
@@ -845,6 +882,8 @@ __all__ = [
     "DEFAULT_SEARCH_MAX_ITER",
     "DEFAULT_SIGMA_FRACTION",
     "DEFAULT_TIPPING_WEIGHT",
+    "FINAL_CANDIDATES",
+    "FINAL_CANDIDATES_NONE_ACCEPTED",
     "SEARCH_WARM_STARTS",
     "AcceptanceVerdict",
     "GaitAcceptance",
@@ -858,6 +897,7 @@ __all__ = [
     "cost_of_transport",
     "final_tasks",
     "search_gait",
+    "search_space",
     "searchable_templates",
     "write_search_log",
 ]
