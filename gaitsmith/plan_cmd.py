@@ -56,7 +56,6 @@ from gaitsmith.plan_output import DEFAULT_CYCLES, STAND_S, simulated_cycles, wri
 from gaitsmith.plan_search import SearchSettings, plan_search, user_seed
 from gaitsmith.search_options import (
     executor_option,
-    generations_option,
     search_knots_option,
     search_swing_wrench_option,
     sim_accept_option,
@@ -187,7 +186,7 @@ def plan(
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
-    generations: int | None = generations_option(),
+    generations: int = typer.Option(6, "--generations", help="basin-CMA generations (--search)"),
     popsize: int | None = typer.Option(None, "--popsize", help="basin-CMA λ (--search)"),
     seed: int = typer.Option(0, "--seed", help="random seed of the search"),
     symmetric: bool = typer.Option(

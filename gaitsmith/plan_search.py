@@ -27,8 +27,7 @@ USER_SEED = "your schedule"  # the name the user's --period/--duty/--phases/--sc
 class SearchSettings:
     """The `--search` options, as given on the command line."""
 
-    #: None: by the search's size (`planner.search.budget.search_budget`)
-    generations: int | None
+    generations: int
     popsize: int | None
     seed: int
     symmetric: bool
@@ -65,13 +64,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
     search's own record) and the search log. Every MuJoCo run — the acceptance of each sample
     and candidate, `--simulate`'s verdict — uses the attitude feedback the gait gets
     (`attitude_gain`, else the robot's rule per gait: `robots.attitude.gait_attitude_gain`)."""
-    from planner.search.budget import search_budget
-    from planner.search.gait_search import (
-        SearchLogRow,
-        search_gait,
-        search_space,
-        write_search_log,
-    )
+    from planner.search.gait_search import SearchLogRow, search_gait, write_search_log
 
     if gait is not None:
         console.print(f"[yellow]--search starts from every template; --gait {gait} is ignored[/]")
@@ -79,10 +72,8 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         console.print(f"  seeding also with your schedule (period {seed_schedule.period_s:.3f} "
                       f"s, duty {'/'.join(f'{d:.2f}' for d in seed_schedule.duty_factor)}): "
                       f"\"{USER_SEED}\"")
-    budget = search_budget(search_space(bot, st.symmetric).dim, st.generations)
-    why = "" if st.generations is not None else f" ({budget.reason})"
     console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "
-                  f"(basin-CMA, {budget.generations} generations{why}, executor {st.executor}, "
+                  f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
                   f"samples scored at {st.search_knots} knots"
                   + (", MuJoCo acceptance" if st.sim_accept else "") + ")")
 
@@ -124,6 +115,9 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         + f", cost of transport {result.cost_of_transport:.3f}, Froude {result.froude:.3f}, "
         f"{result.cma.n_local_solves} local solves in {result.elapsed_s:.1f} s"
     )
+    if result.final_candidates_reason == "the coarse check accepted no sample":
+        console.print(f"  the coarse MuJoCo check accepted no sample: up to "
+                      f"{result.final_candidates} searched timings re-solved at {knots} knots")
     if result.accepted is False:
         console.print("[yellow]no searched candidate passed the MuJoCo acceptance check; "
                       "writing the cheapest feasible one[/]")
@@ -132,9 +126,9 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
                       f"{result.fallback_template} re-solved at {knots} knots did: writing it[/]")
     meta: dict[str, object] = {"search": {
         "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
-        # the budget: the generations asked for, and why (`planner.search.budget`)
-        "budget_generations": result.budget.generations, "budget_rule": result.budget.reason,
+        # the final phase's searched timings and why (`planner.search.budget`)
         "final_candidates": result.final_candidates,
+        "final_candidates_reason": result.final_candidates_reason,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
         "seed": st.seed, "symmetric": result.symmetric,  # as searched (a star has no pairs)
         "template_costs": {  # JSON has no inf: null = infeasible or rejected

@@ -10,11 +10,6 @@ import robots
 from gaitsmith.errors import OptionError
 from gaitsmith.options import check_integer, check_knots, check_number
 from planner.nlp.config import SWING_WRENCHES
-from planner.search.budget import (
-    DEFAULT_GENERATIONS,
-    SMALL_SEARCH_DIM,
-    SMALL_SEARCH_GENERATIONS,
-)
 from planner.search.defaults import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
 
 EXECUTORS = ("serial", "process", "ray")
@@ -57,14 +52,6 @@ def check_search_swing_wrench(value: str) -> None:
                           f"got {value!r}")
 
 
-def generations_option() -> Any:
-    return typer.Option(
-        None, "--generations",
-        help=f"basin-CMA generations (--search; default: {SMALL_SEARCH_GENERATIONS} for a search "
-        f"over ≤ {SMALL_SEARCH_DIM} timing variables, a symmetric quadruped or biped, else "
-        f"{DEFAULT_GENERATIONS}: planner.search.budget)")
-
-
 def sim_accept_option() -> Any:
     return typer.Option(True, "--sim-accept/--no-sim-accept",
                         help="reject samples whose gait does not walk in MuJoCo (slower)")
@@ -82,7 +69,7 @@ MAX_WORKERS = 1024
 MAX_TIPPING_WEIGHT = 1e6
 
 
-def check_search_options(executor: str, generations: int | None, popsize: int | None,
+def check_search_options(executor: str, generations: int, popsize: int | None,
                          workers: int | None, search_knots: int, tipping_weight: float) -> None:
     """The shared search options in range (one-line `OptionError`s), before any solve."""
     check_executor(executor)

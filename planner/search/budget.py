@@ -1,74 +1,43 @@
-"""The gait search's budget by body: how many basin-CMA generations a search runs when none is
-asked for, and how many of its cheapest timings the final phase re-solves.
+"""How many of the search's cheapest timings its final phase re-solves at full resolution.
 
-Generations by the search's dimension (`TimingSpace.dim`: the period, the searched feet's
-relative touchdown phases and their duty factors). A symmetric quadruped or biped searches
-n ≤ 4 timing variables (period, one relative phase, two duties; a biped two), a symmetric
-hexapod 6, a five-leg star 10. CMA-ES's population (4 + ⌊3 ln n⌋, `basin_cma.default_popsize`) and the
-generations it needs to adapt its covariance both grow with n; over the recorded searches the
-small spaces had settled after 4 generations (every quad12, spotmicro, bittle8, knee8 and biped
-search wrote the same gait at 4 as at 6 generations) and the hexapods still improved in
-generations 4-5 (docs/results/planner_speed_search.md, sessions 33 and 34). So n ≤
-`SMALL_SEARCH_DIM` gets `SMALL_SEARCH_GENERATIONS`, every larger space `DEFAULT_GENERATIONS`.
+`FINAL_CANDIDATES`, or `FINAL_CANDIDATES_NONE_ACCEPTED` when the coarse MuJoCo check accepted
+no sample of the search. Then every candidate is a plan the coarse check rejected, ranked by
+cost alone, and the one that walks at full resolution may be fifth or later: spotmicro at
+0.195 m/s, seed 0, wrote the 0.3641 trot template after four failed candidates and writes a
+0.2398 trot (−34 %) with eight. Where a sample was accepted the rule keeps four: the extra
+candidates would be read only after the first four failed, before the template fallback, and
+would re-solve timings the coarse check had rejected. Over 28 recorded searches on 8 bodies
+(quad12, hex18, spotmicro, bittle8, star5, phantomx18, knee8, the biped) the rule wrote the same
+gait in 25, a 34 % cheaper one in 1, none worse (the other 2, knee8 without its servo-limited
+seed, pass nowhere), at 1.01× the CPU (docs/results/planner_speed_search.md, session 34).
 
-Final candidates: `FINAL_CANDIDATES` of the cheapest timings, or `FINAL_CANDIDATES_NONE_ACCEPTED`
-when the coarse MuJoCo check accepted no sample of the search (every candidate is then a plan
-the coarse check rejected, ranked by cost only, and the one that walks at full resolution may
-be fifth: spotmicro at 0.195 m/s, seed 0). Where a sample was accepted, the extra candidates
-would be read only after the first four failed, before the template fallback, and re-solve
-timings the coarse check already rejected.
+Fewer basin-CMA generations for some bodies were judged on the same 28 searches and lost: 4
+generations for a timing space of ≤ 4 variables (a symmetric quadruped or biped) kept all 13
+quad12 and spotmicro gaits but wrote bittle8 gaits 3.2× and 1.46× as costly and biped gaits
+1.54× and 1.03×; `search_gait` keeps 6 for every body.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from planner.errors import PlannerConfigError
 
-if TYPE_CHECKING:  # `gaitsmith.search_options` imports this module: no numpy at option time
+if TYPE_CHECKING:
     import numpy as np
 
     from planner.search.basin_cma import LocalResult
 
-#: generations of a search whose timing space has more than `SMALL_SEARCH_DIM` variables
-DEFAULT_GENERATIONS = 6
-#: the largest timing space that gets `SMALL_SEARCH_GENERATIONS` (a symmetric quadruped: 4)
-SMALL_SEARCH_DIM = 4
-SMALL_SEARCH_GENERATIONS = 4
 #: timings the final phase re-solves at full resolution
 FINAL_CANDIDATES = 4
 #: ... when the coarse check accepted no sample of the search
 FINAL_CANDIDATES_NONE_ACCEPTED = 8
 
 
-@dataclass(frozen=True)
-class SearchBudget:
-    """The generations a search runs and why (written to the gait file and the search log)."""
-
-    generations: int
-    reason: str
-
-
-def search_budget(dim: int, generations: int | None = None) -> SearchBudget:
-    """`generations` if given (``--generations``), else the rule for a `dim`-variable timing
-    space (module docstring)."""
-    if dim < 1:
-        raise PlannerConfigError(f"a timing space has at least 1 variable, got {dim}")
-    if generations is not None:
-        if generations < 1:
-            raise PlannerConfigError(f"generations must be ≥ 1, got {generations}")
-        return SearchBudget(generations, "given")
-    if dim <= SMALL_SEARCH_DIM:
-        return SearchBudget(SMALL_SEARCH_GENERATIONS,
-                            f"{dim} timing variables ≤ {SMALL_SEARCH_DIM}")
-    return SearchBudget(DEFAULT_GENERATIONS, f"{dim} timing variables > {SMALL_SEARCH_DIM}")
-
-
 def any_accepted(records: Iterable[tuple[np.ndarray, LocalResult]]) -> bool:
-    """Some sample was feasible and (with a coarse check) accepted: a rejected sample is
-    ranked infeasible (`gait_search.REJECTED_VIOLATION`)."""
+    """Some sample was feasible and (with a coarse check) accepted: the search ranks a rejected
+    sample as infeasible (`gait_search.REJECTED_VIOLATION`)."""
     return any(result.feasible for _, result in records)
 
 
@@ -83,14 +52,20 @@ def final_candidate_count(records: Iterable[tuple[np.ndarray, LocalResult]],
     return FINAL_CANDIDATES if any_accepted(records) else FINAL_CANDIDATES_NONE_ACCEPTED
 
 
+def final_candidates_reason(records: Iterable[tuple[np.ndarray, LocalResult]],
+                            final_candidates: int | None = None) -> str:
+    """Why the final phase re-solves `final_candidate_count` timings (for the search log and
+    the gait file)."""
+    if final_candidates is not None:
+        return "given"
+    return ("a sample passed the coarse check" if any_accepted(records)
+            else "the coarse check accepted no sample")
+
+
 __all__ = [
-    "DEFAULT_GENERATIONS",
     "FINAL_CANDIDATES",
     "FINAL_CANDIDATES_NONE_ACCEPTED",
-    "SMALL_SEARCH_DIM",
-    "SMALL_SEARCH_GENERATIONS",
-    "SearchBudget",
     "any_accepted",
     "final_candidate_count",
-    "search_budget",
+    "final_candidates_reason",
 ]

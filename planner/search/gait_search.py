@@ -33,22 +33,18 @@ search optimises over gaits that walk as played, not only over plans that satisf
 optimised timings exploit the model (feet that barely touch, knife-edge balance) in ways the
 templates do not. `planner` never imports `sim`; the CLI wires them.
 
-Budget (`planner.search.budget`): unless `max_generations` is given, a search over at most
-`SMALL_SEARCH_DIM` timing variables (a symmetric quadruped or biped) runs
-`SMALL_SEARCH_GENERATIONS` generations, a larger one (a hexapod, a five-leg star)
-`DEFAULT_GENERATIONS`; `GaitSearchResult.budget` says which and why.
-
 Resolution: the search projects each sample with a coarse NLP (`search_knots`, default 12, and
 IPOPT capped at `search_max_iter`; a sample stopped by the cap counts as feasible only if the
 point it stopped at meets every constraint — `planner.nlp.diagnostics.judge` — and its cost is then
 an upper bound of its local optimum), then re-solves up to `FINAL_CANDIDATES` of the best
-timings (`FINAL_CANDIDATES_NONE_ACCEPTED` when the coarse check accepted no sample) at the full
-`n_knots` for the gait file, judged by `final_acceptance`; the first that
-is feasible and accepted wins. If none is accepted, the templates the search was seeded with
-are re-solved at `n_knots` and judged the same way (cheapest first), so the search never
-returns a gait that fails where its own starting template passes: the coarse acceptance can
-reject a timing that walks at full resolution (humanoid20's biped_walk template is rejected at
-12 knots and passes at 30; docs/results/zoo_gaits.md, "Session 25").
+timings (`FINAL_CANDIDATES_NONE_ACCEPTED` when the coarse check accepted no sample:
+`planner.search.budget`) at the full `n_knots` for the gait file, judged by
+`final_acceptance`; the first that is feasible and accepted wins. If none is accepted, the
+templates the search was seeded with are re-solved at `n_knots` and judged the same way
+(cheapest first), so the search never returns a gait that fails where its own starting
+template passes: the coarse acceptance can reject a timing that walks at full resolution
+(humanoid20's biped_walk template is rejected at 12 knots and passes at 30;
+docs/results/zoo_gaits.md, "Session 25").
 With a process pool or Ray the final phase runs on the search's workers, speculatively and
 read in rank order (`planner.search.final_phase`), while this process builds the final planner.
 The 12-knot NLP builds in 2.8 s instead of 8.5 s and solves in about half the time of the
@@ -78,9 +74,8 @@ from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResu
 from planner.search.budget import (
     FINAL_CANDIDATES,
     FINAL_CANDIDATES_NONE_ACCEPTED,
-    SearchBudget,
     final_candidate_count,
-    search_budget,
+    final_candidates_reason,
 )
 from planner.search.executors import Executor, ProcessExecutor, make_executor
 from planner.search.final_phase import (
@@ -220,19 +215,6 @@ class TimingSpace:
                     return None
         s = list(self.searched)
         return np.r_[schedule.period_s, rel[s[1:]], du[s]].astype(float)
-
-
-def search_space(robot: Robot, symmetric: bool = True,
-                 templates: Mapping[str, ContactSchedule] | None = None) -> TimingSpace:
-    """The timing space `search_gait` searches for `robot`: `TimingSpace.for_robot`, but every
-    foot's timing when mirror pairs exist and no template (`templates`, default: the searchable
-    ones) runs them half a period apart (e.g. the azimuth wave/ripple of a 5-leg star)."""
-    space = TimingSpace.for_robot(robot, symmetric)
-    if templates is None:
-        templates = {name: make_schedule(robot, name) for name in searchable_templates(robot)}
-    if space.symmetric and all(space.encode(schedule) is None for schedule in templates.values()):
-        return TimingSpace.for_robot(robot, False)
-    return space
 
 
 def identical_schedules(a: ContactSchedule, b: ContactSchedule, tol: float = 1e-9) -> bool:
@@ -598,10 +580,9 @@ class GaitSearchResult:
     #: the final phase ran on the executor's workers (`planner.search.final_phase`); the final
     #: planner's build ("final_build") then overlapped it and is part of "final"'s wall time
     final_on_workers: bool = False
-    #: the generations the search was given and why (`planner.search.budget.search_budget`)
-    budget: SearchBudget = SearchBudget(6, "given")
-    #: the timings the final phase could re-solve (`budget.final_candidate_count`)
+    #: the timings the final phase could re-solve and why (`planner.search.budget`)
     final_candidates: int = FINAL_CANDIDATES
+    final_candidates_reason: str = ""
 
     @property
     def froude(self) -> float:
@@ -624,7 +605,7 @@ def search_gait(
     n_knots: int = 30,
     options: PlannerOptions | None = None,
     symmetric: bool = True,
-    max_generations: int | None = None,
+    max_generations: int = 6,
     popsize: int | None = None,
     restarts: int = 0,
     max_local_solves: int | None = None,
@@ -656,8 +637,6 @@ def search_gait(
     `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins
     (None, the default: `FINAL_CANDIDATES`, or `FINAL_CANDIDATES_NONE_ACCEPTED` if no sample
     was accepted; `planner.search.budget`).
-    `max_generations`: basin-CMA's generations (None, the default: by the timing space's
-    dimension, `planner.search.budget.search_budget`).
     `warm_start`: where each coarse sample's solve starts (`SEARCH_WARM_STARTS`; "cold").
     `seed_schedules`: more named seeds beside the templates (e.g. the user's own schedule,
     `gaitsmith plan --search --period/--duty/--phases/--schedule`): CMA starts from the first of
@@ -679,8 +658,6 @@ def search_gait(
         raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
     if final_candidates is not None and final_candidates < 1:
         raise PlannerConfigError(f"final_candidates must be ≥ 1, got {final_candidates}")
-    if max_generations is not None and max_generations < 1:
-        raise PlannerConfigError(f"max_generations must be ≥ 1, got {max_generations}")
     if warm_start not in SEARCH_WARM_STARTS:
         raise PlannerConfigError(
             f"warm_start must be one of {', '.join(SEARCH_WARM_STARTS)}, got {warm_start!r}"
@@ -693,14 +670,17 @@ def search_gait(
     if search_tol is not None and not 0 < search_tol < 1:
         raise PlannerConfigError(f"search_tol must be in (0, 1) (or None: the options' own), "
                                  f"got {search_tol!r}")
+    space = TimingSpace.for_robot(robot, symmetric)
     # each template as `gaitsmith plan` would plan it: the seeds, and the fallback's schedules
     # (a template's encoding starts the first foot at phase 0, a phase-rotated copy whose knots
     # fall elsewhere in the cycle, so IPOPT can end on another local optimum — bittle8's walk
     # at 0.13 m/s: the template passes MuJoCo, its rotated copy turns −7.4°)
     own = {name: make_schedule(robot, name) for name in searchable_templates(robot)}
-    space = search_space(robot, symmetric, own)
+    if space.symmetric and all(space.encode(schedule) is None for schedule in own.values()):
+        # mirror pairs exist but no template runs them half a period apart (e.g. the azimuth
+        # wave/ripple of a 5-leg star): search every foot's timing instead
+        space = TimingSpace.for_robot(robot, False)
     symmetric = space.symmetric
-    budget = search_budget(space.dim, max_generations)
     seeds = _encoded_seeds(space, seed_schedules or {})
     if seeds:
         periods = [float(x[0]) for x in seeds.values()]
@@ -765,13 +745,14 @@ def search_gait(
         # 2. basin-CMA over the timings (projection = coarse spacetime solve)
         cma = basin_cma(ex.local_solve, x0, space.sigma0(sigma_fraction), (lo, hi),
                         popsize=popsize,
-                        max_generations=budget.generations, restarts=restarts,
+                        max_generations=max_generations, restarts=restarts,
                         max_local_solves=max_local_solves, seed=seed, executor=pool,
                         callback=on_generation)
         # 3. the cheapest timings, re-solved at full resolution; the first feasible (and
         #    accepted) one wins, else the templates, else the first feasible one (not accepted)
         t_final, c_final = time.perf_counter(), time.process_time()
         n_final = final_candidate_count(pool.records, final_candidates)
+        n_final_reason = final_candidates_reason(pool.records, final_candidates)
         tasks, searched = final_tasks(
             spec, space, pool.records, n_final, (x0, seed_results[best_template]),
             seed_results, seed_schedule if final_check is not None else None)
@@ -809,8 +790,8 @@ def search_gait(
         cost_of_transport=cost_of_transport(best, robot), search_knots=search_knots,
         accepted=accepted, planner=final, symmetric=symmetric, samples=tuple(pool.records),
         final_solves=tuple(final_solves), fallback_template=fallback,
-        final_outcomes=choice.read, final_on_workers=on_workers, budget=budget,
-        final_candidates=n_final,
+        final_outcomes=choice.read, final_on_workers=on_workers,
+        final_candidates=n_final, final_candidates_reason=n_final_reason,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
         phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
@@ -864,9 +845,8 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
         lines.append(",".join(str(c) for c in cells))
     for name, cost in result.template_costs.items():
         lines.append(f"# template {name}: search cost {cost:.6g}")
-    lines.append(f"# budget: {result.budget.generations} generations ({result.budget.reason}), "
-                 f"{result.cma.n_local_solves} local solves; up to {result.final_candidates} "
-                 "final candidates")
+    lines.append(f"# final phase: up to {result.final_candidates} searched timings re-solved "
+                 f"at full resolution ({result.final_candidates_reason})")
     lines.append(f"# search: {result.search_knots} knots; winner search cost "
                  f"{result.search_cost:.6g} (support term {result.support_cost:.6g}, open-loop "
                  f"tipping amplification {result.tipping_amplification:.4g})")
@@ -897,7 +877,6 @@ __all__ = [
     "cost_of_transport",
     "final_tasks",
     "search_gait",
-    "search_space",
     "searchable_templates",
     "write_search_log",
 ]

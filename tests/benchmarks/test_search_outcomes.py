@@ -83,6 +83,9 @@ def test_save_needs_an_existing_directory(monkeypatch: pytest.MonkeyPatch, tmp_p
 def test_bad_replay_generations_are_one_line(text: str) -> None:
     with pytest.raises(SystemExit, match=r"--generations: expected comma-separated integers"):
         so._generations(text)
+    with pytest.raises(SystemExit, match=r"--final-candidates: expected comma-separated"):
+        so._integers("--final-candidates", text, "4,8")
+    assert so._integers("--final-candidates", "4,8", "4,8") == [4, 8]
 
 
 class _Plan:
@@ -159,23 +162,28 @@ def _rule_recording(dim: int, accepted_after: int | None) -> dict[str, Any]:
             "row": row}
 
 
-@pytest.mark.parametrize(("dim", "accepted_after", "picked"), [
-    (4, 3, "base+gen4"),  # a sample of generation 0 accepted: 4 candidates
-    (4, None, "base+gen4+final8"),
-    (4, 11, "base+gen4+final8"),  # accepted only in generation 4, after the rule's cut
-    (6, 13, "base+gen6"),  # the last sample of generation 5 accepted
-    (10, None, "base+gen6+final8"),
+@pytest.mark.parametrize(("dim", "accepted_after", "generations", "picked"), [
+    (4, 3, None, "base+gen6"),  # a sample of generation 0 accepted: 4 candidates
+    (4, None, None, "base+gen6+final8"),
+    (6, 13, None, "base+gen6"),  # the last sample of generation 5 accepted
+    (4, 3, 4, "base+gen4"),
+    (4, 11, 4, "base+gen4+final8"),  # accepted only in generation 4, after the cut
+    (10, None, 4, "base+gen4+final8"),
 ])
-def test_rule_picks_the_replayed_row_the_budget_rule_names(
-    dim: int, accepted_after: int | None, picked: str,
+def test_rule_picks_the_replayed_row_the_final_candidate_rule_names(
+    dim: int, accepted_after: int | None, generations: int | None, picked: str,
 ) -> None:
     rec = _rule_recording(dim, accepted_after)
     rows = {(rec["row"]["search"], name): {"search": rec["row"]["search"], "setting": name,
                                            "final_cost": 1.0}
             for name in ("base+gen4", "base+gen4+final8", "base+gen6", "base+gen6+final8")}
-    row, line = so.rule_row(rec, rows)
-    assert row["setting"] == "base+rule" and row["rule"] == picked and row["dim"] == dim
+    row, line = so.rule_row(rec, rows, generations)
+    assert row["rule"] == picked and row["dim"] == dim
+    assert row["setting"] == ("base+rule" if generations is None else "base+gen4+rule")
     assert picked in line and f"dimension {dim}" in line
+    assert row["rule_final_candidates"] == (8 if picked.endswith("final8") else 4)
     del rows[(rec["row"]["search"], picked)]
     with pytest.raises(SystemExit, match=r"no row .* make it with `replay RECORDING"):
-        so.rule_row(rec, rows)
+        so.rule_row(rec, rows, generations)
+    with pytest.raises(SystemExit, match=r"recorded with 6 generations, --generations asks"):
+        so.rule_row(rec, rows, 7)
