@@ -399,6 +399,8 @@ def rule_row(rec: dict, rows: dict[tuple[str, str], dict], generations: int | No
 
 
 def cmd_rule(args: argparse.Namespace) -> None:
+    if args.generations is not None and args.generations < 1:
+        raise SystemExit(f"--generations: expected an integer ≥ 1, got {args.generations}")
     rows = {(r["search"], r["setting"]): r for r in _rows(Path(args.runs))}
     out = Path(args.out)
     done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
