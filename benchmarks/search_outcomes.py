@@ -34,11 +34,22 @@ so that search is the recording truncated after generation k; its final phase �
 record's candidates (`gait_search.final_tasks`) re-solved cold at 30 knots and checked in MuJoCo,
 then the template fallback — is really run here (in this process, serially; a cold solve is the
 same bits in any process, `planner.search.final_phase`; identical schedules are solved once).
-`--final-candidates C` re-solves up to C timings instead of `FINAL_CANDIDATES` (rows
+`--final-candidates C[,C2...]` re-solves up to C timings instead of `FINAL_CANDIDATES` (rows
 "SETTING+genK+finalC"). Each k appends a row "SETTING+genK" whose iterations are the truncated
 record's, and whose CPU is an estimate: the recorded run's CPU minus the dropped samples'
 worker CPU (solve + check) minus the recorded final phase's solve + check CPU plus the
 replayed one's.
+
+    python benchmarks/search_outcomes.py rule DIR/*.pkl --runs RUNS.jsonl --out RULE.jsonl \
+        [--generations K]
+
+`rule` writes, per recording, the row of the search under today's final-candidate rule
+(`planner.search.budget`: 8 final candidates when the record, truncated after K generations,
+default the recorded ones, accepted no sample, else 4), named "SETTING+rule" (K given:
+"SETTING+genK+rule"): it is the replayed row "SETTING+genK" or "SETTING+genK+final8" the rule
+picks (a replay is exact, so the rule's search is that row), read from `--runs`; a missing row
+is named with the `replay` command that makes it. It prints each search's timing-space
+dimension, λ, the samples accepted and the rule's choice.
 """
 
 from __future__ import annotations
@@ -66,6 +77,7 @@ import robots
 from planner.nlp.config import SWING_WRENCHES
 from planner.nlp.spacetime import GaitPlanner
 from planner.search.basin_cma import LocalResult
+from planner.search.budget import final_candidate_count, final_candidates_reason
 from planner.search.final_phase import (
     FinalOutcome,
     FinalPlannerSpec,
@@ -328,9 +340,7 @@ def replay_setting(setting: str, k: int, candidates: int) -> str:
 
 def cmd_replay(args: argparse.Namespace) -> None:
     ks = _generations(args.generations)
-    if args.final_candidates < 1:
-        raise SystemExit(f"--final-candidates: expected an integer ≥ 1, "
-                         f"got {args.final_candidates}")
+    cs = _integers("--final-candidates", args.final_candidates, "4,8")
     recs = []
     for name in args.recordings:
         try:
@@ -343,28 +353,83 @@ def cmd_replay(args: argparse.Namespace) -> None:
     replayers: dict[tuple[str, str, int], FinalReplayer] = {}
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
-        for k in ks:
-            name = replay_setting(setting.name, k, args.final_candidates)
+        for k, c in ((k, c) for c in cs for k in ks):
+            name = replay_setting(setting.name, k, c)
             if k > rec["generations"] or (search.key, name) in done:
                 continue
             key = (search.key, setting.swing_wrench, rec["knots"])
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
                 replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"])
-            row = replayers[key].truncated(rec, k, args.final_candidates)
+            row = replayers[key].truncated(rec, k, c)
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
             print(_line(row), flush=True)
 
 
+def rule_row(rec: dict, rows: dict[tuple[str, str], dict], generations: int | None = None
+             ) -> tuple[dict, str]:
+    """`rec`'s search, stopped after `generations` (None: as recorded), under the final-candidate
+    rule (module docstring): its replayed row renamed, and a line saying what the rule chose and
+    why."""
+    records: list = rec["records"]
+    n_t, lam = len(rec["templates"]), rec["lam"]
+    dim = len(records[0][0])
+    k = rec["generations"] if generations is None else generations
+    if k > rec["generations"]:
+        raise SystemExit(f"rule: {rec['row']['search']} was recorded with {rec['generations']} "
+                         f"generations, --generations asks for {k}")
+    cut = records[: n_t + lam * k]
+    candidates = final_candidate_count(cut)
+    setting = rec["row"]["setting"]
+    name = replay_setting(setting, k, candidates)
+    key = (rec["row"]["search"], name)
+    if key not in rows:
+        raise SystemExit(f"rule: no row {name!r} of {key[0]} in --runs; make it with "
+                         f"`replay RECORDING --generations {k} --final-candidates {candidates}`")
+    accepted = sum(1 for _, r in cut if r.feasible)
+    named = f"{setting}+rule" if generations is None else f"{setting}+gen{k}+rule"
+    row = {**rows[key], "setting": named, "rule": name, "dim": dim, "lam": lam,
+           "rule_generations": k, "rule_final_candidates": candidates,
+           "coarse_accepted": accepted}
+    line = (f"{key[0]}: dimension {dim}, λ {lam}, {k} generations; {accepted} of {len(cut)} "
+            f"samples accepted → {candidates} final candidates ({final_candidates_reason(cut)}): "
+            f"{name}")
+    return row, line
+
+
+def cmd_rule(args: argparse.Namespace) -> None:
+    if args.generations is not None and args.generations < 1:
+        raise SystemExit(f"--generations: expected an integer ≥ 1, got {args.generations}")
+    rows = {(r["search"], r["setting"]): r for r in _rows(Path(args.runs))}
+    out = Path(args.out)
+    done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
+    for name in args.recordings:
+        try:
+            with open(name, "rb") as fh:
+                rec = pickle.load(fh)
+        except (OSError, pickle.UnpicklingError, EOFError) as e:
+            raise SystemExit(f"rule: cannot read recording {name}: {e}") from None
+        row, line = rule_row(rec, rows, args.generations)
+        print(line, flush=True)
+        if (row["search"], row["setting"]) not in done:
+            with out.open("a") as f:
+                f.write(json.dumps(row) + "\n")
+
+
 def _generations(text: str) -> list[int]:
+    return _integers("--generations", text, "2,3,4,5,6")
+
+
+def _integers(option: str, text: str, example: str) -> list[int]:
+    """Comma-separated integers ≥ 1; one-line `SystemExit` naming `option` otherwise."""
     try:
         ks = [int(k) for k in text.split(",") if k.strip()]
     except ValueError:
         ks = []
     if not ks or min(ks) < 1:
-        raise SystemExit(f"--generations: expected comma-separated integers ≥ 1 "
-                         f"(e.g. 2,3,4,5,6), got {text!r}")
+        raise SystemExit(f"{option}: expected comma-separated integers ≥ 1 "
+                         f"(e.g. {example}), got {text!r}")
     return ks
 
 
@@ -468,15 +533,22 @@ def main() -> None:
     p.add_argument("recordings", nargs="+", help="pickles written by `run --save`")
     p.add_argument("--generations", default="2,3,4,5,6",
                    help="comma-separated k (a k above the recording's generations is skipped)")
-    p.add_argument("--final-candidates", type=int, default=FINAL_CANDIDATES,
-                   help="timings the final phase re-solves (the search's default: "
-                        f"{FINAL_CANDIDATES}); rows named SETTING+genK+finalC if not the default")
+    p.add_argument("--final-candidates", default=str(FINAL_CANDIDATES),
+                   help="comma-separated counts of timings the final phase re-solves (the "
+                        f"search's default: {FINAL_CANDIDATES}); rows named SETTING+genK+finalC "
+                        "if not the default; one invocation solves each schedule once")
     p.add_argument("--out", required=True, help="JSON-lines file the rows are appended to")
+    u = sub.add_parser("rule", help="each recording's replayed row under the budget rule")
+    u.add_argument("recordings", nargs="+", help="pickles written by `run --save`")
+    u.add_argument("--runs", required=True, help="JSON lines holding the replayed rows")
+    u.add_argument("--out", required=True, help="JSON-lines file the rule's rows are appended to")
+    u.add_argument("--generations", type=int, default=None,
+                   help="stop each recording after this many generations (default: as recorded)")
     t = sub.add_parser("table", help="every run, and each setting against the baseline")
     t.add_argument("runs", help="the JSON-lines file of `run --out`")
     t.add_argument("--baseline", default="base")
     args = ap.parse_args()
-    {"run": cmd_run, "table": cmd_table, "replay": cmd_replay}[args.command](args)
+    {"run": cmd_run, "table": cmd_table, "replay": cmd_replay, "rule": cmd_rule}[args.command](args)
 
 
 if __name__ == "__main__":

@@ -116,6 +116,9 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         + f", cost of transport {result.cost_of_transport:.3f}, Froude {result.froude:.3f}, "
         f"{result.cma.n_local_solves} local solves in {result.elapsed_s:.1f} s"
     )
+    if result.final_candidates_reason == "the coarse check accepted no sample":
+        console.print(f"  the coarse MuJoCo check accepted no sample: up to "
+                      f"{result.final_candidates} searched timings re-solved at {knots} knots")
     if result.accepted is False:
         console.print("[yellow]no searched candidate passed the MuJoCo acceptance check; "
                       "writing the cheapest feasible one[/]")
@@ -124,6 +127,9 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
                       f"{result.fallback_template} re-solved at {knots} knots did: writing it[/]")
     meta: dict[str, object] = {"search": {
         "method": "basin-CMA (W&P 2009 §4.1.1)", "generations": result.cma.n_generations,
+        # the final phase's searched timings and why (`planner.search.budget`)
+        "final_candidates": result.final_candidates,
+        "final_candidates_reason": result.final_candidates_reason,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
         "seed": st.seed, "symmetric": result.symmetric,  # as searched (a star has no pairs)
         "template_costs": {  # JSON has no inf: null = infeasible or rejected

@@ -37,12 +37,14 @@ Resolution: the search projects each sample with a coarse NLP (`search_knots`, d
 IPOPT capped at `search_max_iter`; a sample stopped by the cap counts as feasible only if the
 point it stopped at meets every constraint — `planner.nlp.diagnostics.judge` — and its cost is then
 an upper bound of its local optimum), then re-solves up to `FINAL_CANDIDATES` of the best
-timings at the full `n_knots` for the gait file, judged by `final_acceptance`; the first that
-is feasible and accepted wins. If none is accepted, the templates the search was seeded with
-are re-solved at `n_knots` and judged the same way (cheapest first), so the search never
-returns a gait that fails where its own starting template passes: the coarse acceptance can
-reject a timing that walks at full resolution (humanoid20's biped_walk template is rejected at
-12 knots and passes at 30; docs/results/zoo_gaits.md, "Session 25").
+timings (`FINAL_CANDIDATES_NONE_ACCEPTED` when the coarse check accepted no sample:
+`planner.search.budget`) at the full `n_knots` for the gait file, judged by
+`final_acceptance`; the first that is feasible and accepted wins. If none is accepted, the
+templates the search was seeded with are re-solved at `n_knots` and judged the same way
+(cheapest first), so the search never returns a gait that fails where its own starting
+template passes: the coarse acceptance can reject a timing that walks at full resolution
+(humanoid20's biped_walk template is rejected at 12 knots and passes at 30;
+docs/results/zoo_gaits.md, "Session 25").
 With a process pool or Ray the final phase runs on the search's workers, speculatively and
 read in rank order (`planner.search.final_phase`), while this process builds the final planner.
 The 12-knot NLP builds in 2.8 s instead of 8.5 s and solves in about half the time of the
@@ -69,6 +71,12 @@ from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.nlp.variables import retimed_start
 from planner.search import defaults
 from planner.search.basin_cma import BasinCmaResult, GenerationReport, LocalResult, basin_cma
+from planner.search.budget import (
+    FINAL_CANDIDATES,
+    FINAL_CANDIDATES_NONE_ACCEPTED,
+    final_candidate_count,
+    final_candidates_reason,
+)
 from planner.search.executors import Executor, ProcessExecutor, make_executor
 from planner.search.final_phase import (
     FinalOutcome,
@@ -101,7 +109,6 @@ SEED_PERIOD_ROOM = 1.25
 DEFAULT_TIPPING_WEIGHT = defaults.DEFAULT_TIPPING_WEIGHT
 DEFAULT_SEARCH_KNOTS = defaults.DEFAULT_SEARCH_KNOTS
 DEFAULT_SEARCH_MAX_ITER = 60
-FINAL_CANDIDATES = 4
 #: Initial CMA spread as a fraction of each box width: W&P §5 cover the box (⅓). A narrower start
 #: around the best template (⅙) was tried on quad12 with MuJoCo acceptance: with 4 generations it
 #: beat ⅓ at 0.15 and 0.25 m/s (search cost 0.249 vs 0.284, 0.423 vs 0.562) and tied at 0.35; with
@@ -573,6 +580,9 @@ class GaitSearchResult:
     #: the final phase ran on the executor's workers (`planner.search.final_phase`); the final
     #: planner's build ("final_build") then overlapped it and is part of "final"'s wall time
     final_on_workers: bool = False
+    #: the timings the final phase could re-solve and why (`planner.search.budget`)
+    final_candidates: int = FINAL_CANDIDATES
+    final_candidates_reason: str = ""
 
     @property
     def froude(self) -> float:
@@ -611,7 +621,7 @@ def search_gait(
     final_acceptance: Callable[[], GaitAcceptance] | None = None,
     sigma_fraction: float = DEFAULT_SIGMA_FRACTION,
     progress: Callable[[SearchLogRow], None] | None = None,
-    final_candidates: int = FINAL_CANDIDATES,
+    final_candidates: int | None = None,
     warm_start: str = "cold",
     seed_schedules: Mapping[str, ContactSchedule] | None = None,
     coarse_abort: StallAbort | None = None,
@@ -625,7 +635,9 @@ def search_gait(
     The executor's workers each build the coarse search NLP once (`search_knots`).
     `acceptance` judges every feasible sample, `final_acceptance` (default: `acceptance`) the
     full-resolution candidates — the final judge may be stricter than the coarse one;
-    `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins.
+    `final_candidates` of the cheapest timings are re-solved for it, the first accepted wins
+    (None, the default: `FINAL_CANDIDATES`, or `FINAL_CANDIDATES_NONE_ACCEPTED` if no sample
+    was accepted; `planner.search.budget`).
     `warm_start`: where each coarse sample's solve starts (`SEARCH_WARM_STARTS`; "cold").
     `seed_schedules`: more named seeds beside the templates (e.g. the user's own schedule,
     `gaitsmith plan --search --period/--duty/--phases/--schedule`): CMA starts from the first of
@@ -648,7 +660,7 @@ def search_gait(
         raise PlannerConfigError(f"planner has {planner.n_knots} knots, search asked for {n_knots}")
     if search_max_iter < 1:
         raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
-    if final_candidates < 1:
+    if final_candidates is not None and final_candidates < 1:
         raise PlannerConfigError(f"final_candidates must be ≥ 1, got {final_candidates}")
     if warm_start not in SEARCH_WARM_STARTS:
         raise PlannerConfigError(
@@ -747,8 +759,10 @@ def search_gait(
         # 3. the cheapest timings, re-solved at full resolution; the first feasible (and
         #    accepted) one wins, else the templates, else the first feasible one (not accepted)
         t_final, c_final = time.perf_counter(), time.process_time()
+        n_final = final_candidate_count(pool.records, final_candidates)
+        n_final_reason = final_candidates_reason(pool.records, final_candidates)
         tasks, searched = final_tasks(
-            spec, space, pool.records, final_candidates, (x0, seed_results[best_template]),
+            spec, space, pool.records, n_final, (x0, seed_results[best_template]),
             seed_results, seed_schedule if final_check is not None else None)
 
         def final_planner() -> tuple[GaitPlanner, float, float]:
@@ -785,6 +799,7 @@ def search_gait(
         accepted=accepted, planner=final, symmetric=symmetric, samples=tuple(pool.records),
         final_solves=tuple(final_solves), fallback_template=fallback,
         final_outcomes=choice.read, final_on_workers=on_workers,
+        final_candidates=n_final, final_candidates_reason=n_final_reason,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
         phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
@@ -838,6 +853,8 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
         lines.append(",".join(str(c) for c in cells))
     for name, cost in result.template_costs.items():
         lines.append(f"# template {name}: search cost {cost:.6g}")
+    lines.append(f"# final phase: up to {result.final_candidates} searched timings re-solved "
+                 f"at full resolution ({result.final_candidates_reason})")
     lines.append(f"# search: {result.search_knots} knots; winner search cost "
                  f"{result.search_cost:.6g} (support term {result.support_cost:.6g}, open-loop "
                  f"tipping amplification {result.tipping_amplification:.4g})")
@@ -853,6 +870,8 @@ __all__ = [
     "DEFAULT_SEARCH_MAX_ITER",
     "DEFAULT_SIGMA_FRACTION",
     "DEFAULT_TIPPING_WEIGHT",
+    "FINAL_CANDIDATES",
+    "FINAL_CANDIDATES_NONE_ACCEPTED",
     "SEARCH_WARM_STARTS",
     "AcceptanceVerdict",
     "GaitAcceptance",

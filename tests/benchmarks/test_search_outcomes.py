@@ -83,6 +83,9 @@ def test_save_needs_an_existing_directory(monkeypatch: pytest.MonkeyPatch, tmp_p
 def test_bad_replay_generations_are_one_line(text: str) -> None:
     with pytest.raises(SystemExit, match=r"--generations: expected comma-separated integers"):
         so._generations(text)
+    with pytest.raises(SystemExit, match=r"--final-candidates: expected comma-separated"):
+        so._integers("--final-candidates", text, "4,8")
+    assert so._integers("--final-candidates", "4,8", "4,8") == [4, 8]
 
 
 class _Plan:
@@ -144,3 +147,43 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     assert (five["setting"], five["search_cost"], five["verdict"]) == (
         "base+gen2+final5", 0.8, "MuJoCo pass")
     assert len(solved) == 6  # every schedule it read was solved before
+
+
+def _rule_recording(dim: int, accepted_after: int | None) -> dict[str, Any]:
+    """A recording of 2 templates + 6 generations of λ 2 samples in a `dim`-variable space;
+    samples from index `accepted_after` on passed the coarse check (None: none did)."""
+    records = []
+    for i in range(2 + 6 * 2):
+        ok = accepted_after is not None and i >= accepted_after
+        x = np.full(dim, float(i))
+        records.append((x, TimingResult(x, 1.0, ok, 1, 0.0 if ok else 1e-9, True)))
+    row = {"search": f"r{dim}@0.2:0", "setting": "base"}
+    return {"records": records, "templates": ["a", "b"], "generations": 6, "lam": 2,
+            "row": row}
+
+
+@pytest.mark.parametrize(("dim", "accepted_after", "generations", "picked"), [
+    (4, 3, None, "base+gen6"),  # a sample of generation 0 accepted: 4 candidates
+    (4, None, None, "base+gen6+final8"),
+    (6, 13, None, "base+gen6"),  # the last sample of generation 5 accepted
+    (4, 3, 4, "base+gen4"),
+    (4, 11, 4, "base+gen4+final8"),  # accepted only in generation 4, after the cut
+    (10, None, 4, "base+gen4+final8"),
+])
+def test_rule_picks_the_replayed_row_the_final_candidate_rule_names(
+    dim: int, accepted_after: int | None, generations: int | None, picked: str,
+) -> None:
+    rec = _rule_recording(dim, accepted_after)
+    rows = {(rec["row"]["search"], name): {"search": rec["row"]["search"], "setting": name,
+                                           "final_cost": 1.0}
+            for name in ("base+gen4", "base+gen4+final8", "base+gen6", "base+gen6+final8")}
+    row, line = so.rule_row(rec, rows, generations)
+    assert row["rule"] == picked and row["dim"] == dim
+    assert row["setting"] == ("base+rule" if generations is None else "base+gen4+rule")
+    assert picked in line and f"dimension {dim}" in line
+    assert row["rule_final_candidates"] == (8 if picked.endswith("final8") else 4)
+    del rows[(rec["row"]["search"], picked)]
+    with pytest.raises(SystemExit, match=r"no row .* make it with `replay RECORDING"):
+        so.rule_row(rec, rows, generations)
+    with pytest.raises(SystemExit, match=r"recorded with 6 generations, --generations asks"):
+        so.rule_row(rec, rows, 7)

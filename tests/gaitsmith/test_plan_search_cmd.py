@@ -25,6 +25,10 @@ def test_plan_search_writes_the_gait_and_its_log(tmp_path: Path) -> None:
     search = gait["planner"]["search"]
     assert search["search_knots"] == 12 and search["sim_accepted"] is True  # --sim-accept default
     assert search["symmetric"] is True  # quad12 has left/right pairs: the space searched
+    # the final phase's candidates by the rule (planner.search.budget): 4 when a sample passed
+    # the coarse check, 8 when none did
+    assert (search["final_candidates"], search["final_candidates_reason"]) in (
+        (4, "a sample passed the coarse check"), (8, "the coarse check accepted no sample"))
     assert gait["validation"]["passed"] is True  # --simulate: the written gait walks
     finite = [c for c in search["template_costs"].values() if c is not None]  # null: rejected
     assert finite and search["search_cost"] <= min(finite) + 1e-9
@@ -33,6 +37,8 @@ def test_plan_search_writes_the_gait_and_its_log(tmp_path: Path) -> None:
     log = out.with_suffix(".search.csv").read_text().splitlines()
     assert log[0].startswith("generation,best_cost") and log[1].startswith("0,")
     assert any(line.startswith("# final solve: 20 knots") for line in log)
+    assert any(line.startswith(f"# final phase: up to {search['final_candidates']} searched")
+               for line in log)
 
 
 def test_plan_search_rejects_a_bad_executor(tmp_path: Path) -> None:
