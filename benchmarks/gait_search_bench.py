@@ -52,8 +52,9 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("GAITSMITH_BACKGROUND_COMPILE", "0")
 
 import robots
-from gaitsmith.plan_cmd import DEFAULT_CYCLES
+from gaitsmith.plan_cmd import DEFAULT_CYCLES, servo_limited_search_seed
 from gaitsmith.plan_options import DEFAULT_MU, planner_options, search_planner_options
+from gaitsmith.plan_search import USER_SEED
 from gaitsmith.search_options import sim_acceptance
 from gaitsmith.stance_options import stance_shaped
 from planner.nlp.config import (
@@ -132,10 +133,12 @@ def _children_cpu_s() -> float:
 def cli_search_options(robot: robots.Robot, derivatives: str = "knot", swing_wrench: str = "rows",
                        cold_start: str = "stance",
                        compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS,
-                       sim_accept: bool = True) -> tuple[PlannerOptions, dict[str, Any]]:
-    """The planner options and `search_gait` acceptance keywords `gaitsmith plan ROBOT
-    --search` uses with no flags (`cli_search_kwargs`), with these benchmark options."""
-    cli = cli_search_kwargs(robot, derivatives, sim_accept)
+                       sim_accept: bool = True, speed_m_s: float | None = None
+                       ) -> tuple[PlannerOptions, dict[str, Any]]:
+    """The planner options and the other `search_gait` keywords (MuJoCo checks, the
+    servo-limited seed) `gaitsmith plan ROBOT --speed SPEED --search` uses with no flags
+    (`cli_search_kwargs`), with these benchmark options."""
+    cli = cli_search_kwargs(robot, derivatives, sim_accept, speed_m_s)
     options = replace(cli.pop("options"), swing_wrench=swing_wrench, cold_start=cold_start,
                       compact_rows=compact_rows)
     return options, cli
@@ -155,7 +158,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     coarse solves' only."""
     robot = robots.load(robot_name)
     options, acceptance = cli_search_options(robot, derivatives, swing_wrench, cold_start,
-                                             compact_rows, sim_accept)
+                                             compact_rows, sim_accept, speed)
     t0, c0, w0 = time.perf_counter(), time.process_time(), _children_cpu_s()
     result = search_gait(
         robot, speed, n_knots=knots, options=options,
@@ -176,17 +179,23 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 
-def cli_search_kwargs(robot: robots.Robot, derivatives: str, sim_accept: bool
-                      ) -> dict[str, Any]:
+def cli_search_kwargs(robot: robots.Robot, derivatives: str, sim_accept: bool,
+                      speed_m_s: float | None = None) -> dict[str, Any]:
     """`options` and the MuJoCo checks (`acceptance`, `final_acceptance`; none without
-    `sim_accept`) that `gaitsmith plan ROBOT --search --solver DERIVATIVES` gives `search_gait`
-    with no other flag, built by the command line's own functions (the stance-compliance rule,
-    `planner_options`, `search_planner_options`, `sim_acceptance`), so the two cannot drift
-    apart (tests/benchmarks/test_gait_search_bench.py compares them). Not the servo-limited
-    timing (`planner.servo_limited`, knee8 only), which also seeds the search."""
+    `sim_accept`) that `gaitsmith plan ROBOT --speed SPEED --search --solver DERIVATIVES` gives
+    `search_gait` with no other flag, built by the command line's own functions (the
+    stance-compliance rule, `planner_options`, `servo_limited_search_seed`,
+    `search_planner_options`, `sim_acceptance`), so the two cannot drift apart
+    (tests/benchmarks/test_gait_search_bench.py compares them). With `speed_m_s`, a body whose
+    template swings faster than its servos (knee8) gets the servo-limited timing's options and
+    its timing as `seed_schedules`, as the command gives it."""
     shaped = stance_shaped(robot, None, None, None, None)
-    options = search_planner_options(planner_options(DEFAULT_MU, derivatives, shaped, None, None))
-    return {"options": options,
+    options = planner_options(DEFAULT_MU, derivatives, shaped, None, None)
+    seed = None
+    if speed_m_s is not None:
+        options, seed = servo_limited_search_seed(robot, speed_m_s, options)
+    return {"options": search_planner_options(options),
+            **({} if seed is None else {"seed_schedules": {USER_SEED: seed}}),
             **sim_acceptance(robot, sim_accept, DEFAULT_CYCLES, shaped.entry or 1)}
 
 

@@ -276,7 +276,9 @@ class FinalReplayer:
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
-        self.options, acceptance = cli_search_options(self.robot, swing_wrench=self.swing_wrench)
+        self.options, acceptance = cli_search_options(self.robot, swing_wrench=self.swing_wrench,
+                                                      speed_m_s=self.search.speed_m_s)
+        self.seeds: dict[str, robots.ContactSchedule] = acceptance.get("seed_schedules", {})
         factory = acceptance["final_acceptance"]
         self.spec = FinalPlannerSpec.new(self.robot, self.knots, self.options,
                                          self.search.speed_m_s, factory)
@@ -306,7 +308,7 @@ class FinalReplayer:
         best = min(costs, key=lambda n: costs[n])
         start = (records[names.index(best)][0], seed_results[best])
         space = TimingSpace.for_robot(self.robot, rec["symmetric"])
-        own = {name: make_schedule(self.robot, name) for name in names}
+        own = {name: self.seeds.get(name) or make_schedule(self.robot, name) for name in names}
         tasks, searched = final_tasks(self.spec, space, cut, candidates, start, seed_results,
                                       own)
         c0 = time.process_time()

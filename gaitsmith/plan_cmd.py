@@ -275,12 +275,11 @@ def plan(
                               inactive_rows=inactive_rows)
     meta = gait_metadata(supply_v, servo_params_path, shaped)
     if search:
-        limited = (servo_limited(bot, default_gait_for(bot), speed, options)
-                   if gait is None and not stand and not vy and not yaw_rate
-                   and all(v is None for v in (period, duty, phases, schedule_file)) else None)
-        if limited is not None:  # the search starts from the rule's timing, with its options
-            duty, period, options = _servo_limited_timing(limited, options)
-        gait, seed_schedule = user_seed(bot, gait, period, duty, phases, schedule_file)
+        if (gait is None and not stand and not vy and not yaw_rate
+                and all(v is None for v in (period, duty, phases, schedule_file))):
+            options, seed_schedule = servo_limited_search_seed(bot, speed, options)
+        else:
+            gait, seed_schedule = user_seed(bot, gait, period, duty, phases, schedule_file)
         plan_search(bot, gait, speed, output, knots, settings, simulate, cycles, supply_v,
                     search_planner_options(options), shaped.entry or 1, seed_schedule, meta,
                     attitude_gain)
@@ -356,6 +355,19 @@ def servo_limited(bot: robots.Robot, gait: str, speed: float,
     from planner.servo_limited import servo_limited_timing
 
     return servo_limited_timing(bot, gait, speed, options)
+
+
+def servo_limited_search_seed(bot: robots.Robot, speed: float, options: PlannerOptions
+                              ) -> tuple[PlannerOptions, robots.ContactSchedule | None]:
+    """What `plan BOT --speed V --search` with no gait or timing flag starts from: on a body
+    whose default template swings faster than its servos (`servo_limited`, e.g. knee8) the
+    rule's options and its timing as a seed beside the templates; elsewhere `options` and no
+    seed. Shared with the search benchmarks, so they search as the command does."""
+    limited = servo_limited(bot, default_gait_for(bot), speed, options)
+    if limited is None:
+        return options, None
+    duty, period, options = _servo_limited_timing(limited, options)
+    return options, user_seed(bot, None, period, duty, None, None)[1]
 
 
 def _servo_limited_timing(limited: ServoLimitedTiming,

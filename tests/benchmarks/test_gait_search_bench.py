@@ -71,6 +71,7 @@ def test_run_hands_compact_rows_to_the_search_and_labels_it(
     ("quad12", "0.25", True),  # the README search
     ("hex18", "0.15", False),
     (str(ZOO / "humanoid20"), "0.215", True),  # the stance-compliance rule fills three options
+    (str(ZOO / "knee8"), "0.182", False),  # the servo-limited timing: its options and seed
 ])
 @pytest.mark.parametrize("solver", ["knot", "expanded"])
 def test_run_searches_with_the_command_lines_options_and_checks(
@@ -88,6 +89,9 @@ def test_run_searches_with_the_command_lines_options_and_checks(
     keys = {"options", "acceptance", "final_acceptance"}
     assert keys & set(command) == keys & set(bench_kw) == (
         keys if sim_accept else {"options"})
+    # the servo-limited seed (knee8 only): the command's timing, under the command's name
+    assert bench_kw.get("seed_schedules") == command.get("seed_schedules")
+    assert ("knee8" in robot) == (command.get("seed_schedules") is not None)
     for key in keys & set(command):
         assert bench_kw[key] == command[key], key
 
