@@ -69,6 +69,7 @@ from planner.nlp.iteration_abort import StallAbort
 from planner.search.executors import ExecutorKind
 from planner.search.gait_search import (
     ABORTED_STATUS,
+    DEFAULT_SEARCH_KNOTS,
     DEFAULT_SEARCH_MAX_ITER,
     SEARCH_WARM_STARTS,
     GaitSearchResult,
@@ -151,11 +152,12 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS,
         search_swing_wrench: str | None = None,
         search_max_iter: int = DEFAULT_SEARCH_MAX_ITER,
-        search_tol: float | None = None) -> SearchRun:
+        search_tol: float | None = None,
+        search_knots: int = DEFAULT_SEARCH_KNOTS) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
-    NLP's; `search_swing_wrench` (not None), `search_max_iter` and `search_tol` (not None) the
-    coarse solves' only."""
+    NLP's; `search_swing_wrench` (not None), `search_max_iter`, `search_tol` (not None) and
+    `search_knots` the coarse solves' only."""
     robot = robots.load(robot_name)
     options, acceptance = cli_search_options(robot, derivatives, swing_wrench, cold_start,
                                              compact_rows, sim_accept, speed)
@@ -165,7 +167,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         max_generations=generations, seed=seed, executor=executor, workers=workers,
         warm_start=warm_start, coarse_abort=_abort_rule(abort),
         search_swing_wrench=search_swing_wrench, search_max_iter=search_max_iter,
-        search_tol=search_tol, **acceptance,
+        search_tol=search_tol, search_knots=search_knots, **acceptance,
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
@@ -176,6 +178,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if compact_rows == DEFAULT_COMPACT_ROWS else f"+rows-{_rows_label(compact_rows)}"
     label += "" if search_max_iter == DEFAULT_SEARCH_MAX_ITER else f"+cap{search_max_iter}"
     label += "" if search_tol is None else f"+tol{search_tol:g}"
+    label += "" if search_knots == DEFAULT_SEARCH_KNOTS else f"+knots{search_knots}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 

@@ -21,7 +21,10 @@ re-solves keep "rows", so final costs compare), a `SEARCH_WARM_STARTS` policy, "
 coarse stall abort `StallAbort(K, V)`), "capN" (the coarse solves' IPOPT iteration cap,
 `search_gait(search_max_iter=N)`, default 60), "tolX" (the coarse solves' IPOPT `tol`,
 `search_gait(search_tol=X)`; the final re-solves keep 1e-6), "genK" (K basin-CMA generations
-instead of `--generations`). Measured in docs/results/planner_speed_search.md, sessions 32-33.
+instead of `--generations`), "knotsN" (the coarse NLP's knots, `search_gait(search_knots=N)`,
+`gaitsmith plan --search --search-knots N`, default 12; the final re-solves keep `--knots`, so
+final costs compare; the compiled knot J/H are one knot's, so every N uses the same compiled
+entry). Measured in docs/results/planner_speed_search.md, sessions 32-34.
 
     python benchmarks/search_outcomes.py run ... --save DIR
     python benchmarks/search_outcomes.py replay DIR/*.pkl --generations 2,3,4,5,6 --out RUNS.jsonl
@@ -74,6 +77,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gait_search_bench import COARSE_BOUNDS, SearchRun, _abort_rule, cli_search_options, run
 
 import robots
+from gaitsmith.options import KNOTS_RANGE
 from planner.nlp.config import SWING_WRENCHES
 from planner.nlp.spacetime import GaitPlanner
 from planner.search.basin_cma import LocalResult
@@ -86,6 +90,7 @@ from planner.search.final_phase import (
     evaluate_final,
 )
 from planner.search.gait_search import (
+    DEFAULT_SEARCH_KNOTS,
     DEFAULT_SEARCH_MAX_ITER,
     FINAL_CANDIDATES,
     SEARCH_WARM_STARTS,
@@ -110,20 +115,23 @@ class Setting:
     search_max_iter: int = DEFAULT_SEARCH_MAX_ITER
     search_tol: float | None = None
     generations: int | None = None
+    search_knots: int = DEFAULT_SEARCH_KNOTS
 
 
-def _number(token: str, prefix: str, kind: type[int] | type[float], text: str) -> int | float:
-    """The number after `prefix` in `token` (capN ≥ 1, genK ≥ 1, 0 < tolX < 1); one-line
-    `SystemExit` otherwise."""
+def _number(token: str, prefix: str, kind: type[int] | type[float], text: str,
+            low: int = 1, high: int | None = None, example: int = 40) -> int | float:
+    """The number after `prefix` in `token` (an integer in [low, high] for capN, genK and
+    knotsN, 0 < tolX < 1); one-line `SystemExit` otherwise."""
     try:
         value = kind(token.removeprefix(prefix))
     except ValueError:
         value = math.nan
-    ok = 0 < value < 1 if kind is float else value >= 1
+    ok = 0 < value < 1 if kind is float else low <= value <= (high or math.inf)
     if not ok:
-        want = "a number in (0, 1)" if kind is float else "an integer ≥ 1"
+        want = ("a number in (0, 1)" if kind is float else f"an integer ≥ {low}" if high is None
+                else f"an integer in [{low}, {high}]")
         raise SystemExit(f"--settings: {token!r} in {text!r} needs {want} after {prefix!r} "
-                         f"(e.g. {prefix}{'1e-4' if kind is float else 40})")
+                         f"(e.g. {prefix}{'1e-4' if kind is float else example})")
     return value
 
 
@@ -149,11 +157,13 @@ def parse_setting(text: str) -> Setting:
             key, value = "search_tol", _number(token, "tol", float, text)
         elif token.startswith("gen"):
             key, value = "generations", _number(token, "gen", int, text)
+        elif token.startswith("knots"):
+            key, value = "search_knots", _number(token, "knots", int, text, *KNOTS_RANGE, 10)
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
                 f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)}, "
-                "abortK/V, capN, tolX or genK, joined by +")
+                "abortK/V, capN, tolX, genK or knotsN, joined by +")
         if key in fields:
             raise SystemExit(f"--settings: {text!r} sets {key} twice")
         fields[key] = value
@@ -232,7 +242,8 @@ def cmd_run(args: argparse.Namespace) -> None:
                     args.workers, search.seed, True, "knot", "process", args.knots,
                     setting.warm_start, setting.abort, setting.swing_wrench, "stance",
                     search_swing_wrench=setting.search_swing_wrench,
-                    search_max_iter=setting.search_max_iter, search_tol=setting.search_tol)
+                    search_max_iter=setting.search_max_iter, search_tol=setting.search_tol,
+                    search_knots=setting.search_knots)
             row = record(search, setting, r, load)
             if save is not None:
                 with (save / recording_name(search.key, setting.name)).open("wb") as fh:

@@ -67,6 +67,22 @@ def test_run_hands_compact_rows_to_the_search_and_labels_it(
     assert before.result == "result"
 
 
+def test_run_hands_the_coarse_knots_to_the_search_and_labels_them(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    seen: list[tuple[int, int]] = []
+
+    def fake_search(robot: Any, speed: float, **kwargs: Any) -> str:
+        seen.append((kwargs["search_knots"], kwargs["n_knots"]))
+        return "result"
+
+    monkeypatch.setattr(bench, "search_gait", fake_search)
+    coarse = bench.run("quad12", 0.25, 1, 1, 0, False, "knot", "serial", 30, search_knots=10)
+    default = bench.run("quad12", 0.25, 1, 1, 0, False, "knot", "serial", 30)
+    assert seen == [(10, 30), (bench.DEFAULT_SEARCH_KNOTS, 30)]
+    assert (coarse.derivatives, default.derivatives) == ("knot+knots10", "knot")
+
+
 @pytest.mark.parametrize("robot, speed, sim_accept", [
     ("quad12", "0.25", True),  # the README search
     ("hex18", "0.15", False),

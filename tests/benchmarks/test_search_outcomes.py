@@ -34,14 +34,25 @@ def test_cap_tol_and_gen_tokens_set_the_coarse_options_and_generations() -> None
     assert (base.search_max_iter, base.search_tol, base.generations) == (60, None, None)
 
 
+def test_knots_token_sets_the_coarse_knots_only() -> None:
+    assert so.parse_setting("base").search_knots == so.DEFAULT_SEARCH_KNOTS == 12
+    s = so.parse_setting("knots10+gen4")
+    assert (s.search_knots, s.generations, s.search_max_iter) == (10, 4, 60)
+    assert so.parse_setting("knots8").search_knots == 8
+
+
 @pytest.mark.parametrize(("text", "match"), [
     ("cap0", r"'cap0' in 'cap0' needs an integer ≥ 1 after 'cap'"),
     ("capx", r"needs an integer ≥ 1 after 'cap'"),
     ("tol1", r"'tol1' .* needs a number in \(0, 1\) after 'tol'"),
     ("tol-", r"needs a number in \(0, 1\)"),
     ("gen0", r"needs an integer ≥ 1 after 'gen'"),
+    ("knots7", r"'knots7' in 'knots7' needs an integer in \[8, 200\] after 'knots'"),
+    ("knots201", r"needs an integer in \[8, 200\] after 'knots' \(e.g. knots10\)"),
+    ("knots", r"needs an integer in \[8, 200\] after 'knots'"),
+    ("knots10+knots8", r"sets search_knots twice"),
     ("cap40+cap50", r"sets search_max_iter twice"),
-    ("fast", r"unknown token 'fast'.*capN, tolX or genK"),
+    ("fast", r"unknown token 'fast'.*capN, tolX, genK or knotsN"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:
@@ -54,7 +65,8 @@ def test_run_hands_the_tokens_to_the_search(monkeypatch: pytest.MonkeyPatch,
     seen: list[tuple[Any, ...]] = []
 
     def fake_run(robot: str, speed: float, generations: int, *args: Any, **kwargs: Any) -> str:
-        seen.append((generations, kwargs["search_max_iter"], kwargs["search_tol"]))
+        seen.append((generations, kwargs["search_max_iter"], kwargs["search_tol"],
+                     kwargs["search_knots"]))
         return "run"
 
     monkeypatch.setattr(so, "run", fake_run)
@@ -65,10 +77,10 @@ def test_run_hands_the_tokens_to_the_search(monkeypatch: pytest.MonkeyPatch,
         "load_start": 0.0, "load_end": 0.0})
     out = tmp_path / "runs.jsonl"
     monkeypatch.setattr(sys, "argv", ["so", "run", "--searches", "quad12@0.25:0", "--settings",
-                                      "base,cap40+tol1e-4+gen4", "--out", str(out)])
+                                      "base,cap40+tol1e-4+gen4,knots10", "--out", str(out)])
     so.main()
-    assert seen == [(6, 60, None), (4, 40, 1e-4)]
-    assert len(out.read_text().splitlines()) == 2
+    assert seen == [(6, 60, None, 12), (4, 40, 1e-4, 12), (6, 60, None, 10)]
+    assert len(out.read_text().splitlines()) == 3
 
 
 def test_save_needs_an_existing_directory(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
