@@ -501,17 +501,26 @@ class RecordingExecutor:
         return final_candidates_of(self.records, k)
 
 
+def final_rank(result: LocalResult) -> tuple[int, float]:
+    """The final phase's order of search results, best first: accepted (feasible) samples by
+    cost, then those whose plan solved but whose gait failed the coarse acceptance check (they
+    may pass at full resolution) by cost, then the rest (no plan), tied (a sort keeps their
+    order)."""
+    if not math.isfinite(result.cost):
+        return (2, math.inf)
+    if result.feasible:
+        return (0, result.cost)
+    return (1, result.cost) if getattr(result, "plan_feasible", False) else (2, math.inf)
+
+
 def final_candidates_of(records: Iterable[tuple[np.ndarray, LocalResult]], k: int
                         ) -> list[tuple[np.ndarray, LocalResult]]:
     """Up to k distinct samples to re-solve at full resolution, best first: the feasible ones
     by cost, then those whose plan solved but whose gait failed acceptance (at the coarse
     resolution of the search; they may pass at the final one), by cost."""
 
-    def rank(record: tuple[np.ndarray, LocalResult]) -> tuple[int, float]:
-        return (0 if record[1].feasible else 1, record[1].cost)
-
-    usable = sorted((r for r in records if math.isfinite(r[1].cost) and (
-        r[1].feasible or getattr(r[1], "plan_feasible", False))), key=rank)
+    usable = sorted((r for r in records if final_rank(r[1])[0] < 2),
+                    key=lambda record: final_rank(record[1]))
     picked: list[tuple[np.ndarray, LocalResult]] = []
     for x, res in usable:
         if all(not np.allclose(x, y) for y, _ in picked):
@@ -817,18 +826,21 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
     """The final phase's tasks in the order `choose_final` reads them, with the search result of
     each one's timing: the `final_candidates` cheapest usable samples of `records`
     (`final_candidates_of`; `start`, CMA's first mean and its seed's result, if none is usable),
-    then, when `seed_schedules` is given (a final check exists), the seeds by their search cost,
-    as their own schedules, skipping any identical to a candidate. A search stopped after
-    generation k is its recording truncated there (`benchmarks/search_outcomes.py replay`)."""
+    then, when `seed_schedules` is given (a final check exists), the seeds ranked as the
+    candidates are (`final_rank`: until session 34 every seed the coarse check rejected tied
+    at an infinite cost and came in template order), as their own schedules, skipping any
+    identical to a candidate. A search stopped after generation k is its recording truncated
+    there (`benchmarks/search_outcomes.py replay`)."""
     candidates = final_candidates_of(records, final_candidates) or [start]
     tasks = [FinalTask(spec, space.decode(x)) for x, _ in candidates]
     searched: list[LocalResult] = [r for _, r in candidates]
     if seed_schedules is not None:
         # nothing searched may pass: the templates the search started from, at full
         # resolution, as the template command plans them (not their phase-rotated encodings)
+        # ranked as the candidates are (`final_rank`): a template the coarse check rejected
+        # but whose plan solved comes before one with no plan, the cheaper first
         tried = [task.schedule for task in tasks]
-        costs = {name: (r.cost if r.feasible else math.inf) for name, r in seed_results.items()}
-        for name in sorted(costs, key=lambda n: costs[n]):
+        for name in sorted(seed_results, key=lambda n: final_rank(seed_results[n])):
             own_schedule = seed_schedules[name]
             if not any(identical_schedules(own_schedule, t) for t in tried):
                 tasks.append(FinalTask(spec, own_schedule, name))
@@ -883,6 +895,7 @@ __all__ = [
     "TimingSolverFactory",
     "TimingSpace",
     "cost_of_transport",
+    "final_rank",
     "final_tasks",
     "search_gait",
     "searchable_templates",

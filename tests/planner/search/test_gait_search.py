@@ -289,6 +289,30 @@ def test_a_bad_search_tol_is_one_line_before_any_solve(tol: float) -> None:
     assert "\n" not in str(err.value)
 
 
+def test_final_tasks_rank_rejected_templates_by_their_plans_cost() -> None:
+    """When the coarse check rejected every template, the fallback tries them as candidates are
+    ranked (`final_rank`): plan-feasible ones by plan cost, then those with no plan — not in
+    template order (session 34: a 10-knot README search wrote the walk at 0.738 before trying
+    the trot, which passes at 0.525)."""
+    from planner.search.final_phase import FinalPlannerSpec
+    from planner.search.gait_search import REJECTED_VIOLATION, final_rank, final_tasks
+
+    robot = robots.load("quad12")
+    space = TimingSpace.for_robot(robot)
+    own = {name: make_schedule(robot, name) for name in ("walk", "pace", "trot")}
+    x_of = {name: space.encode(schedule) for name, schedule in own.items()}
+    seeds = {"walk": TimingResult(x_of["walk"], 0.7, False, 0, REJECTED_VIOLATION, True),
+             "pace": TimingResult(x_of["pace"], 0.1, False, 0, 1.0, False),
+             "trot": TimingResult(x_of["trot"], 0.4, False, 0, REJECTED_VIOLATION, True)}
+    assert [final_rank(seeds[n]) for n in own] == [(1, 0.7), (2, math.inf), (1, 0.4)]
+    lo, hi = space.bounds()
+    sample = TimingResult(0.5 * (lo + hi), 0.3, True, 0, 0.0, True)
+    spec = FinalPlannerSpec.new(robot, 30, None, 0.25, None)  # type: ignore[arg-type]
+    tasks, _ = final_tasks(spec, space, [(sample.x_projected, sample)], 4,
+                           (x_of["trot"], seeds["trot"]), seeds, own)
+    assert [t.template for t in tasks] == [None, "trot", "walk", "pace"]
+
+
 def test_final_tasks_are_the_candidates_then_the_other_templates_by_cost() -> None:
     """The final phase's order: the cheapest usable samples (`final_candidates_of`), then — with
     a check — the seeds by search cost (infeasible last), as their own schedules, skipping one
