@@ -153,14 +153,20 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_swing_wrench: str | None = None,
         search_max_iter: int = DEFAULT_SEARCH_MAX_ITER,
         search_tol: float | None = None,
-        search_knots: int = DEFAULT_SEARCH_KNOTS) -> SearchRun:
+        search_knots: int = DEFAULT_SEARCH_KNOTS,
+        coarse_speed_tol: float | None = None) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
     NLP's; `search_swing_wrench` (not None), `search_max_iter`, `search_tol` (not None) and
-    `search_knots` the coarse solves' only."""
+    `search_knots` the coarse solves' only; `coarse_speed_tol` (not None) the coarse MuJoCo
+    check's `PassCriteria.speed_rel_tol` (the final check keeps the default)."""
     robot = robots.load(robot_name)
     options, acceptance = cli_search_options(robot, derivatives, swing_wrench, cold_start,
                                              compact_rows, sim_accept, speed)
+    if coarse_speed_tol is not None and "acceptance" in acceptance:
+        coarse = acceptance["acceptance"]
+        acceptance["acceptance"] = replace(
+            coarse, criteria=replace(coarse.criteria, speed_rel_tol=coarse_speed_tol))
     t0, c0, w0 = time.perf_counter(), time.process_time(), _children_cpu_s()
     result = search_gait(
         robot, speed, n_knots=knots, options=options,
@@ -179,6 +185,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if search_max_iter == DEFAULT_SEARCH_MAX_ITER else f"+cap{search_max_iter}"
     label += "" if search_tol is None else f"+tol{search_tol:g}"
     label += "" if search_knots == DEFAULT_SEARCH_KNOTS else f"+knots{search_knots}"
+    label += "" if coarse_speed_tol is None else f"+speed{coarse_speed_tol:g}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 

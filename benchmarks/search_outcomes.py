@@ -24,7 +24,9 @@ coarse stall abort `StallAbort(K, V)`), "capN" (the coarse solves' IPOPT iterati
 instead of `--generations`), "knotsN" (the coarse NLP's knots, `search_gait(search_knots=N)`,
 `gaitsmith plan --search --search-knots N`, default 12; the final re-solves keep `--knots`, so
 final costs compare; the compiled knot J/H are one knot's, so every N uses the same compiled
-entry). Measured in docs/results/planner_speed_search.md, sessions 32-34.
+entry), "speedX" (the coarse MuJoCo check's relative speed tolerance,
+`PassCriteria.speed_rel_tol`, X instead of 0.10; the final check keeps the default). Measured
+in docs/results/planner_speed_search.md, sessions 32-34.
 
     python benchmarks/search_outcomes.py run ... --save DIR
     python benchmarks/search_outcomes.py replay DIR/*.pkl --generations 2,3,4,5,6 --out RUNS.jsonl
@@ -116,6 +118,7 @@ class Setting:
     search_tol: float | None = None
     generations: int | None = None
     search_knots: int = DEFAULT_SEARCH_KNOTS
+    coarse_speed_tol: float | None = None
 
 
 def _number(token: str, prefix: str, kind: type[int] | type[float], text: str,
@@ -159,11 +162,13 @@ def parse_setting(text: str) -> Setting:
             key, value = "generations", _number(token, "gen", int, text)
         elif token.startswith("knots"):
             key, value = "search_knots", _number(token, "knots", int, text, *KNOTS_RANGE, 10)
+        elif token.startswith("speed"):
+            key, value = "coarse_speed_tol", _number(token, "speed", float, text)
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
                 f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)}, "
-                "abortK/V, capN, tolX, genK or knotsN, joined by +")
+                "abortK/V, capN, tolX, genK, knotsN or speedX, joined by +")
         if key in fields:
             raise SystemExit(f"--settings: {text!r} sets {key} twice")
         fields[key] = value
@@ -243,7 +248,8 @@ def cmd_run(args: argparse.Namespace) -> None:
                     setting.warm_start, setting.abort, setting.swing_wrench, "stance",
                     search_swing_wrench=setting.search_swing_wrench,
                     search_max_iter=setting.search_max_iter, search_tol=setting.search_tol,
-                    search_knots=setting.search_knots)
+                    search_knots=setting.search_knots,
+                    coarse_speed_tol=setting.coarse_speed_tol)
             row = record(search, setting, r, load)
             if save is not None:
                 with (save / recording_name(search.key, setting.name)).open("wb") as fh:

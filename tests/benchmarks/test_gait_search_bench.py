@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -81,6 +82,27 @@ def test_run_hands_the_coarse_knots_to_the_search_and_labels_them(
     default = bench.run("quad12", 0.25, 1, 1, 0, False, "knot", "serial", 30)
     assert seen == [(10, 30), (bench.DEFAULT_SEARCH_KNOTS, 30)]
     assert (coarse.derivatives, default.derivatives) == ("knot+knots10", "knot")
+
+
+def test_run_loosens_the_coarse_checks_speed_tolerance_only(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`coarse_speed_tol`: the coarse MuJoCo check's `speed_rel_tol`; the final check and every
+    other criterion as the command gives them."""
+    seen: list[dict[str, Any]] = []
+
+    def fake_search(robot: Any, speed: float, **kwargs: Any) -> str:
+        seen.append(kwargs)
+        return "result"
+
+    monkeypatch.setattr(bench, "search_gait", fake_search)
+    loose = bench.run("quad12", 0.25, 1, 1, 0, True, "knot", "serial", 30, coarse_speed_tol=0.2)
+    default = bench.run("quad12", 0.25, 1, 1, 0, True, "knot", "serial", 30)
+    assert (loose.derivatives, default.derivatives) == ("knot+speed0.2", "knot")
+    coarse, base = seen[0]["acceptance"], seen[1]["acceptance"]
+    assert coarse.criteria.speed_rel_tol == 0.2 != base.criteria.speed_rel_tol
+    assert replace(coarse.criteria, speed_rel_tol=base.criteria.speed_rel_tol) == base.criteria
+    assert seen[0]["final_acceptance"] == seen[1]["final_acceptance"]
 
 
 @pytest.mark.parametrize("robot, speed, sim_accept", [

@@ -41,6 +41,12 @@ def test_knots_token_sets_the_coarse_knots_only() -> None:
     assert so.parse_setting("knots8").search_knots == 8
 
 
+def test_speed_token_sets_the_coarse_checks_speed_tolerance_only() -> None:
+    assert so.parse_setting("base").coarse_speed_tol is None
+    s = so.parse_setting("speed0.2+knots10")
+    assert (s.coarse_speed_tol, s.search_knots) == (0.2, 10)
+
+
 @pytest.mark.parametrize(("text", "match"), [
     ("cap0", r"'cap0' in 'cap0' needs an integer ≥ 1 after 'cap'"),
     ("capx", r"needs an integer ≥ 1 after 'cap'"),
@@ -52,7 +58,9 @@ def test_knots_token_sets_the_coarse_knots_only() -> None:
     ("knots", r"needs an integer in \[8, 200\] after 'knots'"),
     ("knots10+knots8", r"sets search_knots twice"),
     ("cap40+cap50", r"sets search_max_iter twice"),
-    ("fast", r"unknown token 'fast'.*capN, tolX, genK or knotsN"),
+    ("speed0", r"'speed0' in 'speed0' needs a number in \(0, 1\) after 'speed'"),
+    ("speed1.5", r"needs a number in \(0, 1\) after 'speed'"),
+    ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN or speedX"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:
@@ -66,7 +74,7 @@ def test_run_hands_the_tokens_to_the_search(monkeypatch: pytest.MonkeyPatch,
 
     def fake_run(robot: str, speed: float, generations: int, *args: Any, **kwargs: Any) -> str:
         seen.append((generations, kwargs["search_max_iter"], kwargs["search_tol"],
-                     kwargs["search_knots"]))
+                     kwargs["search_knots"], kwargs["coarse_speed_tol"]))
         return "run"
 
     monkeypatch.setattr(so, "run", fake_run)
@@ -77,10 +85,12 @@ def test_run_hands_the_tokens_to_the_search(monkeypatch: pytest.MonkeyPatch,
         "load_start": 0.0, "load_end": 0.0})
     out = tmp_path / "runs.jsonl"
     monkeypatch.setattr(sys, "argv", ["so", "run", "--searches", "quad12@0.25:0", "--settings",
-                                      "base,cap40+tol1e-4+gen4,knots10", "--out", str(out)])
+                                      "base,cap40+tol1e-4+gen4,knots10,speed0.2", "--out",
+                                      str(out)])
     so.main()
-    assert seen == [(6, 60, None, 12), (4, 40, 1e-4, 12), (6, 60, None, 10)]
-    assert len(out.read_text().splitlines()) == 3
+    assert seen == [(6, 60, None, 12, None), (4, 40, 1e-4, 12, None), (6, 60, None, 10, None),
+                    (6, 60, None, 12, 0.2)]
+    assert len(out.read_text().splitlines()) == 4
 
 
 def test_save_needs_an_existing_directory(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
