@@ -16,6 +16,7 @@ from gaitsmith.plan_output import DEFAULT_CYCLES, write_gait
 from gaitsmith.search_options import DEFAULT_SEARCH_SWING_WRENCH, sim_acceptance
 from planner.errors import InfeasibleGaitError
 from planner.nlp.config import PlannerOptions
+from planner.search.budget import REASON_NONE_ACCEPTED
 from planner.search.defaults import SEARCH_INACTIVE_ROWS
 from planner.templates import default_gait_for
 from planner.user_schedule import command_schedule
@@ -116,7 +117,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         + f", cost of transport {result.cost_of_transport:.3f}, Froude {result.froude:.3f}, "
         f"{result.cma.n_local_solves} local solves in {result.elapsed_s:.1f} s"
     )
-    if result.final_candidates_reason == "the coarse check accepted no sample":
+    if result.final_candidates_reason == REASON_NONE_ACCEPTED:
         console.print(f"  the coarse MuJoCo check accepted no sample: up to "
                       f"{result.final_candidates} searched timings re-solved at {knots} knots")
     if result.accepted is False:

@@ -33,6 +33,10 @@ if TYPE_CHECKING:
 FINAL_CANDIDATES = 4
 #: ... when the coarse check accepted no sample of the search
 FINAL_CANDIDATES_NONE_ACCEPTED = 8
+#: `final_candidates_reason`'s answers (the search log and the gait file carry them)
+REASON_GIVEN = "given"
+REASON_ACCEPTED = "a sample passed the coarse check"
+REASON_NONE_ACCEPTED = "the coarse check accepted no sample"
 
 
 def any_accepted(records: Iterable[tuple[np.ndarray, LocalResult]]) -> bool:
@@ -57,14 +61,16 @@ def final_candidates_reason(records: Iterable[tuple[np.ndarray, LocalResult]],
     """Why the final phase re-solves `final_candidate_count` timings (for the search log and
     the gait file)."""
     if final_candidates is not None:
-        return "given"
-    return ("a sample passed the coarse check" if any_accepted(records)
-            else "the coarse check accepted no sample")
+        return REASON_GIVEN
+    return REASON_ACCEPTED if any_accepted(records) else REASON_NONE_ACCEPTED
 
 
 __all__ = [
     "FINAL_CANDIDATES",
     "FINAL_CANDIDATES_NONE_ACCEPTED",
+    "REASON_ACCEPTED",
+    "REASON_GIVEN",
+    "REASON_NONE_ACCEPTED",
     "any_accepted",
     "final_candidate_count",
     "final_candidates_reason",
