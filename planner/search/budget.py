@@ -8,8 +8,10 @@ cost alone, and the one that walks at full resolution may be fifth or later: spo
 candidates would be read only after the first four failed, before the template fallback, and
 would re-solve timings the coarse check had rejected. Over 28 recorded searches on 8 bodies
 (quad12, hex18, spotmicro, bittle8, star5, phantomx18, knee8, the biped) the rule wrote the same
-gait in 25, a 34 % cheaper one in 1, none worse (the other 2, knee8 without its servo-limited
-seed, pass nowhere), at 1.01× the CPU (docs/results/planner_speed_search.md, session 34).
+gait in 25, a 34 % cheaper one in 1, none worse (the other 2, knee8 recorded without the
+servo-limited seed that `gaitsmith plan --search` gives it, pass nowhere; with the seed, seed 0
+writes the servo-limited walk), at 1.01× the CPU (docs/results/planner_speed_search.md,
+session 34).
 
 Fewer basin-CMA generations for some bodies were judged on the same 28 searches and lost: 4
 generations for a timing space of ≤ 4 variables (a symmetric quadruped or biped) kept all 13
