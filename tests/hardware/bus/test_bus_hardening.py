@@ -32,7 +32,9 @@ from hardware.errors import (
 from hardware.play.calibration import Calibration
 from tests.hardware.conftest import IDS, ManualClock
 
-SLACK_S = 0.050  # scheduler / Python overhead allowance on a loaded machine
+SLACK_S = 0.150  # scheduler / Python overhead allowance: a 2-core machine running a search beside
+#                  the suite oversleeps a 6 ms wait by up to ≈ 0.1 s (session 34); a wait that
+#                  ignored its timeout would last the 60 s late-reply horizon
 
 
 @pytest.fixture(params=["dynamixel2", "feetech_sts"])
@@ -282,7 +284,7 @@ def test_gait_plays_over_the_pty_with_the_vendor_sdk(tmp_path: Path) -> None:
         res = CliRunner().invoke(
             app,
             ["run", str(gait), "--robot", "quad12", "--port", server.path, "--force",
-             "--ramp-s", "0.3", "--telemetry", str(tel), "--timeout-ms", "10"],
+             "--ramp-s", "0.3", "--telemetry", str(tel), "--timeout-ms", "40", "--rate", "50"],
             env={"GAITSMITH_CALIBRATION_DIR": str(tmp_path / "cal")},
         )  # fmt: skip
     assert res.exit_code == 0, res.output
