@@ -84,7 +84,10 @@ from planner.nlp.config import SWING_WRENCHES
 from planner.nlp.spacetime import GaitPlanner
 from planner.search.basin_cma import LocalResult
 from planner.search.budget import final_candidate_count, final_candidates_reason
+from planner.search.defaults import DEFAULT_TIPPING_WEIGHT
 from planner.search.final_phase import (
+    FINAL_CHOICE_FIRST,
+    FINAL_CHOICES,
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
@@ -99,6 +102,7 @@ from planner.search.gait_search import (
     TimingSpace,
     final_tasks,
 )
+from planner.search.support import TippingCost
 from planner.templates import label_gait, make_schedule
 
 #: relative final-cost change below which two searches' gaits count as the same
@@ -312,10 +316,11 @@ class FinalReplayer:
                                                  self.search.speed_m_s)
             yield self.cache[key]
 
-    def truncated(self, rec: dict, k: int, candidates: int = FINAL_CANDIDATES
-                  ) -> dict[str, object]:
+    def truncated(self, rec: dict, k: int, candidates: int = FINAL_CANDIDATES,
+                  choice: str = FINAL_CHOICE_FIRST) -> dict[str, object]:
         """The row of `rec`'s search stopped after generation k (module docstring), its final
-        phase re-solving up to `candidates` timings (`search_gait(final_candidates=...)`)."""
+        phase re-solving up to `candidates` timings (`search_gait(final_candidates=...)`) and
+        choosing among them by `choice` (`search_gait(final_choice=...)`)."""
         records: list = rec["records"]
         names: list[str] = rec["templates"]
         n_t = len(names)
@@ -329,37 +334,48 @@ class FinalReplayer:
         tasks, searched = final_tasks(self.spec, space, cut, candidates, start, seed_results,
                                       own)
         c0 = time.process_time()
-        choice = choose_final(tasks, searched, self.outcomes(tasks))
-        replay_cpu = sum(o.solve_cpu_s + o.check_cpu_s for o in choice.read)
+        tipping = TippingCost.for_robot(self.robot, DEFAULT_TIPPING_WEIGHT)
+        chosen = choose_final(tasks, searched, self.outcomes(tasks), choice,
+                              score=lambda plan: plan.cost + tipping(plan.schedule))
+        replay_cpu = sum(o.solve_cpu_s + o.check_cpu_s for o in chosen.read)
         base: dict = rec["row"]
         dropped = sum(_sample_cpu_s(r) for _, r in records[len(cut):])
-        plan = choice.plan
+        plan = chosen.plan
         verdict = ("infeasible" if not plan.feasible else
                    {True: "MuJoCo pass", False: "MuJoCo FAIL", None: "not simulated"}[
-                       choice.accepted])
+                       chosen.accepted])
         return {
-            **base, "setting": replay_setting(base["setting"], k, candidates), "generations": k,
-            "final_candidates": candidates,
+            **base, "setting": replay_setting(base["setting"], k, candidates, choice),
+            "generations": k, "final_candidates": candidates, "final_choice": choice,
             "utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
             "load_start": os.getloadavg()[0], "load_end": os.getloadavg()[0],
             "cpu_s": base["cpu_s"] - dropped - rec["final_cpu_s"] + replay_cpu,
             "solves": len(cut), "iterations": sum(max(r.n_fevals - 1, 0) for _, r in cut),
-            "winner": label_gait(plan.schedule, self.robot), "search_cost": choice.searched.cost,
-            "best_template": best, "fallback_template": choice.fallback_template,
+            "winner": label_gait(plan.schedule, self.robot), "search_cost": chosen.searched.cost,
+            "best_template": best, "fallback_template": chosen.fallback_template,
             "final_cost": plan.cost if plan.feasible else None,
-            "final_solves": len(choice.read), "verdict": verdict, "replayed": True,
+            "final_total": plan.cost + tipping(plan.schedule) if plan.feasible else None,
+            "final_solves": len(chosen.read), "verdict": verdict, "replayed": True,
             "replay_cpu_s": time.process_time() - c0,
         }
 
 
-def replay_setting(setting: str, k: int, candidates: int) -> str:
-    """The name of a replayed row: "SETTING+genK", "+finalC" if C is not the default."""
-    return f"{setting}+gen{k}" + ("" if candidates == FINAL_CANDIDATES else f"+final{candidates}")
+def replay_setting(setting: str, k: int, candidates: int,
+                   choice: str = FINAL_CHOICE_FIRST) -> str:
+    """The name of a replayed row: "SETTING+genK", "+finalC" if C is not the default,
+    "+CHOICE" if the final choice is not "first"."""
+    return (f"{setting}+gen{k}" + ("" if candidates == FINAL_CANDIDATES else f"+final{candidates}")
+            + ("" if choice == FINAL_CHOICE_FIRST else f"+{choice}"))
 
 
 def cmd_replay(args: argparse.Namespace) -> None:
     ks = _generations(args.generations)
     cs = _integers("--final-candidates", args.final_candidates, "4,8")
+    choices = [c.strip() for c in args.final_choice.split(",") if c.strip()]
+    bad = [c for c in choices if c not in FINAL_CHOICES]
+    if bad or not choices:
+        raise SystemExit(f"replay: --final-choice must be a comma-separated list of "
+                         f"{', '.join(FINAL_CHOICES)}, got {args.final_choice!r}")
     recs = []
     for name in args.recordings:
         try:
@@ -372,15 +388,15 @@ def cmd_replay(args: argparse.Namespace) -> None:
     replayers: dict[tuple[str, str, int], FinalReplayer] = {}
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
-        for k, c in ((k, c) for c in cs for k in ks):
-            name = replay_setting(setting.name, k, c)
+        for k, c, ch in ((k, c, ch) for ch in choices for c in cs for k in ks):
+            name = replay_setting(setting.name, k, c, ch)
             if k > rec["generations"] or (search.key, name) in done:
                 continue
             key = (search.key, setting.swing_wrench, rec["knots"])
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
                 replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"])
-            row = replayers[key].truncated(rec, k, c)
+            row = replayers[key].truncated(rec, k, c, ch)
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
             print(_line(row), flush=True)
@@ -556,6 +572,9 @@ def main() -> None:
                    help="comma-separated counts of timings the final phase re-solves (the "
                         f"search's default: {FINAL_CANDIDATES}); rows named SETTING+genK+finalC "
                         "if not the default; one invocation solves each schedule once")
+    p.add_argument("--final-choice", default=FINAL_CHOICE_FIRST,
+                   help=f"comma-separated: {', '.join(FINAL_CHOICES)} (how the final phase picks "
+                        "among its candidates; 'cheapest' reads them all, rows '+cheapest')")
     p.add_argument("--out", required=True, help="JSON-lines file the rows are appended to")
     u = sub.add_parser("rule", help="each recording's replayed row under the budget rule")
     u.add_argument("recordings", nargs="+", help="pickles written by `run --save`")

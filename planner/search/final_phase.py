@@ -140,15 +140,39 @@ def worker_final_solve(task: FinalTask) -> FinalOutcome:
     return replace(out, build_s=build_s, build_cpu_s=build_cpu_s)
 
 
+#: how the final phase picks among its candidates (`choose_final`'s `choice`)
+FINAL_CHOICE_FIRST = "first"
+FINAL_CHOICE_CHEAPEST = "cheapest"
+FINAL_CHOICES = (FINAL_CHOICE_FIRST, FINAL_CHOICE_CHEAPEST)
+
+
 def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
-                 outcomes: Iterable[FinalOutcome]) -> FinalChoice:
+                 outcomes: Iterable[FinalOutcome], choice: str = FINAL_CHOICE_FIRST,
+                 score: Callable[[PlanResult], float] | None = None) -> FinalChoice:
     """The module's rule over `outcomes`, read lazily in the order of `tasks` (candidates
     first, then fallback templates, each with the search result of its timing in `searched`);
-    stops reading at the first winner. `tasks` must hold at least one candidate."""
+    stops reading at the first winner. `tasks` must hold at least one candidate.
+
+    `choice` "cheapest": every candidate is read, and of those that are feasible and accepted
+    (or feasible, when nothing checks) the one with the lowest `score` of its full-resolution
+    plan wins (default score: the plan's cost); the templates are read only if none is. The
+    coarse cost ranks the candidates, but the search's later samples can be coarse-cheaper and
+    costlier at full resolution (docs/results/planner_speed_search.md, session 35)."""
+    if choice not in FINAL_CHOICES:
+        raise ValueError(f"choose_final: choice must be one of {', '.join(FINAL_CHOICES)}, "
+                         f"got {choice!r}")
+    rank = score or (lambda plan: plan.cost)
     chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
+    winners: list[tuple[float, int, PlanResult, LocalResult, bool | None]] = []
     fallback: str | None = None
     read: list[FinalOutcome] = []
-    for task, result, out in zip(tasks, searched, outcomes, strict=False):
+    pending = iter(outcomes)
+    for task, result in zip(tasks, searched, strict=False):
+        if task.template is not None and winners:
+            break  # "cheapest": a candidate won; the templates are not read (nor solved)
+        out = next(pending, None)
+        if out is None:
+            break
         read.append(out)
         plan = out.plan
         if task.template is None:
@@ -156,13 +180,19 @@ def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
                 chosen = chosen or (plan, result, None)
                 continue
             if out.ok is not False:
-                chosen = (plan, result, out.ok)
-                break
+                if choice == FINAL_CHOICE_FIRST:
+                    chosen = (plan, result, out.ok)
+                    break
+                winners.append((rank(plan), len(winners), plan, result, out.ok))
+                continue
             if chosen is None or not chosen[0].feasible:
                 chosen = (plan, result, False)
         elif plan.feasible and out.ok:
             chosen, fallback = (plan, result, True), task.template
             break
+    if winners:
+        _, _, plan, result, ok = min(winners, key=lambda w: (w[0], w[1]))
+        chosen = (plan, result, ok)
     if chosen is None:
         raise ValueError("choose_final: no candidate was read (the tasks start with one)")
     return FinalChoice(*chosen, fallback, tuple(read))
@@ -170,6 +200,9 @@ def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
 
 __all__ = [
     "CHECK_LABEL",
+    "FINAL_CHOICES",
+    "FINAL_CHOICE_CHEAPEST",
+    "FINAL_CHOICE_FIRST",
     "FinalChoice",
     "FinalOutcome",
     "FinalPlannerSpec",

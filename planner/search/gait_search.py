@@ -79,6 +79,8 @@ from planner.search.budget import (
 )
 from planner.search.executors import Executor, ProcessExecutor, make_executor
 from planner.search.final_phase import (
+    FINAL_CHOICE_FIRST,
+    FINAL_CHOICES,
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
@@ -637,6 +639,7 @@ def search_gait(
     search_swing_wrench: str | None = None,
     search_tol: float | None = None,
     search_inactive_rows: str = defaults.SEARCH_INACTIVE_ROWS,
+    final_choice: str = FINAL_CHOICE_FIRST,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -662,6 +665,9 @@ def search_gait(
     `search_inactive_rows`: `PlannerOptions.inactive_rows` of the coarse solves only (default
     `planner.search.defaults.SEARCH_INACTIVE_ROWS`, "rows", whatever `options` has); the final
     re-solves keep `options.inactive_rows` (planner_speed_ipopt.md, session 34).
+    `final_choice`: "first" (default) — the first candidate in coarse rank order that is feasible
+    and accepted wins; "cheapest" — every candidate is re-solved and the accepted one with the
+    lowest full-resolution cost plus support term wins (`final_phase.choose_final`).
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
@@ -683,6 +689,9 @@ def search_gait(
     if search_inactive_rows not in INACTIVE_ROWS:
         raise PlannerConfigError(f"search_inactive_rows must be one of {', '.join(INACTIVE_ROWS)},"
                                  f" got {search_inactive_rows!r}")
+    if final_choice not in FINAL_CHOICES:
+        raise PlannerConfigError(f"final_choice must be one of {', '.join(FINAL_CHOICES)}, "
+                                 f"got {final_choice!r}")
     if search_tol is not None and not 0 < search_tol < 1:
         raise PlannerConfigError(f"search_tol must be in (0, 1) (or None: the options' own), "
                                  f"got {search_tol!r}")
@@ -781,17 +790,21 @@ def search_gait(
             built = GaitPlanner(robot, n_knots, options)
             return built, time.perf_counter() - t_final, time.process_time() - c_final
 
+        def score(plan: PlanResult) -> float:
+            """What the search minimises, at full resolution (`final_choice` "cheapest")."""
+            return plan.cost + tipping(plan.schedule)
+
         if on_workers:
             with ex.ordered(worker_final_solve, tasks) as outcomes:
                 # the workers solve the first candidates meanwhile
                 final, final_build_s, final_build_cpu_s = final_planner()
-                choice = choose_final(tasks, searched, outcomes)
+                choice = choose_final(tasks, searched, outcomes, final_choice, score)
         else:
             final, final_build_s, final_build_cpu_s = final_planner()
             check = final_check() if final_check is not None else None
             with ex.ordered(lambda task: evaluate_final(final, check, task.schedule, speed_m_s),
                             tasks) as outcomes:
-                choice = choose_final(tasks, searched, outcomes)
+                choice = choose_final(tasks, searched, outcomes, final_choice, score)
     # the final phase ends when the pool has shut down (workers still solving are stopped)
     t_end, c_end = time.perf_counter(), time.process_time()
     best, won, accepted, fallback = choice.plan, choice.searched, choice.accepted, \

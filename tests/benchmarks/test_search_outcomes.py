@@ -169,6 +169,16 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     assert (five["setting"], five["search_cost"], five["verdict"]) == (
         "base+gen2+final5", 0.8, "MuJoCo pass")
     assert len(solved) == 6  # every schedule it read was solved before
+    # "cheapest" reads every candidate (4 after generation 0) and names its row
+    cheap = replayer.truncated(rec, 1, 4, "cheapest")
+    assert (cheap["setting"], cheap["final_choice"], cheap["final_solves"]) == (
+        "base+gen1+cheapest", "cheapest", 4)
+    assert cheap["search_cost"] == 0.8 and cheap["final_total"] >= cheap["final_cost"] == 0.4
+    with pytest.raises(SystemExit, match=r"--final-choice must be a comma-separated list of "
+                                         r"first, cheapest, got 'best'"):
+        monkeypatch.setattr(sys, "argv", ["search_outcomes.py", "replay", "x.pkl",
+                                          "--final-choice", "best", "--out", "o.jsonl"])
+        so.main()
 
 
 def _rule_recording(dim: int, accepted_after: int | None) -> dict[str, Any]:

@@ -7,6 +7,7 @@ import multiprocessing as mp
 import os
 import sys
 import time
+from collections.abc import Iterator, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -26,6 +27,7 @@ from planner.search.executors import (
     make_executor,
 )
 from planner.search.final_phase import (
+    FINAL_CHOICE_CHEAPEST,
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
@@ -134,6 +136,41 @@ def test_serial_and_process_pools_choose_the_same(
     with ProcessExecutor(None, workers=2) as ex:
         parallel = _choose(ex, fakes, templates)
     assert serial == parallel == expected
+
+
+def _outcomes(plans: Sequence[tuple[float, bool | None]], read: list[float]
+              ) -> Iterator[FinalOutcome]:
+    """Outcomes whose full-resolution plans cost `plans[i][0]` with verdict `plans[i][1]`,
+    made as the rule reads them; each appends its cost to `read` (what the rule had solved)."""
+    for cost, ok in plans:
+        read.append(cost)
+        yield FinalOutcome(_plan(cost, True), 0.01, ok)
+
+
+def test_cheapest_reads_every_candidate_and_takes_the_cheapest_accepted_plan() -> None:
+    """Coarse rank 1, 2, 3 re-solve to 2.0 (pass), 1.5 (fail), 1.2 (pass): "first" writes 2.0,
+    "cheapest" 1.2 without solving the fallback template; with no candidate accepted it falls
+    back to the template as "first" does; `score` replaces the plan's cost as the key."""
+    tasks, searched = _tasks([Fake(1.0, 0, True), Fake(1.1, 0, True), Fake(1.2, 0, True),
+                              Fake(9.0, 0, True)], templates=1)
+    plans = [(2.0, True), (1.5, False), (1.2, True), (3.0, True)]
+    read: list[float] = []
+    first = choose_final(tasks, searched, _outcomes(plans, read))
+    assert (first.plan.cost, first.accepted, read) == (2.0, True, [2.0])
+    read = []
+    cheap = choose_final(tasks, searched, _outcomes(plans, read), FINAL_CHOICE_CHEAPEST)
+    assert (cheap.plan.cost, cheap.accepted, cheap.fallback_template) == (1.2, True, None)
+    assert cheap.searched.cost == 1.2 and read == [2.0, 1.5, 1.2]  # the template not solved
+    read = []
+    worst = choose_final(tasks, searched, _outcomes(plans, read), FINAL_CHOICE_CHEAPEST,
+                         score=lambda plan: -plan.cost)
+    assert worst.plan.cost == 2.0
+    failing = [(2.0, False), (1.5, False), (1.2, False), (3.0, True)]
+    read = []
+    back = choose_final(tasks, searched, _outcomes(failing, read), FINAL_CHOICE_CHEAPEST)
+    assert (back.plan.cost, back.fallback_template, read) == (3.0, "t3", [2.0, 1.5, 1.2, 3.0])
+    with pytest.raises(ValueError, match="choice must be one of first, cheapest"):
+        choose_final(tasks, searched, _outcomes(plans, []), "best")
 
 
 def test_an_interrupted_final_phase_leaves_no_worker_and_stays_an_interruption(
