@@ -355,7 +355,11 @@ class FinalReplayer:
             "best_template": best, "fallback_template": chosen.fallback_template,
             "final_cost": plan.cost if plan.feasible else None,
             "final_total": plan.cost + tipping(plan.schedule) if plan.feasible else None,
-            "final_solves": len(chosen.read), "verdict": verdict, "replayed": True,
+            "final_solves": len(chosen.read),
+            # every outcome read, in order: [full-resolution cost + support term (None:
+            # infeasible), verdict] — any "cheapest of the first m" rule can be computed from it
+            "final_read": [[o.plan.cost + tipping(o.plan.schedule) if o.plan.feasible else None,
+                            o.ok] for o in chosen.read], "verdict": verdict, "replayed": True,
             "replay_cpu_s": time.process_time() - c0,
         }
 
