@@ -56,6 +56,7 @@ from gaitsmith.plan_output import DEFAULT_CYCLES, STAND_S, simulated_cycles, wri
 from gaitsmith.plan_search import SearchSettings, plan_search, user_seed
 from gaitsmith.search_options import (
     executor_option,
+    final_choice_option,
     search_knots_option,
     search_swing_wrench_option,
     sim_accept_option,
@@ -208,6 +209,7 @@ def plan(
     tipping_weight: float = tipping_weight_option(),
     sim_accept: bool = sim_accept_option(),
     search_swing_wrench: str = search_swing_wrench_option(),
+    final_choice: str = final_choice_option(),
     simulate: bool = typer.Option(
         False, "--simulate", help="validate in MuJoCo and write the verdict into the gait file"
     ),
@@ -231,7 +233,7 @@ def plan(
     given = dict(locals())  # the parsed options by parameter name
     settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
                               address, search_knots, tipping_weight, sim_accept,
-                              search_swing_wrench)
+                              search_swing_wrench, final_choice)
     check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     check_command(speed, vy, yaw_rate)
     refuse_with_search(search, given)  # --vy, --yaw-rate, --knife-edge, --mirror, ...

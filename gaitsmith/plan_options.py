@@ -25,7 +25,11 @@ from gaitsmith.options import (
     check_velocity,
 )
 from gaitsmith.plan_search import SearchSettings
-from gaitsmith.search_options import check_search_options, check_search_swing_wrench
+from gaitsmith.search_options import (
+    check_final_choice,
+    check_search_options,
+    check_search_swing_wrench,
+)
 from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, StanceShaped
 from planner.nlp.config import (
     COP_SOLE_FRACTION,
@@ -115,6 +119,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--tipping-weight", "tipping_weight", "", SEARCH),
     OptionRoute("--sim-accept", "sim_accept", "", SEARCH),
     OptionRoute("--search-swing-wrench", "search_swing_wrench", "", SEARCH),
+    OptionRoute("--final-choice", "final_choice", "", SEARCH + "; gait-file metadata"),
     OptionRoute("--simulate", "simulate", VALIDATION, VALIDATION),
     OptionRoute("--cycles", "cycles", VALIDATION, ACCEPTANCE),
     OptionRoute("--supply-v", "supply_v", "the servo envelope; gait-file metadata",
@@ -159,6 +164,7 @@ def check_options(speed: float | None, knots: int, period: float | None, duty: s
         check_search_options(st.executor, st.generations, st.popsize, st.workers,
                              st.search_knots, st.tipping_weight)
         check_search_swing_wrench(st.search_swing_wrench)
+        check_final_choice(st.final_choice)
     if cycles is not None and (simulate or (search and st.sim_accept)):
         check_cycles("--cycles", cycles)
 

@@ -10,7 +10,12 @@ import robots
 from gaitsmith.errors import OptionError
 from gaitsmith.options import check_integer, check_knots, check_number
 from planner.nlp.config import SWING_WRENCHES
-from planner.search.defaults import DEFAULT_SEARCH_KNOTS, DEFAULT_TIPPING_WEIGHT
+from planner.search.defaults import (
+    DEFAULT_FINAL_CHOICE,
+    DEFAULT_SEARCH_KNOTS,
+    DEFAULT_TIPPING_WEIGHT,
+    FINAL_CHOICES,
+)
 
 EXECUTORS = ("serial", "process", "ray")
 #: `plan --search --search-swing-wrench`'s default, how the coarse solves hold a swing foot's
@@ -44,6 +49,18 @@ def search_swing_wrench_option() -> Any:
                         help="how the coarse solves hold a swing foot's wrench at 0: rows | "
                         "bounds (fewer iterations, other local optima); the final re-solves use "
                         "rows either way")
+
+
+def final_choice_option() -> Any:
+    return typer.Option(DEFAULT_FINAL_CHOICE, "--final-choice",
+                        help="which re-solved candidate wins: first (the first accepted in "
+                        "coarse rank order) | cheapest (every candidate re-solved, the accepted "
+                        "one cheapest at --knots wins)")
+
+
+def check_final_choice(value: str) -> None:
+    if value not in FINAL_CHOICES:
+        raise OptionError(f"--final-choice must be {' or '.join(FINAL_CHOICES)}, got {value!r}")
 
 
 def check_search_swing_wrench(value: str) -> None:

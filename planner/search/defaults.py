@@ -9,6 +9,13 @@ from __future__ import annotations
 DEFAULT_TIPPING_WEIGHT = 0.05
 #: Coarse NLP of the search (see `planner.search.gait_search`) and the final solves it hands on.
 DEFAULT_SEARCH_KNOTS = 12
+#: How the final phase picks among the timings it re-solves at full resolution
+#: (`planner.search.final_phase.choose_final`): the first accepted in coarse rank order, or the
+#: accepted one cheapest at full resolution (every candidate re-solved).
+FINAL_CHOICE_FIRST = "first"
+FINAL_CHOICE_CHEAPEST = "cheapest"
+FINAL_CHOICES = (FINAL_CHOICE_FIRST, FINAL_CHOICE_CHEAPEST)
+DEFAULT_FINAL_CHOICE = FINAL_CHOICE_FIRST
 #: `PlannerOptions.inactive_rows` of the search's coarse solves, whatever the final solves use:
 #: at N = 12 "free" ended on another local optimum on 2 of 35 quad12/hex18 schedules
 #: (docs/results/planner_speed_ipopt.md, session 33, branch rank)

@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
+from planner.search.defaults import FINAL_CHOICE_CHEAPEST, FINAL_CHOICE_FIRST, FINAL_CHOICES
 from robots import ContactSchedule, Gait, Robot
 
 #: the label of the gait the final check judges (as the serial loop wrote it)
@@ -138,12 +139,6 @@ def worker_final_solve(task: FinalTask) -> FinalOutcome:
     _, planner, check = _WORKER_FINAL
     out = evaluate_final(planner, check, task.schedule, task.spec.speed_m_s)
     return replace(out, build_s=build_s, build_cpu_s=build_cpu_s)
-
-
-#: how the final phase picks among its candidates (`choose_final`'s `choice`)
-FINAL_CHOICE_FIRST = "first"
-FINAL_CHOICE_CHEAPEST = "cheapest"
-FINAL_CHOICES = (FINAL_CHOICE_FIRST, FINAL_CHOICE_CHEAPEST)
 
 
 def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],

@@ -79,7 +79,6 @@ from planner.search.budget import (
 )
 from planner.search.executors import Executor, ProcessExecutor, make_executor
 from planner.search.final_phase import (
-    FINAL_CHOICE_FIRST,
     FINAL_CHOICES,
     FinalOutcome,
     FinalPlannerSpec,
@@ -639,7 +638,7 @@ def search_gait(
     search_swing_wrench: str | None = None,
     search_tol: float | None = None,
     search_inactive_rows: str = defaults.SEARCH_INACTIVE_ROWS,
-    final_choice: str = FINAL_CHOICE_FIRST,
+    final_choice: str = defaults.DEFAULT_FINAL_CHOICE,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
