@@ -74,6 +74,7 @@ from planner.nlp.config import (
     default_speed_m_s,
 )
 from planner.nlp.spacetime import GaitPlanner, PlanResult
+from planner.search.defaults import DEFAULT_GENERATIONS
 from planner.templates import TEMPLATES, default_gait_for
 from planner.user_schedule import command_schedule
 from robots.servo_params import ServoSetting
@@ -194,7 +195,8 @@ def plan(
     search: bool = typer.Option(
         False, "--search", help="search period, touchdown phases and duty factors by basin-CMA"
     ),
-    generations: int = typer.Option(6, "--generations", help="basin-CMA generations (--search)"),
+    generations: int = typer.Option(DEFAULT_GENERATIONS, "--generations",
+                                    help="basin-CMA generations (--search)"),
     popsize: int | None = typer.Option(None, "--popsize", help="basin-CMA λ (--search)"),
     seed: int = typer.Option(0, "--seed", help="random seed of the search"),
     symmetric: bool = typer.Option(

@@ -32,6 +32,7 @@ from gaitsmith.search_options import (
 )
 from gaitsmith.stance_options import stance_shaped
 from planner.nlp.config import PlannerOptions, default_speeds_m_s
+from planner.search.defaults import DEFAULT_GENERATIONS
 from planner.search.gait_search import GaitSearchResult, SearchLogRow
 from planner.search.speed_sweep import (
     SimOutcome,
@@ -51,7 +52,8 @@ def sweep(
         "0.002, 0.01, 0.03, 0.06 for the robot's leg length, ≈ 0.05-0.3 m/s at 18 cm)"),
     output: Path = typer.Option(..., "--output", "-o", help="folder for sweep.csv/.md/.png"),
     knots: int = typer.Option(30, "--knots", help="knots per cycle (N)"),
-    generations: int = typer.Option(6, "--generations", help="basin-CMA generations per speed"),
+    generations: int = typer.Option(DEFAULT_GENERATIONS, "--generations",
+                                    help="basin-CMA generations per speed"),
     popsize: int | None = typer.Option(None, "--popsize", help="basin-CMA λ"),
     seed: int = typer.Option(0, "--seed"),
     symmetric: bool = typer.Option(True, "--symmetric/--no-symmetric"),

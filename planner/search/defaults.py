@@ -9,6 +9,8 @@ from __future__ import annotations
 DEFAULT_TIPPING_WEIGHT = 0.05
 #: Coarse NLP of the search (see `planner.search.gait_search`) and the final solves it hands on.
 DEFAULT_SEARCH_KNOTS = 12
+#: basin-CMA generations of a search (`gaitsmith plan --search --generations`, `gaitsmith sweep`)
+DEFAULT_GENERATIONS = 6
 #: How the final phase picks among the timings it re-solves at full resolution
 #: (`planner.search.final_phase.choose_final`): the first accepted in coarse rank order, or the
 #: accepted one cheapest at full resolution (every candidate re-solved).

@@ -615,7 +615,7 @@ def search_gait(
     n_knots: int = 30,
     options: PlannerOptions | None = None,
     symmetric: bool = True,
-    max_generations: int = 6,
+    max_generations: int = defaults.DEFAULT_GENERATIONS,
     popsize: int | None = None,
     restarts: int = 0,
     max_local_solves: int | None = None,

@@ -20,6 +20,7 @@ import numpy as np
 
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner
+from planner.search.defaults import DEFAULT_GENERATIONS
 from planner.search.gait_search import (
     DEFAULT_SEARCH_KNOTS,
     DEFAULT_TIPPING_WEIGHT,
@@ -170,7 +171,7 @@ def sweep_speeds(
     n_knots: int = 30,
     options: PlannerOptions | None = None,
     symmetric: bool = True,
-    max_generations: int = 6,
+    max_generations: int = DEFAULT_GENERATIONS,
     popsize: int | None = None,
     seed: int = 0,
     executor: str = "serial",
