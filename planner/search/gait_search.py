@@ -593,6 +593,8 @@ class GaitSearchResult:
     #: the timings the final phase could re-solve and why (`planner.search.budget`)
     final_candidates: int = FINAL_CANDIDATES
     final_candidates_reason: str = ""
+    #: how the final phase chose among them (`final_phase.choose_final`: "first" or "cheapest")
+    final_choice: str = defaults.DEFAULT_FINAL_CHOICE
 
     @property
     def froude(self) -> float:
@@ -821,6 +823,7 @@ def search_gait(
         final_solves=tuple(final_solves), fallback_template=fallback,
         final_outcomes=choice.read, final_on_workers=on_workers,
         final_candidates=n_final, final_candidates_reason=n_final_reason,
+        final_choice=final_choice,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
         phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
@@ -877,8 +880,11 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
         lines.append(",".join(str(c) for c in cells))
     for name, cost in result.template_costs.items():
         lines.append(f"# template {name}: search cost {cost:.6g}")
+    winner = ("the first accepted in coarse rank order"
+              if result.final_choice == defaults.FINAL_CHOICE_FIRST
+              else "the accepted one cheapest at full resolution")
     lines.append(f"# final phase: up to {result.final_candidates} searched timings re-solved "
-                 f"at full resolution ({result.final_candidates_reason})")
+                 f"at full resolution ({result.final_candidates_reason}); {winner} wins")
     lines.append(f"# search: {result.search_knots} knots; winner search cost "
                  f"{result.search_cost:.6g} (support term {result.support_cost:.6g}, open-loop "
                  f"tipping amplification {result.tipping_amplification:.4g})")
