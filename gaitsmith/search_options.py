@@ -54,13 +54,15 @@ def search_swing_wrench_option() -> Any:
 def final_choice_option() -> Any:
     return typer.Option(DEFAULT_FINAL_CHOICE, "--final-choice",
                         help="which re-solved candidate wins: first (the first accepted in "
-                        "coarse rank order) | cheapest (every candidate re-solved, the accepted "
-                        "one cheapest at --knots wins)")
+                        "coarse rank order) | cheapest-of-2 (the cheaper accepted of the first "
+                        "two at --knots) | cheapest (every candidate re-solved, the accepted one "
+                        "cheapest at --knots wins)")
 
 
 def check_final_choice(value: str) -> None:
     if value not in FINAL_CHOICES:
-        raise OptionError(f"--final-choice must be {' or '.join(FINAL_CHOICES)}, got {value!r}")
+        raise OptionError(f"--final-choice must be one of {', '.join(FINAL_CHOICES)}, "
+                          f"got {value!r}")
 
 
 def check_search_swing_wrench(value: str) -> None:

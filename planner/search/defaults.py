@@ -12,11 +12,13 @@ DEFAULT_SEARCH_KNOTS = 12
 #: basin-CMA generations of a search (`gaitsmith plan --search --generations`, `gaitsmith sweep`)
 DEFAULT_GENERATIONS = 6
 #: How the final phase picks among the timings it re-solves at full resolution
-#: (`planner.search.final_phase.choose_final`): the first accepted in coarse rank order, or the
-#: accepted one cheapest at full resolution (every candidate re-solved).
+#: (`planner.search.final_phase.choose_final`): the first accepted in coarse rank order; the
+#: accepted one cheapest at full resolution among the first two (the second is the one a
+#: two-worker pool solves beside the first anyway); or among all of them.
 FINAL_CHOICE_FIRST = "first"
+FINAL_CHOICE_CHEAPEST_OF_2 = "cheapest-of-2"
 FINAL_CHOICE_CHEAPEST = "cheapest"
-FINAL_CHOICES = (FINAL_CHOICE_FIRST, FINAL_CHOICE_CHEAPEST)
+FINAL_CHOICES = (FINAL_CHOICE_FIRST, FINAL_CHOICE_CHEAPEST_OF_2, FINAL_CHOICE_CHEAPEST)
 DEFAULT_FINAL_CHOICE = FINAL_CHOICE_FIRST
 #: `PlannerOptions.inactive_rows` of the search's coarse solves, whatever the final solves use:
 #: at N = 12 "free" ended on another local optimum on 2 of 35 quad12/hex18 schedules

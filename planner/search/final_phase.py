@@ -33,7 +33,12 @@ from dataclasses import dataclass, replace
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
-from planner.search.defaults import FINAL_CHOICE_CHEAPEST, FINAL_CHOICE_FIRST, FINAL_CHOICES
+from planner.search.defaults import (
+    FINAL_CHOICE_CHEAPEST,
+    FINAL_CHOICE_CHEAPEST_OF_2,
+    FINAL_CHOICE_FIRST,
+    FINAL_CHOICES,
+)
 from robots import ContactSchedule, Gait, Robot
 
 #: the label of the gait the final check judges (as the serial loop wrote it)
@@ -151,12 +156,17 @@ def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
 
     `choice` "cheapest": every candidate is read, and of those that are feasible and accepted
     (or feasible, when nothing checks) the one with the lowest `score` of its full-resolution
-    plan wins (default score: the plan's cost); the templates are read only if none is. The
-    coarse cost ranks the candidates, but the search's later samples can be coarse-cheaper and
-    costlier at full resolution (docs/results/planner_speed_search.md, session 35)."""
+    plan wins (default score: the plan's cost); the templates are read only if none is.
+    "cheapest-of-2": the same over the first two candidates; if neither is accepted, the first
+    accepted after them wins, as with "first". The coarse cost ranks the candidates, but the
+    search's later samples can be coarse-cheaper and costlier at full resolution
+    (docs/results/planner_speed_search.md, session 35)."""
     if choice not in FINAL_CHOICES:
         raise ValueError(f"choose_final: choice must be one of {', '.join(FINAL_CHOICES)}, "
                          f"got {choice!r}")
+    # candidates read before the cheapest accepted one wins (1: the first accepted wins)
+    compared = {FINAL_CHOICE_FIRST: 1, FINAL_CHOICE_CHEAPEST_OF_2: 2,
+                FINAL_CHOICE_CHEAPEST: len(tasks)}[choice]
     rank = score or (lambda plan: plan.cost)
     chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
     winners: list[tuple[float, int, PlanResult, LocalResult, bool | None]] = []
@@ -164,8 +174,8 @@ def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
     read: list[FinalOutcome] = []
     pending = iter(outcomes)
     for task, result in zip(tasks, searched, strict=False):
-        if task.template is not None and winners:
-            break  # "cheapest": a candidate won; the templates are not read (nor solved)
+        if winners and (task.template is not None or len(read) >= compared):
+            break  # a candidate won; the rest are not read (nor solved)
         out = next(pending, None)
         if out is None:
             break
@@ -176,9 +186,6 @@ def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
                 chosen = chosen or (plan, result, None)
                 continue
             if out.ok is not False:
-                if choice == FINAL_CHOICE_FIRST:
-                    chosen = (plan, result, out.ok)
-                    break
                 winners.append((rank(plan), len(winners), plan, result, out.ok))
                 continue
             if chosen is None or not chosen[0].feasible:
@@ -198,6 +205,7 @@ __all__ = [
     "CHECK_LABEL",
     "FINAL_CHOICES",
     "FINAL_CHOICE_CHEAPEST",
+    "FINAL_CHOICE_CHEAPEST_OF_2",
     "FINAL_CHOICE_FIRST",
     "FinalChoice",
     "FinalOutcome",

@@ -175,7 +175,7 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
         "base+gen1+cheapest", "cheapest", 4)
     assert cheap["search_cost"] == 0.8 and cheap["final_total"] >= cheap["final_cost"] == 0.4
     with pytest.raises(SystemExit, match=r"--final-choice must be a comma-separated list of "
-                                         r"first, cheapest, got 'best'"):
+                                         r"first, cheapest-of-2, cheapest, got 'best'"):
         monkeypatch.setattr(sys, "argv", ["search_outcomes.py", "replay", "x.pkl",
                                           "--final-choice", "best", "--out", "o.jsonl"])
         so.main()

@@ -28,6 +28,7 @@ from planner.search.executors import (
 )
 from planner.search.final_phase import (
     FINAL_CHOICE_CHEAPEST,
+    FINAL_CHOICE_CHEAPEST_OF_2,
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
@@ -165,11 +166,23 @@ def test_cheapest_reads_every_candidate_and_takes_the_cheapest_accepted_plan() -
     worst = choose_final(tasks, searched, _outcomes(plans, read), FINAL_CHOICE_CHEAPEST,
                          score=lambda plan: -plan.cost)
     assert worst.plan.cost == 2.0
+    read = []
+    two = choose_final(tasks, searched, _outcomes(plans, read), FINAL_CHOICE_CHEAPEST_OF_2)
+    assert (two.plan.cost, read) == (2.0, [2.0, 1.5])  # the 2nd fails: the 1st, 3rd unread
+    cheaper_second = [(2.0, True), (1.5, True), (1.2, True), (3.0, True)]
+    read = []
+    two = choose_final(tasks, searched, _outcomes(cheaper_second, read),
+                       FINAL_CHOICE_CHEAPEST_OF_2)
+    assert (two.plan.cost, read) == (1.5, [2.0, 1.5])
+    late = [(2.0, False), (1.5, False), (1.2, True), (3.0, True)]
+    read = []
+    two = choose_final(tasks, searched, _outcomes(late, read), FINAL_CHOICE_CHEAPEST_OF_2)
+    assert (two.plan.cost, read) == (1.2, [2.0, 1.5, 1.2])  # the first accepted after them
     failing = [(2.0, False), (1.5, False), (1.2, False), (3.0, True)]
     read = []
     back = choose_final(tasks, searched, _outcomes(failing, read), FINAL_CHOICE_CHEAPEST)
     assert (back.plan.cost, back.fallback_template, read) == (3.0, "t3", [2.0, 1.5, 1.2, 3.0])
-    with pytest.raises(ValueError, match="choice must be one of first, cheapest"):
+    with pytest.raises(ValueError, match="choice must be one of first, cheapest-of-2, cheapest"):
         choose_final(tasks, searched, _outcomes(plans, []), "best")
 
 
