@@ -84,7 +84,7 @@ from planner.nlp.config import SWING_WRENCHES
 from planner.nlp.spacetime import GaitPlanner
 from planner.search.basin_cma import LocalResult
 from planner.search.budget import final_candidate_count, final_candidates_reason
-from planner.search.defaults import DEFAULT_TIPPING_WEIGHT
+from planner.search.defaults import DEFAULT_FINAL_CHOICE, DEFAULT_TIPPING_WEIGHT
 from planner.search.final_phase import (
     FINAL_CHOICE_FIRST,
     FINAL_CHOICES,
@@ -228,7 +228,8 @@ def record(search: Search, setting: Setting, r: SearchRun, load_start: float) ->
         "stopped": r.stopped(), "winner": res.label, "search_cost": res.search_cost,
         "best_template": res.best_template, "fallback_template": res.fallback_template,
         "final_cost": res.best.cost if res.best.feasible else None,
-        "final_solves": len(res.final_solves), "verdict": r.verdict(),
+        "final_solves": len(res.final_solves), "final_choice": res.final_choice,
+        "verdict": r.verdict(),
     }
 
 
@@ -576,9 +577,10 @@ def main() -> None:
                    help="comma-separated counts of timings the final phase re-solves (the "
                         f"search's default: {FINAL_CANDIDATES}); rows named SETTING+genK+finalC "
                         "if not the default; one invocation solves each schedule once")
-    p.add_argument("--final-choice", default=FINAL_CHOICE_FIRST,
+    p.add_argument("--final-choice", default=DEFAULT_FINAL_CHOICE,
                    help=f"comma-separated: {', '.join(FINAL_CHOICES)} (how the final phase picks "
-                        "among its candidates; 'cheapest' reads them all, rows '+cheapest')")
+                        f"among its candidates; default {DEFAULT_FINAL_CHOICE}, as the search; "
+                        "rows are named '+CHOICE' unless 'first')")
     p.add_argument("--out", required=True, help="JSON-lines file the rows are appended to")
     u = sub.add_parser("rule", help="each recording's replayed row under the budget rule")
     u.add_argument("recordings", nargs="+", help="pickles written by `run --save`")

@@ -19,7 +19,12 @@ FINAL_CHOICE_FIRST = "first"
 FINAL_CHOICE_CHEAPEST_OF_2 = "cheapest-of-2"
 FINAL_CHOICE_CHEAPEST = "cheapest"
 FINAL_CHOICES = (FINAL_CHOICE_FIRST, FINAL_CHOICE_CHEAPEST_OF_2, FINAL_CHOICE_CHEAPEST)
-DEFAULT_FINAL_CHOICE = FINAL_CHOICE_FIRST
+#: "cheapest-of-2": over 29 replayed searches on 8 bodies a cheaper gait in 4 (−1.7 … −8.4 %),
+#: none costlier; the README command reads the same candidates as "first" (its first two fail at
+#: 30 knots); where it reads a second candidate it cost 0.86–1.10× the CPU on hex18 and
+#: phantomx18 (docs/results/planner_speed_search.md, session 35 (lead)). "cheapest" (all of
+#: them): 6 of 29 cheaper, but the README command 1.26–1.38× the CPU.
+DEFAULT_FINAL_CHOICE = FINAL_CHOICE_CHEAPEST_OF_2
 #: `PlannerOptions.inactive_rows` of the search's coarse solves, whatever the final solves use:
 #: at N = 12 "free" ended on another local optimum on 2 of 35 quad12/hex18 schedules
 #: (docs/results/planner_speed_ipopt.md, session 33, branch rank)
