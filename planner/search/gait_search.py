@@ -880,9 +880,11 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
         lines.append(",".join(str(c) for c in cells))
     for name, cost in result.template_costs.items():
         lines.append(f"# template {name}: search cost {cost:.6g}")
-    winner = ("the first accepted in coarse rank order"
-              if result.final_choice == defaults.FINAL_CHOICE_FIRST
-              else "the accepted one cheapest at full resolution")
+    winner = {defaults.FINAL_CHOICE_FIRST: "the first accepted in coarse rank order",
+              defaults.FINAL_CHOICE_CHEAPEST_OF_2: "the cheaper accepted of the first two at "
+              "full resolution (else the first accepted after them)",
+              defaults.FINAL_CHOICE_CHEAPEST: "the accepted one cheapest at full resolution",
+              }.get(result.final_choice, result.final_choice)
     lines.append(f"# final phase: up to {result.final_candidates} searched timings re-solved "
                  f"at full resolution ({result.final_candidates_reason}); {winner} wins")
     lines.append(f"# search: {result.search_knots} knots; winner search cost "
