@@ -1,6 +1,7 @@
 """The gait search's final phase: its cheapest timings re-solved at the gait file's resolution
-and judged by the final acceptance, first in rank order wins (or, with `choice` "cheapest", the
-accepted one cheapest at full resolution); then the seeding templates.
+and judged by the final acceptance; the first accepted in rank order wins ("first"), or the
+cheaper accepted of the first two ("cheapest-of-2", the search's default), or the cheapest
+accepted of all ("cheapest"); then the seeding templates.
 
 The rule (`choose_final`), unchanged from the serial loop it replaces: the candidates in rank
 order (`planner.search.gait_search.final_candidates_of`), each solved cold at `n_knots`; the

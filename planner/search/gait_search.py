@@ -39,7 +39,8 @@ point it stopped at meets every constraint â€” `planner.nlp.diagnostics.judge` â
 an upper bound of its local optimum), then re-solves up to `FINAL_CANDIDATES` of the best
 timings (`FINAL_CANDIDATES_NONE_ACCEPTED` when the coarse check accepted no sample:
 `planner.search.budget`) at the full `n_knots` for the gait file, judged by
-`final_acceptance`; the first that is feasible and accepted wins. If none is accepted, the
+`final_acceptance`; by default the cheaper (at full resolution) of the first two that are feasible
+and accepted wins, else the first accepted after them (`final_choice`). If none is accepted, the
 templates the search was seeded with are re-solved at `n_knots` and judged the same way
 (cheapest first), so the search never returns a gait that fails where its own starting
 template passes: the coarse acceptance can reject a timing that walks at full resolution
