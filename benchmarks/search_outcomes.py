@@ -81,7 +81,7 @@ from gait_search_bench import COARSE_BOUNDS, SearchRun, _abort_rule, cli_search_
 import robots
 from gaitsmith.options import KNOTS_RANGE
 from planner.nlp.config import SWING_WRENCHES
-from planner.nlp.spacetime import GaitPlanner
+from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
 from planner.search.budget import final_candidate_count, final_candidates_reason
 from planner.search.defaults import DEFAULT_FINAL_CHOICE, DEFAULT_TIPPING_WEIGHT
@@ -336,8 +336,12 @@ class FinalReplayer:
                                       own)
         c0 = time.process_time()
         tipping = TippingCost.for_robot(self.robot, DEFAULT_TIPPING_WEIGHT)
-        chosen = choose_final(tasks, searched, self.outcomes(tasks), choice,
-                              score=lambda plan: plan.cost + tipping(plan.schedule))
+
+        def total(plan: PlanResult) -> float:
+            """The search's objective at full resolution (`search_gait`'s final score)."""
+            return plan.cost + tipping(plan.schedule)
+
+        chosen = choose_final(tasks, searched, self.outcomes(tasks), choice, score=total)
         replay_cpu = sum(o.solve_cpu_s + o.check_cpu_s for o in chosen.read)
         base: dict = rec["row"]
         dropped = sum(_sample_cpu_s(r) for _, r in records[len(cut):])
@@ -355,12 +359,12 @@ class FinalReplayer:
             "winner": label_gait(plan.schedule, self.robot), "search_cost": chosen.searched.cost,
             "best_template": best, "fallback_template": chosen.fallback_template,
             "final_cost": plan.cost if plan.feasible else None,
-            "final_total": plan.cost + tipping(plan.schedule) if plan.feasible else None,
+            "final_total": total(plan) if plan.feasible else None,
             "final_solves": len(chosen.read),
             # every outcome read, in order: [full-resolution cost + support term (None:
             # infeasible), verdict] — any "cheapest of the first m" rule can be computed from it
-            "final_read": [[o.plan.cost + tipping(o.plan.schedule) if o.plan.feasible else None,
-                            o.ok] for o in chosen.read], "verdict": verdict, "replayed": True,
+            "final_read": [[total(o.plan) if o.plan.feasible else None, o.ok]
+                           for o in chosen.read], "verdict": verdict, "replayed": True,
             "replay_cpu_s": time.process_time() - c0,
         }
 

@@ -594,7 +594,7 @@ class GaitSearchResult:
     #: the timings the final phase could re-solve and why (`planner.search.budget`)
     final_candidates: int = FINAL_CANDIDATES
     final_candidates_reason: str = ""
-    #: how the final phase chose among them (`final_phase.choose_final`: "first" or "cheapest")
+    #: how the final phase chose among them (`final_phase.choose_final`, `FINAL_CHOICES`)
     final_choice: str = defaults.DEFAULT_FINAL_CHOICE
 
     @property
@@ -667,9 +667,10 @@ def search_gait(
     `search_inactive_rows`: `PlannerOptions.inactive_rows` of the coarse solves only (default
     `planner.search.defaults.SEARCH_INACTIVE_ROWS`, "rows", whatever `options` has); the final
     re-solves keep `options.inactive_rows` (planner_speed_ipopt.md, session 34).
-    `final_choice`: "first" (default) — the first candidate in coarse rank order that is feasible
-    and accepted wins; "cheapest" — every candidate is re-solved and the accepted one with the
-    lowest full-resolution cost plus support term wins (`final_phase.choose_final`).
+    `final_choice` (`FINAL_CHOICES`, `final_phase.choose_final`): "first" — the first candidate in
+    coarse rank order that is feasible and accepted wins; "cheapest-of-2" (the default) — the one
+    of the first two with the lower full-resolution cost plus support term, else the first
+    accepted after them; "cheapest" — every candidate is re-solved, the cheapest accepted wins.
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
@@ -793,7 +794,7 @@ def search_gait(
             return built, time.perf_counter() - t_final, time.process_time() - c_final
 
         def score(plan: PlanResult) -> float:
-            """What the search minimises, at full resolution (`final_choice` "cheapest")."""
+            """What the search minimises, at full resolution: how `final_choice` compares."""
             return plan.cost + tipping(plan.schedule)
 
         if on_workers:
