@@ -66,6 +66,7 @@ from planner.nlp.config import (
     PlannerOptions,
 )
 from planner.nlp.iteration_abort import StallAbort
+from planner.search.defaults import SEARCH_HALF_CYCLE
 from planner.search.executors import ExecutorKind
 from planner.search.gait_search import (
     ABORTED_STATUS,
@@ -154,15 +155,20 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_max_iter: int = DEFAULT_SEARCH_MAX_ITER,
         search_tol: float | None = None,
         search_knots: int = DEFAULT_SEARCH_KNOTS,
-        coarse_speed_tol: float | None = None) -> SearchRun:
+        coarse_speed_tol: float | None = None,
+        search_half_cycle: bool = SEARCH_HALF_CYCLE,
+        final_half_cycle: bool = False) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
     NLP's; `search_swing_wrench` (not None), `search_max_iter`, `search_tol` (not None) and
     `search_knots` the coarse solves' only; `coarse_speed_tol` (not None) the coarse MuJoCo
-    check's `PassCriteria.speed_rel_tol` (the final check keeps the default)."""
+    check's `PassCriteria.speed_rel_tol` (the final check keeps the default);
+    `search_half_cycle` the coarse solves' `PlannerOptions.half_cycle_solve`,
+    `final_half_cycle` the final re-solves'."""
     robot = robots.load(robot_name)
     options, acceptance = cli_search_options(robot, derivatives, swing_wrench, cold_start,
                                              compact_rows, sim_accept, speed)
+    options = replace(options, half_cycle_solve=final_half_cycle)
     if coarse_speed_tol is not None and "acceptance" in acceptance:
         coarse = acceptance["acceptance"]
         acceptance["acceptance"] = replace(
@@ -173,7 +179,8 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         max_generations=generations, seed=seed, executor=executor, workers=workers,
         warm_start=warm_start, coarse_abort=_abort_rule(abort),
         search_swing_wrench=search_swing_wrench, search_max_iter=search_max_iter,
-        search_tol=search_tol, search_knots=search_knots, **acceptance,
+        search_tol=search_tol, search_knots=search_knots,
+        search_half_cycle=search_half_cycle, **acceptance,
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
@@ -186,6 +193,9 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if search_tol is None else f"+tol{search_tol:g}"
     label += "" if search_knots == DEFAULT_SEARCH_KNOTS else f"+knots{search_knots}"
     label += "" if coarse_speed_tol is None else f"+speed{coarse_speed_tol:g}"
+    label += "" if search_half_cycle == SEARCH_HALF_CYCLE else (
+        "+half" if search_half_cycle else "+full")
+    label += "+halffinal" if final_half_cycle else ""
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 

@@ -25,8 +25,11 @@ instead of `--generations`), "knotsN" (the coarse NLP's knots, `search_gait(sear
 `gaitsmith plan --search --search-knots N`, default 12; the final re-solves keep `--knots`, so
 final costs compare; the compiled knot J/H are one knot's, so every N uses the same compiled
 entry), "speedX" (the coarse MuJoCo check's relative speed tolerance,
-`PassCriteria.speed_rel_tol`, X instead of 0.10; the final check keeps the default). Measured
-in docs/results/planner_speed_search.md, sessions 32-34.
+`PassCriteria.speed_rel_tol`, X instead of 0.10; the final check keeps the default), "half" /
+"full" (the coarse solves on the first half of a symmetric sample's knots or on all of them,
+`search_gait(search_half_cycle=...)`, `planner.nlp.half_cycle`), "halffinal" (the final
+re-solves on the first half too: `PlannerOptions.half_cycle_solve` in the search's options).
+Measured in docs/results/planner_speed_search.md, sessions 32-36.
 
     python benchmarks/search_outcomes.py run ... --save DIR
     python benchmarks/search_outcomes.py replay DIR/*.pkl --generations 2,3,4,5,6 --out RUNS.jsonl
@@ -84,7 +87,7 @@ from planner.nlp.config import SWING_WRENCHES
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
 from planner.search.budget import final_candidate_count, final_candidates_reason
-from planner.search.defaults import DEFAULT_FINAL_CHOICE, DEFAULT_TIPPING_WEIGHT
+from planner.search.defaults import DEFAULT_FINAL_CHOICE, DEFAULT_TIPPING_WEIGHT, SEARCH_HALF_CYCLE
 from planner.search.final_phase import (
     FINAL_CHOICE_FIRST,
     FINAL_CHOICES,
@@ -123,6 +126,8 @@ class Setting:
     generations: int | None = None
     search_knots: int = DEFAULT_SEARCH_KNOTS
     coarse_speed_tol: float | None = None
+    search_half_cycle: bool = SEARCH_HALF_CYCLE
+    final_half_cycle: bool = False
 
 
 def _number(token: str, prefix: str, kind: type[int] | type[float], text: str,
@@ -168,11 +173,15 @@ def parse_setting(text: str) -> Setting:
             key, value = "search_knots", _number(token, "knots", int, text, *KNOTS_RANGE, 10)
         elif token.startswith("speed"):
             key, value = "coarse_speed_tol", _number(token, "speed", float, text)
+        elif token in ("half", "full"):
+            key, value = "search_half_cycle", token == "half"
+        elif token == "halffinal":
+            key, value = "final_half_cycle", True
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
                 f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)}, "
-                "abortK/V, capN, tolX, genK, knotsN or speedX, joined by +")
+                "abortK/V, capN, tolX, genK, knotsN, speedX, half, full or halffinal, joined by +")
         if key in fields:
             raise SystemExit(f"--settings: {text!r} sets {key} twice")
         fields[key] = value
@@ -254,7 +263,9 @@ def cmd_run(args: argparse.Namespace) -> None:
                     search_swing_wrench=setting.search_swing_wrench,
                     search_max_iter=setting.search_max_iter, search_tol=setting.search_tol,
                     search_knots=setting.search_knots,
-                    coarse_speed_tol=setting.coarse_speed_tol)
+                    coarse_speed_tol=setting.coarse_speed_tol,
+                    search_half_cycle=setting.search_half_cycle,
+                    final_half_cycle=setting.final_half_cycle)
             row = record(search, setting, r, load)
             if save is not None:
                 with (save / recording_name(search.key, setting.name)).open("wb") as fh:

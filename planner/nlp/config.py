@@ -296,6 +296,12 @@ class PlannerOptions:
       y → −y (`planner.nlp.mirror`): for straight gaits of left–right symmetric bodies on
       half-cycle symmetric schedules, so IPOPT cannot return a limping or turning asymmetric
       optimum. Off by default; `gaitsmith plan --mirror`.
+    - `half_cycle_solve`: solve a straight gait on a half-cycle mirror-symmetric schedule of a
+      left–right symmetric body on the first half of its knots, the second half its mirror
+      image (`planner.nlp.half_cycle`): the same iterates as the full NLP where those stay
+      symmetric (IPOPT's do from the symmetric cold start), on a KKT system half the size.
+      Any other solve (a turn, an asymmetric schedule or start) is the full NLP's. Off by
+      default.
     - `sideways_slip_leg_lengths`: ε/L of the lateral no-slip band of feet whose legs cannot
       move them sideways relative to the body (hip-and-knee legs; `planner.nlp.sideways_locked`):
       their equality rows are degenerate and IPOPT stalled on them. 0: equality rows.
@@ -393,6 +399,7 @@ class PlannerOptions:
     rotor_reserve: float | None = None
     line_capture_margin_leg_lengths: float | None = None
     half_cycle_mirror: bool = False
+    half_cycle_solve: bool = False
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
     max_iter: int | None = None

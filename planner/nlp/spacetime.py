@@ -52,6 +52,7 @@ from planner.nlp.constraints import (
     stacked_knot,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
+from planner.nlp.half_cycle import HalfCycleNLP
 from planner.nlp.inactive_rows import RowActivity, free_inactive_rows
 from planner.nlp.iteration_abort import AbortCallback, StallAbort
 from planner.nlp.mirror import check_mirror
@@ -350,6 +351,10 @@ class GaitPlanner:
             self.derived.save_used(self._solver)
         self._last: WarmStart | None = None
         self._plain_knot = plain
+        #: `PlannerOptions.half_cycle_solve`: the reduced NLP, built at the first solve it fits
+        #: (False: this body or NLP has none)
+        self._half_cycle: HalfCycleNLP | bool | None = None
+        self._used_abort: AbortCallback | None = None
         self.build_time_s = time.perf_counter() - t0
 
     @property
@@ -389,11 +394,13 @@ class GaitPlanner:
             int(self._nlp["p"].numel()))
         self._solver = self._make_solver()
         self._warm_solver = None
+        if self._half_cycle is not False:
+            self._half_cycle = None  # rebuilt with its own callback at its next solve
 
     @property
     def last_solve_aborted(self) -> bool:
         """The iteration abort (`set_iteration_abort`) stopped the last solve."""
-        abort = getattr(self, "_abort", None)
+        abort = getattr(self, "_used_abort", None)
         return abort is not None and abort.fired
 
     def primal_start(self, x: np.ndarray, clip_to_bounds: bool = False) -> WarmStart:
@@ -469,6 +476,7 @@ class GaitPlanner:
         start = self._last if warm_start is None or warm_start is True else warm_start or None
         solver = self._solver_for(warm=start is not None)  # before t0: a one-off build
         t0 = time.perf_counter()
+        warm = start is not None
         if start is None:
             x0 = self._cold_start(schedule, p, StartCommand(
                 VelocityCommand(float(speed_m_s), float(vy_m_s), float(yaw_rate_rad_s)),
@@ -480,28 +488,34 @@ class GaitPlanner:
         xs, gs = self._x_scale, self._g_scale
         bounds = self._solve_bounds(schedule)
         lbg, ubg = bounds.lbg / gs, bounds.ubg / gs
-        abort = getattr(self, "_abort", None)
-        if abort is not None:
-            abort.arm(lbg, ubg)
+        half = self._half_cycle_for(schedule, p, start, bounds, vy_m_s, yaw_rate_rad_s,
+                                    warm)
+        abort = getattr(self, "_abort", None) if half is None else half.abort
+        self._used_abort = abort
         with _sigint_watch() as interrupted:
-            # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
-            sol = solver(
-                x0=start.x / xs,
-                lam_x0=start.lam_x * xs,
-                lam_g0=start.lam_g * gs,
-                p=p,
-                lbx=bounds.lbx / xs,
-                ubx=bounds.ubx / xs,
-                lbg=lbg,
-                ubg=ubg,
-            )
-        sol = {
-            "x": np.asarray(sol["x"]).ravel() * xs,
-            "lam_x": np.asarray(sol["lam_x"]).ravel() / xs,
-            "lam_g": np.asarray(sol["lam_g"]).ravel() / gs,
-            "f": float(sol["f"]),
-        }
-        stats = solver.stats()
+            if half is not None:
+                sol, stats = self._solve_half_cycle(half, start, p, bounds)
+            else:
+                if abort is not None:
+                    abort.arm(lbg, ubg)
+                # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
+                raw = solver(
+                    x0=start.x / xs,
+                    lam_x0=start.lam_x * xs,
+                    lam_g0=start.lam_g * gs,
+                    p=p,
+                    lbx=bounds.lbx / xs,
+                    ubx=bounds.ubx / xs,
+                    lbg=lbg,
+                    ubg=ubg,
+                )
+                sol = {
+                    "x": np.asarray(raw["x"]).ravel() * xs,
+                    "lam_x": np.asarray(raw["lam_x"]).ravel() / xs,
+                    "lam_g": np.asarray(raw["lam_g"]).ravel() / gs,
+                    "f": float(raw["f"]),
+                }
+                stats = solver.stats()
         aborted = abort is not None and abort.fired
         if interrupted() or (stats.get("return_status") in _USER_STOP and not aborted):
             # CasADi swallows Ctrl-C (NonIpopt_Exception_Thrown), IPOPT's own handler returns
@@ -511,9 +525,122 @@ class GaitPlanner:
         result = self._result(schedule, speed_m_s, p, sol, stats, elapsed, bounds)
         result = dataclasses.replace(result, vy_m_s=float(vy_m_s),
                                      yaw_rate_rad_s=float(yaw_rate_rad_s))
+        result.stats["half_cycle"] = half is not None  # solved on the first half's knots
         if result.feasible:
             self._last = result.warm_start
         return result
+
+    def _half_cycle_for(self, schedule: ContactSchedule, p: np.ndarray, start: WarmStart,
+                        bounds: SolveBounds, vy_m_s: float, yaw_rate_rad_s: float, warm: bool
+                        ) -> HalfCycleNLP | None:
+        """The reduced NLP (`planner.nlp.half_cycle`) if `PlannerOptions.half_cycle_solve` is on
+        and this solve fits it: a straight command, a schedule that is half-cycle mirror
+        symmetric at the knots, a start and variable bounds on the mirror subspace; None: solve
+        the full NLP."""
+        from planner.nlp import half_cycle as hc
+        from planner.templates import mirror_permutation
+
+        if not self.options.half_cycle_solve or self._half_cycle is False:
+            return None
+        if vy_m_s != 0.0 or yaw_rate_rad_s != 0.0 or self.options.nondimensional:
+            return None
+        if warm and ipopt_options(self.options, True) != ipopt_options(self.options, False):
+            return None  # the reduced instance uses the cold options
+        feet = mirror_permutation(self.robot)
+        if feet is None or not hc.schedule_symmetric(schedule, feet, self.n_knots):
+            return None
+        if self._half_cycle is None:
+            self._half_cycle = self._build_half_cycle(p, start.x) or False
+            if self._half_cycle is False:
+                return None
+        half = self._half_cycle
+        assert isinstance(half, HalfCycleNLP)
+        if not (half.mirror.on_subspace(start.x)
+                and half.mirror.bounds_mirrored(bounds.lbx, bounds.ubx)):
+            return None
+        return half
+
+    def _build_half_cycle(self, p: np.ndarray, x0: np.ndarray) -> HalfCycleNLP | None:
+        """The reduced NLP of this planner (`planner.nlp.half_cycle`); its rows over the whole
+        cycle are classified at a random point of the subspace near `x0` with parameters `p`
+        (a symmetric schedule's). None if the body has no mirror map."""
+        from planner.nlp import half_cycle as hc
+
+        mirror = hc.robot_variable_mirror(self.robot, self.layout, self.model.flat_feet)
+        if mirror is None:
+            return None
+        h = self.n_knots // 2
+        keep: list[int] = []
+        weight: list[float] = []
+        cycle_rows: list[int] = []
+        for name, sl in self._slices:
+            if name == "half-cycle mirror":
+                continue  # met by construction on the subspace
+            labels = self._labels.get(name)
+            knots = None if labels is None or len(labels) != sl.stop - sl.start else [
+                hc.knot_of_row(label) for label in labels]
+            if knots is None or any(k is None for k in knots):
+                cycle_rows.extend(range(sl.start, sl.stop))
+                continue
+            for row, k in zip(range(sl.start, sl.stop), knots, strict=True):
+                assert k is not None
+                if int(k) < h:
+                    keep.append(row)
+                    weight.append(1.0)
+        if cycle_rows:
+            rng = np.random.default_rng(0)
+            x_half = x0[mirror.half] + 0.01 * rng.standard_normal(mirror.n_reduced)
+            x_sym = mirror.expand(x_half)
+            if self._jac_g is not None:
+                g_val, jac = self._jac_g(x_sym, p)
+            else:
+                jac_f = ca.Function("jac", [self._nlp["x"], self._nlp["p"]],
+                                    [self._nlp["g"], ca.jacobian(self._nlp["g"], self._nlp["x"])])
+                g_val, jac = jac_f(x_sym, p)
+            jac_reduced = ca.mtimes(ca.DM(jac), mirror.matrix())
+            more, more_w = hc.classify_cycle_rows(np.asarray(g_val).ravel(), jac_reduced,
+                                                  np.asarray(cycle_rows), self._lbg, self._ubg)
+            keep += more
+            weight += more_w
+        order = np.argsort(keep, kind="stable")
+        rows = hc.RowSelection(np.asarray(keep, dtype=int)[order],
+                               np.asarray(weight, dtype=float)[order])
+        nlp, derivatives = hc.reduced_nlp(mirror, rows, self._nlp["x"], self._nlp["p"],
+                                          self._nlp["f"], self._nlp["g"], self._jac_g,
+                                          self._hess_l)
+        opts: dict[str, Any] = {
+            "ipopt": ipopt_options(self.options, False),
+            "print_time": False,
+            "expand": self.options.derivatives == "expanded",
+            "error_on_fail": False,
+            **derivatives,
+        }
+        rule = getattr(self, "_abort", None)
+        abort = None if rule is None else AbortCallback(
+            rule.rule, mirror.n_reduced, int(rows.keep.size), int(self._nlp["p"].numel()))
+        if abort is not None:
+            opts["iteration_callback"] = abort
+        solver = ca.nlpsol("spacetime_half", "ipopt", nlp, opts)
+        return HalfCycleNLP(mirror, rows, solver, abort)
+
+    def _solve_half_cycle(self, half: HalfCycleNLP, start: WarmStart, p: np.ndarray,
+                          bounds: SolveBounds) -> tuple[dict[str, Any], dict[str, Any]]:
+        """One solve of the reduced NLP, returned as the full NLP's solution (physical units;
+        the dropped rows' multipliers 0, the cost f = 2·f̃) and IPOPT's statistics."""
+        m, r = half.mirror, half.rows
+        lbg, ubg = r.weight * bounds.lbg[r.keep], r.weight * bounds.ubg[r.keep]
+        if half.abort is not None:
+            half.abort.arm(lbg, ubg)
+        raw = half.solver(x0=start.x[m.half], lam_x0=start.lam_x[m.half],
+                          lam_g0=start.lam_g[r.keep], p=p, lbx=bounds.lbx[m.half],
+                          ubx=bounds.ubx[m.half], lbg=lbg, ubg=ubg)
+        sol = {
+            "x": m.expand(np.asarray(raw["x"]).ravel()),
+            "lam_x": m.expand(np.asarray(raw["lam_x"]).ravel()),
+            "lam_g": r.lam_full(np.asarray(raw["lam_g"]).ravel(), self._lbg.size),
+            "f": 2.0 * float(raw["f"]),
+        }
+        return sol, half.solver.stats()
 
     def _variable_bounds(self, schedule: ContactSchedule, contact: np.ndarray | None = None
                          ) -> tuple[np.ndarray, np.ndarray]:

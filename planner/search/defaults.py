@@ -29,3 +29,7 @@ DEFAULT_FINAL_CHOICE = FINAL_CHOICE_CHEAPEST_OF_2
 #: at N = 12 "free" ended on another local optimum on 2 of 35 quad12/hex18 schedules
 #: (docs/results/planner_speed_ipopt.md, session 33, branch rank)
 SEARCH_INACTIVE_ROWS = "rows"
+#: `PlannerOptions.half_cycle_solve` of the search's coarse solves: a symmetric sample (every
+#: sample of a symmetric timing space, straight) is solved on the first half of its knots
+#: (`planner.nlp.half_cycle`); the final re-solves keep the options' own
+SEARCH_HALF_CYCLE = False

@@ -642,6 +642,7 @@ def search_gait(
     search_tol: float | None = None,
     search_inactive_rows: str = defaults.SEARCH_INACTIVE_ROWS,
     final_choice: str = defaults.DEFAULT_FINAL_CHOICE,
+    search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -671,6 +672,9 @@ def search_gait(
     coarse rank order that is feasible and accepted wins; "cheapest-of-2" (the default) — the one
     of the first two with the lower full-resolution cost plus support term, else the first
     accepted after them; "cheapest" — every candidate is re-solved, the cheapest accepted wins.
+    `search_half_cycle`: `PlannerOptions.half_cycle_solve` of the coarse solves only (default
+    `planner.search.defaults.SEARCH_HALF_CYCLE`): a symmetric sample is solved on the first half
+    of its knots (`planner.nlp.half_cycle`); the final re-solves keep `options`'.
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
@@ -720,7 +724,8 @@ def search_gait(
                              else min(options.max_iter, search_max_iter),
                              swing_wrench=search_swing_wrench or options.swing_wrench,
                              tol=options.tol if search_tol is None else search_tol,
-                             inactive_rows=search_inactive_rows)
+                             inactive_rows=search_inactive_rows,
+                             half_cycle_solve=search_half_cycle)
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
                                   search_options, tipping_weight, acceptance, warm_start,
                                   space.period_bounds_s if seeds else None, coarse_abort)

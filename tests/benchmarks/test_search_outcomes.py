@@ -47,6 +47,17 @@ def test_speed_token_sets_the_coarse_checks_speed_tolerance_only() -> None:
     assert (s.coarse_speed_tol, s.search_knots) == (0.2, 10)
 
 
+def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
+    base = so.parse_setting("base")
+    assert (base.search_half_cycle, base.final_half_cycle) == (so.SEARCH_HALF_CYCLE, False)
+    assert so.parse_setting("half").search_half_cycle is True
+    assert so.parse_setting("full").search_half_cycle is False
+    s = so.parse_setting("half+halffinal")
+    assert (s.search_half_cycle, s.final_half_cycle) == (True, True)
+    with pytest.raises(SystemExit, match="sets search_half_cycle twice"):
+        so.parse_setting("half+full")
+
+
 @pytest.mark.parametrize(("text", "match"), [
     ("cap0", r"'cap0' in 'cap0' needs an integer ≥ 1 after 'cap'"),
     ("capx", r"needs an integer ≥ 1 after 'cap'"),
@@ -60,7 +71,7 @@ def test_speed_token_sets_the_coarse_checks_speed_tolerance_only() -> None:
     ("cap40+cap50", r"sets search_max_iter twice"),
     ("speed0", r"'speed0' in 'speed0' needs a number in \(0, 1\) after 'speed'"),
     ("speed1.5", r"needs a number in \(0, 1\) after 'speed'"),
-    ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN or speedX"),
+    ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN, speedX, half, full or halffinal"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:

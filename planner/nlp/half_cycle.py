@@ -1,0 +1,301 @@
+"""Half-cycle solve: a mirror-symmetric gait's NLP solved on the first half of its knots.
+
+A straight gait of a left–right symmetric body on a schedule that is half-cycle mirror symmetric
+at the knots (every foot does half a cycle later what its mirror image does: trot, pace, tripod,
+a biped's walk — every sample of the gait search's symmetric timing space) has a symmetric NLP:
+the map x ↦ 𝓜x that moves knot k to knot k + N/2 and mirrors it under y → −y (the joint and foot
+images of `planner.nlp.mirror` and `planner.templates.mirror_permutation`) takes the feasible set
+and the objective to themselves. IPOPT's cold start is symmetric, and a Newton step from a
+symmetric point of a symmetric problem is symmetric, so IPOPT's iterates stay on the subspace
+x = 𝓜x up to rounding: the gait search's converged 12-knot solves on quad12 are symmetric to
+1e-12 (docs/results/planner_speed_search.md, session 36; only solves that stop at the iteration
+cap drift off it, by rounding amplified along an unstable direction).
+
+On that subspace the second half of the knots is a copy: x = E·x̃, x̃ the first N/2 knots' entries
+of every block and E a signed selection (one ±1 per row). The reduced NLP IPOPT solves here is
+
+    min ½·f(E·x̃)   s.t.   lb_r ≤ W·g_r(E·x̃) ≤ ub_r,   E·lbx ≥ …  (the first half's bounds),
+
+with g_r the rows of the first half's knots (each later knot's row is the mirror image of one of
+them, so it holds on the subspace by construction) plus the rows over the whole cycle (drift):
+one of each mirror pair, none of those that vanish on the subspace (the sideways drift), and
+W = ½ on a row that is its own image. The ½ makes it exactly half of the full barrier problem
+restricted to the subspace — objective, barrier terms, constraint violation and multipliers
+(λ̃ = λ of the kept rows) — so IPOPT's steps, filter and stopping tests see the same numbers as
+on the full NLP at a symmetric point. Its derivatives come from the full NLP's own: J̃ = W·J_r·E
+and ∇²L̃ = Eᵀ·∇²L(E·x̃; σ/2, λ)·E. The KKT system is half the size, so a factorisation costs
+about half (its fill follows the knots' band).
+
+The result is judged on the full NLP: `GaitPlanner._result` evaluates every row and bound of all
+N knots at E·x̃ (a schedule or bound that is not symmetric would show there as a violation, not
+be hidden). The multipliers of the dropped rows are reported as 0.
+Not used when the command turns or side-steps, the schedule is not symmetric at the knots, the
+start is not on the subspace (a warm start from an asymmetric plan), the variable bounds are not
+mirror images, or the NLP is nondimensional (`PlannerOptions.nondimensional`); the full NLP
+is solved then.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from planner.errors import PlannerConfigError
+from planner.nlp.variables import BLOCKS, Layout
+from robots import ContactSchedule, Robot
+
+#: base pose (x, y, z, roll, pitch, yaw) under y → −y, x and z relative to the cycle's mean
+#: progression (`planner.nlp.mirror.mirror_rows`)
+BASE_SIGN = (1.0, -1.0, 1.0, -1.0, 1.0, -1.0)
+#: a force under y → −y (polar vector) and a moment (axial vector: −M·m)
+FORCE_SIGN = (1.0, -1.0, 1.0)
+MOMENT_SIGN = (-1.0, 1.0, -1.0)
+#: a start or a bound is on the subspace when E·x̃ reproduces it to this (absolute)
+SYMMETRY_TOL = 1e-9
+#: rows whose label ends in "@knot k" (k may be fractional: the servo goal's speed samples)
+_KNOT_LABEL = re.compile(r"@knot (\d+(?:\.\d+)?)$")
+
+
+@dataclass(frozen=True)
+class VariableMirror:
+    """x = E·x̃: full entry i is `sign[i]` × reduced entry `source[i]`; `half` are the full
+    indices the reduced vector holds, in order (the first N/2 knots of every block)."""
+
+    source: np.ndarray  # int, one per full entry
+    sign: np.ndarray  # ±1.0, one per full entry
+    half: np.ndarray  # int, the full indices of the reduced entries
+
+    @property
+    def n_reduced(self) -> int:
+        return int(self.half.size)
+
+    def matrix(self) -> ca.DM:
+        """E as a sparse matrix (full × reduced)."""
+        return ca.DM.triplet(list(range(self.source.size)), self.source.tolist(),
+                             ca.DM(self.sign), self.source.size, self.n_reduced)
+
+    def expand(self, x_reduced: np.ndarray) -> np.ndarray:
+        """E·x̃."""
+        return np.asarray(x_reduced, dtype=float)[self.source] * self.sign
+
+    def on_subspace(self, x: np.ndarray) -> bool:
+        """Is `x` (full) its own mirror image, E·x[half] = x?"""
+        x = np.asarray(x, dtype=float)
+        return bool(np.all(np.abs(self.expand(x[self.half]) - x) <= SYMMETRY_TOL
+                           * np.maximum(1.0, np.abs(x))))
+
+    def bounds_mirrored(self, lb: np.ndarray, ub: np.ndarray) -> bool:
+        """Are the bounds of every later-half entry the (sign-flipped) bounds of its source?"""
+        lb_r, ub_r = lb[self.half][self.source], ub[self.half][self.source]
+        lo = np.where(self.sign > 0, lb_r, -ub_r)
+        hi = np.where(self.sign > 0, ub_r, -lb_r)
+        return bool(_same(lo, lb) and _same(hi, ub))
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal to `SYMMETRY_TOL` (relative to max(1, |a|)), infinities of the same sign equal."""
+    finite = np.isfinite(a) & np.isfinite(b)
+    if not np.array_equal(np.where(finite, 0.0, a), np.where(finite, 0.0, b)):
+        return False  # an infinite bound against a finite one, or −∞ against +∞
+    fa, fb = np.where(finite, a, 0.0), np.where(finite, b, 0.0)
+    return bool(np.all(np.abs(fa - fb) <= SYMMETRY_TOL * np.maximum(1.0, np.abs(fa))))
+
+
+def element_images(layout: Layout, joint_image: tuple[int, ...], joint_sign: tuple[float, ...],
+                   foot_image: tuple[int, ...], flat_feet: tuple[int, ...]
+                   ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per block, each per-knot entry's mirror image (index within the knot's entries) and sign."""
+    jimg, jsgn = np.asarray(joint_image, dtype=int), np.asarray(joint_sign, dtype=float)
+    base_img, base_sgn = np.arange(6), np.asarray(BASE_SIGN)
+    rates = (np.concatenate([base_img, 6 + jimg]), np.concatenate([base_sgn, jsgn]))
+    feet = np.asarray(foot_image, dtype=int)
+    force_img = (3 * feet[:, None] + np.arange(3)[None, :]).ravel()
+    force_sgn = np.tile(FORCE_SIGN, feet.size)
+    slot = {foot: s for s, foot in enumerate(flat_feet)}
+    if any(int(feet[foot]) not in slot for foot in flat_feet):
+        raise PlannerConfigError(
+            "half-cycle solve: a flat foot's mirror image is not a flat foot; the model is not "
+            "left–right symmetric")
+    flat_img = np.array([3 * slot[int(feet[foot])] + a for foot in flat_feet for a in range(3)],
+                        dtype=int)
+    images = {
+        "base": (base_img, base_sgn),
+        "q": (jimg, jsgn),
+        "forces": (force_img, force_sgn),
+        "vel": rates,
+        "acc": rates,
+        "tau": (jimg, jsgn),
+        "goal_slope": (jimg, jsgn),
+        "moments": (flat_img, np.tile(MOMENT_SIGN, len(flat_feet))),
+    }
+    for name in BLOCKS:
+        img, sgn = images[name]
+        if img.size != layout.width(name) or sgn.size != layout.width(name):
+            raise PlannerConfigError(
+                f"half-cycle solve: block {name!r} has {layout.width(name)} entries per knot, "
+                f"its mirror map {img.size}")
+    return images
+
+
+def variable_mirror(layout: Layout, images: dict[str, tuple[np.ndarray, np.ndarray]]
+                    ) -> VariableMirror:
+    """The map E of the module docstring for `layout` (N even)."""
+    n = layout.n_knots
+    if n % 2:
+        raise PlannerConfigError(f"half-cycle solve needs an even number of knots, got {n}")
+    h = n // 2
+    half = np.concatenate([layout.indices(name)[:h].ravel() for name in BLOCKS])
+    half.sort()
+    position = np.full(layout.size, -1, dtype=int)
+    position[half] = np.arange(half.size)
+    source = np.empty(layout.size, dtype=int)
+    sign = np.empty(layout.size)
+    for name in BLOCKS:
+        ind = layout.indices(name)  # N × width
+        img, sgn = images[name]
+        source[ind[:h]] = position[ind[:h]]
+        sign[ind[:h]] = 1.0
+        source[ind[h:]] = position[ind[:h][:, img]]
+        sign[ind[h:]] = np.broadcast_to(sgn, ind[h:].shape)
+    if (source < 0).any():
+        raise PlannerConfigError("half-cycle solve: an entry of the second half has no source")
+    return VariableMirror(source, sign, half)
+
+
+def robot_variable_mirror(robot: Robot, layout: Layout, flat_feet: tuple[int, ...]
+                          ) -> VariableMirror | None:
+    """E for `robot`'s NLP, or None if the body is not left–right symmetric (no joint or foot
+    images; `planner.nlp.mirror.joint_mirror`, `planner.templates.mirror_permutation`)."""
+    from planner.nlp.mirror import joint_mirror
+    from planner.templates import mirror_permutation
+
+    feet = mirror_permutation(robot)
+    if feet is None or layout.n_knots % 2:
+        return None
+    try:
+        joints = joint_mirror(robot)
+        return variable_mirror(layout, element_images(layout, joints.image, joints.sign, feet,
+                                                      flat_feet))
+    except PlannerConfigError:
+        return None
+
+
+def schedule_symmetric(schedule: ContactSchedule, foot_image: tuple[int, ...], n_knots: int
+                       ) -> bool:
+    """Is the contact pattern at the knots the same half a cycle later with every foot swapped
+    for its mirror image (`planner.nlp.mirror.check_schedule`'s test, as a predicate)?"""
+    if n_knots % 2:
+        return False
+    contact = schedule.contact_matrix(n_knots)
+    shifted = np.roll(contact, -(n_knots // 2), axis=0)[:, list(foot_image)]
+    return bool(np.array_equal(contact, shifted))
+
+
+def knot_of_row(label: str) -> float | None:
+    """The knot a row belongs to from its report label ("…@knot k"), or None."""
+    m = _KNOT_LABEL.search(label)
+    return None if m is None else float(m.group(1))
+
+
+@dataclass(frozen=True)
+class RowSelection:
+    """The rows of the reduced NLP: `keep` (full row indices, in order) and their weights W."""
+
+    keep: np.ndarray
+    weight: np.ndarray
+
+    def lam_full(self, lam_reduced: np.ndarray, n_rows: int) -> np.ndarray:
+        """The full NLP's row multipliers: the kept rows' (λ̃, module docstring), 0 elsewhere."""
+        out = np.zeros(n_rows)
+        out[self.keep] = np.asarray(lam_reduced, dtype=float)
+        return out
+
+
+def classify_cycle_rows(g: np.ndarray, jac_reduced: Any, rows: np.ndarray,
+                        lbg: np.ndarray, ubg: np.ndarray) -> tuple[list[int], list[float]]:
+    """Rows over the whole cycle (no knot of their own): at a point of the subspace, a row
+    whose reduced Jacobian row and value vanish is dropped (its mirror image is its negative),
+    one of two rows that agree up to sign (value, reduced Jacobian and bounds) is kept with
+    W = 1, a row equal to no other is its own image: kept with W = ½."""
+    jac = ca.DM(jac_reduced)
+    dense = np.asarray(ca.densify(jac[rows.tolist(), :]))
+    keep: list[int] = []
+    weight: list[float] = []
+    taken: set[int] = set()
+    for a, row in enumerate(rows):
+        if a in taken:
+            continue
+        ja, va = dense[a], g[row]
+        scale = max(1.0, float(np.abs(ja).max(initial=0.0)), abs(float(va)))
+        if np.abs(ja).max(initial=0.0) <= 1e-12 * scale and abs(va) <= 1e-12 * scale:
+            continue
+        partner = None
+        for b in range(a + 1, len(rows)):
+            if b in taken:
+                continue
+            for s in (1.0, -1.0):
+                if (np.allclose(dense[b], s * ja, rtol=1e-8, atol=1e-12 * scale)
+                        and math.isclose(g[rows[b]], s * va, rel_tol=1e-8, abs_tol=1e-12 * scale)):
+                    partner = b
+                    break
+            if partner is not None:
+                break
+        if partner is not None:
+            taken.add(partner)
+            keep.append(int(row))
+            weight.append(1.0)
+        else:
+            keep.append(int(row))
+            weight.append(0.5)
+    return keep, weight
+
+
+@dataclass
+class HalfCycleNLP:
+    """The reduced NLP (module docstring) of a planner's full NLP and its IPOPT instance."""
+
+    mirror: VariableMirror
+    rows: RowSelection
+    solver: Any
+    abort: Any | None = None
+
+
+def reduced_nlp(mirror: VariableMirror, rows: RowSelection, x: Any, p: Any, f: Any, g: Any,
+                jac_g: ca.Function | None, hess_l: ca.Function | None
+                ) -> tuple[dict[str, Any], dict[str, ca.Function]]:
+    """The reduced NLP's expressions (``x``, ``p``, ``f``, ``g``) and, when the full NLP has
+    them, its assembled ``jac_g`` and ``hess_lag`` functions (module docstring) from the full
+    NLP's symbols `x`, `p`, objective `f`, rows `g` and derivative functions."""
+    e = mirror.matrix()
+    xr = ca.MX.sym("x_half", mirror.n_reduced)
+    pr = ca.MX.sym("p", p.shape[0], p.shape[1])
+    full = ca.Function("full_nlp", [x, p], [f, g])
+    x_full = ca.mtimes(e, xr)
+    f_full, g_full = full(x_full, pr)
+    keep = rows.keep.tolist()
+    w = ca.DM(rows.weight)
+    nlp = {"x": xr, "p": pr, "f": 0.5 * f_full, "g": w * g_full[keep]}
+    derivatives: dict[str, ca.Function] = {}
+    if jac_g is not None:
+        g_j, jac = jac_g(x_full, pr)
+        jac_r = ca.mtimes(ca.diag(w), ca.mtimes(jac[keep, :], e))
+        derivatives["jac_g"] = ca.Function("nlp_jac_g", [xr, pr], [w * g_j[keep], jac_r],
+                                           ["x", "p"], ["g", "jac_g_x"])
+    if hess_l is not None:
+        lam_f = ca.MX.sym("lam_f")
+        lam_g = ca.MX.sym("lam_g", rows.keep.size)
+        n_rows = int(g.shape[0])
+        select = ca.DM.triplet(keep, list(range(rows.keep.size)), ca.DM.ones(rows.keep.size),
+                               n_rows, rows.keep.size)
+        hess = hess_l(x_full, pr, 0.5 * lam_f, ca.mtimes(select, w * lam_g))
+        sym_hess = ca.triu2symm(hess)
+        hess_r = ca.triu(ca.mtimes(e.T, ca.mtimes(sym_hess, e)))
+        derivatives["hess_lag"] = ca.Function(
+            "nlp_hess_l", [xr, pr, lam_f, lam_g], [hess_r], ["x", "p", "lam_f", "lam_g"],
+            ["triu_hess_gamma_x_x"])
+    return nlp, derivatives

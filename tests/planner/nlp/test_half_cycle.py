@@ -1,0 +1,154 @@
+"""The half-cycle solve (`planner.nlp.half_cycle`, `PlannerOptions.half_cycle_solve`)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import robots
+from planner.nlp import half_cycle as hc
+from planner.nlp.config import PlannerOptions
+from planner.nlp.spacetime import GaitPlanner
+from planner.nlp.variables import initial_guess, parameter_vector
+from planner.templates import make_schedule, mirror_permutation
+
+SPEED_M_S = 0.25
+
+
+@pytest.fixture(scope="module")
+def quad12_pair() -> tuple[GaitPlanner, GaitPlanner]:
+    robot = robots.load("quad12")
+    options = PlannerOptions(max_iter=60)
+    return (GaitPlanner(robot, 12, options),
+            GaitPlanner(robot, 12, dataclasses.replace(options, half_cycle_solve=True)))
+
+
+def test_the_mirror_map_reproduces_a_symmetric_start_and_flags_an_asymmetric_one() -> None:
+    robot = robots.load("quad12")
+    planner = GaitPlanner(robot, 12, PlannerOptions())
+    mirror = hc.robot_variable_mirror(robot, planner.layout, planner.model.flat_feet)
+    assert mirror is not None and mirror.n_reduced * 2 == planner.layout.size
+    x0 = initial_guess(planner.layout, planner.model, make_schedule(robot, "trot"))
+    assert mirror.on_subspace(x0)
+    assert not mirror.on_subspace(initial_guess(planner.layout, planner.model,
+                                                make_schedule(robot, "bound")))
+    lbx, ubx = planner._lbx, planner._ubx
+    assert mirror.bounds_mirrored(lbx, ubx)
+    skewed = ubx.copy()
+    skewed[planner.layout.indices("q")[-1, 0]] += 0.1  # a joint bound at the last knot only
+    assert not mirror.bounds_mirrored(lbx, skewed)
+    # E is an involution's half: expanding the first half of E·x̃ gives E·x̃ again
+    x = mirror.expand(np.random.default_rng(0).standard_normal(mirror.n_reduced))
+    assert np.array_equal(mirror.expand(x[mirror.half]), x)
+
+
+@pytest.mark.parametrize("gait", ["trot", "pace"])
+def test_a_symmetric_schedule_takes_the_full_solves_iterates(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner], gait: str) -> None:
+    full, half = quad12_pair
+    schedule = make_schedule(full.robot, gait)
+    a = full.solve(schedule, SPEED_M_S, warm_start=False)
+    b = half.solve(schedule, SPEED_M_S, warm_start=False)
+    assert a.stats["half_cycle"] is False and b.stats["half_cycle"] is True
+    assert a.feasible and b.feasible
+    assert b.iterations == a.iterations
+    assert abs(b.cost - a.cost) <= 1e-9 * abs(a.cost)
+    assert np.abs(b.warm_start.x - a.warm_start.x).max() <= 1e-6
+    # the reduced result is judged on every row of the full NLP
+    assert b.max_violation <= 1e-6
+
+
+def test_what_is_not_symmetric_is_solved_on_the_full_nlp(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+    _, half = quad12_pair
+    robot = half.robot
+    bound = half.solve(make_schedule(robot, "bound"), SPEED_M_S, warm_start=False)
+    assert bound.stats["half_cycle"] is False
+    turn = half.solve(make_schedule(robot, "trot"), SPEED_M_S, warm_start=False,
+                      yaw_rate_rad_s=0.2)
+    assert turn.stats["half_cycle"] is False
+    trot = half.solve(make_schedule(robot, "trot"), SPEED_M_S, warm_start=False)
+    assert trot.stats["half_cycle"] is True
+    # a warm start off the subspace (the turning plan) → the full NLP
+    warm = half.solve(make_schedule(robot, "trot"), SPEED_M_S, warm_start=turn.warm_start)
+    assert warm.stats["half_cycle"] is False
+
+
+def test_a_whole_cycle_row_is_dropped_kept_or_halved_by_its_mirror_image(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+    _, half = quad12_pair
+    half.solve(make_schedule(half.robot, "trot"), SPEED_M_S, warm_start=False)
+    nlp = half._half_cycle
+    assert isinstance(nlp, hc.HalfCycleNLP)
+    drift = dict(half._slices)["drift"]
+    kept = [int(r) for r in nlp.rows.keep if drift.start <= r < drift.stop]
+    # the forward drift (its own image) stays with weight ½; the sideways one vanishes
+    assert kept == [drift.start]
+    assert nlp.rows.weight[list(nlp.rows.keep).index(drift.start)] == 0.5
+    per_knot = nlp.rows.keep.size - 1
+    assert per_knot * 2 == drift.start  # half of every per-knot row
+
+
+def test_the_reduced_derivatives_match_finite_differences(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+    _, half = quad12_pair
+    schedule = make_schedule(half.robot, "trot")
+    half.solve(schedule, SPEED_M_S, warm_start=False)
+    nlp = half._half_cycle
+    assert isinstance(nlp, hc.HalfCycleNLP)
+    m, rows = nlp.mirror, nlp.rows
+    p = parameter_vector(schedule, half.n_knots, SPEED_M_S, half.swing_clearance_m)
+    rng = np.random.default_rng(1)
+    x = initial_guess(half.layout, half.model, schedule)[m.half] + 0.01 * rng.standard_normal(
+        m.n_reduced)
+    full = ca.Function("full", [half._nlp["x"], half._nlp["p"]], [half._nlp["f"], half._nlp["g"]])
+
+    def reduced(xr: np.ndarray) -> tuple[float, np.ndarray]:
+        f, g = full(m.expand(xr), p)
+        return 0.5 * float(f), np.asarray(g).ravel()[rows.keep] * rows.weight
+
+    g_r, jac = nlp.solver.get_function("nlp_jac_g")(x, p)
+    jac = np.asarray(ca.densify(jac))
+    assert np.allclose(np.asarray(g_r).ravel(), reduced(x)[1], atol=1e-12)
+    lam = rng.standard_normal(rows.keep.size)
+    hess = np.asarray(ca.densify(nlp.solver.get_function("nlp_hess_l")(x, p, 1.0, lam)))
+    hess = np.triu(hess) + np.triu(hess, 1).T
+    grad_f = ca.Function("gf", [half._nlp["x"], half._nlp["p"]],
+                         [ca.gradient(half._nlp["f"], half._nlp["x"])])
+    e = np.asarray(ca.densify(m.matrix()))
+
+    def grad_lagrangian(xr: np.ndarray) -> np.ndarray:
+        _, j = nlp.solver.get_function("nlp_jac_g")(xr, p)
+        gf = 0.5 * e.T @ np.asarray(grad_f(m.expand(xr), p)).ravel()
+        return gf + np.asarray(ca.densify(j)).T @ lam
+
+    eps = 1e-6
+    for col in rng.choice(m.n_reduced, 12, replace=False):
+        d = np.zeros(m.n_reduced)
+        d[col] = eps
+        fd_jac = (reduced(x + d)[1] - reduced(x - d)[1]) / (2 * eps)
+        assert np.abs(fd_jac - jac[:, col]).max() <= 1e-5 * max(1.0, np.abs(jac[:, col]).max())
+        fd_hess = (grad_lagrangian(x + d) - grad_lagrangian(x - d)) / (2 * eps)
+        assert np.abs(fd_hess - hess[:, col]).max() <= 1e-5 * max(1.0, np.abs(hess[:, col]).max())
+
+
+def test_flat_feet_reach_the_full_optimum() -> None:
+    robot = robots.load("biped")
+    options = PlannerOptions(max_iter=100)
+    schedule = make_schedule(robot, "biped_walk")
+    a = GaitPlanner(robot, 12, options).solve(schedule, 0.15, warm_start=False)
+    b = GaitPlanner(robot, 12, dataclasses.replace(options, half_cycle_solve=True)).solve(
+        schedule, 0.15, warm_start=False)
+    assert b.stats["half_cycle"] is True and a.feasible and b.feasible
+    assert abs(b.cost - a.cost) <= 1e-5 * abs(a.cost)
+
+
+def test_a_body_without_mirror_images_has_no_half_cycle() -> None:
+    robot = robots.load("quad12")
+    assert mirror_permutation(robot) is not None
+    layout = GaitPlanner(robot, 12, PlannerOptions()).layout
+    odd = dataclasses.replace(layout, n_knots=13)
+    assert hc.robot_variable_mirror(robot, odd, ()) is None
