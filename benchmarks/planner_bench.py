@@ -200,6 +200,11 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     # "knot" before the assembled constraint Jacobian (docs/results/planner_speed_lifted.md)
     "knot-ad": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_jacobian="ad")),
     "compiled": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="compiled")),
+    # the half-cycle solve (`planner.nlp.half_cycle`): symmetric straight schedules on the first
+    # N/2 knots; the warm chain's perturbed schedules are not symmetric and take the full NLP
+    "compiled-half": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(derivatives="compiled", half_cycle_solve=True)
+    ),
     # EXPERIMENTAL: stage-wise FATROP (docs/results/planner_speed_fatrop.md)
     "fatrop": lambda robot, n: _fatrop_planner(robot, n),
     # IPOPT's options and warm start (`planner.nlp.spacetime.ipopt_options`): before and after

@@ -120,6 +120,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--sim-accept", "sim_accept", "", SEARCH),
     OptionRoute("--search-swing-wrench", "search_swing_wrench", "", SEARCH),
     OptionRoute("--final-choice", "final_choice", "", SEARCH + "; gait-file metadata"),
+    OptionRoute("--search-half-cycle", "search_half_cycle", "", SEARCH + "; gait-file metadata"),
     OptionRoute("--simulate", "simulate", VALIDATION, VALIDATION),
     OptionRoute("--cycles", "cycles", VALIDATION, ACCEPTANCE),
     OptionRoute("--supply-v", "supply_v", "the servo envelope; gait-file metadata",

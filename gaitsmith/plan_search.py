@@ -17,7 +17,7 @@ from gaitsmith.search_options import DEFAULT_SEARCH_SWING_WRENCH, sim_acceptance
 from planner.errors import InfeasibleGaitError
 from planner.nlp.config import PlannerOptions
 from planner.search.budget import REASON_NONE_ACCEPTED
-from planner.search.defaults import DEFAULT_FINAL_CHOICE, SEARCH_INACTIVE_ROWS
+from planner.search.defaults import DEFAULT_FINAL_CHOICE, SEARCH_HALF_CYCLE, SEARCH_INACTIVE_ROWS
 from planner.templates import default_gait_for
 from planner.user_schedule import command_schedule
 from robots.voltage import voltage_margin
@@ -43,6 +43,8 @@ class SearchSettings:
     search_swing_wrench: str = DEFAULT_SEARCH_SWING_WRENCH
     #: how the final phase picks its winner (`--final-choice`)
     final_choice: str = DEFAULT_FINAL_CHOICE
+    #: the coarse solves on the first half of a symmetric sample's knots (`--search-half-cycle`)
+    search_half_cycle: bool = SEARCH_HALF_CYCLE
 
 
 def user_seed(bot: robots.Robot, gait: str | None, period: float | None, duty: str | None,
@@ -98,6 +100,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
         search_swing_wrench=st.search_swing_wrench, final_choice=st.final_choice,
+        search_half_cycle=st.search_half_cycle,
         seed_schedules=None if seed_schedule is None else {USER_SEED: seed_schedule},
         **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles,
                          attitude_gain),
@@ -134,6 +137,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         "final_candidates": result.final_candidates,
         "final_candidates_reason": result.final_candidates_reason,
         "final_choice": st.final_choice,
+        "search_half_cycle": st.search_half_cycle,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
         "seed": st.seed, "symmetric": result.symmetric,  # as searched (a star has no pairs)
         "template_costs": {  # JSON has no inf: null = infeasible or rejected

@@ -15,6 +15,7 @@ from planner.search.defaults import (
     DEFAULT_SEARCH_KNOTS,
     DEFAULT_TIPPING_WEIGHT,
     FINAL_CHOICES,
+    SEARCH_HALF_CYCLE,
 )
 
 EXECUTORS = ("serial", "process", "ray")
@@ -49,6 +50,13 @@ def search_swing_wrench_option() -> Any:
                         help="how the coarse solves hold a swing foot's wrench at 0: rows | "
                         "bounds (fewer iterations, other local optima); the final re-solves use "
                         "rows either way")
+
+
+def search_half_cycle_option() -> Any:
+    return typer.Option(SEARCH_HALF_CYCLE, "--search-half-cycle/--search-full-cycle",
+                        help="solve each symmetric sample's coarse NLP on the first half of its "
+                        "knots, the second half its mirror image (half the KKT system), or on "
+                        "all of them; the final re-solves use all knots either way")
 
 
 def final_choice_option() -> Any:

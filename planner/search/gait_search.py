@@ -596,6 +596,8 @@ class GaitSearchResult:
     final_candidates_reason: str = ""
     #: how the final phase chose among them (`final_phase.choose_final`, `FINAL_CHOICES`)
     final_choice: str = defaults.DEFAULT_FINAL_CHOICE
+    #: the coarse solves ran on the first half of a symmetric sample's knots (`half_cycle`)
+    search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE
 
     @property
     def froude(self) -> float:
@@ -830,7 +832,7 @@ def search_gait(
         final_solves=tuple(final_solves), fallback_template=fallback,
         final_outcomes=choice.read, final_on_workers=on_workers,
         final_candidates=n_final, final_candidates_reason=n_final_reason,
-        final_choice=final_choice,
+        final_choice=final_choice, search_half_cycle=search_half_cycle,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
         phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
@@ -894,7 +896,9 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
               }.get(result.final_choice, result.final_choice)
     lines.append(f"# final phase: up to {result.final_candidates} searched timings re-solved "
                  f"at full resolution ({result.final_candidates_reason}); {winner} wins")
-    lines.append(f"# search: {result.search_knots} knots; winner search cost "
+    lines.append(f"# search: {result.search_knots} knots"
+                 + (" (symmetric samples on the first half of them, `half_cycle`)"
+                    if result.search_half_cycle else "") + "; winner search cost "
                  f"{result.search_cost:.6g} (support term {result.support_cost:.6g}, open-loop "
                  f"tipping amplification {result.tipping_amplification:.4g})")
     lines.append(f"# final solve: {result.planner.n_knots} knots, {result.label}, cost "

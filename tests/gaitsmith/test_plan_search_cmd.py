@@ -97,3 +97,28 @@ def test_the_coarse_swing_wrench_is_rows_by_default_and_bounds_when_asked(
             main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
                   "-o", str(tmp_path / "g.json")])
         assert seen[-1] == (expected, "rows")
+
+
+def test_the_coarse_half_cycle_solve_follows_its_flag(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`plan --search` hands `search_gait` the coarse solves' half-cycle switch: the default
+    (`planner.search.defaults.SEARCH_HALF_CYCLE`), on with --search-half-cycle, off with
+    --search-full-cycle; the final planner's options never solve on half the knots."""
+    import planner.search.gait_search as gs
+    from gaitsmith.cli import main
+    from planner.search.defaults import SEARCH_HALF_CYCLE
+
+    seen: list[tuple[bool, bool]] = []
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.append((kwargs["search_half_cycle"], kwargs["options"].half_cycle_solve))
+        raise _Recorded
+
+    monkeypatch.setattr(gs, "search_gait", record)
+    for extra, expected in (([], SEARCH_HALF_CYCLE), (["--search-half-cycle"], True),
+                            (["--search-full-cycle"], False)):
+        with pytest.raises(_Recorded):
+            main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
+                  "-o", str(tmp_path / "g.json")])
+        assert seen[-1] == (expected, False)
