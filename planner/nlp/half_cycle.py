@@ -274,9 +274,11 @@ def reduced_nlp(mirror: VariableMirror, rows: RowSelection, x: Any, p: Any, f: A
     e = mirror.matrix()
     xr = ca.MX.sym("x_half", mirror.n_reduced)
     pr = ca.MX.sym("p", p.shape[0], p.shape[1])
-    full = ca.Function("full_nlp", [x, p], [f, g])
+    # two functions: one of both would make IPOPT's f and ∇f evaluate every row too
+    objective = ca.Function("full_f", [x, p], [f])
+    rows_of = ca.Function("full_g", [x, p], [g])
     x_full = ca.mtimes(e, xr)
-    f_full, g_full = full(x_full, pr)
+    f_full, g_full = objective(x_full, pr), rows_of(x_full, pr)
     keep = rows.keep.tolist()
     w = ca.DM(rows.weight)
     nlp = {"x": xr, "p": pr, "f": 0.5 * f_full, "g": w * g_full[keep]}
