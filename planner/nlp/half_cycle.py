@@ -202,6 +202,32 @@ def knot_of_row(label: str) -> float | None:
     return None if m is None else float(m.group(1))
 
 
+#: the rows `PlannerOptions.half_cycle_mirror` adds: met by construction on the subspace
+MIRROR_ROWS = "half-cycle mirror"
+
+
+def first_half_rows(slices: list[tuple[str, slice]], labels: dict[str, list[str]],
+                    n_knots: int) -> tuple[list[int], list[int]]:
+    """The rows of the first N/2 knots (by their report labels, "…@knot k") and the rows
+    without a knot of their own (a group without labels: rows over the whole cycle, for
+    `classify_cycle_rows`). `slices`: each constraint group's name and rows."""
+    h = n_knots // 2
+    keep: list[int] = []
+    cycle: list[int] = []
+    for name, sl in slices:
+        if name == MIRROR_ROWS:
+            continue
+        names = labels.get(name)
+        knots = None if names is None or len(names) != sl.stop - sl.start else [
+            knot_of_row(label) for label in names]
+        if knots is None or any(k is None for k in knots):
+            cycle.extend(range(sl.start, sl.stop))
+            continue
+        keep.extend(row for row, k in zip(range(sl.start, sl.stop), knots, strict=True)
+                    if k is not None and int(k) < h)
+    return keep, cycle
+
+
 @dataclass(frozen=True)
 class RowSelection:
     """The rows of the reduced NLP: `keep` (full row indices, in order) and their weights W."""
@@ -239,8 +265,10 @@ def classify_cycle_rows(g: np.ndarray, jac_reduced: Any, rows: np.ndarray,
             if b in taken:
                 continue
             for s in (1.0, -1.0):
+                lo, hi = (lbg[row], ubg[row]) if s > 0 else (-ubg[row], -lbg[row])
                 if (np.allclose(dense[b], s * ja, rtol=1e-8, atol=1e-12 * scale)
-                        and math.isclose(g[rows[b]], s * va, rel_tol=1e-8, abs_tol=1e-12 * scale)):
+                        and math.isclose(g[rows[b]], s * va, rel_tol=1e-8, abs_tol=1e-12 * scale)
+                        and _same(np.array([lbg[rows[b]], ubg[rows[b]]]), np.array([lo, hi]))):
                     partner = b
                     break
             if partner is not None:

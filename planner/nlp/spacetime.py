@@ -569,24 +569,8 @@ class GaitPlanner:
         mirror = hc.robot_variable_mirror(self.robot, self.layout, self.model.flat_feet)
         if mirror is None:
             return None
-        h = self.n_knots // 2
-        keep: list[int] = []
-        weight: list[float] = []
-        cycle_rows: list[int] = []
-        for name, sl in self._slices:
-            if name == "half-cycle mirror":
-                continue  # met by construction on the subspace
-            labels = self._labels.get(name)
-            knots = None if labels is None or len(labels) != sl.stop - sl.start else [
-                hc.knot_of_row(label) for label in labels]
-            if knots is None or any(k is None for k in knots):
-                cycle_rows.extend(range(sl.start, sl.stop))
-                continue
-            for row, k in zip(range(sl.start, sl.stop), knots, strict=True):
-                assert k is not None
-                if int(k) < h:
-                    keep.append(row)
-                    weight.append(1.0)
+        keep, cycle_rows = hc.first_half_rows(self._slices, self._labels, self.n_knots)
+        weight = [1.0] * len(keep)
         if cycle_rows:
             rng = np.random.default_rng(0)
             x_half = x0[mirror.half] + 0.01 * rng.standard_normal(mirror.n_reduced)
