@@ -9,7 +9,8 @@ its NLPs (`gait_search_bench.cli_search_options`), one with `PlannerOptions.half
 Prints per solve: iterations, cost, feasibility and process CPU of each, the CPU ratio, the cost
 difference, whether the reduced NLP was used, and how far the full NLP's solution is from its own
 mirror image (max |x − E·x[half]|: ≈ 1e-12 when IPOPT's iterates stayed symmetric, and then the two
-paths take the same iterates). `--search-cap`: the search's coarse iteration cap
+paths take the same iterates; "—" for a schedule that is not symmetric, which both solve in full;
+a template the NLP refuses at the speed, e.g. a stand, is printed as refused). `--search-cap`: the search's coarse iteration cap
 (`DEFAULT_SEARCH_MAX_ITER`) instead of the NLP's own. Measured in
 docs/results/planner_speed_search.md, session 36 (lead).
 """
@@ -30,6 +31,7 @@ import numpy as np
 from gait_search_bench import cli_search_options
 
 import robots
+from planner.errors import PlannerConfigError
 from planner.nlp.half_cycle import HalfCycleNLP
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.gait_search import DEFAULT_SEARCH_MAX_ITER
@@ -98,10 +100,15 @@ def main(argv: list[str] | None = None) -> None:
             schedule = make_schedule(robot, gait)
             for rep in range(args.reps):
                 pair = ((full, half) if rep % 2 == 0 else (half, full))
-                out = {id(p): timed_solve(p, schedule, args.speed) for p in pair}
+                try:
+                    out = {id(p): timed_solve(p, schedule, args.speed) for p in pair}
+                except PlannerConfigError as exc:  # e.g. a stand at a moving command
+                    print(f"| {n} | {gait} | refused: {exc} |")
+                    break
                 a, b = out[id(full)], out[id(half)]
                 rel = (b.result.cost - a.result.cost) / max(abs(a.result.cost), 1e-12)
-                asym = asymmetry(half, a.result.warm_start.x)
+                asym = (asymmetry(half, a.result.warm_start.x) if b.result.stats["half_cycle"]
+                        else None)  # a schedule that is not symmetric has no mirror image
                 print(f"| {n} | {gait} | {a.result.iterations} | {a.result.cost:.8g}"
                       f"{'' if a.result.feasible else ' (infeasible)'} | {b.result.iterations} | "
                       f"{b.result.cost:.8g}{'' if b.result.feasible else ' (infeasible)'} | "
