@@ -10,9 +10,9 @@ Prints per solve: iterations, cost, feasibility and process CPU of each, the CPU
 difference, whether the reduced NLP was used, and how far the full NLP's solution is from its own
 mirror image (max |x − E·x[half]|: ≈ 1e-12 when IPOPT's iterates stayed symmetric, and then the two
 paths take the same iterates; "—" for a schedule that is not symmetric, which both solve in full;
-a template the NLP refuses at the speed, e.g. a stand, is printed as refused). `--search-cap`: the search's coarse iteration cap
-(`DEFAULT_SEARCH_MAX_ITER`) instead of the NLP's own. Measured in
-docs/results/planner_speed_search.md, session 36 (lead).
+a template the NLP refuses at the speed, e.g. a stand, is printed as refused). `--search-cap`:
+the search's coarse iteration cap (`DEFAULT_SEARCH_MAX_ITER`) instead of the NLP's own.
+Measured in docs/results/planner_speed_search.md, session 36 (lead).
 """
 
 from __future__ import annotations
