@@ -153,6 +153,12 @@ def plan(
         False, "--mirror", help="the second half of the cycle is the first half mirrored "
         "left-right (straight gaits of symmetric bodies on half-cycle symmetric schedules: "
         "biped walk/run, trot, pace, tripod; N even)"),
+    half_cycle: bool = typer.Option(
+        False, "--half-cycle/--full-cycle", help="solve a straight gait on a half-cycle "
+        "mirror-symmetric schedule (trot, pace, tripod, biped walk; N even) on the first half "
+        "of its knots, the second half its mirror image: about half the time per solve, the "
+        "same optimum where the full solve stays symmetric; anything else is solved in full. "
+        "With --search: the final re-solves (--search-half-cycle: the coarse ones)"),
     force_rate: float | None = typer.Option(
         None, "--force-rate", help="bound each foot's normal-force rate to this many body "
         "weights per √(L/g) (`PlannerOptions.normal_force_rate_weights_per_t0`): the load "
@@ -276,6 +282,7 @@ def plan(
               else StanceShaped(force_rate, bounce_weight, entry_cycles, {}))
     options = planner_options(mu, solver, shaped, rotor_reserve, swing_clearance,
                               verbose=verbose, servo_settings=servo_settings, mirror=mirror,
+                              half_cycle=half_cycle,
                               line_capture_margin=line_capture_margin,
                               nlp_hessian=nlp_hessian, cop_sole_fraction=cop_sole_fraction,
                               inactive_rows=inactive_rows)

@@ -97,6 +97,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--knife-edge", "knife_edge", "re-plans and simulations after --simulate", "",
                 "--knife-edge: needs --simulate, a straight command (no --vy, --yaw-rate) and "
                 "no --search"),
+    OptionRoute("--half-cycle", "half_cycle", NLP, NLP + " of the final re-solves"),
     OptionRoute("--mirror", "mirror", NLP, "",
                 "--mirror: not with --search yet; plan the chosen gait with --mirror"),
     OptionRoute("--force-rate", "force_rate", NLP_META, NLP_META),
@@ -218,6 +219,7 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
                     swing_clearance: float | None, *, verbose: bool = False,
                     servo_settings: tuple[ServoSetting, ...] | None = None,
                     mirror: bool = False,
+                    half_cycle: bool = False,
                     line_capture_margin: float | None = None,
                     nlp_hessian: str = DEFAULT_NLP_HESSIAN,
                     cop_sole_fraction: float | None = None,
@@ -226,6 +228,7 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
     what `--search` does not take)."""
     return PlannerOptions(mu=mu, print_level=5 if verbose else 0, servo_settings=servo_settings,
                           derivatives=solver, half_cycle_mirror=mirror,
+                          half_cycle_solve=half_cycle,
                           normal_force_rate_weights_per_t0=shaped.rate_bound,
                           weights=shaped.weights, rotor_reserve=rotor_reserve,
                           swing_clearance_m=swing_clearance,

@@ -122,6 +122,8 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
             "optimal": result.optimal,
             "message": result.message,
             "inactive_rows": o.inactive_rows,
+            # solved on the first half of the knots (`planner.nlp.half_cycle`)
+            "half_cycle": bool(result.stats.get("half_cycle", False)),
         },
         "active_limits": [[name, float(v)] for name, v in result.binding],
         "servo_load": servo_load(planner, result),
