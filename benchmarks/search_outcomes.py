@@ -71,7 +71,7 @@ import statistics
 import sys
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from scipy.stats import binomtest
@@ -306,11 +306,14 @@ class FinalReplayer:
     search: Search
     swing_wrench: str
     knots: int
+    #: the final re-solves on the first half of a symmetric candidate's knots ("halffinal")
+    half_cycle: bool = False
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
         self.options, acceptance = cli_search_options(self.robot, swing_wrench=self.swing_wrench,
                                                       speed_m_s=self.search.speed_m_s)
+        self.options = replace(self.options, half_cycle_solve=self.half_cycle)
         self.seeds: dict[str, robots.ContactSchedule] = acceptance.get("seed_schedules", {})
         factory = acceptance["final_acceptance"]
         self.spec = FinalPlannerSpec.new(self.robot, self.knots, self.options,
@@ -405,18 +408,20 @@ def cmd_replay(args: argparse.Namespace) -> None:
             raise SystemExit(f"replay: cannot read recording {name}: {e}") from None
     out = Path(args.out)
     done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
-    replayers: dict[tuple[str, str, int], FinalReplayer] = {}
+    replayers: dict[tuple[str, str, int, bool], FinalReplayer] = {}
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
+        half = args.final_half_cycle or setting.final_half_cycle
         for k, c, ch in ((k, c, ch) for ch in choices for c in cs for k in ks):
-            name = replay_setting(setting.name, k, c, ch)
+            name = replay_setting(setting.name, k, c, ch) + (
+                "+halffinal" if half and not setting.final_half_cycle else "")
             if k > rec["generations"] or (search.key, name) in done:
                 continue
-            key = (search.key, setting.swing_wrench, rec["knots"])
+            key = (search.key, setting.swing_wrench, rec["knots"], half)
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
-                replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"])
-            row = replayers[key].truncated(rec, k, c, ch)
+                replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"], half)
+            row = {**replayers[key].truncated(rec, k, c, ch), "setting": name}
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
             print(_line(row), flush=True)
@@ -596,6 +601,10 @@ def main() -> None:
                    help=f"comma-separated: {', '.join(FINAL_CHOICES)} (how the final phase picks "
                         f"among its candidates; default {DEFAULT_FINAL_CHOICE}, as the search; "
                         "rows are named '+CHOICE' unless 'first')")
+    p.add_argument("--final-half-cycle", action="store_true",
+                   help="re-solve the final candidates on the first half of a symmetric one's "
+                        "knots (`PlannerOptions.half_cycle_solve`; rows named '+halffinal'); a "
+                        "recording of a 'halffinal' setting is replayed so without it")
     p.add_argument("--out", required=True, help="JSON-lines file the rows are appended to")
     u = sub.add_parser("rule", help="each recording's replayed row under the budget rule")
     u.add_argument("recordings", nargs="+", help="pickles written by `run --save`")

@@ -185,6 +185,9 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     assert (cheap["setting"], cheap["final_choice"], cheap["final_solves"]) == (
         "base+gen1+cheapest", "cheapest", 4)
     assert cheap["search_cost"] == 0.8 and cheap["final_total"] >= cheap["final_cost"] == 0.4
+    assert replayer.options.half_cycle_solve is False
+    half = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30, half_cycle=True)
+    assert half.options.half_cycle_solve is True  # "halffinal": the final re-solves' option
     with pytest.raises(SystemExit, match=r"--final-choice must be a comma-separated list of "
                                          r"first, cheapest-of-2, cheapest, got 'best'"):
         monkeypatch.setattr(sys, "argv", ["search_outcomes.py", "replay", "x.pkl",
