@@ -83,7 +83,7 @@ from gait_search_bench import COARSE_BOUNDS, SearchRun, _abort_rule, cli_search_
 
 import robots
 from gaitsmith.options import KNOTS_RANGE
-from planner.nlp.config import SWING_WRENCHES
+from planner.nlp.config import DEFAULT_HALF_CYCLE_SOLVE, SWING_WRENCHES
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
 from planner.search.budget import final_candidate_count, final_candidates_reason
@@ -306,8 +306,9 @@ class FinalReplayer:
     search: Search
     swing_wrench: str
     knots: int
-    #: the final re-solves on the first half of a symmetric candidate's knots ("halffinal")
-    half_cycle: bool = False
+    #: the final re-solves on the first half of a symmetric candidate's knots (as the search's
+    #: options: `PlannerOptions.half_cycle_solve`)
+    half_cycle: bool = DEFAULT_HALF_CYCLE_SOLVE
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
@@ -411,10 +412,11 @@ def cmd_replay(args: argparse.Namespace) -> None:
     replayers: dict[tuple[str, str, int, bool], FinalReplayer] = {}
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
-        half = args.final_half_cycle or setting.final_half_cycle
+        recorded = setting.final_half_cycle or DEFAULT_HALF_CYCLE_SOLVE
+        half = recorded if args.final_half_cycle is None else args.final_half_cycle == "on"
         for k, c, ch in ((k, c, ch) for ch in choices for c in cs for k in ks):
             name = replay_setting(setting.name, k, c, ch) + (
-                "+halffinal" if half and not setting.final_half_cycle else "")
+                "" if half == recorded else "+halffinal" if half else "+fullfinal")
             if k > rec["generations"] or (search.key, name) in done:
                 continue
             key = (search.key, setting.swing_wrench, rec["knots"], half)
@@ -601,10 +603,11 @@ def main() -> None:
                    help=f"comma-separated: {', '.join(FINAL_CHOICES)} (how the final phase picks "
                         f"among its candidates; default {DEFAULT_FINAL_CHOICE}, as the search; "
                         "rows are named '+CHOICE' unless 'first')")
-    p.add_argument("--final-half-cycle", action="store_true",
+    p.add_argument("--final-half-cycle", choices=("on", "off"), default=None,
                    help="re-solve the final candidates on the first half of a symmetric one's "
-                        "knots (`PlannerOptions.half_cycle_solve`; rows named '+halffinal'); a "
-                        "recording of a 'halffinal' setting is replayed so without it")
+                        "knots or on all of them (`PlannerOptions.half_cycle_solve`; rows named "
+                        "'+halffinal' / '+fullfinal' when not as recorded; default: as the "
+                        "recorded search did)")
     p.add_argument("--out", required=True, help="JSON-lines file the rows are appended to")
     u = sub.add_parser("rule", help="each recording's replayed row under the budget rule")
     u.add_argument("recordings", nargs="+", help="pickles written by `run --save`")

@@ -68,6 +68,7 @@ from gaitsmith.stance_options import StanceShaped, stance_shaped
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp.config import (
     DEFAULT_FROUDE,
+    DEFAULT_HALF_CYCLE_SOLVE,
     DEFAULT_INACTIVE_ROWS,
     DEFAULT_NLP_HESSIAN,
     INACTIVE_ROWS,
@@ -154,7 +155,7 @@ def plan(
         "left-right (straight gaits of symmetric bodies on half-cycle symmetric schedules: "
         "biped walk/run, trot, pace, tripod; N even)"),
     half_cycle: bool = typer.Option(
-        False, "--half-cycle/--full-cycle", help="solve a straight gait on a half-cycle "
+        DEFAULT_HALF_CYCLE_SOLVE, "--half-cycle/--full-cycle", help="solve a straight gait on a half-cycle "
         "mirror-symmetric schedule (trot, pace, tripod, biped walk; N even) on the first half "
         "of its knots, the second half its mirror image: about half the time per solve, the "
         "same optimum where the full solve stays symmetric; anything else is solved in full. "

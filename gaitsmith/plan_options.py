@@ -33,6 +33,7 @@ from gaitsmith.search_options import (
 from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, StanceShaped
 from planner.nlp.config import (
     COP_SOLE_FRACTION,
+    DEFAULT_HALF_CYCLE_SOLVE,
     DEFAULT_INACTIVE_ROWS,
     DEFAULT_NLP_HESSIAN,
     DERIVATIVE_PATHS,
@@ -219,7 +220,7 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
                     swing_clearance: float | None, *, verbose: bool = False,
                     servo_settings: tuple[ServoSetting, ...] | None = None,
                     mirror: bool = False,
-                    half_cycle: bool = False,
+                    half_cycle: bool = DEFAULT_HALF_CYCLE_SOLVE,
                     line_capture_margin: float | None = None,
                     nlp_hessian: str = DEFAULT_NLP_HESSIAN,
                     cop_sole_fraction: float | None = None,

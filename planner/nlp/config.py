@@ -78,6 +78,9 @@ FREED_GROUPS: dict[str, tuple[str, ...] | None] = {
 }
 #: `PlannerOptions.cold_start`'s default
 DEFAULT_COLD_START = "stance"
+#: `PlannerOptions.half_cycle_solve`'s default (`gaitsmith plan --half-cycle/--full-cycle`; the
+#: search's coarse solves use `planner.search.defaults.SEARCH_HALF_CYCLE` whatever it says)
+DEFAULT_HALF_CYCLE_SOLVE = False
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -399,7 +402,7 @@ class PlannerOptions:
     rotor_reserve: float | None = None
     line_capture_margin_leg_lengths: float | None = None
     half_cycle_mirror: bool = False
-    half_cycle_solve: bool = False
+    half_cycle_solve: bool = DEFAULT_HALF_CYCLE_SOLVE
     sideways_slip_leg_lengths: float = SIDEWAYS_SLIP_LEG_LENGTHS
     tol: float = 1e-6
     max_iter: int | None = None
