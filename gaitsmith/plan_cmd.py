@@ -156,8 +156,8 @@ def plan(
         "biped walk/run, trot, pace, tripod; N even)"),
     half_cycle: bool = typer.Option(
         DEFAULT_HALF_CYCLE_SOLVE, "--half-cycle/--full-cycle",
-        help="solve a straight gait on a half-cycle mirror-symmetric schedule (trot, pace, tripod, biped walk; N even) on the first half "
-        "of its knots, the second half its mirror image: about half the time per solve, the "
+        help="solve a straight gait on a half-cycle mirror-symmetric schedule (trot, pace, "
+        "tripod, biped walk; N even) on the first half of its knots, the second half its mirror image: about half the time per solve, the "
         "same optimum where the full solve stays symmetric; anything else is solved in full. "
         "With --search: the final re-solves (--search-half-cycle: the coarse ones)"),
     force_rate: float | None = typer.Option(
