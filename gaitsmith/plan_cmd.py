@@ -157,9 +157,10 @@ def plan(
     half_cycle: bool = typer.Option(
         DEFAULT_HALF_CYCLE_SOLVE, "--half-cycle/--full-cycle",
         help="solve a straight gait on a half-cycle mirror-symmetric schedule (trot, pace, "
-        "tripod, biped walk; N even) on the first half of its knots, the second half its mirror image: about half the time per solve, the "
-        "same optimum where the full solve stays symmetric; anything else is solved in full. "
-        "With --search: the final re-solves (--search-half-cycle: the coarse ones)"),
+        "tripod, biped walk; N even) on the first half of its knots, the second half its "
+        "mirror image: about half the time per solve, the same optimum where the full solve "
+        "stays symmetric; anything else is solved in full. With --search: the final "
+        "re-solves (--search-half-cycle: the coarse ones)"),
     force_rate: float | None = typer.Option(
         None, "--force-rate", help="bound each foot's normal-force rate to this many body "
         "weights per √(L/g) (`PlannerOptions.normal_force_rate_weights_per_t0`): the load "
