@@ -610,7 +610,8 @@ class GaitPlanner:
     def _solve_half_cycle(self, half: HalfCycleNLP, start: WarmStart, p: np.ndarray,
                           bounds: SolveBounds) -> tuple[dict[str, Any], dict[str, Any]]:
         """One solve of the reduced NLP, returned as the full NLP's solution (physical units;
-        the dropped rows' multipliers 0, the cost f = 2·f̃) and IPOPT's statistics."""
+        the dropped rows' multipliers 0, the cost f = 2·f̃) and IPOPT's statistics (the
+        iteration log's objective doubled too: the full NLP's)."""
         m, r = half.mirror, half.rows
         lbg, ubg = r.weight * bounds.lbg[r.keep], r.weight * bounds.ubg[r.keep]
         if half.abort is not None:
@@ -624,7 +625,11 @@ class GaitPlanner:
             "lam_g": r.lam_full(np.asarray(raw["lam_g"]).ravel(), self._lbg.size),
             "f": 2.0 * float(raw["f"]),
         }
-        return sol, half.solver.stats()
+        stats = dict(half.solver.stats())
+        iterations = stats.get("iterations")
+        if isinstance(iterations, dict) and "obj" in iterations:  # the full NLP's objective
+            stats["iterations"] = {**iterations, "obj": [2.0 * v for v in iterations["obj"]]}
+        return sol, stats
 
     def _variable_bounds(self, schedule: ContactSchedule, contact: np.ndarray | None = None
                          ) -> tuple[np.ndarray, np.ndarray]:

@@ -152,3 +152,61 @@ def test_a_body_without_mirror_images_has_no_half_cycle() -> None:
     layout = GaitPlanner(robot, 12, PlannerOptions()).layout
     odd = dataclasses.replace(layout, n_knots=13)
     assert hc.robot_variable_mirror(robot, odd, ()) is None
+
+
+def test_ctrl_c_inside_a_half_cycle_solve_raises_keyboard_interrupt(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+    """As the full NLP's (tests/gaitsmith/test_plan_interrupt.py): an interrupted reduced solve
+    is a KeyboardInterrupt, not an infeasible result."""
+    import signal
+    import threading
+    from typing import Any
+
+    _, half = quad12_pair
+    schedule = make_schedule(half.robot, "trot")
+    half.solve(schedule, SPEED_M_S, warm_start=False)  # builds the reduced NLP
+    nlp = half._half_cycle
+    assert isinstance(nlp, hc.HalfCycleNLP)
+    solver = nlp.solver
+    main_thread = threading.main_thread().ident
+    assert main_thread is not None
+
+    class Interrupted:
+        def __call__(self, **kwargs: Any) -> Any:
+            threading.Timer(0.02, signal.pthread_kill, (main_thread, signal.SIGINT)).start()
+            return solver(**kwargs)
+
+        def stats(self) -> Any:
+            return solver.stats()
+
+    nlp.solver = Interrupted()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            half.solve(schedule, SPEED_M_S, warm_start=False)
+    finally:
+        nlp.solver = solver
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert half.solve(schedule, SPEED_M_S, warm_start=False).stats["half_cycle"] is True
+
+
+def test_the_iteration_abort_stops_a_half_cycle_solve_on_the_full_solves_iterates(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+    from planner.nlp.iteration_abort import StallAbort
+
+    full, half = quad12_pair
+    schedule = make_schedule(half.robot, "trot")
+    ref = full.solve(schedule, SPEED_M_S, warm_start=False).stats["iterations"]
+    half.set_iteration_abort(StallAbort(after_iter=3, min_violation=0.0, window=1,
+                                        fall_factor=0.0))
+    try:
+        stopped = half.solve(schedule, SPEED_M_S, warm_start=False)
+        assert stopped.stats["half_cycle"] is True and half.last_solve_aborted
+        assert stopped.status == "User_Requested_Stop" and stopped.iterations == 3
+        log = stopped.stats["iterations"]
+        np.testing.assert_allclose(log["inf_pr"], ref["inf_pr"][:4], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(log["obj"], ref["obj"][:4], rtol=1e-9)
+    finally:
+        half.set_iteration_abort(None)
+    again = half.solve(schedule, SPEED_M_S, warm_start=False)
+    assert again.stats["half_cycle"] is True and not half.last_solve_aborted
+    assert again.iterations == len(ref["obj"]) - 1
