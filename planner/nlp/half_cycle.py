@@ -8,8 +8,12 @@ images of `planner.nlp.mirror` and `planner.templates.mirror_permutation`) takes
 and the objective to themselves. IPOPT's cold start is symmetric, and a Newton step from a
 symmetric point of a symmetric problem is symmetric, so IPOPT's iterates stay on the subspace
 x = 𝓜x up to rounding: the gait search's converged 12-knot solves on quad12 are symmetric to
-1e-12 (docs/results/planner_speed_search.md, session 36; only solves that stop at the iteration
-cap drift off it, by rounding amplified along an unstable direction).
+1e-12 (docs/results/planner_speed_search.md, session 36; solves that stop at the iteration cap
+drift off it, by rounding amplified along an unstable direction). The two paths take the same
+iterates only while the full NLP needs no inertia correction: when IPOPT regularises the full
+KKT matrix (δ_w > 0) for negative curvature that lies in the antisymmetric directions, the
+reduced matrix has the right inertia without it, and from that iteration on the runs differ
+(their ends agree when both converge, 20 of 22 probed pairs; "Session 36 (branch halfzoo)").
 
 On that subspace the second half of the knots is a copy: x = E·x̃, x̃ the first N/2 knots' entries
 of every block and E a signed selection (one ±1 per row). The reduced NLP IPOPT solves here is
