@@ -51,7 +51,7 @@ import numpy as np
 
 from planner.errors import PlannerConfigError
 from planner.nlp.variables import BLOCKS, Layout
-from robots import ContactSchedule, Robot
+from robots import Robot
 
 #: base pose (x, y, z, roll, pitch, yaw) under y → −y, x and z relative to the cycle's mean
 #: progression (`planner.nlp.mirror.mirror_rows`)
@@ -187,17 +187,6 @@ def robot_variable_mirror(robot: Robot, layout: Layout, flat_feet: tuple[int, ..
                                                       flat_feet))
     except PlannerConfigError:
         return None
-
-
-def schedule_symmetric(schedule: ContactSchedule, foot_image: tuple[int, ...], n_knots: int
-                       ) -> bool:
-    """Is the contact pattern at the knots the same half a cycle later with every foot swapped
-    for its mirror image (`planner.nlp.mirror.check_schedule`'s test, as a predicate)?"""
-    if n_knots % 2:
-        return False
-    contact = schedule.contact_matrix(n_knots)
-    shifted = np.roll(contact, -(n_knots // 2), axis=0)[:, list(foot_image)]
-    return bool(np.array_equal(contact, shifted))
 
 
 def knot_of_row(label: str) -> float | None:

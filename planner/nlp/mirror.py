@@ -119,6 +119,17 @@ def mirror_labels(robot: Robot, n_knots: int) -> list[str]:
     return out
 
 
+def schedule_symmetric(schedule: ContactSchedule, foot_image: tuple[int, ...], n_knots: int
+                       ) -> bool:
+    """Is the contact pattern at the knots the same half a cycle later with every foot swapped
+    for its mirror image `foot_image` (N even)?"""
+    if n_knots % 2:
+        return False
+    contact = schedule.contact_matrix(n_knots)  # N × F
+    shifted = np.roll(contact, -(n_knots // 2), axis=0)[:, list(foot_image)]
+    return bool(np.array_equal(contact, shifted))
+
+
 def check_schedule(schedule: ContactSchedule, foot_image: tuple[int, ...] | None,
                    n_knots: int, vy_m_s: float, yaw_rate_rad_s: float) -> None:
     """PlannerConfigError unless the command is straight and the schedule at the knots is the
@@ -132,9 +143,7 @@ def check_schedule(schedule: ContactSchedule, foot_image: tuple[int, ...] | None
         raise PlannerConfigError(
             "--mirror: the stance feet are not left–right symmetric; plan without --mirror"
         )
-    contact = schedule.contact_matrix(n_knots)  # N × F
-    shifted = np.roll(contact, -(n_knots // 2), axis=0)[:, list(foot_image)]
-    if not np.array_equal(contact, shifted):
+    if not schedule_symmetric(schedule, foot_image, n_knots):
         raise PlannerConfigError(
             "--mirror: the schedule is not half-cycle mirror symmetric at "
             f"{n_knots} knots (each foot must do half a cycle later what its mirror image "

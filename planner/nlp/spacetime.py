@@ -55,7 +55,7 @@ from planner.nlp.costs import cost_terms, weighted_objective
 from planner.nlp.half_cycle import HalfCycleNLP
 from planner.nlp.inactive_rows import RowActivity, free_inactive_rows
 from planner.nlp.iteration_abort import AbortCallback, StallAbort
-from planner.nlp.mirror import check_mirror
+from planner.nlp.mirror import check_mirror, schedule_symmetric
 from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import (
     ALL_DIRECTIONS,
@@ -537,7 +537,6 @@ class GaitPlanner:
         and this solve fits it: a straight command, a schedule that is half-cycle mirror
         symmetric at the knots, a start and variable bounds on the mirror subspace; None: solve
         the full NLP."""
-        from planner.nlp import half_cycle as hc
         from planner.templates import mirror_permutation
 
         if not self.options.half_cycle_solve or self._half_cycle is False:
@@ -547,7 +546,7 @@ class GaitPlanner:
         if warm and ipopt_options(self.options, True) != ipopt_options(self.options, False):
             return None  # the reduced instance uses the cold options
         feet = mirror_permutation(self.robot)
-        if feet is None or not hc.schedule_symmetric(schedule, feet, self.n_knots):
+        if feet is None or not schedule_symmetric(schedule, feet, self.n_knots):
             return None
         if self._half_cycle is None:
             self._half_cycle = self._build_half_cycle(p, start.x) or False
