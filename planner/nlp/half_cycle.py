@@ -90,8 +90,7 @@ class VariableMirror:
     def on_subspace(self, x: np.ndarray) -> bool:
         """Is `x` (full) its own mirror image, E·x[half] = x?"""
         x = np.asarray(x, dtype=float)
-        return bool(np.all(np.abs(self.expand(x[self.half]) - x) <= SYMMETRY_TOL
-                           * np.maximum(1.0, np.abs(x))))
+        return _same(x, self.expand(x[self.half]))
 
     def bounds_mirrored(self, lb: np.ndarray, ub: np.ndarray) -> bool:
         """Are the bounds of every later-half entry the (sign-flipped) bounds of its source?"""
@@ -268,11 +267,8 @@ def classify_cycle_rows(g: np.ndarray, jac_reduced: Any, rows: np.ndarray,
                 break
         if partner is not None:
             taken.add(partner)
-            keep.append(int(row))
-            weight.append(1.0)
-        else:
-            keep.append(int(row))
-            weight.append(0.5)
+        keep.append(int(row))
+        weight.append(1.0 if partner is not None else 0.5)
     return keep, weight
 
 
