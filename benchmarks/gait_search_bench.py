@@ -61,6 +61,7 @@ from planner.nlp.config import (
     COLD_STARTS,
     COMPACT_ROWS,
     DEFAULT_COMPACT_ROWS,
+    DEFAULT_HALF_CYCLE_SOLVE,
     DERIVATIVE_PATHS,
     SWING_WRENCHES,
     PlannerOptions,
@@ -157,7 +158,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_knots: int = DEFAULT_SEARCH_KNOTS,
         coarse_speed_tol: float | None = None,
         search_half_cycle: bool = SEARCH_HALF_CYCLE,
-        final_half_cycle: bool = False) -> SearchRun:
+        final_half_cycle: bool = DEFAULT_HALF_CYCLE_SOLVE) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
     NLP's; `search_swing_wrench` (not None), `search_max_iter`, `search_tol` (not None) and
@@ -195,7 +196,8 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if coarse_speed_tol is None else f"+speed{coarse_speed_tol:g}"
     label += "" if search_half_cycle == SEARCH_HALF_CYCLE else (
         "+half" if search_half_cycle else "+full")
-    label += "+halffinal" if final_half_cycle else ""
+    label += "" if final_half_cycle == DEFAULT_HALF_CYCLE_SOLVE else (
+        "+halffinal" if final_half_cycle else "+fullfinal")
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 

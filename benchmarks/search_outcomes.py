@@ -127,7 +127,7 @@ class Setting:
     search_knots: int = DEFAULT_SEARCH_KNOTS
     coarse_speed_tol: float | None = None
     search_half_cycle: bool = SEARCH_HALF_CYCLE
-    final_half_cycle: bool = False
+    final_half_cycle: bool = DEFAULT_HALF_CYCLE_SOLVE
 
 
 def _number(token: str, prefix: str, kind: type[int] | type[float], text: str,
@@ -412,7 +412,7 @@ def cmd_replay(args: argparse.Namespace) -> None:
     replayers: dict[tuple[str, str, int, bool], FinalReplayer] = {}
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
-        recorded = setting.final_half_cycle or DEFAULT_HALF_CYCLE_SOLVE
+        recorded = setting.final_half_cycle
         half = recorded if args.final_half_cycle is None else args.final_half_cycle == "on"
         for k, c, ch in ((k, c, ch) for ch in choices for c in cs for k in ks):
             name = replay_setting(setting.name, k, c, ch) + (
