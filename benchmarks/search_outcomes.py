@@ -28,8 +28,10 @@ entry), "speedX" (the coarse MuJoCo check's relative speed tolerance,
 `PassCriteria.speed_rel_tol`, X instead of 0.10; the final check keeps the default), "half" /
 "full" (the coarse solves on the first half of a symmetric sample's knots or on all of them,
 `search_gait(search_half_cycle=...)`, `planner.nlp.half_cycle`), "halffinal" (the final
-re-solves on the first half too: `PlannerOptions.half_cycle_solve` in the search's options).
-Measured in docs/results/planner_speed_search.md, sessions 32-36.
+re-solves on the first half too: `PlannerOptions.half_cycle_solve` in the search's options),
+"fallback" / "compete" (the templates re-solved only when nothing searched passes, or also held
+against the searched winner: `search_gait(final_templates=...)`).
+Measured in docs/results/planner_speed_search.md, sessions 32-37.
 
     python benchmarks/search_outcomes.py run ... --save DIR
     python benchmarks/search_outcomes.py replay DIR/*.pkl --generations 2,3,4,5,6 --out RUNS.jsonl
@@ -43,10 +45,11 @@ record's candidates (`gait_search.final_tasks`) re-solved cold at 30 knots and c
 then the template fallback — is really run here (in this process, serially; a cold solve is the
 same bits in any process, `planner.search.final_phase`; identical schedules are solved once).
 `--final-candidates C[,C2...]` re-solves up to C timings instead of `FINAL_CANDIDATES` (rows
-"SETTING+genK+finalC"). Each k appends a row "SETTING+genK" whose iterations are the truncated
-record's, and whose CPU is an estimate: the recorded run's CPU minus the dropped samples'
-worker CPU (solve + check) minus the recorded final phase's solve + check CPU plus the
-replayed one's.
+"SETTING+genK+finalC"); `--final-templates compete` holds the winner against the first accepted
+template (rows "...+compete", `final_phase.against_templates`). Each k appends a row
+"SETTING+genK" whose iterations are the truncated record's, and whose CPU is an estimate: the
+recorded run's CPU minus the dropped samples' worker CPU (solve + check) minus the recorded final
+phase's solve + check CPU plus the replayed one's.
 
     python benchmarks/search_outcomes.py rule DIR/*.pkl --runs RUNS.jsonl --out RULE.jsonl \
         [--generations K]
@@ -87,15 +90,25 @@ from planner.nlp.config import DEFAULT_HALF_CYCLE_SOLVE, SWING_WRENCHES
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
 from planner.search.budget import final_candidate_count, final_candidates_reason
-from planner.search.defaults import DEFAULT_FINAL_CHOICE, DEFAULT_TIPPING_WEIGHT, SEARCH_HALF_CYCLE
+from planner.search.defaults import (
+    DEFAULT_FINAL_CHOICE,
+    DEFAULT_FINAL_TEMPLATES,
+    DEFAULT_TIPPING_WEIGHT,
+    FINAL_TEMPLATES,
+    FINAL_TEMPLATES_COMPETE,
+    SEARCH_HALF_CYCLE,
+)
 from planner.search.final_phase import (
     FINAL_CHOICE_FIRST,
     FINAL_CHOICES,
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
+    against_templates,
     choose_final,
+    contested,
     evaluate_final,
+    template_tasks,
 )
 from planner.search.gait_search import (
     DEFAULT_SEARCH_KNOTS,
@@ -128,6 +141,7 @@ class Setting:
     coarse_speed_tol: float | None = None
     search_half_cycle: bool = SEARCH_HALF_CYCLE
     final_half_cycle: bool = DEFAULT_HALF_CYCLE_SOLVE
+    final_templates: str = DEFAULT_FINAL_TEMPLATES
 
 
 def _number(token: str, prefix: str, kind: type[int] | type[float], text: str,
@@ -177,11 +191,14 @@ def parse_setting(text: str) -> Setting:
             key, value = "search_half_cycle", token == "half"
         elif token == "halffinal":
             key, value = "final_half_cycle", True
+        elif token in FINAL_TEMPLATES:
+            key, value = "final_templates", token
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
                 f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)}, "
-                "abortK/V, capN, tolX, genK, knotsN, speedX, half, full or halffinal, joined by +")
+                "abortK/V, capN, tolX, genK, knotsN, speedX, half, full, halffinal, "
+                f"{' or '.join(FINAL_TEMPLATES)}, joined by +")
         if key in fields:
             raise SystemExit(f"--settings: {text!r} sets {key} twice")
         fields[key] = value
@@ -237,6 +254,8 @@ def record(search: Search, setting: Setting, r: SearchRun, load_start: float) ->
         "stopped": r.stopped(), "winner": res.label, "search_cost": res.search_cost,
         "best_template": res.best_template, "fallback_template": res.fallback_template,
         "final_cost": res.best.cost if res.best.feasible else None,
+        "final_total": res.total_cost if res.best.feasible else None,
+        "beaten_search_total": res.beaten_search_total,
         "final_solves": len(res.final_solves), "final_choice": res.final_choice,
         "verdict": r.verdict(),
     }
@@ -265,7 +284,8 @@ def cmd_run(args: argparse.Namespace) -> None:
                     search_knots=setting.search_knots,
                     coarse_speed_tol=setting.coarse_speed_tol,
                     search_half_cycle=setting.search_half_cycle,
-                    final_half_cycle=setting.final_half_cycle)
+                    final_half_cycle=setting.final_half_cycle,
+                    final_templates=setting.final_templates)
             row = record(search, setting, r, load)
             if save is not None:
                 with (save / recording_name(search.key, setting.name)).open("wb") as fh:
@@ -333,10 +353,13 @@ class FinalReplayer:
             yield self.cache[key]
 
     def truncated(self, rec: dict, k: int, candidates: int = FINAL_CANDIDATES,
-                  choice: str = FINAL_CHOICE_FIRST) -> dict[str, object]:
+                  choice: str = FINAL_CHOICE_FIRST,
+                  templates: str = DEFAULT_FINAL_TEMPLATES) -> dict[str, object]:
         """The row of `rec`'s search stopped after generation k (module docstring), its final
-        phase re-solving up to `candidates` timings (`search_gait(final_candidates=...)`) and
-        choosing among them by `choice` (`search_gait(final_choice=...)`)."""
+        phase re-solving up to `candidates` timings (`search_gait(final_candidates=...)`),
+        choosing among them by `choice` (`search_gait(final_choice=...)`) and, with
+        `templates` "compete", holding the winner against the first accepted template
+        (`search_gait(final_templates=...)`)."""
         records: list = rec["records"]
         names: list[str] = rec["templates"]
         n_t = len(names)
@@ -357,6 +380,14 @@ class FinalReplayer:
             return plan.cost + tipping(plan.schedule)
 
         chosen = choose_final(tasks, searched, self.outcomes(tasks), choice, score=total)
+        beaten = None
+        if templates == FINAL_TEMPLATES_COMPETE and contested(chosen):
+            rivals, rival_results = template_tasks(tasks, searched)
+            rival = against_templates(chosen, rivals, rival_results, self.outcomes(rivals),
+                                      score=total)
+            if rival.fallback_template is not None:
+                beaten = total(chosen.plan)
+            chosen = rival
         replay_cpu = sum(o.solve_cpu_s + o.check_cpu_s for o in chosen.read)
         base: dict = rec["row"]
         dropped = sum(_sample_cpu_s(r) for _, r in records[len(cut):])
@@ -367,6 +398,7 @@ class FinalReplayer:
         return {
             **base, "setting": replay_setting(base["setting"], k, candidates, choice),
             "generations": k, "final_candidates": candidates, "final_choice": choice,
+            "final_templates": templates, "beaten_search_total": beaten,
             "utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
             "load_start": os.getloadavg()[0], "load_end": os.getloadavg()[0],
             "cpu_s": base["cpu_s"] - dropped - rec["final_cpu_s"] + replay_cpu,
@@ -395,6 +427,10 @@ def replay_setting(setting: str, k: int, candidates: int,
 def cmd_replay(args: argparse.Namespace) -> None:
     ks = _generations(args.generations)
     cs = _integers("--final-candidates", args.final_candidates, "4,8")
+    rivals = [t.strip() for t in args.final_templates.split(",") if t.strip()]
+    if not rivals or any(t not in FINAL_TEMPLATES for t in rivals):
+        raise SystemExit(f"replay: --final-templates must be a comma-separated list of "
+                         f"{', '.join(FINAL_TEMPLATES)}, got {args.final_templates!r}")
     choices = [c.strip() for c in args.final_choice.split(",") if c.strip()]
     bad = [c for c in choices if c not in FINAL_CHOICES]
     if bad or not choices:
@@ -414,16 +450,18 @@ def cmd_replay(args: argparse.Namespace) -> None:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
         recorded = setting.final_half_cycle
         half = recorded if args.final_half_cycle is None else args.final_half_cycle == "on"
-        for k, c, ch in ((k, c, ch) for ch in choices for c in cs for k in ks):
+        for k, c, ch, tm in ((k, c, ch, tm) for tm in rivals for ch in choices for c in cs
+                             for k in ks):
             name = replay_setting(setting.name, k, c, ch) + (
-                "" if half == recorded else "+halffinal" if half else "+fullfinal")
+                "" if half == recorded else "+halffinal" if half else "+fullfinal") + (
+                "" if tm == setting.final_templates else f"+{tm}")
             if k > rec["generations"] or (search.key, name) in done:
                 continue
             key = (search.key, setting.swing_wrench, rec["knots"], half)
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
                 replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"], half)
-            row = {**replayers[key].truncated(rec, k, c, ch), "setting": name}
+            row = {**replayers[key].truncated(rec, k, c, ch, tm), "setting": name}
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
             print(_line(row), flush=True)
@@ -529,7 +567,18 @@ def geo_ci(ratios: list[float]) -> str:
     return f"{math.exp(m):.3f} [{math.exp(m - h):.3f}, {math.exp(m + h):.3f}]"
 
 
-def summary(rows: list[dict], baseline: str) -> list[str]:
+def _final_pair(base: dict, row: dict, cost: str) -> tuple[float, float]:
+    """The two rows' final costs: the NLP's (`cost` "nlp"), or cost + support term, what the
+    search minimises ("total": rows of `replay`, and of `run` since session 37)."""
+    key = "final_total" if cost == "total" else "final_cost"
+    if base.get(key) is None or row.get(key) is None:
+        raise SystemExit(f"table --cost {cost}: {base['search']} has no {key} in setting "
+                         f"{base['setting']!r} or {row['setting']!r} (rows before session 37 "
+                         "have only the NLP cost: --cost nlp)")
+    return base[key], row[key]
+
+
+def summary(rows: list[dict], baseline: str, cost: str = "nlp") -> list[str]:
     """Per setting against `baseline`, over the searches both ran."""
     by = {(r["search"], r["setting"]): r for r in rows}
     searches = list(dict.fromkeys(r["search"] for r in rows))
@@ -548,8 +597,7 @@ def summary(rows: list[dict], baseline: str) -> list[str]:
             continue
         cpu = [b["cpu_s"] for b, _ in pairs], [r["cpu_s"] for _, r in pairs]
         it = sum(b["iterations"] for b, _ in pairs), sum(r["iterations"] for _, r in pairs)
-        costs = [(b["final_cost"], r["final_cost"]) for b, r in pairs
-                 if passing(b) and passing(r)]
+        costs = [_final_pair(b, r, cost) for b, r in pairs if passing(b) and passing(r)]
         ratios = [c / cb for cb, c in costs]
         better = sum(q < 1 - SAME_REL for q in ratios)
         worse = sum(q > 1 + SAME_REL for q in ratios)
@@ -575,7 +623,7 @@ def cmd_table(args: argparse.Namespace) -> None:
     for row in rows:
         print(_line(row))
     print()
-    print("\n".join(summary(rows, args.baseline)))
+    print("\n".join(summary(rows, args.baseline, args.cost)))
 
 
 def main() -> None:
@@ -608,6 +656,10 @@ def main() -> None:
                         "knots or on all of them (`PlannerOptions.half_cycle_solve`; rows named "
                         "'+halffinal' / '+fullfinal' when not as recorded; default: as the "
                         "recorded search did)")
+    p.add_argument("--final-templates", default=DEFAULT_FINAL_TEMPLATES,
+                   help=f"comma-separated: {', '.join(FINAL_TEMPLATES)} (the templates only as "
+                        "the fallback, or also held against the searched winner; rows named "
+                        "'+compete' / '+fallback' when not as recorded)")
     p.add_argument("--out", required=True, help="JSON-lines file the rows are appended to")
     u = sub.add_parser("rule", help="each recording's replayed row under the budget rule")
     u.add_argument("recordings", nargs="+", help="pickles written by `run --save`")
@@ -618,6 +670,9 @@ def main() -> None:
     t = sub.add_parser("table", help="every run, and each setting against the baseline")
     t.add_argument("runs", help="the JSON-lines file of `run --out`")
     t.add_argument("--baseline", default="base")
+    t.add_argument("--cost", choices=("nlp", "total"), default="nlp",
+                   help="final cost compared: the NLP's, or + the support term (the search's "
+                        "objective; what --final-templates compete and cheapest-of-2 compare)")
     args = ap.parse_args()
     {"run": cmd_run, "table": cmd_table, "replay": cmd_replay, "rule": cmd_rule}[args.command](args)
 

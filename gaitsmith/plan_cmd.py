@@ -57,6 +57,7 @@ from gaitsmith.plan_search import SearchSettings, plan_search, user_seed
 from gaitsmith.search_options import (
     executor_option,
     final_choice_option,
+    final_templates_option,
     search_half_cycle_option,
     search_knots_option,
     search_swing_wrench_option,
@@ -222,6 +223,7 @@ def plan(
     search_swing_wrench: str = search_swing_wrench_option(),
     final_choice: str = final_choice_option(),
     search_half_cycle: bool = search_half_cycle_option(),
+    final_templates: str = final_templates_option(),
     simulate: bool = typer.Option(
         False, "--simulate", help="validate in MuJoCo and write the verdict into the gait file"
     ),
@@ -245,7 +247,8 @@ def plan(
     given = dict(locals())  # the parsed options by parameter name
     settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
                               address, search_knots, tipping_weight, sim_accept,
-                              search_swing_wrench, final_choice, search_half_cycle)
+                              search_swing_wrench, final_choice, search_half_cycle,
+                              final_templates)
     check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     check_command(speed, vy, yaw_rate)
     refuse_with_search(search, given)  # --vy, --yaw-rate, --knife-edge, --mirror, ...

@@ -27,6 +27,7 @@ from gaitsmith.options import (
 from gaitsmith.plan_search import SearchSettings
 from gaitsmith.search_options import (
     check_final_choice,
+    check_final_templates,
     check_search_options,
     check_search_swing_wrench,
 )
@@ -123,6 +124,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--search-swing-wrench", "search_swing_wrench", "", SEARCH),
     OptionRoute("--final-choice", "final_choice", "", SEARCH + "; gait-file metadata"),
     OptionRoute("--search-half-cycle", "search_half_cycle", "", SEARCH + "; gait-file metadata"),
+    OptionRoute("--final-templates", "final_templates", "", SEARCH + "; gait-file metadata"),
     OptionRoute("--simulate", "simulate", VALIDATION, VALIDATION),
     OptionRoute("--cycles", "cycles", VALIDATION, ACCEPTANCE),
     OptionRoute("--supply-v", "supply_v", "the servo envelope; gait-file metadata",
@@ -168,6 +170,7 @@ def check_options(speed: float | None, knots: int, period: float | None, duty: s
                              st.search_knots, st.tipping_weight)
         check_search_swing_wrench(st.search_swing_wrench)
         check_final_choice(st.final_choice)
+        check_final_templates(st.final_templates)
     if cycles is not None and (simulate or (search and st.sim_accept)):
         check_cycles("--cycles", cycles)
 

@@ -17,7 +17,12 @@ from gaitsmith.search_options import DEFAULT_SEARCH_SWING_WRENCH, sim_acceptance
 from planner.errors import InfeasibleGaitError
 from planner.nlp.config import PlannerOptions
 from planner.search.budget import REASON_NONE_ACCEPTED
-from planner.search.defaults import DEFAULT_FINAL_CHOICE, SEARCH_HALF_CYCLE, SEARCH_INACTIVE_ROWS
+from planner.search.defaults import (
+    DEFAULT_FINAL_CHOICE,
+    DEFAULT_FINAL_TEMPLATES,
+    SEARCH_HALF_CYCLE,
+    SEARCH_INACTIVE_ROWS,
+)
 from planner.templates import default_gait_for
 from planner.user_schedule import command_schedule
 from robots.voltage import voltage_margin
@@ -45,6 +50,8 @@ class SearchSettings:
     final_choice: str = DEFAULT_FINAL_CHOICE
     #: the coarse solves on the first half of a symmetric sample's knots (`--search-half-cycle`)
     search_half_cycle: bool = SEARCH_HALF_CYCLE
+    #: the templates only as the fallback, or competing with the winner (`--final-templates`)
+    final_templates: str = DEFAULT_FINAL_TEMPLATES
 
 
 def user_seed(bot: robots.Robot, gait: str | None, period: float | None, duty: str | None,
@@ -100,7 +107,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         workers=st.workers, address=st.address, search_knots=st.search_knots,
         tipping_weight=st.tipping_weight, progress=progress,
         search_swing_wrench=st.search_swing_wrench, final_choice=st.final_choice,
-        search_half_cycle=st.search_half_cycle,
+        search_half_cycle=st.search_half_cycle, final_templates=st.final_templates,
         seed_schedules=None if seed_schedule is None else {USER_SEED: seed_schedule},
         **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles,
                          attitude_gain),
@@ -128,7 +135,11 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
     if result.accepted is False:
         console.print("[yellow]no searched candidate passed the MuJoCo acceptance check; "
                       "writing the cheapest feasible one[/]")
-    if result.fallback_template is not None:
+    if result.beaten_search_total is not None:
+        console.print(f"  the template {result.fallback_template} at {knots} knots costs "
+                      f"{best.cost + result.support_cost:.5g} (cost + tipping), less than the "
+                      f"searched winner's {result.beaten_search_total:.5g}: writing the template")
+    elif result.fallback_template is not None:
         console.print(f"[yellow]no searched timing passed the MuJoCo acceptance; the template "
                       f"{result.fallback_template} re-solved at {knots} knots did: writing it[/]")
     meta: dict[str, object] = {"search": {
@@ -138,6 +149,8 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         "final_candidates_reason": result.final_candidates_reason,
         "final_choice": st.final_choice,
         "search_half_cycle": st.search_half_cycle,
+        "final_templates": st.final_templates,
+        "beaten_search_total": result.beaten_search_total,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,
         "seed": st.seed, "symmetric": result.symmetric,  # as searched (a star has no pairs)
         "template_costs": {  # JSON has no inf: null = infeasible or rejected

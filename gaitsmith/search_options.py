@@ -12,9 +12,11 @@ from gaitsmith.options import check_integer, check_knots, check_number
 from planner.nlp.config import SWING_WRENCHES
 from planner.search.defaults import (
     DEFAULT_FINAL_CHOICE,
+    DEFAULT_FINAL_TEMPLATES,
     DEFAULT_SEARCH_KNOTS,
     DEFAULT_TIPPING_WEIGHT,
     FINAL_CHOICES,
+    FINAL_TEMPLATES,
     SEARCH_HALF_CYCLE,
 )
 
@@ -65,6 +67,19 @@ def final_choice_option() -> Any:
                         "coarse rank order) | cheapest-of-2 (the cheaper accepted of the first "
                         "two at --knots) | cheapest (every candidate re-solved, the accepted one "
                         "cheapest at --knots wins)")
+
+
+def final_templates_option() -> Any:
+    return typer.Option(DEFAULT_FINAL_TEMPLATES, "--final-templates",
+                        help="the templates the search started from: fallback (re-solved at "
+                        "--knots only if no searched timing passes) | compete (also held "
+                        "against an accepted searched winner; the cheaper is written)")
+
+
+def check_final_templates(value: str) -> None:
+    if value not in FINAL_TEMPLATES:
+        raise OptionError(f"--final-templates must be one of {', '.join(FINAL_TEMPLATES)}, "
+                          f"got {value!r}")
 
 
 def check_final_choice(value: str) -> None:

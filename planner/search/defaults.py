@@ -25,6 +25,14 @@ FINAL_CHOICES = (FINAL_CHOICE_FIRST, FINAL_CHOICE_CHEAPEST_OF_2, FINAL_CHOICE_CH
 #: phantomx18 (docs/results/planner_speed_search.md, session 35 (lead)). "cheapest" (all of
 #: them): 6 of 29 cheaper, but the README command 1.26–1.38× the CPU.
 DEFAULT_FINAL_CHOICE = FINAL_CHOICE_CHEAPEST_OF_2
+#: Whether the templates the search started from are re-solved only when no searched timing
+#: passes at full resolution ("fallback"), or also compete with an accepted winner ("compete":
+#: the first accepted template in rank order wins if it is cheaper, cost + support term;
+#: `planner.search.final_phase.against_templates`).
+FINAL_TEMPLATES_FALLBACK = "fallback"
+FINAL_TEMPLATES_COMPETE = "compete"
+FINAL_TEMPLATES = (FINAL_TEMPLATES_FALLBACK, FINAL_TEMPLATES_COMPETE)
+DEFAULT_FINAL_TEMPLATES = FINAL_TEMPLATES_FALLBACK
 #: `PlannerOptions.inactive_rows` of the search's coarse solves, whatever the final solves use:
 #: at N = 12 "free" ended on another local optimum on 2 of 35 quad12/hex18 schedules
 #: (docs/results/planner_speed_ipopt.md, session 33, branch rank)

@@ -84,9 +84,12 @@ from planner.search.final_phase import (
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
+    against_templates,
     choose_final,
+    contested,
     evaluate_final,
     prepare_final,
+    template_tasks,
     worker_final_solve,
 )
 from planner.search.support import TippingCost
@@ -598,6 +601,12 @@ class GaitSearchResult:
     final_choice: str = defaults.DEFAULT_FINAL_CHOICE
     #: the coarse solves ran on the first half of a symmetric sample's knots (`half_cycle`)
     search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE
+    #: the templates only as the fallback, or competing with the searched winner
+    #: (`defaults.FINAL_TEMPLATES`, `final_phase.against_templates`)
+    final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES
+    #: with "compete": the searched winner's full-resolution cost + support term when the
+    #: template `fallback_template` was cheaper and won over it (None: it did not)
+    beaten_search_total: float | None = None
 
     @property
     def froude(self) -> float:
@@ -645,6 +654,7 @@ def search_gait(
     search_inactive_rows: str = defaults.SEARCH_INACTIVE_ROWS,
     final_choice: str = defaults.DEFAULT_FINAL_CHOICE,
     search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE,
+    final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -677,6 +687,10 @@ def search_gait(
     `search_half_cycle`: `PlannerOptions.half_cycle_solve` of the coarse solves only (default
     `planner.search.defaults.SEARCH_HALF_CYCLE`): a symmetric sample is solved on the first half
     of its knots (`planner.nlp.half_cycle`); the final re-solves keep `options`'.
+    `final_templates` (`defaults.FINAL_TEMPLATES`): "fallback" — the templates are re-solved
+    only if no searched timing passes; "compete" — an accepted searched winner is also held
+    against the first accepted template (in the fallback's order), the cheaper is written
+    (`final_phase.against_templates`; needs a final check, else the same as "fallback").
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
@@ -701,6 +715,9 @@ def search_gait(
     if final_choice not in FINAL_CHOICES:
         raise PlannerConfigError(f"final_choice must be one of {', '.join(FINAL_CHOICES)}, "
                                  f"got {final_choice!r}")
+    if final_templates not in defaults.FINAL_TEMPLATES:
+        raise PlannerConfigError(f"final_templates must be one of "
+                                 f"{', '.join(defaults.FINAL_TEMPLATES)}, got {final_templates!r}")
     if search_tol is not None and not 0 < search_tol < 1:
         raise PlannerConfigError(f"search_tol must be in (0, 1) (or None: the options' own), "
                                  f"got {search_tol!r}")
@@ -804,17 +821,35 @@ def search_gait(
             """What the search minimises, at full resolution: how `final_choice` compares."""
             return plan.cost + tipping(plan.schedule)
 
+        compete = final_templates == defaults.FINAL_TEMPLATES_COMPETE
+        rivals, rival_results = template_tasks(tasks, searched)
         if on_workers:
             with ex.ordered(worker_final_solve, tasks) as outcomes:
                 # the workers solve the first candidates meanwhile
                 final, final_build_s, final_build_cpu_s = final_planner()
                 choice = choose_final(tasks, searched, outcomes, final_choice, score)
+            if compete and contested(choice):
+                with ex.ordered(worker_final_solve, rivals) as outcomes:
+                    rival_choice = against_templates(choice, rivals, rival_results, outcomes,
+                                                     score)
         else:
             final, final_build_s, final_build_cpu_s = final_planner()
             check = final_check() if final_check is not None else None
-            with ex.ordered(lambda task: evaluate_final(final, check, task.schedule, speed_m_s),
-                            tasks) as outcomes:
+
+            def solve_task(task: FinalTask) -> FinalOutcome:
+                return evaluate_final(final, check, task.schedule, speed_m_s)
+
+            with ex.ordered(solve_task, tasks) as outcomes:
                 choice = choose_final(tasks, searched, outcomes, final_choice, score)
+            if compete and contested(choice):
+                with ex.ordered(solve_task, rivals) as outcomes:
+                    rival_choice = against_templates(choice, rivals, rival_results, outcomes,
+                                                     score)
+        beaten: float | None = None
+        if compete and contested(choice):
+            if rival_choice.fallback_template is not None:
+                beaten = score(choice.plan)
+            choice = rival_choice
     # the final phase ends when the pool has shut down (workers still solving are stopped)
     t_end, c_end = time.perf_counter(), time.process_time()
     best, won, accepted, fallback = choice.plan, choice.searched, choice.accepted, \
@@ -833,6 +868,7 @@ def search_gait(
         final_outcomes=choice.read, final_on_workers=on_workers,
         final_candidates=n_final, final_candidates_reason=n_final_reason,
         final_choice=final_choice, search_half_cycle=search_half_cycle,
+        final_templates=final_templates, beaten_search_total=beaten,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
         phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
@@ -894,8 +930,11 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
               "full resolution (else the first accepted after them)",
               defaults.FINAL_CHOICE_CHEAPEST: "the accepted one cheapest at full resolution",
               }.get(result.final_choice, result.final_choice)
+    rivals = (" against the first accepted template (the cheaper is written)"
+              if result.final_templates == defaults.FINAL_TEMPLATES_COMPETE else "")
     lines.append(f"# final phase: up to {result.final_candidates} searched timings re-solved "
-                 f"at full resolution ({result.final_candidates_reason}); {winner} wins")
+                 f"at full resolution ({result.final_candidates_reason}); {winner} wins"
+                 f"{rivals}")
     lines.append(f"# search: {result.search_knots} knots"
                  + (" (symmetric samples on the first half of them, `half_cycle`)"
                     if result.search_half_cycle else "") + "; winner search cost "

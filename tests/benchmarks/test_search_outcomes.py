@@ -56,6 +56,10 @@ def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     assert (s.search_half_cycle, s.final_half_cycle) == (True, True)
     with pytest.raises(SystemExit, match="sets search_half_cycle twice"):
         so.parse_setting("half+full")
+    assert so.parse_setting("base").final_templates == "fallback"
+    assert so.parse_setting("half+compete").final_templates == "compete"
+    with pytest.raises(SystemExit, match="sets final_templates twice"):
+        so.parse_setting("compete+fallback")
 
 
 @pytest.mark.parametrize(("text", "match"), [
@@ -71,7 +75,8 @@ def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     ("cap40+cap50", r"sets search_max_iter twice"),
     ("speed0", r"'speed0' in 'speed0' needs a number in \(0, 1\) after 'speed'"),
     ("speed1.5", r"needs a number in \(0, 1\) after 'speed'"),
-    ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN, speedX, half, full or halffinal"),
+    ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN, speedX, half, full, "
+             r"halffinal, fallback or compete"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:
@@ -185,6 +190,23 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     assert (cheap["setting"], cheap["final_choice"], cheap["final_solves"]) == (
         "base+gen1+cheapest", "cheapest", 4)
     assert cheap["search_cost"] == 0.8 and cheap["final_total"] >= cheap["final_cost"] == 0.4
+    # "compete": sample 1 passes, then the walk's own schedule (the first template task, the
+    # trot's is its encoding) is read; it passes and is cheaper, so it is written
+    own_walk = make_schedule(robot, "walk")
+
+    def cheap_walk(planner: Any, check: Any, schedule: Any, speed: float) -> FinalOutcome:
+        walk = np.allclose(schedule.touchdown_phase, own_walk.touchdown_phase)  # not encoded
+        passes = walk or math.isclose(schedule.period_s, space.decode(gen[1]).period_s)
+        return FinalOutcome(_Plan(schedule, 0.01 if walk else 0.4), 0.0, passes)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(so, "evaluate_final", cheap_walk)
+    rival = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30)
+    fallback = rival.truncated(rec, 1)
+    assert (fallback["fallback_template"], fallback["beaten_search_total"]) == (None, None)
+    compete = rival.truncated(rec, 1, templates="compete")
+    assert (compete["fallback_template"], compete["final_templates"]) == ("walk", "compete")
+    assert compete["beaten_search_total"] == fallback["final_total"] > compete["final_total"]
+    assert compete["final_solves"] == fallback["final_solves"] + 1
     assert replayer.options.half_cycle_solve is False
     half = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30, half_cycle=True)
     assert half.options.half_cycle_solve is True  # "halffinal": the final re-solves' option

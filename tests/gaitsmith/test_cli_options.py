@@ -66,6 +66,8 @@ PLAN_MISTAKES = [
      "--search-swing-wrench must be rows or bounds, got 'free'"),
     (["--search", "--final-choice", "best"],
      "--final-choice must be one of first, cheapest-of-2, cheapest, got 'best'"),
+    (["--search", "--final-templates", "always"],
+     "--final-templates must be one of fallback, compete, got 'always'"),
     (["--search", "--cycles", "1"], "--cycles must be"),  # --sim-accept is on by default
     (["--entry-cycles", "0"], "--entry-cycles must be an integer in [1, 20], got 0"),
     (["--search", "--entry-cycles", "21"], "--entry-cycles must be an integer in [1, 20]"),

@@ -122,3 +122,28 @@ def test_the_coarse_half_cycle_solve_follows_its_flag(
             main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
                   "-o", str(tmp_path / "g.json")])
         assert seen[-1] == (expected, False)
+
+
+def test_the_templates_compete_only_when_asked(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`plan --search` hands `search_gait` `--final-templates` (default
+    `planner.search.defaults.DEFAULT_FINAL_TEMPLATES`)."""
+    import planner.search.gait_search as gs
+    from gaitsmith.cli import main
+    from planner.search.defaults import DEFAULT_FINAL_TEMPLATES
+
+    seen: list[str] = []
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.append(kwargs["final_templates"])
+        raise _Recorded
+
+    monkeypatch.setattr(gs, "search_gait", record)
+    for extra, expected in (([], DEFAULT_FINAL_TEMPLATES),
+                            (["--final-templates", "compete"], "compete"),
+                            (["--final-templates", "fallback"], "fallback")):
+        with pytest.raises(_Recorded):
+            main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
+                  "-o", str(tmp_path / "g.json")])
+        assert seen[-1] == expected

@@ -19,6 +19,7 @@ import robots
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult, WarmStart
 from planner.search.basin_cma import LocalResult
+from planner.search.defaults import DEFAULT_TIPPING_WEIGHT
 from planner.search.executors import (
     AheadResults,
     ExecutorError,
@@ -32,10 +33,14 @@ from planner.search.final_phase import (
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
+    against_templates,
     choose_final,
+    contested,
     prepare_final,
+    template_tasks,
 )
 from planner.search.gait_search import search_gait
+from planner.search.support import TippingCost
 from planner.templates import make_schedule
 from robots import Gait
 
@@ -186,6 +191,43 @@ def test_cheapest_reads_every_candidate_and_takes_the_cheapest_accepted_plan() -
         choose_final(tasks, searched, _outcomes(plans, []), "best")
 
 
+def test_a_cheaper_accepted_template_wins_over_the_searched_winner() -> None:
+    """"compete": the winner (2.0, accepted) against the templates in their order: the first
+    one accepted decides — cheaper wins, costlier leaves the winner — and no template after it
+    is read; a choice that is a template, or not accepted, reads nothing more."""
+    tasks, searched = _tasks([Fake(1.0, 0, True), Fake(1.1, 0, True), Fake(7.0, 0, True),
+                              Fake(8.0, 0, True), Fake(9.0, 0, True)], templates=3)
+    plans = [(2.0, True), (1.5, False)]
+    winner = choose_final(tasks, searched, _outcomes(plans, []))
+    assert (winner.plan.cost, winner.fallback_template) == (2.0, None) and contested(winner)
+    rivals, rival_results = template_tasks(tasks, searched)
+    assert [t.template for t in rivals] == ["t2", "t3", "t4"]
+    assert [r.cost for r in rival_results] == [7.0, 8.0, 9.0]
+    cases = [  # the templates' plans: (cost, verdict); the written cost, template, read
+        ([(1.8, False), (1.9, True), (0.5, True)], (1.9, "t3", [2.0, 1.8, 1.9])),
+        ([(3.0, True), (0.5, True), (0.4, True)], (2.0, None, [2.0, 3.0])),
+        ([(1.0, False), (0.9, False), (0.8, False)], (2.0, None, [2.0, 1.0, 0.9, 0.8])),
+    ]
+    for template_plans, expected in cases:
+        read: list[float] = []
+        got = against_templates(winner, rivals, rival_results, _outcomes(template_plans, read))
+        assert (got.plan.cost, got.fallback_template,
+                [o.plan.cost for o in got.read]) == expected
+        assert got.accepted is True
+        assert read == expected[2][1:]  # nothing solved after the first accepted template
+    # the score replaces the plan's cost (the search: cost + support term)
+    got = against_templates(winner, rivals, rival_results, _outcomes([(1.9, True)], []),
+                            score=lambda plan: -plan.cost)
+    assert got.fallback_template is None
+    # a template that won the fallback, or no accepted winner: nothing more to read
+    back = choose_final(tasks, searched, _outcomes([(2.0, False), (1.5, False), (3.0, True)],
+                                                   []))
+    assert back.fallback_template == "t2" and not contested(back)
+    assert against_templates(back, rivals, rival_results, _outcomes([(0.1, True)], [])) is back
+    with pytest.raises(ValueError, match="must be template tasks"):
+        against_templates(winner, tasks, searched, _outcomes([(0.1, True)], []))
+
+
 def test_an_interrupted_final_phase_leaves_no_worker_and_stays_an_interruption(
         tmp_path: Path) -> None:
     """Ctrl-C during candidate 1's solve while candidate 2 still runs on the other worker: the
@@ -334,3 +376,44 @@ def _children_after(deadline_s: float) -> list[str]:
     while mp.active_children() and time.perf_counter() < t_end:
         time.sleep(0.2)
     return [f"{c.name} pid {c.pid}" for c in mp.active_children()]
+
+
+@dataclass(frozen=True)
+class PassAll:
+    """A picklable final check factory that accepts every gait."""
+
+    def __call__(self) -> PassAllCheck:
+        return PassAllCheck()
+
+
+@dataclass(frozen=True)
+class PassAllCheck:
+    def __call__(self, gait: Gait) -> _Verdict:
+        return _Verdict(True, 0.0)
+
+
+@pytest.mark.slow
+def test_a_search_with_competing_templates_writes_the_cheaper_of_winner_and_template() -> None:
+    """`search_gait(final_templates="compete")`, every plan accepted: the searched winner of
+    "cheapest-of-2" is read first, then the first template (which passes), and the written
+    gait is the cheaper of the two in the search's objective (cost + support term), on the
+    serial executor and on two workers alike."""
+    kw = dict(n_knots=16, search_knots=10, max_generations=1, popsize=4, seed=1,
+              final_candidates=2, final_acceptance=PassAll(), final_templates="compete")
+    serial = search_gait(ROBOT, 0.2, executor="serial", **kw)  # type: ignore[arg-type]
+    par = search_gait(ROBOT, 0.2, executor="process", workers=2, **kw)  # type: ignore[arg-type]
+    support = TippingCost.for_robot(ROBOT, DEFAULT_TIPPING_WEIGHT)
+    for res in (serial, par):
+        assert res.final_templates == "compete" and res.accepted is True
+        # the first two candidates (both accepted), then the first template (accepted)
+        assert len(res.final_outcomes) == 3
+        totals = [o.plan.cost + support(o.plan.schedule) for o in res.final_outcomes]
+        assert res.total_cost == min(totals)
+        if res.fallback_template is not None:  # the template won over the searched winner
+            assert res.beaten_search_total == min(totals[:2]) > totals[2]
+        else:
+            assert res.beaten_search_total is None and min(totals[:2]) <= totals[2]
+    assert [o.plan.cost for o in serial.final_outcomes] == [
+        o.plan.cost for o in par.final_outcomes]
+    assert serial.fallback_template == par.fallback_template
+    assert serial.best.cost == par.best.cost
