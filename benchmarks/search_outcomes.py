@@ -45,7 +45,7 @@ record's candidates (`gait_search.final_tasks`) re-solved cold at 30 knots and c
 then the template fallback — is really run here (in this process, serially; a cold solve is the
 same bits in any process, `planner.search.final_phase`; identical schedules are solved once).
 `--final-candidates C[,C2...]` re-solves up to C timings instead of `FINAL_CANDIDATES` (rows
-"SETTING+genK+finalC"); `--final-templates compete` holds the winner against the first accepted
+"SETTING+genK+finalC"); `--final-templates compete` holds the winner against the cheapest accepted
 template (rows "...+compete", `final_phase.against_templates`). Each k appends a row
 "SETTING+genK" whose iterations are the truncated record's, and whose CPU is an estimate: the
 recorded run's CPU minus the dropped samples' worker CPU (solve + check) minus the recorded final
@@ -116,6 +116,7 @@ from planner.search.gait_search import (
     FINAL_CANDIDATES,
     SEARCH_WARM_STARTS,
     TimingSpace,
+    coarse_plan_solved,
     final_tasks,
 )
 from planner.search.support import TippingCost
@@ -358,7 +359,7 @@ class FinalReplayer:
         """The row of `rec`'s search stopped after generation k (module docstring), its final
         phase re-solving up to `candidates` timings (`search_gait(final_candidates=...)`),
         choosing among them by `choice` (`search_gait(final_choice=...)`) and, with
-        `templates` "compete", holding the winner against the first accepted template
+        `templates` "compete", holding the winner against the cheapest accepted template
         (`search_gait(final_templates=...)`)."""
         records: list = rec["records"]
         names: list[str] = rec["templates"]
@@ -382,7 +383,7 @@ class FinalReplayer:
         chosen = choose_final(tasks, searched, self.outcomes(tasks), choice, score=total)
         beaten = None
         if templates == FINAL_TEMPLATES_COMPETE and contested(chosen):
-            rivals, rival_results = template_tasks(tasks, searched)
+            rivals, rival_results = template_tasks(tasks, searched, coarse_plan_solved)
             rival = against_templates(chosen, rivals, rival_results, self.outcomes(rivals),
                                       score=total)
             if rival.fallback_template is not None:

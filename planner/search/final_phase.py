@@ -9,8 +9,9 @@ first that is feasible and accepted (or feasible, when nothing checks) wins. If 
 check exists, the templates the search started from, cheapest first (their own schedules, as
 `gaitsmith plan` plans them, skipping any identical to a candidate tried), the first accepted
 wins; else the first feasible candidate, reported as not accepted (or the first one, infeasible).
-With ``final_templates="compete"`` a candidate that won is then held against the first accepted
-template in the same order, and the cheaper one is written (`against_templates`).
+With ``final_templates="compete"`` a candidate that won is then held against the cheapest
+accepted template (those whose coarse plan solved), and the cheaper one is written
+(`against_templates`).
 
 Where it runs: with the serial executor, in this process, one task at a time and only as far as
 the rule reads (`SerialExecutor.ordered`). With the process pool or Ray, on the search's workers:
@@ -204,10 +205,13 @@ def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
     return FinalChoice(*chosen, fallback, tuple(read))
 
 
-def template_tasks(tasks: Sequence[FinalTask], searched: Sequence[LocalResult]
+def template_tasks(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
+                   keep: Callable[[LocalResult], bool] = lambda result: True,
                    ) -> tuple[list[FinalTask], list[LocalResult]]:
-    """The fallback's template tasks of `tasks` (in their order) and their search results."""
-    pairs = [(t, r) for t, r in zip(tasks, searched, strict=True) if t.template is not None]
+    """The fallback's template tasks of `tasks` whose search result `keep` takes (in their
+    order), and those results."""
+    pairs = [(t, r) for t, r in zip(tasks, searched, strict=True)
+             if t.template is not None and keep(r)]
     return [t for t, _ in pairs], [r for _, r in pairs]
 
 
@@ -221,32 +225,29 @@ def against_templates(choice: FinalChoice, tasks: Sequence[FinalTask],
                       searched: Sequence[LocalResult], outcomes: Iterable[FinalOutcome],
                       score: Callable[[PlanResult], float] | None = None) -> FinalChoice:
     """`choice`, a searched candidate the final check accepted, against the templates the
-    search started from (``final_templates="compete"``): the template tasks (`template_tasks`,
-    in the fallback's rank order) are read lazily from `outcomes` up to the first that is
-    feasible and accepted, and that template wins if its `score` (default: the plan's cost) is
-    lower. So the search never writes a gait costlier than the one its fallback would have
-    written had nothing searched passed — the coarse cost ranks full-resolution costs poorly,
-    and a search can otherwise write a candidate several times costlier than a template
-    (docs/results/planner_speed_search.md, session 36, spotmicro seed 1: 6.3×).
+    search started from (``final_templates="compete"``): every template task given
+    (`template_tasks`: the search passes those whose coarse plan solved) is read from
+    `outcomes`, and the accepted one with the lowest `score` (default: the plan's cost) wins if
+    it is lower than the candidate's. So the search never writes a gait costlier than a template
+    that `gaitsmith plan ROBOT --gait NAME` would plan and the same check would pass — the
+    coarse cost ranks full-resolution costs poorly, and a search can otherwise write a candidate
+    several times costlier than a template (docs/results/planner_speed_search.md, session 36,
+    spotmicro seed 1: 6.3×; session 37).
     A `choice` that is not `contested` is returned as it is (its rule has read the
     templates)."""
     if not contested(choice):
         return choice
+    if any(task.template is None for task in tasks):
+        raise ValueError("against_templates: tasks must be template tasks (`template_tasks`)")
     rank = score or (lambda plan: plan.cost)
     read = list(choice.read)
-    pending = iter(outcomes)
-    for task, result in zip(tasks, searched, strict=True):
-        if task.template is None:
-            raise ValueError("against_templates: tasks must be template tasks "
-                             "(`template_tasks`)")
-        out = next(pending, None)
-        if out is None:
-            break
+    best: tuple[float, FinalChoice] | None = None
+    for task, result, out in zip(tasks, searched, outcomes, strict=False):
         read.append(out)
-        if out.plan.feasible and out.ok:
-            if rank(out.plan) < rank(choice.plan):
-                return FinalChoice(out.plan, result, True, task.template, tuple(read))
-            break
+        if out.plan.feasible and out.ok and (best is None or rank(out.plan) < best[0]):
+            best = (rank(out.plan), FinalChoice(out.plan, result, True, task.template, ()))
+    if best is not None and best[0] < rank(choice.plan):
+        return replace(best[1], read=tuple(read))
     return replace(choice, read=tuple(read))
 
 

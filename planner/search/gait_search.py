@@ -518,13 +518,18 @@ def final_rank(result: LocalResult) -> tuple[int, float]:
     return (1, result.cost) if getattr(result, "plan_feasible", False) else (2, math.inf)
 
 
+def coarse_plan_solved(result: LocalResult) -> bool:
+    """Whether a coarse solve gave a plan the final phase may re-solve (`final_rank` < 2)."""
+    return final_rank(result)[0] < 2
+
+
 def final_candidates_of(records: Iterable[tuple[np.ndarray, LocalResult]], k: int
                         ) -> list[tuple[np.ndarray, LocalResult]]:
     """Up to k distinct samples to re-solve at full resolution, best first: the feasible ones
     by cost, then those whose plan solved but whose gait failed acceptance (at the coarse
     resolution of the search; they may pass at the final one), by cost."""
 
-    usable = sorted((r for r in records if final_rank(r[1])[0] < 2),
+    usable = sorted((r for r in records if coarse_plan_solved(r[1])),
                     key=lambda record: final_rank(record[1]))
     picked: list[tuple[np.ndarray, LocalResult]] = []
     for x, res in usable:
@@ -689,7 +694,7 @@ def search_gait(
     of its knots (`planner.nlp.half_cycle`); the final re-solves keep `options`'.
     `final_templates` (`defaults.FINAL_TEMPLATES`): "fallback" — the templates are re-solved
     only if no searched timing passes; "compete" — an accepted searched winner is also held
-    against the first accepted template (in the fallback's order), the cheaper is written
+    against the cheapest accepted template whose coarse plan solved, the cheaper is written
     (`final_phase.against_templates`; needs a final check, else the same as "fallback").
     """
     t0, c0 = time.perf_counter(), time.process_time()
@@ -822,7 +827,7 @@ def search_gait(
             return plan.cost + tipping(plan.schedule)
 
         compete = final_templates == defaults.FINAL_TEMPLATES_COMPETE
-        rivals, rival_results = template_tasks(tasks, searched)
+        rivals, rival_results = template_tasks(tasks, searched, coarse_plan_solved)
         if on_workers:
             with ex.ordered(worker_final_solve, tasks) as outcomes:
                 # the workers solve the first candidates meanwhile
@@ -930,7 +935,7 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
               "full resolution (else the first accepted after them)",
               defaults.FINAL_CHOICE_CHEAPEST: "the accepted one cheapest at full resolution",
               }.get(result.final_choice, result.final_choice)
-    rivals = (" against the first accepted template (the cheaper is written)"
+    rivals = (" against the cheapest accepted template (the cheaper is written)"
               if result.final_templates == defaults.FINAL_TEMPLATES_COMPETE else "")
     lines.append(f"# final phase: up to {result.final_candidates} searched timings re-solved "
                  f"at full resolution ({result.final_candidates_reason}); {winner} wins"
@@ -964,6 +969,7 @@ __all__ = [
     "TimingSolver",
     "TimingSolverFactory",
     "TimingSpace",
+    "coarse_plan_solved",
     "cost_of_transport",
     "final_rank",
     "final_tasks",
