@@ -104,11 +104,9 @@ from planner.search.final_phase import (
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
-    against_templates,
     choose_final,
-    contested,
+    compete_order,
     evaluate_final,
-    template_tasks,
 )
 from planner.search.gait_search import (
     DEFAULT_SEARCH_KNOTS,
@@ -380,15 +378,10 @@ class FinalReplayer:
             """The search's objective at full resolution (`search_gait`'s final score)."""
             return plan.cost + tipping(plan.schedule)
 
-        chosen = choose_final(tasks, searched, self.outcomes(tasks), choice, score=total)
-        beaten = None
-        if templates == FINAL_TEMPLATES_COMPETE and contested(chosen):
-            rivals, rival_results = template_tasks(tasks, searched, coarse_plan_solved)
-            rival = against_templates(chosen, rivals, rival_results, self.outcomes(rivals),
-                                      score=total)
-            if rival.fallback_template is not None:
-                beaten = total(chosen.plan)
-            chosen = rival
+        rival = coarse_plan_solved if templates == FINAL_TEMPLATES_COMPETE else None
+        if rival is not None:
+            tasks, searched = compete_order(tasks, searched, choice, rival)
+        chosen = choose_final(tasks, searched, self.outcomes(tasks), choice, total, rival)
         replay_cpu = sum(o.solve_cpu_s + o.check_cpu_s for o in chosen.read)
         base: dict = rec["row"]
         dropped = sum(_sample_cpu_s(r) for _, r in records[len(cut):])
@@ -399,7 +392,7 @@ class FinalReplayer:
         return {
             **base, "setting": replay_setting(base["setting"], k, candidates, choice),
             "generations": k, "final_candidates": candidates, "final_choice": choice,
-            "final_templates": templates, "beaten_search_total": beaten,
+            "final_templates": templates, "beaten_search_total": chosen.beaten_score,
             "utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
             "load_start": os.getloadavg()[0], "load_end": os.getloadavg()[0],
             "cpu_s": base["cpu_s"] - dropped - rec["final_cpu_s"] + replay_cpu,

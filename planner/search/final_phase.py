@@ -9,9 +9,9 @@ first that is feasible and accepted (or feasible, when nothing checks) wins. If 
 check exists, the templates the search started from, cheapest first (their own schedules, as
 `gaitsmith plan` plans them, skipping any identical to a candidate tried), the first accepted
 wins; else the first feasible candidate, reported as not accepted (or the first one, infeasible).
-With ``final_templates="compete"`` a candidate that won is then held against the cheapest
-accepted template (those whose coarse plan solved), and the cheaper one is written
-(`against_templates`).
+With ``final_templates="compete"`` the templates whose coarse plan solved are read right after
+the compared candidates (`compete_order`), and the cheapest accepted one is written if it beats
+the candidates' winner (`choose_final(rival=...)`).
 
 Where it runs: with the serial executor, in this process, one task at a time and only as far as
 the rule reads (`SerialExecutor.ordered`). With the process pool or Ray, on the search's workers:
@@ -106,6 +106,9 @@ class FinalChoice:
     accepted: bool | None
     fallback_template: str | None
     read: tuple[FinalOutcome, ...]
+    #: the score of the candidates' accepted winner when a rival template beat it (None: it
+    #: did not, or no candidate was accepted)
+    beaten_score: float | None = None
 
 
 def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
@@ -151,9 +154,39 @@ def worker_final_solve(task: FinalTask) -> FinalOutcome:
     return replace(out, build_s=build_s, build_cpu_s=build_cpu_s)
 
 
+def compared_candidates(choice: str, n_tasks: int) -> int:
+    """How many candidates `choice` compares before the cheapest accepted one wins (1: the
+    first accepted wins)."""
+    if choice not in FINAL_CHOICES:
+        raise ValueError(f"choose_final: choice must be one of {', '.join(FINAL_CHOICES)}, "
+                         f"got {choice!r}")
+    return {FINAL_CHOICE_FIRST: 1, FINAL_CHOICE_CHEAPEST_OF_2: 2,
+            FINAL_CHOICE_CHEAPEST: n_tasks}[choice]
+
+
+def compete_order(tasks: Sequence[FinalTask], searched: Sequence[LocalResult], choice: str,
+                  rival: Callable[[LocalResult], bool],
+                  ) -> tuple[list[FinalTask], list[LocalResult]]:
+    """`tasks` (candidates, then templates) in the order `choose_final(..., rival=rival)` reads
+    them: the candidates `choice` compares, the rival templates (those whose search result
+    `rival` takes), the other candidates, the other templates. The rivals are read right after
+    the compared candidates, in one stream: a second stream after the first would wait for the
+    first one's speculative solves (a 30-knot candidate can take tens of seconds) instead of
+    stopping them."""
+    pairs = list(zip(tasks, searched, strict=True))
+    candidates = [pr for pr in pairs if pr[0].template is None]
+    templates = [pr for pr in pairs if pr[0].template is not None]
+    n = compared_candidates(choice, len(tasks))
+    rivals = [pr for pr in templates if rival(pr[1])]
+    others = [pr for pr in templates if not rival(pr[1])]
+    order = candidates[:n] + rivals + candidates[n:] + others
+    return [t for t, _ in order], [r for _, r in order]
+
+
 def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
                  outcomes: Iterable[FinalOutcome], choice: str = FINAL_CHOICE_FIRST,
-                 score: Callable[[PlanResult], float] | None = None) -> FinalChoice:
+                 score: Callable[[PlanResult], float] | None = None,
+                 rival: Callable[[LocalResult], bool] | None = None) -> FinalChoice:
     """The module's rule over `outcomes`, read lazily in the order of `tasks` (candidates
     first, then fallback templates, each with the search result of its timing in `searched`);
     stops reading at the first winner. `tasks` must hold at least one candidate.
@@ -164,28 +197,38 @@ def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
     "cheapest-of-2": the same over the first two candidates; if neither is accepted, the first
     accepted after them wins, as with "first". The coarse cost ranks the candidates, but the
     search's later samples can be coarse-cheaper and costlier at full resolution
-    (docs/results/planner_speed_search.md, session 35)."""
-    if choice not in FINAL_CHOICES:
-        raise ValueError(f"choose_final: choice must be one of {', '.join(FINAL_CHOICES)}, "
-                         f"got {choice!r}")
-    # candidates read before the cheapest accepted one wins (1: the first accepted wins)
-    compared = {FINAL_CHOICE_FIRST: 1, FINAL_CHOICE_CHEAPEST_OF_2: 2,
-                FINAL_CHOICE_CHEAPEST: len(tasks)}[choice]
+    (docs/results/planner_speed_search.md, session 35).
+
+    `rival` (``final_templates="compete"``; `tasks` in `compete_order`): the templates it takes
+    (the search: those whose coarse plan solved) are read too, and the cheapest accepted one
+    wins if its `score` is lower than the candidates' winner's — or if no candidate is accepted
+    (then before the other templates). So the search never writes a gait costlier than a
+    template that `gaitsmith plan ROBOT --gait NAME` would plan and the same check would pass:
+    a search can otherwise write a candidate several times costlier than a template
+    (docs/results/planner_speed_search.md, session 36, spotmicro seed 1: 6.3×; session 37)."""
+    compared = compared_candidates(choice, len(tasks))
     rank = score or (lambda plan: plan.cost)
     chosen: tuple[PlanResult, LocalResult, bool | None] | None = None
     winners: list[tuple[float, int, PlanResult, LocalResult, bool | None]] = []
+    rivals: list[tuple[float, int, PlanResult, LocalResult, str]] = []
     fallback: str | None = None
     read: list[FinalOutcome] = []
+    n_candidates = 0
     pending = iter(outcomes)
     for task, result in zip(tasks, searched, strict=False):
-        if winners and (task.template is not None or len(read) >= compared):
-            break  # a candidate won; the rest are not read (nor solved)
+        is_rival = task.template is not None and rival is not None and rival(result)
+        if task.template is None:
+            if winners and n_candidates >= compared:
+                break  # a candidate won; the rest are not read (nor solved)
+        elif not is_rival and (winners or rivals):
+            break  # the fallback's other templates: only when nothing was accepted
         out = next(pending, None)
         if out is None:
             break
         read.append(out)
         plan = out.plan
         if task.template is None:
+            n_candidates += 1
             if not plan.feasible:
                 chosen = chosen or (plan, result, None)
                 continue
@@ -195,60 +238,23 @@ def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
             if chosen is None or not chosen[0].feasible:
                 chosen = (plan, result, False)
         elif plan.feasible and out.ok:
+            if is_rival:
+                rivals.append((rank(plan), len(rivals), plan, result, task.template))
+                continue
             chosen, fallback = (plan, result, True), task.template
             break
     if winners:
         _, _, plan, result, ok = min(winners, key=lambda w: (w[0], w[1]))
         chosen = (plan, result, ok)
+    beaten: float | None = None
+    if rivals:
+        cost, _, plan, result, name = min(rivals, key=lambda w: (w[0], w[1]))
+        if not winners or cost < rank(chosen[0]):  # type: ignore[index]
+            beaten = rank(chosen[0]) if winners else None  # type: ignore[index]
+            chosen, fallback = (plan, result, True), name
     if chosen is None:
         raise ValueError("choose_final: no candidate was read (the tasks start with one)")
-    return FinalChoice(*chosen, fallback, tuple(read))
-
-
-def template_tasks(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
-                   keep: Callable[[LocalResult], bool] = lambda result: True,
-                   ) -> tuple[list[FinalTask], list[LocalResult]]:
-    """The fallback's template tasks of `tasks` whose search result `keep` takes (in their
-    order), and those results."""
-    pairs = [(t, r) for t, r in zip(tasks, searched, strict=True)
-             if t.template is not None and keep(r)]
-    return [t for t, _ in pairs], [r for _, r in pairs]
-
-
-def contested(choice: FinalChoice) -> bool:
-    """Whether `against_templates` would read templates for `choice`: a searched candidate
-    the final check accepted (a template winner, or no accepted one, has read them already)."""
-    return choice.fallback_template is None and bool(choice.accepted)
-
-
-def against_templates(choice: FinalChoice, tasks: Sequence[FinalTask],
-                      searched: Sequence[LocalResult], outcomes: Iterable[FinalOutcome],
-                      score: Callable[[PlanResult], float] | None = None) -> FinalChoice:
-    """`choice`, a searched candidate the final check accepted, against the templates the
-    search started from (``final_templates="compete"``): every template task given
-    (`template_tasks`: the search passes those whose coarse plan solved) is read from
-    `outcomes`, and the accepted one with the lowest `score` (default: the plan's cost) wins if
-    it is lower than the candidate's. So the search never writes a gait costlier than a template
-    that `gaitsmith plan ROBOT --gait NAME` would plan and the same check would pass — the
-    coarse cost ranks full-resolution costs poorly, and a search can otherwise write a candidate
-    several times costlier than a template (docs/results/planner_speed_search.md, session 36,
-    spotmicro seed 1: 6.3×; session 37).
-    A `choice` that is not `contested` is returned as it is (its rule has read the
-    templates)."""
-    if not contested(choice):
-        return choice
-    if any(task.template is None for task in tasks):
-        raise ValueError("against_templates: tasks must be template tasks (`template_tasks`)")
-    rank = score or (lambda plan: plan.cost)
-    read = list(choice.read)
-    best: tuple[float, FinalChoice] | None = None
-    for task, result, out in zip(tasks, searched, outcomes, strict=False):
-        read.append(out)
-        if out.plan.feasible and out.ok and (best is None or rank(out.plan) < best[0]):
-            best = (rank(out.plan), FinalChoice(out.plan, result, True, task.template, ()))
-    if best is not None and best[0] < rank(choice.plan):
-        return replace(best[1], read=tuple(read))
-    return replace(choice, read=tuple(read))
+    return FinalChoice(*chosen, fallback, tuple(read), beaten)
 
 
 __all__ = [
@@ -261,11 +267,10 @@ __all__ = [
     "FinalOutcome",
     "FinalPlannerSpec",
     "FinalTask",
-    "against_templates",
     "choose_final",
-    "contested",
+    "compared_candidates",
+    "compete_order",
     "evaluate_final",
     "prepare_final",
-    "template_tasks",
     "worker_final_solve",
 ]

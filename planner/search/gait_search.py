@@ -84,12 +84,10 @@ from planner.search.final_phase import (
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
-    against_templates,
     choose_final,
-    contested,
+    compete_order,
     evaluate_final,
     prepare_final,
-    template_tasks,
     worker_final_solve,
 )
 from planner.search.support import TippingCost
@@ -826,35 +824,21 @@ def search_gait(
             """What the search minimises, at full resolution: how `final_choice` compares."""
             return plan.cost + tipping(plan.schedule)
 
-        compete = final_templates == defaults.FINAL_TEMPLATES_COMPETE
-        rivals, rival_results = template_tasks(tasks, searched, coarse_plan_solved)
+        rival = (coarse_plan_solved if final_templates == defaults.FINAL_TEMPLATES_COMPETE
+                 else None)
+        if rival is not None:
+            tasks, searched = compete_order(tasks, searched, final_choice, rival)
         if on_workers:
             with ex.ordered(worker_final_solve, tasks) as outcomes:
                 # the workers solve the first candidates meanwhile
                 final, final_build_s, final_build_cpu_s = final_planner()
-                choice = choose_final(tasks, searched, outcomes, final_choice, score)
-            if compete and contested(choice):
-                with ex.ordered(worker_final_solve, rivals) as outcomes:
-                    rival_choice = against_templates(choice, rivals, rival_results, outcomes,
-                                                     score)
+                choice = choose_final(tasks, searched, outcomes, final_choice, score, rival)
         else:
             final, final_build_s, final_build_cpu_s = final_planner()
             check = final_check() if final_check is not None else None
-
-            def solve_task(task: FinalTask) -> FinalOutcome:
-                return evaluate_final(final, check, task.schedule, speed_m_s)
-
-            with ex.ordered(solve_task, tasks) as outcomes:
-                choice = choose_final(tasks, searched, outcomes, final_choice, score)
-            if compete and contested(choice):
-                with ex.ordered(solve_task, rivals) as outcomes:
-                    rival_choice = against_templates(choice, rivals, rival_results, outcomes,
-                                                     score)
-        beaten: float | None = None
-        if compete and contested(choice):
-            if rival_choice.fallback_template is not None:
-                beaten = score(choice.plan)
-            choice = rival_choice
+            with ex.ordered(lambda task: evaluate_final(final, check, task.schedule, speed_m_s),
+                            tasks) as outcomes:
+                choice = choose_final(tasks, searched, outcomes, final_choice, score, rival)
     # the final phase ends when the pool has shut down (workers still solving are stopped)
     t_end, c_end = time.perf_counter(), time.process_time()
     best, won, accepted, fallback = choice.plan, choice.searched, choice.accepted, \
@@ -873,7 +857,7 @@ def search_gait(
         final_outcomes=choice.read, final_on_workers=on_workers,
         final_candidates=n_final, final_candidates_reason=n_final_reason,
         final_choice=final_choice, search_half_cycle=search_half_cycle,
-        final_templates=final_templates, beaten_search_total=beaten,
+        final_templates=final_templates, beaten_search_total=choice.beaten_score,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
         phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,

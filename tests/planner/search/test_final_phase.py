@@ -33,11 +33,9 @@ from planner.search.final_phase import (
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
-    against_templates,
     choose_final,
-    contested,
+    compete_order,
     prepare_final,
-    template_tasks,
 )
 from planner.search.gait_search import search_gait
 from planner.search.support import TippingCost
@@ -192,45 +190,50 @@ def test_cheapest_reads_every_candidate_and_takes_the_cheapest_accepted_plan() -
 
 
 def test_a_cheaper_accepted_template_wins_over_the_searched_winner() -> None:
-    """"compete": the winner (2.0, accepted) against every template given: the cheapest
-    accepted one wins if it is cheaper, else the winner stays; a choice that is a template, or
-    not accepted, reads nothing more; `template_tasks` keeps the ones its filter takes."""
-    tasks, searched = _tasks([Fake(1.0, 0, True), Fake(1.1, 0, True), Fake(7.0, 0, True),
-                              Fake(8.0, 0, True), Fake(9.0, 0, True)], templates=3)
-    plans = [(2.0, True), (1.5, False)]
-    winner = choose_final(tasks, searched, _outcomes(plans, []))
-    assert (winner.plan.cost, winner.fallback_template) == (2.0, None) and contested(winner)
-    rivals, rival_results = template_tasks(tasks, searched)
-    assert [t.template for t in rivals] == ["t2", "t3", "t4"]
-    assert [r.cost for r in rival_results] == [7.0, 8.0, 9.0]
-    cases = [  # the templates' plans: (cost, verdict); the written cost and template
-        ([(1.8, False), (1.9, True), (0.5, True)], (0.5, "t4")),
-        ([(0.3, False), (1.9, True), (2.5, True)], (1.9, "t3")),
-        ([(3.0, True), (2.5, True), (2.1, True)], (2.0, None)),
-        ([(1.0, False), (0.9, False), (0.8, False)], (2.0, None)),
+    """"compete" (`rival`): the rival templates (here those with a coarse cost below 8.5) are
+    read right after the compared candidates, the cheapest accepted one wins if it is cheaper
+    than the candidates' winner, or if no candidate is accepted; the other templates only as
+    the fallback when nothing is accepted."""
+    tasks, searched = _tasks([Fake(1.0, 0, True), Fake(1.1, 0, True), Fake(1.2, 0, True),
+                              Fake(7.0, 0, True), Fake(8.0, 0, True), Fake(9.0, 0, True)],
+                             templates=3)
+
+    def rival(result: LocalResult) -> bool:
+        return result.cost < 8.5
+
+    order, results = compete_order(tasks, searched, FINAL_CHOICE_CHEAPEST_OF_2, rival)
+    assert [r.cost for r in results] == [1.0, 1.1, 7.0, 8.0, 1.2, 9.0]
+    first_order = compete_order(tasks, searched, "first", rival)[1]
+    assert [r.cost for r in first_order] == [1.0, 7.0, 8.0, 1.1, 1.2, 9.0]
+    cases = [  # plans in the order read: (cost, verdict); written cost, template, beaten, read
+        # both candidates pass (2.0, 1.9); the rivals 0.5 (pass) and 0.3 (fail): 0.5 wins
+        ([(2.0, True), (1.9, True), (0.5, True), (0.3, False), (0.1, True), (0.1, True)],
+         (0.5, "t3", 1.9, 4)),
+        # the rivals are costlier: the candidates' winner stays
+        ([(2.0, True), (1.9, True), (2.5, True), (2.1, True), (0.1, True), (0.1, True)],
+         (1.9, None, None, 4)),
+        # no compared candidate passes: the rivals, then the third candidate, which passes
+        ([(2.0, False), (1.9, False), (3.0, True), (2.6, True), (1.0, True), (0.1, True)],
+         (1.0, None, None, 5)),
+        # nothing searched passes: the cheapest accepted rival, the last template not read
+        ([(2.0, False), (1.9, False), (3.0, True), (2.6, True), (1.0, False), (0.1, True)],
+         (2.6, "t4", None, 5)),
+        # no candidate nor rival passes: the other template, as the fallback
+        ([(2.0, False), (1.9, False), (3.0, False), (2.6, False), (1.0, False), (4.0, True)],
+         (4.0, "t5", None, 6)),
     ]
-    for template_plans, expected in cases:
+    for plans, (cost, template, beaten, n_read) in cases:
         read: list[float] = []
-        got = against_templates(winner, rivals, rival_results, _outcomes(template_plans, read))
-        assert (got.plan.cost, got.fallback_template) == expected and got.accepted is True
-        # every template read once, after the winner
-        assert [o.plan.cost for o in got.read] == [2.0, *read]
-        assert read == [c for c, _ in template_plans]
-        if got.fallback_template is not None:
-            assert got.searched is rival_results[rivals.index(
-                next(t for t in rivals if t.template == got.fallback_template))]
-    assert template_tasks(tasks, searched, lambda r: r.cost > 7.5)[0] == rivals[1:]
-    # the score replaces the plan's cost (the search: cost + support term)
-    got = against_templates(winner, rivals, rival_results, _outcomes([(1.9, True)], []),
-                            score=lambda plan: -plan.cost)
-    assert got.fallback_template is None
-    # a template that won the fallback, or no accepted winner: nothing more to read
-    back = choose_final(tasks, searched, _outcomes([(2.0, False), (1.5, False), (3.0, True)],
-                                                   []))
-    assert back.fallback_template == "t2" and not contested(back)
-    assert against_templates(back, rivals, rival_results, _outcomes([(0.1, True)], [])) is back
-    with pytest.raises(ValueError, match="must be template tasks"):
-        against_templates(winner, tasks, searched, _outcomes([(0.1, True)], []))
+        got = choose_final(order, results, _outcomes(plans, read), FINAL_CHOICE_CHEAPEST_OF_2,
+                           rival=rival)
+        assert (got.plan.cost, got.fallback_template, got.beaten_score, len(read)) == (
+            cost, template, beaten, n_read)
+    # without `rival` the same outcomes in today's order: the templates are the fallback only
+    plans = [(2.0, True), (1.9, True), (0.1, True), (0.5, True), (0.3, True), (0.1, True)]
+    read = []
+    plain = choose_final(tasks, searched, _outcomes(plans, read), FINAL_CHOICE_CHEAPEST_OF_2)
+    assert (plain.plan.cost, plain.fallback_template, plain.beaten_score, read) == (
+        1.9, None, None, [2.0, 1.9])
 
 
 def test_an_interrupted_final_phase_leaves_no_worker_and_stays_an_interruption(
