@@ -46,7 +46,6 @@ import json
 import math
 import os
 import re
-import sys
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -406,14 +405,16 @@ def cmd_table(args: argparse.Namespace) -> None:
         k, n = flips(rows, other)
         print(f"- verdict flips {what}: {k} of {n}")
     print()
-    print("| check | median / max |Δ margin| full vs half | full vs full~k |")
+    print("| check: median / 90th percentile / max of |Δ margin| | full vs half | "
+          "full vs full~k |")
     print("|---|---|---|")
     for check in ("heading", "speed", "lateral drift", "yaw drift", "tilt", "foot slip",
                   "peak torque"):
         cells = []
         for other in ("half", "full~"):
             d = sorted(spreads(rows, other, check))
-            cells.append(f"{np.median(d):.3f} / {max(d):.3f} (n {len(d)})" if d else "—")
+            cells.append(f"{np.median(d):.3f} / {np.percentile(d, 90):.3f} / {max(d):.3f} "
+                         f"(n {len(d)})" if d else "—")
         print(f"| {check} | " + " | ".join(cells) + " |")
 
 
@@ -444,4 +445,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main()
