@@ -343,13 +343,16 @@ def cell(name: str, run: dict[str, Any]) -> str:
     return ", ".join(parts)
 
 
-def line(row: dict[str, Any]) -> str:
+def line(row: dict[str, Any], seeds: Sequence[str] | None = None) -> str:
+    """One row of the table; `seeds`: the perturbed runs' columns ("—" where a row has none),
+    None: the row's own."""
     runs = row["runs"]
     full = runs["full"]
     cells = [f"{row['case']}", f"{full['cost']:.6g} ({full['iterations']} it)",
              cell("full", full),
              cell("half", runs["half"]) if "half" in runs else "= full (not symmetric)"]
-    cells += [cell(k, v) for k, v in runs.items() if k.startswith("full~")]
+    names = [k for k in runs if k.startswith("full~")] if seeds is None else seeds
+    cells += [cell(k, runs[k]) if k in runs else "—" for k in names]
     return "| " + " | ".join(cells) + " |"
 
 
@@ -395,11 +398,12 @@ def spreads(rows: Sequence[dict[str, Any]], other: str, check: str) -> Iterator[
 
 def cmd_table(args: argparse.Namespace) -> None:
     rows = [r for p in args.rows for r in rows_of(p)]
-    seeds = sorted({k for r in rows for k in r["runs"] if k.startswith("full~")})
+    seeds = sorted({k for r in rows for k in r["runs"] if k.startswith("full~")},
+                   key=lambda k: int(k[len("full~"):]))
     print("| case | full cost (it) | full | half | " + " | ".join(seeds) + " |")
     print("|---|---|---|---|" + "---|" * len(seeds))
     for row in rows:
-        print(line(row))
+        print(line(row, seeds))
     print()
     for other, what in (("half", "full vs half"), ("full~", "full vs full~k")):
         k, n = flips(rows, other)
