@@ -26,9 +26,13 @@ one of each mirror pair, none of those that vanish on the subspace (the sideways
 W = ½ on a row that is its own image. The ½ makes it exactly half of the full barrier problem
 restricted to the subspace — objective, barrier terms, constraint violation and multipliers
 (λ̃ = λ of the kept rows) — so IPOPT's steps, filter and stopping tests see the same numbers as
-on the full NLP at a symmetric point. Its derivatives come from the full NLP's own: J̃ = W·J_r·E
-and ∇²L̃ = Eᵀ·∇²L(E·x̃; σ/2, λ)·E. The KKT system is half the size, so a factorisation costs
-about half (its fill follows the knots' band).
+on the full NLP at a symmetric point. Its derivatives are the full NLP's: J̃ = W·J_r·E and
+∇²L̃ = Eᵀ·∇²L(E·x̃; σ/2, λ)·E, with the dropped rows' λ = 0. Assembled from one knot J and H per
+knot (`planner.nlp.assembled_jacobian`, `assembled_hessian`), they are built for the kept rows
+alone and evaluate the knot, J and H only at the knots those rows read (`reduced_nlp`): the
+first N/2 and knot N/2 (the stance no-slip rows of knot N/2 − 1 compare it with the next) — 16
+of 30 knots, the same values bit for bit as from all N. The KKT system is half the size, so a
+factorisation costs about half (its fill follows the knots' band).
 
 The result is judged on the full NLP: `GaitPlanner._result` evaluates every row and bound of all
 N knots at E·x̃ (a schedule or bound that is not symmetric would show there as a violation, not
