@@ -117,14 +117,7 @@ def assembled_hessian(
             dy_dx.append(ca.mtimes(ca.diagcat(*ca.horzsplit(blocks, n_u)), a))
         else:
             dy_dx.append(ca.MX(int(y_sym.shape[0]), n_x))
-    h_xy, h_yy = h_zz[:n_x, n_x:], h_zz[n_x:, n_x:]
-    if h_xy.nnz() or h_yy.nnz():
-        jac_a = ca.vertcat(*dy_dx)
-        if h_xy.nnz():
-            cross = ca.mtimes(h_xy, jac_a)
-            total = total + cross + cross.T
-        if h_yy.nnz():
-            total = total + ca.mtimes(jac_a.T, ca.mtimes(h_yy, jac_a))
+    total = _plus_output_terms(total, h_zz[:n_x, n_x:], h_zz[n_x:, n_x:], dy_dx)
     (hess,) = ca.graph_substitute([ca.triu(total)], y_syms, [
         ca.vec(ca.vertcat(*[per_knot(o, n) for o in call.outputs])) for call, _, _ in terms
     ])
@@ -171,12 +164,21 @@ def _hessian_at_read_knots(terms: Sequence[KnotTerm], read: list[tuple[int, ...]
         values.append(ca.vec(ca.vertcat(*[per_knot(o, n) for o in outputs])))
         lo = hi
     if read_z:
-        h_xy, h_yy = h_zz[:n_x, read_z], h_zz[read_z, read_z]
-        jac_a = ca.vertcat(*dy_dx)
-        if h_xy.nnz():
-            cross = ca.mtimes(h_xy, jac_a)
-            total = total + cross + cross.T
-        if h_yy.nnz():
-            total = total + ca.mtimes(jac_a.T, ca.mtimes(h_yy, jac_a))
+        total = _plus_output_terms(total, h_zz[:n_x, read_z], h_zz[read_z, read_z], dy_dx)
     (hess,) = ca.graph_substitute([ca.triu(total)], y_syms, values)
     return hess
+
+
+def _plus_output_terms(total: Any, h_xy: Any, h_yy: Any, dy_dx: list[Any]) -> Any:
+    """`total` plus the terms of Tᵀ·∇²_zz L̃·T (module docstring) through the outputs:
+    ∇²_xY·dY/dx, its transpose and (dY/dx)ᵀ·∇²_YY·dY/dx, with `dy_dx` the outputs (in the order
+    of `h_xy`'s columns) by x; only those with entries."""
+    if not (h_xy.nnz() or h_yy.nnz()):
+        return total
+    jac_a = ca.vertcat(*dy_dx)
+    if h_xy.nnz():
+        cross = ca.mtimes(h_xy, jac_a)
+        total = total + cross + cross.T
+    if h_yy.nnz():
+        total = total + ca.mtimes(jac_a.T, ca.mtimes(h_yy, jac_a))
+    return total

@@ -92,13 +92,19 @@ def test_a_whole_cycle_row_is_dropped_kept_or_halved_by_its_mirror_image(
     assert per_knot * 2 == drift.start  # half of every per-knot row
 
 
-def test_the_reduced_derivatives_match_finite_differences(
-        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
-    _, half = quad12_pair
+def _reduced_trot(half: GaitPlanner) -> tuple[robots.ContactSchedule, hc.HalfCycleNLP]:
+    """The trot and the reduced NLP a half-cycle solve of it built."""
     schedule = make_schedule(half.robot, "trot")
     half.solve(schedule, SPEED_M_S, warm_start=False)
     nlp = half._half_cycle
     assert isinstance(nlp, hc.HalfCycleNLP)
+    return schedule, nlp
+
+
+def test_the_reduced_derivatives_match_finite_differences(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+    _, half = quad12_pair
+    schedule, nlp = _reduced_trot(half)
     m, rows = nlp.mirror, nlp.rows
     p = parameter_vector(schedule, half.n_knots, SPEED_M_S, half.swing_clearance_m)
     rng = np.random.default_rng(1)
@@ -229,10 +235,7 @@ def test_the_reduced_nlp_evaluates_the_knots_its_rows_read_with_the_same_values(
     """f̃, g̃, J̃ and ∇²L̃ from the knots the kept rows read (the first half and knot N/2) equal
     those from the full NLP's J and H on all N knots (the construction without `knot_terms`)."""
     _, half = quad12_pair
-    schedule = make_schedule(half.robot, "trot")
-    half.solve(schedule, SPEED_M_S, warm_start=False)
-    nlp = half._half_cycle
-    assert isinstance(nlp, hc.HalfCycleNLP)
+    schedule, nlp = _reduced_trot(half)
     m, rows = nlp.mirror, nlp.rows
     args = (m, rows, half._nlp["x"], half._nlp["p"], half._nlp["f"], half._nlp["g"],
             half._jac_g, half._hess_l)
