@@ -577,7 +577,7 @@ class GaitPlanner:
             if self._jac_g is not None:
                 g_val, jac = self._jac_g(x_sym, p)
             else:
-                jac_f = ca.Function("jac", [self._nlp["x"], self._nlp["p"]],
+                jac_f = ca.Function("full_jac_g", [self._nlp["x"], self._nlp["p"]],
                                     [self._nlp["g"], ca.jacobian(self._nlp["g"], self._nlp["x"])])
                 g_val, jac = jac_f(x_sym, p)
             jac_reduced = ca.mtimes(ca.DM(jac), mirror.matrix())

@@ -266,3 +266,18 @@ def test_the_reduced_nlp_evaluates_the_knots_its_rows_read_with_the_same_values(
             assert a.sparsity() == b.sparsity()
             np.testing.assert_allclose(np.asarray(b.nonzeros()), np.asarray(a.nonzeros()),
                                        rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("option", [{"nlp_jacobian": "ad"}, {"nlp_hessian": "ad"}])
+def test_the_half_cycle_solve_with_casadis_own_derivatives(option: dict[str, str]) -> None:
+    """Without the assembled Jacobian (its rows over the whole cycle are then classified with
+    CasADi's AD Jacobian) or Hessian the reduced NLP takes the full solve's iterates too."""
+    robot = robots.load("quad12")
+    options = dataclasses.replace(PlannerOptions(max_iter=60), **option)
+    schedule = make_schedule(robot, "trot")
+    a = GaitPlanner(robot, 12, options).solve(schedule, SPEED_M_S, warm_start=False)
+    b = GaitPlanner(robot, 12, dataclasses.replace(options, half_cycle_solve=True)).solve(
+        schedule, SPEED_M_S, warm_start=False)
+    assert b.stats["half_cycle"] is True and a.feasible and b.feasible
+    assert b.iterations == a.iterations
+    assert abs(b.cost - a.cost) <= 1e-9 * abs(a.cost)
