@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -166,7 +167,6 @@ def test_ctrl_c_inside_a_half_cycle_solve_raises_keyboard_interrupt(
     is a KeyboardInterrupt, not an infeasible result."""
     import signal
     import threading
-    from typing import Any
 
     _, half = quad12_pair
     schedule = make_schedule(half.robot, "trot")
@@ -269,7 +269,7 @@ def test_the_reduced_nlp_evaluates_the_knots_its_rows_read_with_the_same_values(
 
 
 @pytest.mark.parametrize("option", [{"nlp_jacobian": "ad"}, {"nlp_hessian": "ad"}])
-def test_the_half_cycle_solve_with_casadis_own_derivatives(option: dict[str, str]) -> None:
+def test_the_half_cycle_solve_with_casadis_own_derivatives(option: dict[str, Any]) -> None:
     """Without the assembled Jacobian (its rows over the whole cycle are then classified with
     CasADi's AD Jacobian) or Hessian the reduced NLP takes the full solve's iterates too."""
     robot = robots.load("quad12")
