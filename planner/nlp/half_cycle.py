@@ -303,7 +303,8 @@ def reduced_nlp(mirror: VariableMirror, rows: RowSelection, x: Any, p: Any, f: A
     after it (the stance no-slip rows compare knot k with k + 1) — with J and ∇²L assembled for
     the kept rows alone (`assembled_jacobian`, `assembled_hessian` with `knots_read_only`),
     instead of calling the full NLP's `jac_g` and `hess_l` (every knot and row, half of them
-    thrown away). The same values to rounding (tests/planner/nlp/test_half_cycle.py)."""
+    thrown away). The same values, bit for bit where measured (quad12, hex18, the biped;
+    tests/planner/nlp/test_half_cycle.py, docs/results/planner_speed_halfeval.md)."""
     e = mirror.matrix()
     xr = ca.MX.sym("x_half", mirror.n_reduced)
     pr = ca.MX.sym("p", p.shape[0], p.shape[1])
@@ -320,8 +321,8 @@ def reduced_nlp(mirror: VariableMirror, rows: RowSelection, x: Any, p: Any, f: A
     derivatives: dict[str, ca.Function] = {}
     if jac_g is not None:
         if knot_terms:
-            _, jacobian, _ = knot_terms[0]
-            g_j, jac = assembled_jacobian(x, p, g[keep], knot_terms[0][0], jacobian, n_knots,
+            call, jacobian, _ = knot_terms[0]
+            g_j, jac = assembled_jacobian(x, p, g[keep], call, jacobian, n_knots,
                                           knots_read_only=True)(x_full, pr)
         else:
             g_j, jac = jac_g(x_full, pr)
