@@ -24,6 +24,11 @@ derivatives of their own (the flat feet's ``flat_knot`` and the soles' ``soles``
 `planner.nlp.solver_cache.DerivedFunctions`, recorded by `call_mapped`) are treated the same way,
 each with its own Y, J and H (z then holds every one's outputs). Exact, not an approximation:
 the same Hessian to rounding (tests/planner/nlp/test_assembled_hessian.py).
+
+`knots_read_only` (the half-cycle solve's rows, `planner.nlp.half_cycle`): each function's H and
+J are evaluated only at the knots whose outputs L̃ reads (structurally: the entries of ∂L̃/∂Y; the
+others' μ_k, rows and columns of ∇²_zz L̃ are structurally zero), and the knot itself too when
+its call carries it (`KnotCall.at_knots`).
 """
 
 from __future__ import annotations
@@ -35,30 +40,28 @@ import casadi as ca
 import numpy as np
 
 from planner.errors import PlannerConfigError
-from planner.nlp.assembled_jacobian import KnotCall
+from planner.nlp.assembled_jacobian import (
+    KnotCall,
+    columns,
+    knots_with_entries,
+    per_knot,
+    stacked_inputs,
+)
 
 #: one per-knot function's call in the NLP with its J(u) and H(u, μ) (`jacobian_and_hessian`)
 KnotTerm = tuple[KnotCall, ca.Function, ca.Function]
 
 
-def _per_knot(value: Any, n_knots: int) -> Any:
-    """A mapped argument or result (rows × cols·N) as one column per knot (its numel × N, each
-    knot's block in column-major order, as the knot's u and y stack them); an argument of one
-    knot's shape (broadcast to every knot) repeated N times."""
-    rows, cols = int(value.shape[0]), int(value.shape[1])
-    if cols >= n_knots and cols % n_knots == 0:
-        return ca.reshape(value, rows * cols // n_knots, n_knots)
-    return ca.repmat(ca.vec(value), 1, n_knots)
-
-
 def assembled_hessian(
-    x: Any, p: Any, f: Any, g: Any, terms: Sequence[KnotTerm], n_knots: int
+    x: Any, p: Any, f: Any, g: Any, terms: Sequence[KnotTerm], n_knots: int,
+    knots_read_only: bool = False,
 ) -> ca.Function:
     """CasADi's ``nlp_hess_l`` signature, (x, p, σ, λ) ↦ triu(∇²ₓₓ(σ f + λᵀ g)), assembled as in
     the module docstring for every per-knot function of `terms`: its call in f and g, u ↦ J(u)
     and (u, μ) ↦ H(u, μ) of one knot (u: its inputs stacked in order, μ: one multiplier per
     output non-zero). Raises `PlannerConfigError` if a call's inputs are not affine in x (the
-    formula would miss their curvature)."""
+    formula would miss their curvature). `knots_read_only`: each function evaluated only at the
+    knots whose outputs f and g read (module docstring)."""
     n = n_knots
     n_x = int(x.shape[0])
     y_syms: list[Any] = []
@@ -67,15 +70,15 @@ def assembled_hessian(
     knot_u: list[Any] = []
     du_dx: list[Any] = []
     for call, _, _ in terms:
-        per_knot = [int(o.numel()) // n for o in call.outputs]
-        y_sym = ca.MX.sym("y", sum(per_knot) * n)
-        y = ca.reshape(y_sym, sum(per_knot), n)  # knot k's outputs stacked in column k
-        parts = ca.vertsplit(y, np.cumsum([0, *per_knot]).tolist())
+        sizes = [int(o.numel()) // n for o in call.outputs]
+        y_sym = ca.MX.sym("y", sum(sizes) * n)
+        y = ca.reshape(y_sym, sum(sizes), n)  # knot k's outputs stacked in column k
+        parts = ca.vertsplit(y, np.cumsum([0, *sizes]).tolist())
         for out, part in zip(call.outputs, parts, strict=True):
             outputs.append(out)
             substitutes.append(ca.reshape(part, out.shape[0], out.shape[1]))
         y_syms.append(y_sym)
-        u = ca.vertcat(*[_per_knot(v, n) for v in call.inputs])
+        u = stacked_inputs(call, n)
         a = ca.jacobian(ca.vec(u), x)
         if ca.depends_on(a, x):
             raise PlannerConfigError(
@@ -89,7 +92,16 @@ def assembled_hessian(
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", int(g.shape[0]))
     z = ca.vertcat(x, *y_syms)
-    h_zz, grad_z = ca.hessian(lam_f * f_y + ca.dot(lam_g, g_y), z)
+    lagrangian = lam_f * f_y + ca.dot(lam_g, g_y)
+    h_zz, grad_z = ca.hessian(lagrangian, z)
+    if knots_read_only:
+        read = [knots_with_entries(ca.jacobian_sparsity(lagrangian, y_sym),
+                                   int(y_sym.shape[0]) // n, n) for y_sym in y_syms]
+        hess = _hessian_at_read_knots(terms, read, knot_u, du_dx, y_syms, h_zz, grad_z, n_x, n)
+        return ca.Function(
+            "nlp_hess_l", [x, p, lam_f, lam_g], [hess], ["x", "p", "lam_f", "lam_g"],
+            ["triu_hess_gamma_x_x"],
+        )
     total = h_zz[:n_x, :n_x]
     offsets = np.cumsum([n_x, *[int(y.shape[0]) for y in y_syms]]).tolist()
     dy_dx = []  # knot outputs by x: blockdiag(J(u_k))·A where ∇²_zz L̃ needs them, else zero
@@ -105,18 +117,68 @@ def assembled_hessian(
             dy_dx.append(ca.mtimes(ca.diagcat(*ca.horzsplit(blocks, n_u)), a))
         else:
             dy_dx.append(ca.MX(int(y_sym.shape[0]), n_x))
-    h_xy, h_yy = h_zz[:n_x, n_x:], h_zz[n_x:, n_x:]
-    if h_xy.nnz() or h_yy.nnz():
-        jac_a = ca.vertcat(*dy_dx)
-        if h_xy.nnz():
-            cross = ca.mtimes(h_xy, jac_a)
-            total = total + cross + cross.T
-        if h_yy.nnz():
-            total = total + ca.mtimes(jac_a.T, ca.mtimes(h_yy, jac_a))
+    total = _plus_output_terms(total, h_zz[:n_x, n_x:], h_zz[n_x:, n_x:], dy_dx)
     (hess,) = ca.graph_substitute([ca.triu(total)], y_syms, [
-        ca.vec(ca.vertcat(*[_per_knot(o, n) for o in call.outputs])) for call, _, _ in terms
+        ca.vec(ca.vertcat(*[per_knot(o, n) for o in call.outputs])) for call, _, _ in terms
     ])
     return ca.Function(
         "nlp_hess_l", [x, p, lam_f, lam_g], [hess], ["x", "p", "lam_f", "lam_g"],
         ["triu_hess_gamma_x_x"],
     )
+
+
+def _hessian_at_read_knots(terms: Sequence[KnotTerm], read: list[tuple[int, ...]],
+                           knot_u: list[Any], du_dx: list[Any], y_syms: list[Any], h_zz: Any,
+                           grad_z: Any, n_x: int, n: int) -> Any:
+    """`assembled_hessian`'s triu(∇²L) with each function's H and J (and the function itself,
+    if its call carries it) evaluated only at the knots `read` (per term: those whose outputs L̃
+    depends on); L̃ does not depend on the other knots' Y, so their μ_k and their rows and
+    columns of ∇²_zz L̃ are 0."""
+    total = h_zz[:n_x, :n_x]
+    read_z: list[int] = []  # z-indices of the outputs read, in the order of `dy_dx`
+    dy_dx = []  # those outputs by x: blockdiag(J(u_k))·A_k where ∇²_zz L̃ needs them, else 0
+    values = []  # what replaces each y symbol: the outputs, evaluated at the knots read
+    lo = n_x
+    for (call, jacobian, hessian), knots, u, a, y_sym in zip(
+        terms, read, knot_u, du_dx, y_syms, strict=True
+    ):
+        n_u, n_y = int(u.shape[0]), int(y_sym.shape[0]) // n
+        hi = lo + n_y * n
+        mu = ca.reshape(grad_z[lo:hi], n_y, n)  # ∂L̃/∂Y_k in column k
+        outputs = call.outputs
+        if knots:
+            u_read = columns(u, knots)
+            a_read = a[[k * n_u + i for k in knots for i in range(n_u)], :]
+            knot_h = hessian.map(len(knots))(u_read, columns(mu, knots))
+            total = total + ca.mtimes(
+                a_read.T, ca.mtimes(ca.diagcat(*ca.horzsplit(knot_h, n_u)), a_read))
+            rows = [lo + k * n_y + r for k in knots for r in range(n_y)]
+            read_z.extend(rows)
+            if h_zz[lo:hi, :].nnz():
+                blocks = jacobian.map(len(knots))(u_read)
+                dy_dx.append(ca.mtimes(ca.diagcat(*ca.horzsplit(blocks, n_u)), a_read))
+            else:
+                dy_dx.append(ca.MX(len(rows), n_x))
+            if call.function is not None:
+                outputs = call.at_knots(knots, n)
+        values.append(ca.vec(ca.vertcat(*[per_knot(o, n) for o in outputs])))
+        lo = hi
+    if read_z:
+        total = _plus_output_terms(total, h_zz[:n_x, read_z], h_zz[read_z, read_z], dy_dx)
+    (hess,) = ca.graph_substitute([ca.triu(total)], y_syms, values)
+    return hess
+
+
+def _plus_output_terms(total: Any, h_xy: Any, h_yy: Any, dy_dx: list[Any]) -> Any:
+    """`total` plus the terms of Tᵀ·∇²_zz L̃·T (module docstring) through the outputs:
+    ∇²_xY·dY/dx, its transpose and (dY/dx)ᵀ·∇²_YY·dY/dx, with `dy_dx` the outputs (in the order
+    of `h_xy`'s columns) by x; only those with entries."""
+    if not (h_xy.nnz() or h_yy.nnz()):
+        return total
+    jac_a = ca.vertcat(*dy_dx)
+    if h_xy.nnz():
+        cross = ca.mtimes(h_xy, jac_a)
+        total = total + cross + cross.T
+    if h_yy.nnz():
+        total = total + ca.mtimes(jac_a.T, ca.mtimes(h_yy, jac_a))
+    return total

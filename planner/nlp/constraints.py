@@ -176,7 +176,8 @@ def knot_quantities(
         base, sym.q, bd, qd, bdd, qdd, sym.forces, sym.speed_m_s, _motion(sym).vy_m_s, yaw_rate,
         *flat,
     )
-    if fn.n_in() == 1 and len(arguments) > 1:  # a `stacked_knot`
+    stacked = fn.n_in() == 1 and len(arguments) > 1  # a `stacked_knot`
+    if stacked:
         u = ca.vertcat(*[a if int(a.shape[1]) == n_knots else ca.repmat(a, 1, n_knots)
                          for a in arguments])
         offsets = np.cumsum((0, *knot_output_rows(model))).tolist()
@@ -190,7 +191,8 @@ def knot_quantities(
     # differentiates a few dozen instructions instead of the knot's whole Jacobian
     w = omega_function(model).map(n_knots)(sym.base[3:6, :], bd[3:6, :], yaw_rate)
     return KnotQuantities(
-        base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w, KnotCall(arguments, outputs)
+        base_rows, sym.tau, tau, feet, body_z, qd, qdd, bd, w,
+        KnotCall(arguments, outputs, knot if stacked else None),
     )
 
 

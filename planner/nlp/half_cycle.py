@@ -26,9 +26,13 @@ one of each mirror pair, none of those that vanish on the subspace (the sideways
 W = ½ on a row that is its own image. The ½ makes it exactly half of the full barrier problem
 restricted to the subspace — objective, barrier terms, constraint violation and multipliers
 (λ̃ = λ of the kept rows) — so IPOPT's steps, filter and stopping tests see the same numbers as
-on the full NLP at a symmetric point. Its derivatives come from the full NLP's own: J̃ = W·J_r·E
-and ∇²L̃ = Eᵀ·∇²L(E·x̃; σ/2, λ)·E. The KKT system is half the size, so a factorisation costs
-about half (its fill follows the knots' band).
+on the full NLP at a symmetric point. Its derivatives are the full NLP's: J̃ = W·J_r·E and
+∇²L̃ = Eᵀ·∇²L(E·x̃; σ/2, λ)·E, with the dropped rows' λ = 0. Assembled from one knot J and H per
+knot (`planner.nlp.assembled_jacobian`, `assembled_hessian`), they are built for the kept rows
+alone and evaluate the knot, J and H only at the knots those rows read (`reduced_nlp`): the
+first N/2 and knot N/2 (the stance no-slip rows of knot N/2 − 1 compare it with the next) — 16
+of 30 knots, the same values bit for bit as from all N. The KKT system is half the size, so a
+factorisation costs about half (its fill follows the knots' band).
 
 The result is judged on the full NLP: `GaitPlanner._result` evaluates every row and bound of all
 N knots at E·x̃ (a schedule or bound that is not symmetric would show there as a violation, not
@@ -43,6 +47,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,6 +55,8 @@ import casadi as ca
 import numpy as np
 
 from planner.errors import PlannerConfigError
+from planner.nlp.assembled_hessian import KnotTerm, assembled_hessian
+from planner.nlp.assembled_jacobian import assembled_jacobian, at_read_knots
 from planner.nlp.variables import BLOCKS, Layout
 from robots import Robot
 
@@ -283,35 +290,57 @@ class HalfCycleNLP:
 
 
 def reduced_nlp(mirror: VariableMirror, rows: RowSelection, x: Any, p: Any, f: Any, g: Any,
-                jac_g: ca.Function | None, hess_l: ca.Function | None
+                jac_g: ca.Function | None, hess_l: ca.Function | None,
+                knot_terms: Sequence[KnotTerm] = (), n_knots: int = 0
                 ) -> tuple[dict[str, Any], dict[str, ca.Function]]:
     """The reduced NLP's expressions (``x``, ``p``, ``f``, ``g``) and, when the full NLP has
     them, its assembled ``jac_g`` and ``hess_lag`` functions (module docstring) from the full
-    NLP's symbols `x`, `p`, objective `f`, rows `g` and derivative functions."""
+    NLP's symbols `x`, `p`, objective `f`, rows `g` and derivative functions.
+
+    `knot_terms` (the full NLP's per-knot calls with their J and H, the knot's first, as
+    `assembled_hessian` takes them; `n_knots` its knots): the reduced functions evaluate each
+    only at the knots whose outputs the kept rows and f read — the first half's and the knot
+    after it (the stance no-slip rows compare knot k with k + 1) — with J and ∇²L assembled for
+    the kept rows alone (`assembled_jacobian`, `assembled_hessian` with `knots_read_only`),
+    instead of calling the full NLP's `jac_g` and `hess_l` (every knot and row, half of them
+    thrown away). The same values, bit for bit where measured (quad12, hex18, the biped;
+    tests/planner/nlp/test_half_cycle.py, docs/results/planner_speed_halfeval.md)."""
     e = mirror.matrix()
     xr = ca.MX.sym("x_half", mirror.n_reduced)
     pr = ca.MX.sym("p", p.shape[0], p.shape[1])
-    # two functions: one of both would make IPOPT's f and ∇f evaluate every row too
-    objective = ca.Function("full_f", [x, p], [f])
-    rows_of = ca.Function("full_g", [x, p], [g])
-    x_full = ca.mtimes(e, xr)
-    f_full, g_full = objective(x_full, pr), rows_of(x_full, pr)
     keep = rows.keep.tolist()
+    f_read, g_kept = f, g[keep]
+    if knot_terms:
+        f_read, g_kept = at_read_knots([f, g_kept], knot_terms[0][0], n_knots)
+    # two functions: one of both would make IPOPT's f and ∇f evaluate every row too
+    objective = ca.Function("full_f", [x, p], [f_read])
+    rows_of = ca.Function("kept_g", [x, p], [g_kept])
+    x_full = ca.mtimes(e, xr)
     w = ca.DM(rows.weight)
-    nlp = {"x": xr, "p": pr, "f": 0.5 * f_full, "g": w * g_full[keep]}
+    nlp = {"x": xr, "p": pr, "f": 0.5 * objective(x_full, pr), "g": w * rows_of(x_full, pr)}
     derivatives: dict[str, ca.Function] = {}
     if jac_g is not None:
-        g_j, jac = jac_g(x_full, pr)
-        jac_r = ca.mtimes(ca.diag(w), ca.mtimes(jac[keep, :], e))
-        derivatives["jac_g"] = ca.Function("nlp_jac_g", [xr, pr], [w * g_j[keep], jac_r],
+        if knot_terms:
+            call, jacobian, _ = knot_terms[0]
+            g_j, jac = assembled_jacobian(x, p, g[keep], call, jacobian, n_knots,
+                                          knots_read_only=True)(x_full, pr)
+        else:
+            g_j, jac = jac_g(x_full, pr)
+            g_j, jac = g_j[keep], jac[keep, :]
+        jac_r = ca.mtimes(ca.diag(w), ca.mtimes(jac, e))
+        derivatives["jac_g"] = ca.Function("nlp_jac_g", [xr, pr], [w * g_j, jac_r],
                                            ["x", "p"], ["g", "jac_g_x"])
     if hess_l is not None:
         lam_f = ca.MX.sym("lam_f")
         lam_g = ca.MX.sym("lam_g", rows.keep.size)
-        n_rows = int(g.shape[0])
-        select = ca.DM.triplet(keep, list(range(rows.keep.size)), ca.DM.ones(rows.keep.size),
-                               n_rows, rows.keep.size)
-        hess = hess_l(x_full, pr, 0.5 * lam_f, ca.mtimes(select, w * lam_g))
+        if knot_terms:
+            hess = assembled_hessian(x, p, f, g[keep], knot_terms, n_knots,
+                                     knots_read_only=True)(x_full, pr, 0.5 * lam_f, w * lam_g)
+        else:
+            n_rows = int(g.shape[0])
+            select = ca.DM.triplet(keep, list(range(rows.keep.size)),
+                                   ca.DM.ones(rows.keep.size), n_rows, rows.keep.size)
+            hess = hess_l(x_full, pr, 0.5 * lam_f, ca.mtimes(select, w * lam_g))
         sym_hess = ca.triu2symm(hess)
         hess_r = ca.triu(ca.mtimes(e.T, ca.mtimes(sym_hess, e)))
         derivatives["hess_lag"] = ca.Function(

@@ -38,7 +38,7 @@ import numpy as np
 
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp import diagnostics
-from planner.nlp.assembled_hessian import assembled_hessian
+from planner.nlp.assembled_hessian import KnotTerm, assembled_hessian
 from planner.nlp.assembled_jacobian import assembled_jacobian
 from planner.nlp.cold_start import ColdStarter, StartCommand
 from planner.nlp.command import VelocityCommand, check_command
@@ -322,19 +322,19 @@ class GaitPlanner:
             self._jac_g = assembled_jacobian(
                 sym.x, sym.p, g_solver, kq.knot_call, self.knot_derivatives.jacobian, n_knots
             )
-        #: `PlannerOptions.nlp_hessian` "assembled": IPOPT's hess_lag (`_make_solver`)
-        self._hess_l: ca.Function | None = None
-        if (
-            self.options.nlp_hessian == "assembled"
-            and self.knot_derivatives is not None
-            and kq.knot_call is not None
-        ):
+        #: the NLP's per-knot calls with their J and H, the knot's first (`assembled_hessian`;
+        #: the half-cycle solve evaluates them at the knots its rows read, `_build_half_cycle`)
+        self._knot_terms: list[KnotTerm] = []
+        if self.knot_derivatives is not None and kq.knot_call is not None:
             knot_term = (
                 kq.knot_call, self.knot_derivatives.jacobian, self.knot_derivatives.hessian
             )
-            derived_terms = [] if self.derived is None else self.derived.calls
+            self._knot_terms = [knot_term, *([] if self.derived is None else self.derived.calls)]
+        #: `PlannerOptions.nlp_hessian` "assembled": IPOPT's hess_lag (`_make_solver`)
+        self._hess_l: ca.Function | None = None
+        if self.options.nlp_hessian == "assembled" and self._knot_terms:
             self._hess_l = assembled_hessian(
-                sym.x, sym.p, objective, g_solver, [knot_term, *derived_terms], n_knots
+                sym.x, sym.p, objective, g_solver, self._knot_terms, n_knots
             )
         self._solver = self._make_solver()
         self._warm_solver: Any | None = None  # `_solver_for`
@@ -577,7 +577,7 @@ class GaitPlanner:
             if self._jac_g is not None:
                 g_val, jac = self._jac_g(x_sym, p)
             else:
-                jac_f = ca.Function("jac", [self._nlp["x"], self._nlp["p"]],
+                jac_f = ca.Function("full_jac_g", [self._nlp["x"], self._nlp["p"]],
                                     [self._nlp["g"], ca.jacobian(self._nlp["g"], self._nlp["x"])])
                 g_val, jac = jac_f(x_sym, p)
             jac_reduced = ca.mtimes(ca.DM(jac), mirror.matrix())
@@ -590,7 +590,7 @@ class GaitPlanner:
                                np.asarray(weight, dtype=float)[order])
         nlp, derivatives = hc.reduced_nlp(mirror, rows, self._nlp["x"], self._nlp["p"],
                                           self._nlp["f"], self._nlp["g"], self._jac_g,
-                                          self._hess_l)
+                                          self._hess_l, self._knot_terms, self.n_knots)
         opts: dict[str, Any] = {
             "ipopt": ipopt_options(self.options, False),
             "print_time": False,

@@ -46,17 +46,40 @@ def test_toy_assembled_hessian_is_casadis_own() -> None:
     x, p, f, g, call = _toy_nlp()
     jac, hess = jacobian_and_hessian(toy_knot())
     assembled = assembled_hessian(x, p, f, g, [(call, jac, hess)], N_TOY)
+    _assert_casadis_hessian(assembled, x, p, f, g, seed=1)
+    assert assembled.sparsity_out(0).is_triu()
+
+
+def _assert_casadis_hessian(assembled: ca.Function, x: ca.MX, p: ca.MX, f: ca.MX, g: ca.MX,
+                            seed: int) -> None:
+    """`assembled` gives triu(∇²ₓₓ(σf + λᵀg)) of CasADi's AD at three random points."""
     lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.shape[0])
     want = ca.Function(
         "ad", [x, p, lam_f, lam_g], [ca.triu(ca.hessian(lam_f * f + ca.dot(lam_g, g), x)[0])]
     )
-    rng = np.random.default_rng(1)
+    rng = np.random.default_rng(seed)
     for _ in range(3):
         args = (rng.normal(size=x.shape[0]), rng.normal(size=2), rng.normal(),
                 rng.normal(size=g.shape[0]))
         got, ref = (np.asarray(fn(*args).full()) for fn in (assembled, want))
         np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
-    assert assembled.sparsity_out(0).is_triu()
+
+
+def test_toy_hessian_at_the_knots_read_is_casadis_own() -> None:
+    """`knots_read_only`: rows and an objective that read the outputs of knots 0 and 1 only
+    (the half-cycle solve's kept rows) evaluate the knot, H and J at those two knots (maps of
+    2) and give CasADi's AD Hessian, the x–Y and Y–Y terms included."""
+    x, p, _, _, call = _toy_nlp()
+    call = KnotCall(call.inputs, call.outputs, stacked_knot(toy_knot()))
+    a, b = call.outputs
+    f = p[1] * ca.sumsqr(x) + ca.sin(a[0, 0] * b[0, 1]) + x[3] * a[1, 1]
+    kept = ca.vertcat(a[0, 0] * x[0], a[1, 1] * x[1] ** 2, ca.cos(b[0, 1]) * a[0, 1],
+                      x[1] * x[2])
+    jac, hess = jacobian_and_hessian(toy_knot())
+    read = assembled_hessian(x, p, f, kept, [(call, jac, hess)], N_TOY, knots_read_only=True)
+    called = read.get_function()
+    assert [c for c in called if "knot" in c] == ["map2_H_knot", "map2_J_knot", "map2_knot"]
+    _assert_casadis_hessian(read, x, p, f, kept, seed=4)
 
 
 def test_toy_inputs_not_affine_in_x_are_refused() -> None:

@@ -9,10 +9,14 @@ import pytest
 
 import robots
 from planner.errors import PlannerConfigError
+from planner.nlp.assembled_jacobian import KnotCall, assembled_jacobian, at_read_knots
 from planner.nlp.config import PlannerOptions
+from planner.nlp.constraints import stacked_knot
+from planner.nlp.solver_cache import jacobian_and_hessian
 from planner.nlp.spacetime import GaitPlanner
 from planner.nlp.variables import parameter_vector
 from planner.templates import make_schedule
+from tests.planner.nlp.toy_knot import toy_knot
 
 
 def _jacobian(planner: GaitPlanner, x: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -37,6 +41,36 @@ def test_assembled_jacobian_is_casadis_own(robot_name: str) -> None:
     np.testing.assert_array_equal(
         np.asarray(f_as(x, p)[0]).ravel(), np.asarray(f_ad(x, p)[0]).ravel()
     )
+
+
+def test_toy_jacobian_at_the_knots_read_is_casadis_own() -> None:
+    """`knots_read_only`: rows that read the outputs of knots 1 and 3 of 4 evaluate the knot and
+    its J there only (maps of 2) and give CasADi's AD Jacobian and the same row values;
+    `at_read_knots` gives those rows the same values from the same two knots."""
+    n = 4
+    x, p = ca.MX.sym("x", 4 * n + 2), ca.MX.sym("p")
+    first = ca.reshape(x[: 4 * n], 4, n) * p + 1
+    shared = x[-2:]  # one column: every knot's second input
+    knot = stacked_knot(toy_knot())
+    y = knot.map(n)(ca.vertcat(first, ca.repmat(shared, 1, n)))
+    a, b = ca.vertsplit(y, [0, 2, 3])
+    call = KnotCall((first, shared), (a, b), knot)
+    rows = ca.vertcat(a[0, 1] * x[0], ca.sin(b[0, 3]) + a[1, 3] * a[0, 1], x[2] * x[5])
+    jac, _ = jacobian_and_hessian(toy_knot())
+    read = assembled_jacobian(x, p, rows, call, jac, n, knots_read_only=True)
+    assert [c for c in read.get_function() if "knot" in c] == ["map2_J_knot", "map2_knot"]
+    (evaluated,) = at_read_knots([rows], call, n)
+    want = ca.Function("ad", [x, p], [rows, ca.jacobian(rows, x)])
+    by_read = ca.Function("read", [x, p], [evaluated])
+    assert [c for c in by_read.get_function() if "knot" in c] == ["map2_knot"]
+    rng = np.random.default_rng(6)
+    for _ in range(3):
+        args = (rng.normal(size=x.shape[0]), rng.normal())
+        (g_ref, j_ref), (g_got, j_got) = want(*args), read(*args)
+        np.testing.assert_array_equal(np.asarray(g_got), np.asarray(g_ref))
+        np.testing.assert_array_equal(np.asarray(by_read(*args)), np.asarray(g_ref))
+        np.testing.assert_allclose(np.asarray(j_got.full()), np.asarray(j_ref.full()),
+                                   rtol=1e-12, atol=1e-12)
 
 
 def _called(function: ca.Function) -> list[str]:

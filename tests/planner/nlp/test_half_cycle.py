@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -92,13 +93,19 @@ def test_a_whole_cycle_row_is_dropped_kept_or_halved_by_its_mirror_image(
     assert per_knot * 2 == drift.start  # half of every per-knot row
 
 
-def test_the_reduced_derivatives_match_finite_differences(
-        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
-    _, half = quad12_pair
+def _reduced_trot(half: GaitPlanner) -> tuple[robots.ContactSchedule, hc.HalfCycleNLP]:
+    """The trot and the reduced NLP a half-cycle solve of it built."""
     schedule = make_schedule(half.robot, "trot")
     half.solve(schedule, SPEED_M_S, warm_start=False)
     nlp = half._half_cycle
     assert isinstance(nlp, hc.HalfCycleNLP)
+    return schedule, nlp
+
+
+def test_the_reduced_derivatives_match_finite_differences(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+    _, half = quad12_pair
+    schedule, nlp = _reduced_trot(half)
     m, rows = nlp.mirror, nlp.rows
     p = parameter_vector(schedule, half.n_knots, SPEED_M_S, half.swing_clearance_m)
     rng = np.random.default_rng(1)
@@ -160,7 +167,6 @@ def test_ctrl_c_inside_a_half_cycle_solve_raises_keyboard_interrupt(
     is a KeyboardInterrupt, not an infeasible result."""
     import signal
     import threading
-    from typing import Any
 
     _, half = quad12_pair
     schedule = make_schedule(half.robot, "trot")
@@ -210,3 +216,68 @@ def test_the_iteration_abort_stops_a_half_cycle_solve_on_the_full_solves_iterate
     again = half.solve(schedule, SPEED_M_S, warm_start=False)
     assert again.stats["half_cycle"] is True and not half.last_solve_aborted
     assert again.iterations == len(ref["obj"]) - 1
+
+
+def _called(function: ca.Function) -> list[str]:
+    """The functions `function` calls, and those they call (MX functions, recursively)."""
+    out = []
+    for k in range(function.n_instructions()):
+        if function.instruction_id(k) == ca.OP_CALL:
+            called = function.instruction_MX(k).which_function()
+            out.append(called.name())
+            if called.is_a("MXFunction"):
+                out += _called(called)
+    return out
+
+
+def test_the_reduced_nlp_evaluates_the_knots_its_rows_read_with_the_same_values(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+    """f̃, g̃, J̃ and ∇²L̃ from the knots the kept rows read (the first half and knot N/2) equal
+    those from the full NLP's J and H on all N knots (the construction without `knot_terms`)."""
+    _, half = quad12_pair
+    schedule, nlp = _reduced_trot(half)
+    m, rows = nlp.mirror, nlp.rows
+    args = (m, rows, half._nlp["x"], half._nlp["p"], half._nlp["f"], half._nlp["g"],
+            half._jac_g, half._hess_l)
+    built = {"all": hc.reduced_nlp(*args), "read": hc.reduced_nlp(*args, half._knot_terms, 12)}
+    functions = {
+        name: (ca.Function("fg", [e["x"], e["p"]], [e["f"], e["g"]]), d["jac_g"], d["hess_lag"])
+        for name, (e, d) in built.items()
+    }
+    # 7 of 12 knots: the first half's rows read knots 0…5 and the stance no-slip rows knot 6
+    # (the knot, its J and H; compiled ones are named gaitsmith_J_…, gaitsmith_H_…)
+    def knot_maps(fn: ca.Function) -> list[str]:
+        return [c for c in _called(fn) if "knot" in c or "gaitsmith_" in c]
+
+    for fn in functions["read"]:
+        assert knot_maps(fn) and all(c.startswith("map7_") for c in knot_maps(fn))
+    assert knot_maps(functions["all"][2])
+    assert all(c.startswith("map12_") for c in knot_maps(functions["all"][2]))
+    p = parameter_vector(schedule, half.n_knots, SPEED_M_S, half.swing_clearance_m)
+    rng = np.random.default_rng(2)
+    x0 = initial_guess(half.layout, half.model, schedule)[m.half]
+    for _ in range(2):
+        x = x0 + 0.05 * rng.standard_normal(m.n_reduced)
+        lam = rng.standard_normal(rows.keep.size)
+        values = {}
+        for name, (fg, jac, hess) in functions.items():
+            values[name] = [*fg(x, p), *jac(x, p), hess(x, p, 0.7, lam)]
+        for a, b in zip(values["all"], values["read"], strict=True):
+            assert a.sparsity() == b.sparsity()
+            np.testing.assert_allclose(np.asarray(b.nonzeros()), np.asarray(a.nonzeros()),
+                                       rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("option", [{"nlp_jacobian": "ad"}, {"nlp_hessian": "ad"}])
+def test_the_half_cycle_solve_with_casadis_own_derivatives(option: dict[str, Any]) -> None:
+    """Without the assembled Jacobian (its rows over the whole cycle are then classified with
+    CasADi's AD Jacobian) or Hessian the reduced NLP takes the full solve's iterates too."""
+    robot = robots.load("quad12")
+    options = dataclasses.replace(PlannerOptions(max_iter=60), **option)
+    schedule = make_schedule(robot, "trot")
+    a = GaitPlanner(robot, 12, options).solve(schedule, SPEED_M_S, warm_start=False)
+    b = GaitPlanner(robot, 12, dataclasses.replace(options, half_cycle_solve=True)).solve(
+        schedule, SPEED_M_S, warm_start=False)
+    assert b.stats["half_cycle"] is True and a.feasible and b.feasible
+    assert b.iterations == a.iterations
+    assert abs(b.cost - a.cost) <= 1e-9 * abs(a.cost)
