@@ -114,7 +114,7 @@ from planner.search.gait_search import (
     FINAL_CANDIDATES,
     SEARCH_WARM_STARTS,
     TimingSpace,
-    coarse_accepted,
+    coarse_plan_solved,
     final_tasks,
 )
 from planner.search.support import TippingCost
@@ -378,7 +378,7 @@ class FinalReplayer:
             """The search's objective at full resolution (`search_gait`'s final score)."""
             return plan.cost + tipping(plan.schedule)
 
-        rival = coarse_accepted if templates == FINAL_TEMPLATES_COMPETE else None
+        rival = coarse_plan_solved if templates == FINAL_TEMPLATES_COMPETE else None
         if rival is not None:
             tasks, searched = compete_order(tasks, searched, choice, rival)
         chosen = choose_final(tasks, searched, self.outcomes(tasks), choice, total, rival)

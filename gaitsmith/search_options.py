@@ -72,8 +72,8 @@ def final_choice_option() -> Any:
 def final_templates_option() -> Any:
     return typer.Option(DEFAULT_FINAL_TEMPLATES, "--final-templates",
                         help="the templates the search started from: fallback (re-solved at "
-                        "--knots only if no searched timing passes) | compete (those that "
-                        "passed the coarse check are re-solved too, and the cheapest that passes "
+                        "--knots only if no searched timing passes) | compete (those whose "
+                        "coarse plan solved are re-solved too, and the cheapest that passes "
                         "is written if it beats the searched winner)")
 
 

@@ -27,7 +27,7 @@ FINAL_CHOICES = (FINAL_CHOICE_FIRST, FINAL_CHOICE_CHEAPEST_OF_2, FINAL_CHOICE_CH
 DEFAULT_FINAL_CHOICE = FINAL_CHOICE_CHEAPEST_OF_2
 #: Whether the templates the search started from are re-solved only when no searched timing
 #: passes at full resolution ("fallback"), or also compete with an accepted winner ("compete":
-#: every template that passed the coarse check is re-solved, the cheapest accepted one wins if it is
+#: every template whose coarse plan solved is re-solved, the cheapest accepted one wins if it is
 #: cheaper, cost + support term; `planner.search.final_phase.against_templates`).
 FINAL_TEMPLATES_FALLBACK = "fallback"
 FINAL_TEMPLATES_COMPETE = "compete"

@@ -9,7 +9,7 @@ first that is feasible and accepted (or feasible, when nothing checks) wins. If 
 check exists, the templates the search started from, cheapest first (their own schedules, as
 `gaitsmith plan` plans them, skipping any identical to a candidate tried), the first accepted
 wins; else the first feasible candidate, reported as not accepted (or the first one, infeasible).
-With ``final_templates="compete"`` the templates that passed the coarse check are read right after
+With ``final_templates="compete"`` the templates whose coarse plan solved are read right after
 the compared candidates (`compete_order`), and the cheapest accepted one is written if it beats
 the candidates' winner (`choose_final(rival=...)`).
 
@@ -200,7 +200,7 @@ def choose_final(tasks: Sequence[FinalTask], searched: Sequence[LocalResult],
     (docs/results/planner_speed_search.md, session 35).
 
     `rival` (``final_templates="compete"``; `tasks` in `compete_order`): the templates it takes
-    (the search: those that passed the coarse check) are read too, and the cheapest accepted one
+    (the search: those whose coarse plan solved) are read too, and the cheapest accepted one
     wins if its `score` is lower than the candidates' winner's — or if no candidate is accepted
     (then before the other templates). So the search never writes a gait costlier than a
     template that `gaitsmith plan ROBOT --gait NAME` would plan and the same check would pass:

@@ -521,14 +521,6 @@ def coarse_plan_solved(result: LocalResult) -> bool:
     return final_rank(result)[0] < 2
 
 
-def coarse_accepted(result: LocalResult) -> bool:
-    """Whether a coarse solve's plan passed the coarse check (`final_rank` 0): the templates
-    that compete with the searched winner (``final_templates="compete"``). Not those whose
-    plan solved but failed the check: they rarely pass at full resolution and can be slow —
-    quad12 at 0.25 m/s re-solved its pace template in 55 iterations (5.9 CPU-s) to fail."""
-    return final_rank(result)[0] == 0
-
-
 def final_candidates_of(records: Iterable[tuple[np.ndarray, LocalResult]], k: int
                         ) -> list[tuple[np.ndarray, LocalResult]]:
     """Up to k distinct samples to re-solve at full resolution, best first: the feasible ones
@@ -700,7 +692,7 @@ def search_gait(
     of its knots (`planner.nlp.half_cycle`); the final re-solves keep `options`'.
     `final_templates` (`defaults.FINAL_TEMPLATES`): "fallback" — the templates are re-solved
     only if no searched timing passes; "compete" — an accepted searched winner is also held
-    against the cheapest accepted template that passed the coarse check, the cheaper is written
+    against the cheapest accepted template whose coarse plan solved, the cheaper is written
     (`final_phase.against_templates`; needs a final check, else the same as "fallback").
     """
     t0, c0 = time.perf_counter(), time.process_time()
@@ -832,7 +824,11 @@ def search_gait(
             """What the search minimises, at full resolution: how `final_choice` compares."""
             return plan.cost + tipping(plan.schedule)
 
-        rival = (coarse_accepted if final_templates == defaults.FINAL_TEMPLATES_COMPETE
+        # every template with a coarse plan: also those the coarse check rejected (spotmicro's
+        # trot template fails it at 12 knots and passes at 30; with only the accepted ones
+        # "compete" changed none of 32 replayed searches, docs/results/planner_speed_search.md,
+        # session 37)
+        rival = (coarse_plan_solved if final_templates == defaults.FINAL_TEMPLATES_COMPETE
                  else None)
         if rival is not None:
             tasks, searched = compete_order(tasks, searched, final_choice, rival)
@@ -961,7 +957,6 @@ __all__ = [
     "TimingSolver",
     "TimingSolverFactory",
     "TimingSpace",
-    "coarse_accepted",
     "coarse_plan_solved",
     "cost_of_transport",
     "final_rank",
