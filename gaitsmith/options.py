@@ -48,6 +48,12 @@ def check_integer(option: str, value: int | None, lo: int, hi: int) -> None:
         raise OptionError(f"{option} must be an integer in [{lo}, {hi}], got {value}")
 
 
+def check_choice(option: str, value: str, choices: tuple[str, ...]) -> None:
+    """`value` must be one of `choices`."""
+    if value not in choices:
+        raise OptionError(f"{option} must be one of {', '.join(choices)}, got {value!r}")
+
+
 def check_speed(option: str, value: float, *, allow_zero: bool = True) -> None:
     """A forward speed: ≥ 0 (> 0 when cost of transport and Froude number must exist)."""
     check_number(option, value, 0.0, MAX_SPEED_M_S, lo_open=not allow_zero, unit="m/s")

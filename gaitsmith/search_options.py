@@ -8,7 +8,7 @@ import typer
 
 import robots
 from gaitsmith.errors import OptionError
-from gaitsmith.options import check_integer, check_knots, check_number
+from gaitsmith.options import check_choice, check_integer, check_knots, check_number
 from planner.nlp.config import SWING_WRENCHES
 from planner.search.defaults import (
     DEFAULT_FINAL_CHOICE,
@@ -78,15 +78,11 @@ def final_templates_option() -> Any:
 
 
 def check_final_templates(value: str) -> None:
-    if value not in FINAL_TEMPLATES:
-        raise OptionError(f"--final-templates must be one of {', '.join(FINAL_TEMPLATES)}, "
-                          f"got {value!r}")
+    check_choice("--final-templates", value, FINAL_TEMPLATES)
 
 
 def check_final_choice(value: str) -> None:
-    if value not in FINAL_CHOICES:
-        raise OptionError(f"--final-choice must be one of {', '.join(FINAL_CHOICES)}, "
-                          f"got {value!r}")
+    check_choice("--final-choice", value, FINAL_CHOICES)
 
 
 def check_search_swing_wrench(value: str) -> None:
