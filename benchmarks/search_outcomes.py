@@ -46,7 +46,7 @@ then the template fallback — is really run here (in this process, serially; a 
 same bits in any process, `planner.search.final_phase`; identical schedules are solved once).
 `--final-candidates C[,C2...]` re-solves up to C timings instead of `FINAL_CANDIDATES` (rows
 "SETTING+genK+finalC"); `--final-templates compete` holds the winner against the cheapest accepted
-template (rows "...+compete", `final_phase.against_templates`). Each k appends a row
+template (rows "...+compete", `final_phase.choose_final(rival=)`). Each k appends a row
 "SETTING+genK" whose iterations are the truncated record's, and whose CPU is an estimate: the
 recorded run's CPU minus the dropped samples' worker CPU (solve + check) minus the recorded final
 phase's solve + check CPU plus the replayed one's.

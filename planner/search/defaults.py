@@ -28,10 +28,13 @@ DEFAULT_FINAL_CHOICE = FINAL_CHOICE_CHEAPEST_OF_2
 #: Whether the templates the search started from are re-solved only when no searched timing
 #: passes at full resolution ("fallback"), or also compete with an accepted winner ("compete":
 #: every template whose coarse plan solved is re-solved, the cheapest accepted one wins if it is
-#: cheaper, cost + support term; `planner.search.final_phase.against_templates`).
+#: cheaper, cost + support term; `planner.search.final_phase.choose_final(rival=)`).
 FINAL_TEMPLATES_FALLBACK = "fallback"
 FINAL_TEMPLATES_COMPETE = "compete"
 FINAL_TEMPLATES = (FINAL_TEMPLATES_FALLBACK, FINAL_TEMPLATES_COMPETE)
+#: "compete" over 32 replayed searches on 8 bodies: 1 cheaper gait (−2 %), none costlier, at
+#: 1.10× the CPU; on half-cycle coarse searches the worst outcome 5.1× → 2.5× of today's
+#: (docs/results/planner_speed_search.md, session 37 (lead)): an option, not the default
 DEFAULT_FINAL_TEMPLATES = FINAL_TEMPLATES_FALLBACK
 #: `PlannerOptions.inactive_rows` of the search's coarse solves, whatever the final solves use:
 #: at N = 12 "free" ended on another local optimum on 2 of 35 quad12/hex18 schedules

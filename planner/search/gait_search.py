@@ -588,8 +588,9 @@ class GaitSearchResult:
     phase_s: dict[str, float] = field(default_factory=dict)
     #: this process's CPU seconds (`time.process_time`) in the same phases
     phase_cpu_s: dict[str, float] = field(default_factory=dict)
-    #: the template that won after no searched timing passed the final acceptance (None: a
-    #: searched timing, or the normal ranking, won)
+    #: the template that won: after no searched timing passed the final acceptance, or (with
+    #: ``final_templates="compete"``) as cheaper than the searched winner (None: a searched
+    #: timing, or the normal ranking, won)
     fallback_template: str | None = None
     #: the final phase's outcomes as read, in order (`final_solves` with the CPU seconds of
     #: the process that ran each: this one, or a worker with `final_on_workers`)
@@ -605,7 +606,7 @@ class GaitSearchResult:
     #: the coarse solves ran on the first half of a symmetric sample's knots (`half_cycle`)
     search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE
     #: the templates only as the fallback, or competing with the searched winner
-    #: (`defaults.FINAL_TEMPLATES`, `final_phase.against_templates`)
+    #: (`defaults.FINAL_TEMPLATES`, `final_phase.choose_final(rival=)`)
     final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES
     #: with "compete": the searched winner's full-resolution cost + support term when the
     #: template `fallback_template` was cheaper and won over it (None: it did not)
@@ -691,9 +692,10 @@ def search_gait(
     `planner.search.defaults.SEARCH_HALF_CYCLE`): a symmetric sample is solved on the first half
     of its knots (`planner.nlp.half_cycle`); the final re-solves keep `options`'.
     `final_templates` (`defaults.FINAL_TEMPLATES`): "fallback" — the templates are re-solved
-    only if no searched timing passes; "compete" — an accepted searched winner is also held
-    against the cheapest accepted template whose coarse plan solved, the cheaper is written
-    (`final_phase.against_templates`; needs a final check, else the same as "fallback").
+    only if no searched timing passes; "compete" — every template whose coarse plan solved is
+    re-solved too, and the cheapest accepted one is written if it beats the searched winner
+    (or if none passes)
+    (`final_phase.choose_final(rival=)`; needs a final check, else the same as "fallback").
     """
     t0, c0 = time.perf_counter(), time.process_time()
     options = options or PlannerOptions()
