@@ -95,7 +95,6 @@ from planner.search.defaults import (
     DEFAULT_FINAL_TEMPLATES,
     DEFAULT_TIPPING_WEIGHT,
     FINAL_TEMPLATES,
-    FINAL_TEMPLATES_COMPETE,
     SEARCH_HALF_CYCLE,
 )
 from planner.search.final_phase import (
@@ -105,7 +104,6 @@ from planner.search.final_phase import (
     FinalPlannerSpec,
     FinalTask,
     choose_final,
-    compete_order,
     evaluate_final,
 )
 from planner.search.gait_search import (
@@ -114,7 +112,7 @@ from planner.search.gait_search import (
     FINAL_CANDIDATES,
     SEARCH_WARM_STARTS,
     TimingSpace,
-    coarse_plan_solved,
+    final_order,
     final_tasks,
 )
 from planner.search.support import TippingCost
@@ -378,9 +376,7 @@ class FinalReplayer:
             """The search's objective at full resolution (`search_gait`'s final score)."""
             return plan.cost + tipping(plan.schedule)
 
-        rival = coarse_plan_solved if templates == FINAL_TEMPLATES_COMPETE else None
-        if rival is not None:
-            tasks, searched = compete_order(tasks, searched, choice, rival)
+        tasks, searched, rival = final_order(tasks, searched, choice, templates)
         chosen = choose_final(tasks, searched, self.outcomes(tasks), choice, total, rival)
         replay_cpu = sum(o.solve_cpu_s + o.check_cpu_s for o in chosen.read)
         base: dict = rec["row"]
@@ -421,15 +417,8 @@ def replay_setting(setting: str, k: int, candidates: int,
 def cmd_replay(args: argparse.Namespace) -> None:
     ks = _generations(args.generations)
     cs = _integers("--final-candidates", args.final_candidates, "4,8")
-    rivals = [t.strip() for t in args.final_templates.split(",") if t.strip()]
-    if not rivals or any(t not in FINAL_TEMPLATES for t in rivals):
-        raise SystemExit(f"replay: --final-templates must be a comma-separated list of "
-                         f"{', '.join(FINAL_TEMPLATES)}, got {args.final_templates!r}")
-    choices = [c.strip() for c in args.final_choice.split(",") if c.strip()]
-    bad = [c for c in choices if c not in FINAL_CHOICES]
-    if bad or not choices:
-        raise SystemExit(f"replay: --final-choice must be a comma-separated list of "
-                         f"{', '.join(FINAL_CHOICES)}, got {args.final_choice!r}")
+    rivals = _names("--final-templates", args.final_templates, FINAL_TEMPLATES)
+    choices = _names("--final-choice", args.final_choice, FINAL_CHOICES)
     recs = []
     for name in args.recordings:
         try:
@@ -513,6 +502,16 @@ def cmd_rule(args: argparse.Namespace) -> None:
 
 def _generations(text: str) -> list[int]:
     return _integers("--generations", text, "2,3,4,5,6")
+
+
+def _names(option: str, text: str, allowed: Sequence[str]) -> list[str]:
+    """Comma-separated names, each one of `allowed`; one-line `SystemExit` naming `option`
+    otherwise."""
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    if not names or any(t not in allowed for t in names):
+        raise SystemExit(f"replay: {option} must be a comma-separated list of "
+                         f"{', '.join(allowed)}, got {text!r}")
+    return names
 
 
 def _integers(option: str, text: str, example: str) -> list[int]:

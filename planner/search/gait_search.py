@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Protocol
@@ -626,6 +626,12 @@ class GaitSearchResult:
         return self.best.cost + self.support_cost
 
 
+def _check_one_of(name: str, value: str, choices: Sequence[str]) -> None:
+    """`search_gait`'s argument `name` must be one of `choices` (`PlannerConfigError`)."""
+    if value not in choices:
+        raise PlannerConfigError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
+
+
 def search_gait(
     robot: Robot,
     speed_m_s: float,
@@ -705,24 +711,15 @@ def search_gait(
         raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
     if final_candidates is not None and final_candidates < 1:
         raise PlannerConfigError(f"final_candidates must be ≥ 1, got {final_candidates}")
-    if warm_start not in SEARCH_WARM_STARTS:
-        raise PlannerConfigError(
-            f"warm_start must be one of {', '.join(SEARCH_WARM_STARTS)}, got {warm_start!r}"
-        )
+    _check_one_of("warm_start", warm_start, SEARCH_WARM_STARTS)
     if not 0 < sigma_fraction <= 1:
         raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
     if search_swing_wrench is not None and search_swing_wrench not in SWING_WRENCHES:
         raise PlannerConfigError(f"search_swing_wrench must be one of {', '.join(SWING_WRENCHES)}"
                                  f" (or None: the options' own), got {search_swing_wrench!r}")
-    if search_inactive_rows not in INACTIVE_ROWS:
-        raise PlannerConfigError(f"search_inactive_rows must be one of {', '.join(INACTIVE_ROWS)},"
-                                 f" got {search_inactive_rows!r}")
-    if final_choice not in FINAL_CHOICES:
-        raise PlannerConfigError(f"final_choice must be one of {', '.join(FINAL_CHOICES)}, "
-                                 f"got {final_choice!r}")
-    if final_templates not in defaults.FINAL_TEMPLATES:
-        raise PlannerConfigError(f"final_templates must be one of "
-                                 f"{', '.join(defaults.FINAL_TEMPLATES)}, got {final_templates!r}")
+    _check_one_of("search_inactive_rows", search_inactive_rows, INACTIVE_ROWS)
+    _check_one_of("final_choice", final_choice, FINAL_CHOICES)
+    _check_one_of("final_templates", final_templates, defaults.FINAL_TEMPLATES)
     if search_tol is not None and not 0 < search_tol < 1:
         raise PlannerConfigError(f"search_tol must be in (0, 1) (or None: the options' own), "
                                  f"got {search_tol!r}")
@@ -826,14 +823,7 @@ def search_gait(
             """What the search minimises, at full resolution: how `final_choice` compares."""
             return plan.cost + tipping(plan.schedule)
 
-        # every template with a coarse plan: also those the coarse check rejected (spotmicro's
-        # trot template fails it at 12 knots and passes at 30; with only the accepted ones
-        # "compete" changed none of 32 replayed searches, docs/results/planner_speed_search.md,
-        # session 37)
-        rival = (coarse_plan_solved if final_templates == defaults.FINAL_TEMPLATES_COMPETE
-                 else None)
-        if rival is not None:
-            tasks, searched = compete_order(tasks, searched, final_choice, rival)
+        tasks, searched, rival = final_order(tasks, searched, final_choice, final_templates)
         if on_workers:
             with ex.ordered(worker_final_solve, tasks) as outcomes:
                 # the workers solve the first candidates meanwhile
@@ -903,6 +893,23 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
     return tasks, searched
 
 
+#: which templates compete with the searched winner (`final_phase.choose_final(rival=)`)
+Rival = Callable[[LocalResult], bool]
+
+
+def final_order(tasks: list[FinalTask], searched: list[LocalResult], final_choice: str,
+                final_templates: str
+                ) -> tuple[list[FinalTask], list[LocalResult], Rival | None]:
+    """`final_tasks`' tasks in the order `choose_final` reads them under `final_templates`, and
+    its `rival` (None: "fallback", the order unchanged). "compete" takes every template with a
+    coarse plan: also those the coarse check rejected (spotmicro's trot template fails it at 12
+    knots and passes at 30; with only the accepted ones "compete" changed none of 32 replayed
+    searches, docs/results/planner_speed_search.md, session 37)."""
+    if final_templates != defaults.FINAL_TEMPLATES_COMPETE:
+        return tasks, searched, None
+    return (*compete_order(tasks, searched, final_choice, coarse_plan_solved), coarse_plan_solved)
+
+
 def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
     """CSV: one row per generation (best cost, mean schedule, its gait label)."""
     from robots.gait import atomic_write_text
@@ -961,6 +968,7 @@ __all__ = [
     "TimingSpace",
     "coarse_plan_solved",
     "cost_of_transport",
+    "final_order",
     "final_rank",
     "final_tasks",
     "search_gait",
