@@ -114,6 +114,7 @@ from planner.search.gait_search import (
     TimingSpace,
     final_order,
     final_tasks,
+    templates_read_first,
 )
 from planner.search.support import TippingCost
 from planner.templates import label_gait, make_schedule
@@ -368,7 +369,7 @@ class FinalReplayer:
         space = TimingSpace.for_robot(self.robot, rec["symmetric"])
         own = {name: self.seeds.get(name) or make_schedule(self.robot, name) for name in names}
         tasks, searched = final_tasks(self.spec, space, cut, candidates, start, seed_results,
-                                      own)
+                                      own, templates_read_first(choice, templates, candidates))
         c0 = time.process_time()
         tipping = TippingCost.for_robot(self.robot, DEFAULT_TIPPING_WEIGHT)
 

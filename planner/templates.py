@@ -348,6 +348,14 @@ def circular_difference(d: np.ndarray) -> np.ndarray:
     return (d + 0.5) % 1.0 - 0.5
 
 
+def identical_schedules(a: ContactSchedule, b: ContactSchedule, tol: float = 1e-9) -> bool:
+    """The same feet, period, touchdown phases (mod 1, no global shift) and duty factors."""
+    phase = circular_difference(np.asarray(a.touchdown_phase) - np.asarray(b.touchdown_phase))
+    return (tuple(a.feet) == tuple(b.feet) and abs(a.period_s - b.period_s) <= tol
+            and bool(np.all(np.abs(phase) <= tol))
+            and bool(np.allclose(a.duty_factor, b.duty_factor, rtol=0.0, atol=tol)))
+
+
 def schedule_distance(schedule: ContactSchedule, template: ContactSchedule) -> float:
     """Distance between two schedules of the same feet: RMS circular phase difference after the
     best global phase shift, plus the mean absolute duty-factor difference."""

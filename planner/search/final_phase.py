@@ -43,6 +43,7 @@ from planner.search.defaults import (
     FINAL_CHOICE_FIRST,
     FINAL_CHOICES,
 )
+from planner.templates import identical_schedules
 from robots import ContactSchedule, Gait, Robot
 
 #: the label of the gait the final check judges (as the serial loop wrote it)
@@ -169,7 +170,8 @@ def compete_order(tasks: Sequence[FinalTask], searched: Sequence[LocalResult], c
                   ) -> tuple[list[FinalTask], list[LocalResult]]:
     """`tasks` (candidates, then templates) in the order `choose_final(..., rival=rival)` reads
     them: the candidates `choice` compares, the rival templates (those whose search result
-    `rival` takes), the other candidates, the other templates. The rivals are read right after
+    `rival` takes), the other candidates (but one whose timing is a rival's, already read),
+    the other templates. The rivals are read right after
     the compared candidates, in one stream: a second stream after the first would wait for the
     first one's speculative solves (a 30-knot candidate can take tens of seconds) instead of
     stopping them."""
@@ -179,7 +181,10 @@ def compete_order(tasks: Sequence[FinalTask], searched: Sequence[LocalResult], c
     n = compared_candidates(choice, len(tasks))
     rivals = [pr for pr in templates if rival(pr[1])]
     others = [pr for pr in templates if not rival(pr[1])]
-    order = candidates[:n] + rivals + candidates[n:] + others
+    # a later candidate with a rival's timing is that rival's solve, read before it
+    later = [pr for pr in candidates[n:]
+             if not any(identical_schedules(pr[0].schedule, r[0].schedule) for r in rivals)]
+    order = candidates[:n] + rivals + later + others
     return [t for t, _ in order], [r for _, r in order]
 
 

@@ -85,6 +85,7 @@ from planner.search.final_phase import (
     FinalPlannerSpec,
     FinalTask,
     choose_final,
+    compared_candidates,
     compete_order,
     evaluate_final,
     prepare_final,
@@ -92,7 +93,7 @@ from planner.search.final_phase import (
 )
 from planner.search.support import TippingCost
 from planner.templates import (
-    circular_difference,
+    identical_schedules,
     label_gait,
     make_schedule,
     mirror_permutation,
@@ -218,14 +219,6 @@ class TimingSpace:
                     return None
         s = list(self.searched)
         return np.r_[schedule.period_s, rel[s[1:]], du[s]].astype(float)
-
-
-def identical_schedules(a: ContactSchedule, b: ContactSchedule, tol: float = 1e-9) -> bool:
-    """The same feet, period, touchdown phases (mod 1, no global shift) and duty factors."""
-    phase = circular_difference(np.asarray(a.touchdown_phase) - np.asarray(b.touchdown_phase))
-    return (tuple(a.feet) == tuple(b.feet) and abs(a.period_s - b.period_s) <= tol
-            and bool(np.all(np.abs(phase) <= tol))
-            and bool(np.allclose(a.duty_factor, b.duty_factor, rtol=0.0, atol=tol)))
 
 
 def _encoded_seeds(space: TimingSpace,
@@ -810,7 +803,8 @@ def search_gait(
         n_final_reason = final_candidates_reason(pool.records, final_candidates)
         tasks, searched = final_tasks(
             spec, space, pool.records, n_final, (x0, seed_results[best_template]),
-            seed_results, seed_schedule if final_check is not None else None)
+            seed_results, seed_schedule if final_check is not None else None,
+            templates_read_first(final_choice, final_templates, n_final))
 
         def final_planner() -> tuple[GaitPlanner, float, float]:
             """The final planner (passed in, or built here) and its build's wall and CPU s."""
@@ -867,6 +861,7 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
                 records: Iterable[tuple[np.ndarray, LocalResult]], final_candidates: int,
                 start: tuple[np.ndarray, LocalResult], seed_results: Mapping[str, LocalResult],
                 seed_schedules: Mapping[str, ContactSchedule] | None,
+                read_first: int | None = None,
                 ) -> tuple[list[FinalTask], list[LocalResult]]:
     """The final phase's tasks in the order `choose_final` reads them, with the search result of
     each one's timing: the `final_candidates` cheapest usable samples of `records`
@@ -874,8 +869,9 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
     then, when `seed_schedules` is given (a final check exists), the seeds ranked as the
     candidates are (`final_rank`: until session 34 every seed the coarse check rejected tied
     at an infinite cost and came in template order), as their own schedules, skipping any
-    identical to a candidate. A search stopped after generation k is its recording truncated
-    there (`benchmarks/search_outcomes.py replay`)."""
+    identical to a candidate — to one of the first `read_first` candidates if given (those the
+    final choice always reads: `templates_read_first`). A search stopped after generation k is
+    its recording truncated there (`benchmarks/search_outcomes.py replay`)."""
     candidates = final_candidates_of(records, final_candidates) or [start]
     tasks = [FinalTask(spec, space.decode(x)) for x, _ in candidates]
     searched: list[LocalResult] = [r for _, r in candidates]
@@ -884,13 +880,25 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
         # resolution, as the template command plans them (not their phase-rotated encodings)
         # ranked as the candidates are (`final_rank`): a template the coarse check rejected
         # but whose plan solved comes before one with no plan, the cheaper first
-        tried = [task.schedule for task in tasks]
+        tried = [task.schedule for task in tasks[:read_first]]
         for name in sorted(seed_results, key=lambda n: final_rank(seed_results[n])):
             own_schedule = seed_schedules[name]
             if not any(identical_schedules(own_schedule, t) for t in tried):
                 tasks.append(FinalTask(spec, own_schedule, name))
                 searched.append(seed_results[name])
     return tasks, searched
+
+
+def templates_read_first(final_choice: str, final_templates: str, n_candidates: int
+                         ) -> int | None:
+    """`final_tasks(read_first=)`: with "compete" a template is skipped only when it is identical
+    to a candidate the choice always reads; one identical to a later candidate is a rival like
+    the others (`compete_order` drops that candidate instead). Skipping it (session 37) let the
+    README search at seed 0 with half-cycle coarse solves write a 0.720 trot over the 0.631
+    trot template, its fourth candidate, which was never read. None: any candidate."""
+    if final_templates != defaults.FINAL_TEMPLATES_COMPETE:
+        return None
+    return compared_candidates(final_choice, n_candidates)
 
 
 #: which templates compete with the searched winner (`final_phase.choose_final(rival=)`)
@@ -973,5 +981,6 @@ __all__ = [
     "final_tasks",
     "search_gait",
     "searchable_templates",
+    "templates_read_first",
     "write_search_log",
 ]

@@ -80,8 +80,10 @@ def fake_final(fake: Fake) -> FinalOutcome:
 
 
 def _tasks(fakes: list[Fake], templates: int = 0) -> tuple[list[FinalTask], list[LocalResult]]:
+    """One task per fake (the last `templates` of them templates), each its own timing."""
     n = len(fakes) - templates
-    tasks = [FinalTask(SPEC, SCHEDULE, None if i < n else f"t{i}") for i in range(len(fakes))]
+    tasks = [FinalTask(SPEC, replace(SCHEDULE, period_s=SCHEDULE.period_s * (1 + 0.01 * i)),
+                       None if i < n else f"t{i}") for i in range(len(fakes))]
     searched = [LocalResult(np.zeros(1), f.cost, True) for f in fakes]
     return tasks, searched
 
@@ -187,6 +189,22 @@ def test_cheapest_reads_every_candidate_and_takes_the_cheapest_accepted_plan() -
     assert (back.plan.cost, back.fallback_template, read) == (3.0, "t3", [2.0, 1.5, 1.2, 3.0])
     with pytest.raises(ValueError, match="choice must be one of first, cheapest-of-2, cheapest"):
         choose_final(tasks, searched, _outcomes(plans, []), "best")
+
+
+def test_compete_reads_a_later_candidate_with_a_rivals_timing_once_as_the_rival() -> None:
+    """A template whose timing is a candidate the choice may not read (the third of four under
+    "cheapest-of-2") is a rival all the same, read right after the compared candidates; the
+    candidate with its timing is dropped (the same solve). Without it the README search at
+    seed 0 with half-cycle coarse solves wrote a 0.720 trot over the 0.631 trot template."""
+    tasks, searched = _tasks([Fake(1.0, 0, True), Fake(1.1, 0, True), Fake(1.2, 0, True),
+                              Fake(1.3, 0, True), Fake(7.0, 0, True)], templates=1)
+    tasks[4] = replace(tasks[4], schedule=tasks[2].schedule)  # template t4 = candidate 3
+    order, results = compete_order(tasks, searched, FINAL_CHOICE_CHEAPEST_OF_2, lambda r: True)
+    assert [r.cost for r in results] == [1.0, 1.1, 7.0, 1.3]
+    assert [t.template for t in order] == [None, None, "t4", None]
+    # "first" compares one candidate: the second is read after the rival, the third dropped
+    first = compete_order(tasks, searched, "first", lambda r: True)[1]
+    assert [r.cost for r in first] == [1.0, 7.0, 1.1, 1.3]
 
 
 def test_a_cheaper_accepted_template_wins_over_the_searched_winner() -> None:

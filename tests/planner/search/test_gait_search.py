@@ -347,6 +347,21 @@ def test_final_tasks_are_the_candidates_then_the_other_templates_by_cost() -> No
     tasks, _ = final_tasks(spec, space, trot_first, 2, trot_first[0], seeds, own)
     assert identical_schedules(space.decode(x_of["trot"]), own["trot"])
     assert [t.template for t in tasks] == [None, "walk", "pace"]
+    # "compete" skips a template only for a candidate the choice always reads
+    # (`templates_read_first`): the trot's encoding is the second candidate, "first" reads one
+    from planner.search.gait_search import templates_read_first
+
+    assert templates_read_first("cheapest-of-2", "fallback", 4) is None
+    assert templates_read_first("cheapest-of-2", "compete", 4) == 2
+    assert templates_read_first("cheapest", "compete", 4) == 4
+    trot_second = [(sample.x_projected, sample), (x_of["trot"], seeds["trot"])]
+    tasks, _ = final_tasks(spec, space, trot_second, 2, trot_first[0], seeds, own)
+    assert [t.template for t in tasks] == [None, None, "walk", "pace"]
+    for choice, templates in (("first", "compete"), ("cheapest-of-2", "compete")):
+        tasks, _ = final_tasks(spec, space, trot_second, 2, trot_first[0], seeds, own,
+                               templates_read_first(choice, templates, 2))
+        kept = ["walk", "trot", "pace"] if choice == "first" else ["walk", "pace"]
+        assert [t.template for t in tasks] == [None, None, *kept]
     # no check: the candidates only; nothing usable: CMA's start
     tasks, searched = final_tasks(spec, space, records[2:3], 4, (x_of["walk"], seeds["walk"]),
                                   seeds, None)
