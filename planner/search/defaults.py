@@ -33,14 +33,21 @@ FINAL_TEMPLATES_FALLBACK = "fallback"
 FINAL_TEMPLATES_COMPETE = "compete"
 FINAL_TEMPLATES = (FINAL_TEMPLATES_FALLBACK, FINAL_TEMPLATES_COMPETE)
 #: "compete" over 32 replayed searches on 8 bodies: 1 cheaper gait (−2 %), none costlier, at
-#: 1.10× the CPU; on half-cycle coarse searches the worst outcome 5.1× → 2.5× of today's
-#: (docs/results/planner_speed_search.md, session 37 (lead)): an option, not the default
-DEFAULT_FINAL_TEMPLATES = FINAL_TEMPLATES_FALLBACK
+#: 1.10× the CPU; on half-cycle coarse searches the worst outcome 5.1× → 2.5× of full-cycle
+#: ones (docs/results/planner_speed_search.md, session 37 (lead)). The default since session 38,
+#: with `SEARCH_HALF_CYCLE`: the floor that makes the cheaper half-cycle search safe (session 38
+#: (lead)).
+DEFAULT_FINAL_TEMPLATES = FINAL_TEMPLATES_COMPETE
 #: `PlannerOptions.inactive_rows` of the search's coarse solves, whatever the final solves use:
 #: at N = 12 "free" ended on another local optimum on 2 of 35 quad12/hex18 schedules
 #: (docs/results/planner_speed_ipopt.md, session 33, branch rank)
 SEARCH_INACTIVE_ROWS = "rows"
 #: `PlannerOptions.half_cycle_solve` of the search's coarse solves: a symmetric sample (every
 #: sample of a symmetric timing space, straight) is solved on the first half of its knots
-#: (`planner.nlp.half_cycle`); the final re-solves keep the options' own
-SEARCH_HALF_CYCLE = False
+#: (`planner.nlp.half_cycle`); the final re-solves keep the options' own. On since session 38
+#: with "compete" (`DEFAULT_FINAL_TEMPLATES`): over 32 searches on 8 bodies the written gaits'
+#: cost + support term 0.999× full-cycle ones, unpaired [0.92, 1.09] (the seeds are draws), at
+#: 0.79× the CPU; the courses part as a seed change parts them (paired |log ratio| 90th
+#: percentile 1.46, seed to seed 1.46); the README search 0.47× the CPU, the same trot
+#: (docs/results/planner_speed_search.md, sessions 36, 37, 38 (lead))
+SEARCH_HALF_CYCLE = True

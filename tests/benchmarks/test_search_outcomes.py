@@ -56,7 +56,8 @@ def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     assert (s.search_half_cycle, s.final_half_cycle) == (True, True)
     with pytest.raises(SystemExit, match="sets search_half_cycle twice"):
         so.parse_setting("half+full")
-    assert so.parse_setting("base").final_templates == "fallback"
+    assert so.parse_setting("base").final_templates == so.DEFAULT_FINAL_TEMPLATES == "compete"
+    assert so.parse_setting("fallback").final_templates == "fallback"
     assert so.parse_setting("half+compete").final_templates == "compete"
     with pytest.raises(SystemExit, match="sets final_templates twice"):
         so.parse_setting("compete+fallback")
@@ -165,7 +166,7 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     monkeypatch.setattr(so, "GaitPlanner", lambda *a: None)
     monkeypatch.setattr(so, "evaluate_final", fake_evaluate)
     replayer = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30)
-    one = replayer.truncated(rec, 1)
+    one = replayer.truncated(rec, 1, templates="fallback")
     # candidates after generation 0: walk template (0.6), trot (0.7), sample 1 (0.8), sample 0
     assert one["solves"] == 4 and one["iterations"] == 2 * 10 + 2 * 20
     assert one["setting"] == "base+gen1" and one["verdict"] == "MuJoCo pass"
@@ -173,7 +174,7 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     assert len(solved) == 3 and one["final_solves"] == 3
     # dropped: generation 1's two samples (2.5 CPU-s each); final phase 3 → 3 × 1.25
     assert one["cpu_s"] == pytest.approx(50.0 - 5.0 - 3.0 + 3.75)
-    two = replayer.truncated(rec, 2)
+    two = replayer.truncated(rec, 2, templates="fallback")
     # candidates: generation 1's samples (0.2, 0.5), the walk's and the trot's encodings; none
     # passes, nor does the fallback (the walk's own schedule; the trot's is its encoding), so
     # the first candidate is written, failed; sample 1 (0.8) is no longer a candidate
@@ -181,12 +182,12 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     assert two["final_solves"] == 5 and len(solved) == 3 + 3  # the encodings were solved before
     assert np.isclose(two["cpu_s"], 50.0 - 3.0 + 5 * 1.25)
     # with 5 final candidates sample 1 (0.8) is one again, and passes
-    five = replayer.truncated(rec, 2, 5)
+    five = replayer.truncated(rec, 2, 5, templates="fallback")
     assert (five["setting"], five["search_cost"], five["verdict"]) == (
         "base+gen2+final5", 0.8, "MuJoCo pass")
     assert len(solved) == 6  # every schedule it read was solved before
     # "cheapest" reads every candidate (4 after generation 0) and names its row
-    cheap = replayer.truncated(rec, 1, 4, "cheapest")
+    cheap = replayer.truncated(rec, 1, 4, "cheapest", "fallback")
     assert (cheap["setting"], cheap["final_choice"], cheap["final_solves"]) == (
         "base+gen1+cheapest", "cheapest", 4)
     assert cheap["search_cost"] == 0.8 and cheap["final_total"] >= cheap["final_cost"] == 0.4
@@ -201,7 +202,7 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
 
     monkeypatch.setattr(so, "evaluate_final", cheap_walk)
     rival = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30)
-    fallback = rival.truncated(rec, 1)
+    fallback = rival.truncated(rec, 1, templates="fallback")
     assert (fallback["fallback_template"], fallback["beaten_search_total"]) == (None, None)
     compete = rival.truncated(rec, 1, templates="compete")
     assert (compete["fallback_template"], compete["final_templates"]) == ("walk", "compete")

@@ -373,13 +373,17 @@ def test_prepare_final_builds_once_per_search() -> None:
 @pytest.mark.slow
 def test_the_search_gives_the_same_gait_on_serial_and_process_executors() -> None:
     """The whole search, final phase included, serial vs two spawned workers: the same
-    candidates read in the same order, the same winner bit for bit."""
+    candidates and rival templates read in the same order, the same winner bit for bit."""
     kw = dict(n_knots=16, search_knots=10, max_generations=1, popsize=4, seed=1,
               final_candidates=3, final_acceptance=LongStanceCostly())
     serial = search_gait(ROBOT, 0.2, executor="serial", **kw)  # type: ignore[arg-type]
     par = search_gait(ROBOT, 0.2, executor="process", workers=2, **kw)  # type: ignore[arg-type]
     assert par.final_on_workers and not serial.final_on_workers
-    assert [ok for _, _, ok in serial.final_solves] == [False, False, True]  # the premise
+    # the premise: the two compared candidates fail, the rival templates (the first passes)
+    # are read, then the third candidate, which passes at the rival's cost (its timing is the
+    # rival's, phase-shifted); the rival is written
+    assert [ok for _, _, ok in serial.final_solves] == [False, False, True, False, False, True]
+    assert serial.fallback_template == "diagonal_walk"
     assert [p.cost for p, _, _ in serial.final_solves] == [p.cost for p, _, _ in par.final_solves]
     assert [ok for _, _, ok in serial.final_solves] == [ok for _, _, ok in par.final_solves]
     assert serial.fallback_template == par.fallback_template

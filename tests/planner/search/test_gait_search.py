@@ -15,6 +15,7 @@ import robots
 from planner.errors import PlannerConfigError
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
+from planner.search.defaults import SEARCH_HALF_CYCLE
 from planner.search.executors import SerialExecutor
 from planner.search.gait_search import (
     DEFAULT_TIPPING_WEIGHT,
@@ -210,14 +211,15 @@ def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
     """`rotor_reserve` and `swing_clearance_m` reach every NLP of the search: the workers'
     coarse planners (through the picklable factory the process/Ray workers get) and the final
     full-resolution planner (which writes the gait file's metadata); `max_iter` and
-    `inactive_rows` ("rows" for the coarse solves) are the only options the search changes for
-    its coarse NLP."""
+    `inactive_rows` ("rows" for the coarse solves) and `half_cycle_solve` (`SEARCH_HALF_CYCLE`)
+    are the only options the search changes for its coarse NLP."""
     from planner.nlp.config import PlannerOptions
 
     options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=50)
     assert factory.n_knots == 12
-    assert factory.options == replace(options, max_iter=50, inactive_rows="rows")
+    assert factory.options == replace(options, max_iter=50, inactive_rows="rows",
+                                      half_cycle_solve=SEARCH_HALF_CYCLE)
     assert built == [(20, options)]
 
 
@@ -236,7 +238,7 @@ def test_search_swing_wrench_reaches_the_coarse_solves_only(
                                               search_swing_wrench=coarse)
     assert factory.options.swing_wrench == (coarse or own)
     assert factory.options == replace(options, max_iter=60, swing_wrench=coarse or own,
-                                      inactive_rows="rows")
+                                      inactive_rows="rows", half_cycle_solve=SEARCH_HALF_CYCLE)
     assert built == [(20, options)]
 
 
@@ -254,7 +256,8 @@ def test_coarse_solves_keep_rows_and_the_final_planner_the_options_inactive_rows
     options = PlannerOptions(inactive_rows=own)
     kwargs = {} if coarse is None else {"search_inactive_rows": coarse}
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=60, **kwargs)
-    assert factory.options == replace(options, max_iter=60, inactive_rows=coarse or "rows")
+    assert factory.options == replace(options, max_iter=60, inactive_rows=coarse or "rows",
+                                      half_cycle_solve=SEARCH_HALF_CYCLE)
     assert built == [(20, options)]
 
 
@@ -277,6 +280,7 @@ def test_search_tol_reaches_the_coarse_solves_only(
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=40,
                                               search_tol=tol)
     assert factory.options == replace(options, max_iter=40, inactive_rows="rows",
+                                      half_cycle_solve=SEARCH_HALF_CYCLE,
                                       tol=options.tol if tol is None
                                       else tol)
     assert built == [(20, options)]
