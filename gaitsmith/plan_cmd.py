@@ -49,8 +49,10 @@ from gaitsmith.plan_options import (
     gait_metadata,
     planner_options,
     refuse_with_search,
+    search_final_half_cycle,
     search_planner_options,
     standing,
+    template_half_cycle,
 )
 from gaitsmith.plan_output import DEFAULT_CYCLES, STAND_S, simulated_cycles, write_gait
 from gaitsmith.plan_search import SearchSettings, plan_search, user_seed
@@ -69,7 +71,6 @@ from gaitsmith.stance_options import StanceShaped, stance_shaped
 from planner.errors import InfeasibleGaitError, PlannerConfigError
 from planner.nlp.config import (
     DEFAULT_FROUDE,
-    DEFAULT_HALF_CYCLE_SOLVE,
     DEFAULT_INACTIVE_ROWS,
     DEFAULT_NLP_HESSIAN,
     INACTIVE_ROWS,
@@ -155,13 +156,15 @@ def plan(
         False, "--mirror", help="the second half of the cycle is the first half mirrored "
         "left-right (straight gaits of symmetric bodies on half-cycle symmetric schedules: "
         "biped walk/run, trot, pace, tripod; N even)"),
-    half_cycle: bool = typer.Option(
-        DEFAULT_HALF_CYCLE_SOLVE, "--half-cycle/--full-cycle",
+    half_cycle: bool | None = typer.Option(
+        None, "--half-cycle/--full-cycle",
         help="solve a straight gait on a half-cycle mirror-symmetric schedule (trot, pace, "
         "tripod, biped walk; N even) on the first half of its knots, the second half its "
         "mirror image: about half the time per solve, the same optimum where the full solve "
-        "stays symmetric; anything else is solved in full. With --search: the final "
-        "re-solves (--search-half-cycle: the coarse ones)"),
+        "stays symmetric; anything else (a turn, an asymmetric schedule, a body with no mirror "
+        "image) is solved in full. Default: half-cycle for the planned gait, full-cycle for "
+        "the final re-solves of --search; given, it sets both (--search-half-cycle: the "
+        "search's coarse solves)"),
     force_rate: float | None = typer.Option(
         None, "--force-rate", help="bound each foot's normal-force rate to this many body "
         "weights per √(L/g) (`PlannerOptions.normal_force_rate_weights_per_t0`): the load "
@@ -248,7 +251,7 @@ def plan(
     settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
                               address, search_knots, tipping_weight, sim_accept,
                               search_swing_wrench, final_choice, search_half_cycle,
-                              final_templates)
+                              final_templates, search_final_half_cycle(half_cycle))
     check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     check_command(speed, vy, yaw_rate)
     refuse_with_search(search, given)  # --vy, --yaw-rate, --knife-edge, --mirror, ...
@@ -287,7 +290,7 @@ def plan(
               else StanceShaped(force_rate, bounce_weight, entry_cycles, {}))
     options = planner_options(mu, solver, shaped, rotor_reserve, swing_clearance,
                               verbose=verbose, servo_settings=servo_settings, mirror=mirror,
-                              half_cycle=half_cycle,
+                              half_cycle=template_half_cycle(half_cycle),
                               line_capture_margin=line_capture_margin,
                               nlp_hessian=nlp_hessian, cop_sole_fraction=cop_sole_fraction,
                               inactive_rows=inactive_rows)

@@ -42,6 +42,7 @@ from planner.nlp.config import (
     NLP_HESSIANS,
     PlannerOptions,
 )
+from planner.search.defaults import FINAL_HALF_CYCLE
 from robots.gait import ENTRY_CYCLES_KEY, MAX_ENTRY_CYCLES
 from robots.servo_params import ServoSetting
 
@@ -99,7 +100,8 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--knife-edge", "knife_edge", "re-plans and simulations after --simulate", "",
                 "--knife-edge: needs --simulate, a straight command (no --vy, --yaw-rate) and "
                 "no --search"),
-    OptionRoute("--half-cycle", "half_cycle", NLP, NLP + " of the final re-solves"),
+    OptionRoute("--half-cycle", "half_cycle", NLP + " (default: half-cycle)",
+                NLP + " of the final re-solves (default: full-cycle); gait-file metadata"),
     OptionRoute("--mirror", "mirror", NLP, "",
                 "--mirror: not with --search yet; plan the chosen gait with --mirror"),
     OptionRoute("--force-rate", "force_rate", NLP_META, NLP_META),
@@ -240,6 +242,19 @@ def planner_options(mu: float, solver: str, shaped: StanceShaped, rotor_reserve:
                           nlp_hessian=nlp_hessian, inactive_rows=inactive_rows,
                           cop_sole_fraction=(COP_SOLE_FRACTION if cop_sole_fraction is None
                                              else cop_sole_fraction))
+
+
+def template_half_cycle(given: bool | None) -> bool:
+    """`PlannerOptions.half_cycle_solve` of the template path: `--half-cycle/--full-cycle` as
+    given, else `DEFAULT_HALF_CYCLE_SOLVE` (on)."""
+    return DEFAULT_HALF_CYCLE_SOLVE if given is None else given
+
+
+def search_final_half_cycle(given: bool | None) -> bool:
+    """`search_gait(final_half_cycle=)` of `--search`: `--half-cycle/--full-cycle` as given,
+    else `planner.search.defaults.FINAL_HALF_CYCLE` (off: the final re-solves stay full-cycle,
+    as measured; the coarse solves have their own `--search-half-cycle`)."""
+    return FINAL_HALF_CYCLE if given is None else given
 
 
 def search_planner_options(options: PlannerOptions) -> PlannerOptions:

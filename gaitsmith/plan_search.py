@@ -20,6 +20,7 @@ from planner.search.budget import REASON_NONE_ACCEPTED
 from planner.search.defaults import (
     DEFAULT_FINAL_CHOICE,
     DEFAULT_FINAL_TEMPLATES,
+    FINAL_HALF_CYCLE,
     SEARCH_HALF_CYCLE,
     SEARCH_INACTIVE_ROWS,
 )
@@ -52,6 +53,9 @@ class SearchSettings:
     search_half_cycle: bool = SEARCH_HALF_CYCLE
     #: the templates only as the fallback, or competing with the winner (`--final-templates`)
     final_templates: str = DEFAULT_FINAL_TEMPLATES
+    #: the final re-solves on the first half of a symmetric timing's knots (`--half-cycle`
+    #: given; unset: `FINAL_HALF_CYCLE`, `gaitsmith.plan_options.search_final_half_cycle`)
+    final_half_cycle: bool = FINAL_HALF_CYCLE
 
 
 def user_seed(bot: robots.Robot, gait: str | None, period: float | None, duty: str | None,
@@ -108,6 +112,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         tipping_weight=st.tipping_weight, progress=progress,
         search_swing_wrench=st.search_swing_wrench, final_choice=st.final_choice,
         search_half_cycle=st.search_half_cycle, final_templates=st.final_templates,
+        final_half_cycle=st.final_half_cycle,
         seed_schedules=None if seed_schedule is None else {USER_SEED: seed_schedule},
         **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles,
                          attitude_gain),
@@ -149,6 +154,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         "final_candidates_reason": result.final_candidates_reason,
         "final_choice": st.final_choice,
         "search_half_cycle": st.search_half_cycle,
+        "final_half_cycle": st.final_half_cycle,
         "final_templates": st.final_templates,
         "beaten_search_total": result.beaten_search_total,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,

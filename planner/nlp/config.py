@@ -78,9 +78,16 @@ FREED_GROUPS: dict[str, tuple[str, ...] | None] = {
 }
 #: `PlannerOptions.cold_start`'s default
 DEFAULT_COLD_START = "stance"
-#: `PlannerOptions.half_cycle_solve`'s default (`gaitsmith plan --half-cycle/--full-cycle`; the
-#: search's coarse solves use `planner.search.defaults.SEARCH_HALF_CYCLE` whatever it says)
-DEFAULT_HALF_CYCLE_SOLVE = False
+#: `PlannerOptions.half_cycle_solve`'s default: on for every single gait planned from a template
+#: or a given schedule (`gaitsmith plan --gait`, the library, retarget, the design search's
+#: bodies); a solve it does not fit (a turn, an asymmetric schedule or start, a body with no
+#: mirror map) is the full NLP's. One solve 0.47–0.63× the CPU, the same MuJoCo verdict on 14 of
+#: 14 zoo templates (docs/results/planner_speed_search.md, 36-lead f;
+#: planner_speed_template_half.md, session 38). The gait search overrides it: its coarse solves
+#: use `planner.search.defaults.SEARCH_HALF_CYCLE`, its final re-solves
+#: `planner.search.defaults.FINAL_HALF_CYCLE`, whatever the options say
+#: (`gaitsmith plan --half-cycle/--full-cycle` given explicitly sets both)
+DEFAULT_HALF_CYCLE_SOLVE = True
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -303,8 +310,9 @@ class PlannerOptions:
       left–right symmetric body on the first half of its knots, the second half its mirror
       image (`planner.nlp.half_cycle`): the same iterates as the full NLP where those stay
       symmetric (IPOPT's do from the symmetric cold start), on a KKT system half the size.
-      Any other solve (a turn, an asymmetric schedule or start) is the full NLP's. Off by
-      default.
+      Any other solve (a turn, an asymmetric schedule or start) is the full NLP's. On by
+      default (`DEFAULT_HALF_CYCLE_SOLVE`); the gait search's final re-solves are full unless
+      asked (`planner.search.defaults.FINAL_HALF_CYCLE`).
     - `sideways_slip_leg_lengths`: ε/L of the lateral no-slip band of feet whose legs cannot
       move them sideways relative to the body (hip-and-knee legs; `planner.nlp.sideways_locked`):
       their equality rows are degenerate and IPOPT stalled on them. 0: equality rows.

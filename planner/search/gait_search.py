@@ -598,6 +598,8 @@ class GaitSearchResult:
     final_choice: str = defaults.DEFAULT_FINAL_CHOICE
     #: the coarse solves ran on the first half of a symmetric sample's knots (`half_cycle`)
     search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE
+    #: `PlannerOptions.half_cycle_solve` of the final re-solves (`search_gait(final_half_cycle=)`)
+    final_half_cycle: bool = defaults.FINAL_HALF_CYCLE
     #: the templates only as the fallback, or competing with the searched winner
     #: (`defaults.FINAL_TEMPLATES`, `final_phase.choose_final(rival=)`)
     final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES
@@ -658,6 +660,7 @@ def search_gait(
     final_choice: str = defaults.DEFAULT_FINAL_CHOICE,
     search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE,
     final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES,
+    final_half_cycle: bool = defaults.FINAL_HALF_CYCLE,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -689,7 +692,11 @@ def search_gait(
     accepted after them; "cheapest" — every candidate is re-solved, the cheapest accepted wins.
     `search_half_cycle`: `PlannerOptions.half_cycle_solve` of the coarse solves only (default
     `planner.search.defaults.SEARCH_HALF_CYCLE`): a symmetric sample is solved on the first half
-    of its knots (`planner.nlp.half_cycle`); the final re-solves keep `options`'.
+    of its knots (`planner.nlp.half_cycle`); the final re-solves take `final_half_cycle`.
+    `final_half_cycle`: `PlannerOptions.half_cycle_solve` of the final re-solves, whatever
+    `options` says (default `planner.search.defaults.FINAL_HALF_CYCLE`, off: full-cycle, as
+    measured; `PlannerOptions`' own default, on, is the template path's); a `planner` passed in
+    must have it (`final_options`).
     `final_templates` (`defaults.FINAL_TEMPLATES`): "fallback" — the templates are re-solved
     only if no searched timing passes; "compete" — every template whose coarse plan solved is
     re-solved too, and the cheapest accepted one is written if it beats the searched winner
@@ -700,6 +707,10 @@ def search_gait(
     options = options or PlannerOptions()
     if planner is not None and planner.n_knots != n_knots:
         raise PlannerConfigError(f"planner has {planner.n_knots} knots, search asked for {n_knots}")
+    if planner is not None and planner.options.half_cycle_solve != final_half_cycle:
+        raise PlannerConfigError(
+            f"planner has half_cycle_solve={planner.options.half_cycle_solve}, the search's final "
+            f"re-solves final_half_cycle={final_half_cycle}: build it with final_options()")
     if search_max_iter < 1:
         raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
     if final_candidates is not None and final_candidates < 1:
@@ -760,8 +771,8 @@ def search_gait(
     # `planner.search.final_phase`); they build its planner from the same robot and options
     on_workers = executor != "serial"
     spec = FinalPlannerSpec.new(robot if planner is None else planner.robot, n_knots,
-                                options if planner is None else planner.options, speed_m_s,
-                                final_check)
+                                final_options(options, final_half_cycle) if planner is None
+                                else planner.options, speed_m_s, final_check)
     t_seed, c_seed = time.perf_counter(), time.process_time()
     with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
         if on_workers and isinstance(ex, ProcessExecutor):
@@ -810,7 +821,7 @@ def search_gait(
             """The final planner (passed in, or built here) and its build's wall and CPU s."""
             if planner is not None:
                 return planner, 0.0, 0.0
-            built = GaitPlanner(robot, n_knots, options)
+            built = GaitPlanner(robot, n_knots, spec.options)
             return built, time.perf_counter() - t_final, time.process_time() - c_final
 
         def score(plan: PlanResult) -> float:
@@ -847,7 +858,8 @@ def search_gait(
         final_outcomes=choice.read, final_on_workers=on_workers,
         final_candidates=n_final, final_candidates_reason=n_final_reason,
         final_choice=final_choice, search_half_cycle=search_half_cycle,
-        final_templates=final_templates, beaten_search_total=choice.beaten_score,
+        final_half_cycle=final_half_cycle, final_templates=final_templates,
+        beaten_search_total=choice.beaten_score,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
         phase_cpu_s={"seed": c_cma - c_seed, "cma": c_final - c_cma,
@@ -855,6 +867,14 @@ def search_gait(
                      "final": c_end - c_final - final_build_cpu_s,
                      "total": time.process_time() - c0},
     )
+
+
+def final_options(options: PlannerOptions,
+                  final_half_cycle: bool = defaults.FINAL_HALF_CYCLE) -> PlannerOptions:
+    """The options of the search's final re-solves: `options` with `final_half_cycle` as their
+    `PlannerOptions.half_cycle_solve` (a final planner built outside `search_gait`, e.g.
+    `planner.search.speed_sweep`'s, must be built with these)."""
+    return replace(options, half_cycle_solve=final_half_cycle)
 
 
 def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
@@ -950,7 +970,10 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
                     if result.search_half_cycle else "") + "; winner search cost "
                  f"{result.search_cost:.6g} (support term {result.support_cost:.6g}, open-loop "
                  f"tipping amplification {result.tipping_amplification:.4g})")
-    lines.append(f"# final solve: {result.planner.n_knots} knots, {result.label}, cost "
+    lines.append(f"# final solve: {result.planner.n_knots} knots"
+                 + (" (symmetric timings on the first half of them, `half_cycle`)"
+                    if result.final_half_cycle else " (full cycle)")
+                 + f", {result.label}, cost "
                  f"{result.best.cost:.6g} + support {result.support_cost:.6g} = "
                  f"{result.total_cost:.6g}, feasible {result.best.feasible}, accepted "
                  f"{'-' if result.accepted is None else result.accepted}")
@@ -976,6 +999,7 @@ __all__ = [
     "TimingSpace",
     "coarse_plan_solved",
     "cost_of_transport",
+    "final_options",
     "final_order",
     "final_rank",
     "final_tasks",

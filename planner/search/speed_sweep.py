@@ -20,7 +20,7 @@ import numpy as np
 
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner
-from planner.search.defaults import DEFAULT_GENERATIONS
+from planner.search.defaults import DEFAULT_GENERATIONS, FINAL_HALF_CYCLE
 from planner.search.gait_search import (
     DEFAULT_SEARCH_KNOTS,
     DEFAULT_TIPPING_WEIGHT,
@@ -28,6 +28,7 @@ from planner.search.gait_search import (
     GaitAcceptance,
     GaitSearchResult,
     SearchLogRow,
+    final_options,
     search_gait,
 )
 from planner.templates import gait_family
@@ -184,11 +185,14 @@ def sweep_speeds(
     on_row: Callable[[SweepRow], None] | None = None,
     progress: Callable[[SearchLogRow], None] | None = None,
     final_candidates: int = SWEEP_FINAL_CANDIDATES,
+    final_half_cycle: bool = FINAL_HALF_CYCLE,
 ) -> tuple[SweepRow, ...]:
     """Search the best gait at each speed; one final planner (one NLP build) serves every speed.
-    `final_candidates` timings per speed are re-solved for `final_acceptance`, cheapest first."""
+    `final_candidates` timings per speed are re-solved for `final_acceptance`, cheapest first,
+    on the first half of a symmetric timing's knots if `final_half_cycle`
+    (`search_gait(final_half_cycle=)`)."""
     options = options or PlannerOptions()
-    planner = GaitPlanner(robot, n_knots, options)
+    planner = GaitPlanner(robot, n_knots, final_options(options, final_half_cycle))
     rows = []
     for speed in speeds_m_s:
         result = search_gait(robot, float(speed), n_knots=n_knots, options=options,
@@ -197,7 +201,8 @@ def sweep_speeds(
                              search_knots=search_knots, tipping_weight=tipping_weight,
                              acceptance=acceptance, final_acceptance=final_acceptance,
                              planner=planner, progress=progress,
-                             final_candidates=final_candidates)
+                             final_candidates=final_candidates,
+                             final_half_cycle=final_half_cycle)
         row = row_from(result, validator)
         rows.append(row)
         if on_row is not None:
