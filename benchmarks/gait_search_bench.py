@@ -61,13 +61,12 @@ from planner.nlp.config import (
     COLD_STARTS,
     COMPACT_ROWS,
     DEFAULT_COMPACT_ROWS,
-    DEFAULT_HALF_CYCLE_SOLVE,
     DERIVATIVE_PATHS,
     SWING_WRENCHES,
     PlannerOptions,
 )
 from planner.nlp.iteration_abort import StallAbort
-from planner.search.defaults import DEFAULT_FINAL_TEMPLATES, SEARCH_HALF_CYCLE
+from planner.search.defaults import DEFAULT_FINAL_TEMPLATES, FINAL_HALF_CYCLE, SEARCH_HALF_CYCLE
 from planner.search.executors import ExecutorKind
 from planner.search.gait_search import (
     ABORTED_STATUS,
@@ -158,7 +157,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_knots: int = DEFAULT_SEARCH_KNOTS,
         coarse_speed_tol: float | None = None,
         search_half_cycle: bool = SEARCH_HALF_CYCLE,
-        final_half_cycle: bool = DEFAULT_HALF_CYCLE_SOLVE,
+        final_half_cycle: bool = FINAL_HALF_CYCLE,
         final_templates: str = DEFAULT_FINAL_TEMPLATES) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
@@ -166,12 +165,12 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     `search_knots` the coarse solves' only; `coarse_speed_tol` (not None) the coarse MuJoCo
     check's `PassCriteria.speed_rel_tol` (the final check keeps the default);
     `search_half_cycle` the coarse solves' `PlannerOptions.half_cycle_solve`,
-    `final_half_cycle` the final re-solves'; `final_templates` whether the templates compete
-    with the searched winner (`search_gait(final_templates=...)`)."""
+    `final_half_cycle` the final re-solves' (`search_gait(final_half_cycle=)`);
+    `final_templates` whether the templates compete with the searched winner
+    (`search_gait(final_templates=...)`)."""
     robot = robots.load(robot_name)
     options, acceptance = cli_search_options(robot, derivatives, swing_wrench, cold_start,
                                              compact_rows, sim_accept, speed)
-    options = replace(options, half_cycle_solve=final_half_cycle)
     if coarse_speed_tol is not None and "acceptance" in acceptance:
         coarse = acceptance["acceptance"]
         acceptance["acceptance"] = replace(
@@ -183,7 +182,8 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         warm_start=warm_start, coarse_abort=_abort_rule(abort),
         search_swing_wrench=search_swing_wrench, search_max_iter=search_max_iter,
         search_tol=search_tol, search_knots=search_knots,
-        search_half_cycle=search_half_cycle, final_templates=final_templates, **acceptance,
+        search_half_cycle=search_half_cycle, final_half_cycle=final_half_cycle,
+        final_templates=final_templates, **acceptance,
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
@@ -198,7 +198,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if coarse_speed_tol is None else f"+speed{coarse_speed_tol:g}"
     label += "" if search_half_cycle == SEARCH_HALF_CYCLE else (
         "+half" if search_half_cycle else "+full")
-    label += "" if final_half_cycle == DEFAULT_HALF_CYCLE_SOLVE else (
+    label += "" if final_half_cycle == FINAL_HALF_CYCLE else (
         "+halffinal" if final_half_cycle else "+fullfinal")
     label += "" if final_templates == DEFAULT_FINAL_TEMPLATES else f"+{final_templates}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)

@@ -94,7 +94,7 @@ def main(argv: list[str] | None = None) -> None:
           "full / half [s] | ratio | reduced | full's asymmetry |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for n in knots:
-        full = GaitPlanner(robot, n, options)
+        full = GaitPlanner(robot, n, dataclasses.replace(options, half_cycle_solve=False))
         half = GaitPlanner(robot, n, dataclasses.replace(options, half_cycle_solve=True))
         for gait in gaits:
             schedule = make_schedule(robot, gait)

@@ -187,19 +187,25 @@ def _spread(times: list[float], iters: list[int]) -> str:
     )
 
 
+def _full_cycle(**options: Any) -> PlannerOptions:
+    """A path's options on the full NLP (`half_cycle_solve` off, as every path but
+    "compiled-half" was measured; the default is on since session 38)."""
+    return PlannerOptions(half_cycle_solve=False, **options)
+
+
 def _compact_planner(forms: tuple[str, ...], robot: robots.Robot, n_knots: int) -> GaitPlanner:
-    return GaitPlanner(robot, n_knots, PlannerOptions(compact_rows=forms))
+    return GaitPlanner(robot, n_knots, _full_cycle(compact_rows=forms))
 
 
 #: Solver paths `compare` can run, by name: each builds a planner for (robot, N). The first
 #: path named in ``--paths`` is the baseline every other one is compared against. A new solver
 #: path (issue #16) adds one entry here.
 PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
-    "expanded": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="expanded")),
-    "knot": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="knot")),
+    "expanded": lambda robot, n: GaitPlanner(robot, n, _full_cycle(derivatives="expanded")),
+    "knot": lambda robot, n: GaitPlanner(robot, n, _full_cycle(derivatives="knot")),
     # "knot" before the assembled constraint Jacobian (docs/results/planner_speed_lifted.md)
-    "knot-ad": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_jacobian="ad")),
-    "compiled": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(derivatives="compiled")),
+    "knot-ad": lambda robot, n: GaitPlanner(robot, n, _full_cycle(nlp_jacobian="ad")),
+    "compiled": lambda robot, n: GaitPlanner(robot, n, _full_cycle(derivatives="compiled")),
     # the half-cycle solve (`planner.nlp.half_cycle`): symmetric straight schedules on the first
     # N/2 knots; the warm chain's perturbed schedules are not symmetric and take the full NLP
     "compiled-half": lambda robot, n: GaitPlanner(
@@ -210,47 +216,47 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     # IPOPT's options and warm start (`planner.nlp.spacetime.ipopt_options`): before and after
     # the tuning of docs/results/planner_speed_ipopt.md ("knot" is the default, i.e. tuned)
     "knot-s21": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(derivatives="knot", ipopt_tuning="session21")
+        robot, n, _full_cycle(derivatives="knot", ipopt_tuning="session21")
     ),
     "knot-tuned": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(derivatives="knot", ipopt_tuning="tuned")
+        robot, n, _full_cycle(derivatives="knot", ipopt_tuning="tuned")
     ),
     # docs/results/planner_speed_threads.md: the knot functions and their derivatives on 2
     # threads (the "knot-w"/"knot-xy" variants measured there are the default since)
-    "knot-t2": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(knot_threads=2)),
+    "knot-t2": lambda robot, n: GaitPlanner(robot, n, _full_cycle(knot_threads=2)),
     "compiled-t2": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(derivatives="compiled", knot_threads=2)
+        robot, n, _full_cycle(derivatives="compiled", knot_threads=2)
     ),
     # the constraint Jacobian assembled from one J per knot (`planner.nlp.assembled_jacobian`;
     # "knot-aj" is the default "knot" since then, named for the comparisons in that file)
-    "knot-aj": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_jacobian="assembled")),
+    "knot-aj": lambda robot, n: GaitPlanner(robot, n, _full_cycle(nlp_jacobian="assembled")),
     # the Lagrangian Hessian assembled from one knot H per knot (`planner.nlp.assembled_hessian`)
     # and CasADi's AD Hessian, each named whatever `PlannerOptions`' default is
-    "knot-ah": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_hessian="assembled")),
-    "knot-adh": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(nlp_hessian="ad")),
+    "knot-ah": lambda robot, n: GaitPlanner(robot, n, _full_cycle(nlp_hessian="assembled")),
+    "knot-adh": lambda robot, n: GaitPlanner(robot, n, _full_cycle(nlp_hessian="ad")),
     # docs/results/planner_speed_init.md: cold starts (`PlannerOptions.cold_start`) and the
     # swing feet's wrench fixed by bounds (`PlannerOptions.swing_wrench`)
-    "knot-bal": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(cold_start="balanced")),
-    "knot-stride": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(cold_start="stride")),
-    "knot-swr": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(swing_wrench="rows")),
-    "knot-swb": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(swing_wrench="bounds")),
+    "knot-bal": lambda robot, n: GaitPlanner(robot, n, _full_cycle(cold_start="balanced")),
+    "knot-stride": lambda robot, n: GaitPlanner(robot, n, _full_cycle(cold_start="stride")),
+    "knot-swr": lambda robot, n: GaitPlanner(robot, n, _full_cycle(swing_wrench="rows")),
+    "knot-swb": lambda robot, n: GaitPlanner(robot, n, _full_cycle(swing_wrench="bounds")),
     # the schedule's switched-off equality rows (`PlannerOptions.inactive_rows`,
     # docs/results/planner_speed_ipopt.md, sessions 33-34), each named whatever the default is
-    "knot-ir-rows": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(inactive_rows="rows")),
+    "knot-ir-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(inactive_rows="rows")),
     "knot-ir-free-stance": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(inactive_rows="free stance")
+        robot, n, _full_cycle(inactive_rows="free stance")
     ),
     "knot-swb-bal": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(swing_wrench="bounds", cold_start="balanced")
+        robot, n, _full_cycle(swing_wrench="bounds", cold_start="balanced")
     ),
     "compiled-ah": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(derivatives="compiled", nlp_hessian="assembled")
+        robot, n, _full_cycle(derivatives="compiled", nlp_hessian="assembled")
     ),
     # inequality rows in a smaller form, the same feasible set (`PlannerOptions.compact_rows`,
     # docs/results/planner_speed_rows.md): every form, none, and each alone
-    "knot-rows": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(compact_rows=())),
+    "knot-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(compact_rows=())),
     "knot-compact": lambda robot, n: GaitPlanner(
-        robot, n, PlannerOptions(compact_rows=COMPACT_ROWS)
+        robot, n, _full_cycle(compact_rows=COMPACT_ROWS)
     ),
     **{f"knot-c-{form.replace(' ', '-')}": partial(_compact_planner, (form,))
        for form in COMPACT_ROWS},

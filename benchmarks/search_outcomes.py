@@ -28,7 +28,7 @@ entry), "speedX" (the coarse MuJoCo check's relative speed tolerance,
 `PassCriteria.speed_rel_tol`, X instead of 0.10; the final check keeps the default), "half" /
 "full" (the coarse solves on the first half of a symmetric sample's knots or on all of them,
 `search_gait(search_half_cycle=...)`, `planner.nlp.half_cycle`), "halffinal" (the final
-re-solves on the first half too: `PlannerOptions.half_cycle_solve` in the search's options),
+re-solves on the first half too: `search_gait(final_half_cycle=True)`),
 "fallback" / "compete" (the templates re-solved only when nothing searched passes, or also held
 against the searched winner: `search_gait(final_templates=...)`).
 Measured in docs/results/planner_speed_search.md, sessions 32-37.
@@ -74,7 +74,7 @@ import statistics
 import sys
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from scipy.stats import binomtest
@@ -86,7 +86,7 @@ from gait_search_bench import COARSE_BOUNDS, SearchRun, _abort_rule, cli_search_
 
 import robots
 from gaitsmith.options import KNOTS_RANGE
-from planner.nlp.config import DEFAULT_HALF_CYCLE_SOLVE, SWING_WRENCHES
+from planner.nlp.config import SWING_WRENCHES
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
 from planner.search.budget import final_candidate_count, final_candidates_reason
@@ -94,6 +94,7 @@ from planner.search.defaults import (
     DEFAULT_FINAL_CHOICE,
     DEFAULT_FINAL_TEMPLATES,
     DEFAULT_TIPPING_WEIGHT,
+    FINAL_HALF_CYCLE,
     FINAL_TEMPLATES,
     SEARCH_HALF_CYCLE,
 )
@@ -112,6 +113,7 @@ from planner.search.gait_search import (
     FINAL_CANDIDATES,
     SEARCH_WARM_STARTS,
     TimingSpace,
+    final_options,
     final_order,
     final_tasks,
     templates_read_first,
@@ -138,7 +140,7 @@ class Setting:
     search_knots: int = DEFAULT_SEARCH_KNOTS
     coarse_speed_tol: float | None = None
     search_half_cycle: bool = SEARCH_HALF_CYCLE
-    final_half_cycle: bool = DEFAULT_HALF_CYCLE_SOLVE
+    final_half_cycle: bool = FINAL_HALF_CYCLE
     final_templates: str = DEFAULT_FINAL_TEMPLATES
 
 
@@ -325,14 +327,14 @@ class FinalReplayer:
     swing_wrench: str
     knots: int
     #: the final re-solves on the first half of a symmetric candidate's knots (as the search's
-    #: options: `PlannerOptions.half_cycle_solve`)
-    half_cycle: bool = DEFAULT_HALF_CYCLE_SOLVE
+    #: `final_half_cycle`: `final_options`)
+    half_cycle: bool = FINAL_HALF_CYCLE
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
         self.options, acceptance = cli_search_options(self.robot, swing_wrench=self.swing_wrench,
                                                       speed_m_s=self.search.speed_m_s)
-        self.options = replace(self.options, half_cycle_solve=self.half_cycle)
+        self.options = final_options(self.options, self.half_cycle)
         self.seeds: dict[str, robots.ContactSchedule] = acceptance.get("seed_schedules", {})
         factory = acceptance["final_acceptance"]
         self.spec = FinalPlannerSpec.new(self.robot, self.knots, self.options,

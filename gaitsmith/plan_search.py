@@ -92,7 +92,9 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
     console.print(f"searching gaits for [bold]{bot.name}[/] at {speed:.3f} m/s "
                   f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
                   f"samples scored at {st.search_knots} knots"
-                  + (", MuJoCo acceptance" if st.sim_accept else "") + ")")
+                  + (", MuJoCo acceptance" if st.sim_accept else "")
+                  + (", final re-solves on half the knots (--half-cycle)"
+                     if st.final_half_cycle else "") + ")")
 
     def progress(row: SearchLogRow) -> None:
         if row.generation < 0:

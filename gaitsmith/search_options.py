@@ -58,7 +58,8 @@ def search_half_cycle_option() -> Any:
     return typer.Option(SEARCH_HALF_CYCLE, "--search-half-cycle/--search-full-cycle",
                         help="solve each symmetric sample's coarse NLP on the first half of its "
                         "knots, the second half its mirror image (half the KKT system), or on "
-                        "all of them; the final re-solves use all knots either way")
+                        "all of them; the final re-solves follow --half-cycle/--full-cycle "
+                        "(unset: all knots)")
 
 
 def final_choice_option() -> Any:

@@ -11,6 +11,7 @@ import pytest
 import robots
 from gaitsmith import plan_cmd
 from gaitsmith.cli import main
+from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner
 from planner.templates import make_schedule
 
@@ -30,7 +31,9 @@ def test_ctrl_c_inside_ipopt_raises_keyboard_interrupt() -> None:
     """CasADi catches the KeyboardInterrupt of a SIGINT and ends IPOPT with a failure status;
     the planner must turn that back into KeyboardInterrupt instead of an infeasible result."""
     bot = robots.load("quad12")
-    planner = GaitPlanner(bot, n_knots=12)
+    # the full NLP's solver, which the test patches (the half-cycle solve's own Ctrl-C test:
+    # tests/planner/nlp/test_half_cycle.py)
+    planner = GaitPlanner(bot, n_knots=12, options=PlannerOptions(half_cycle_solve=False))
     solver = planner._solver
     main_thread = threading.main_thread().ident
     assert main_thread is not None

@@ -36,7 +36,11 @@ def test_plan_search_writes_the_gait_and_its_log(tmp_path: Path) -> None:
         "bound", "gallop_rotary", "gallop_transverse", "pronk")
     log = out.with_suffix(".search.csv").read_text().splitlines()
     assert log[0].startswith("generation,best_cost") and log[1].startswith("0,")
-    assert any(line.startswith("# final solve: 20 knots") for line in log)
+    # the final re-solves: full-cycle unless --half-cycle is given (FINAL_HALF_CYCLE), and the
+    # gait file and the search log say so
+    assert search["final_half_cycle"] is False
+    assert gait["planner"]["solver"]["half_cycle"] is False
+    assert any(line.startswith("# final solve: 20 knots (full cycle)") for line in log)
     assert any(line.startswith(f"# final phase: up to {search['final_candidates']} searched")
                for line in log)
 
@@ -104,7 +108,7 @@ def test_the_coarse_half_cycle_solve_follows_its_flag(
 ) -> None:
     """`plan --search` hands `search_gait` the coarse solves' half-cycle switch: the default
     (`planner.search.defaults.SEARCH_HALF_CYCLE`), on with --search-half-cycle, off with
-    --search-full-cycle; the final planner's options never solve on half the knots."""
+    --search-full-cycle; the final re-solves stay full-cycle (`final_half_cycle`)."""
     import planner.search.gait_search as gs
     from gaitsmith.cli import main
     from planner.search.defaults import SEARCH_HALF_CYCLE
@@ -112,7 +116,7 @@ def test_the_coarse_half_cycle_solve_follows_its_flag(
     seen: list[tuple[bool, bool]] = []
 
     def record(*args: Any, **kwargs: Any) -> Any:
-        seen.append((kwargs["search_half_cycle"], kwargs["options"].half_cycle_solve))
+        seen.append((kwargs["search_half_cycle"], kwargs["final_half_cycle"]))
         raise _Recorded
 
     monkeypatch.setattr(gs, "search_gait", record)
@@ -122,6 +126,31 @@ def test_the_coarse_half_cycle_solve_follows_its_flag(
             main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
                   "-o", str(tmp_path / "g.json")])
         assert seen[-1] == (expected, False)
+
+
+def test_the_final_re_solves_are_full_cycle_unless_the_flag_is_given(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`plan --search` re-solves its final candidates on all knots by default
+    (`planner.search.defaults.FINAL_HALF_CYCLE`), although the template path's default is the
+    half-cycle solve; --half-cycle / --full-cycle given set the final re-solves too."""
+    import planner.search.gait_search as gs
+    from gaitsmith.cli import main
+    from planner.search.defaults import FINAL_HALF_CYCLE
+
+    assert FINAL_HALF_CYCLE is False
+    seen: list[bool] = []
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.append(kwargs["final_half_cycle"])
+        raise _Recorded
+
+    monkeypatch.setattr(gs, "search_gait", record)
+    for extra, expected in (([], False), (["--half-cycle"], True), (["--full-cycle"], False)):
+        with pytest.raises(_Recorded):
+            main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
+                  "-o", str(tmp_path / "g.json")])
+        assert seen[-1] is expected
 
 
 def test_the_templates_compete_only_when_asked(

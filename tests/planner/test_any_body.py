@@ -25,7 +25,7 @@ from planner.nlp.config import (
 )
 from planner.nlp.spacetime import GaitPlanner
 from planner.nlp.variables import variable_scale
-from planner.search.gait_search import TimingSpace, searchable_templates
+from planner.search.gait_search import TimingSpace, final_options, searchable_templates
 from planner.templates import (
     azimuth_order,
     default_gait_for,
@@ -287,7 +287,8 @@ def test_variable_scale_uses_leg_length_time_unit_and_weight(mini4: robots.Robot
 
 @pytest.fixture(scope="module")
 def star5_planner(star5: robots.Robot) -> GaitPlanner:
-    return GaitPlanner(star5, n_knots=12)
+    # also the search's final planner: built as the search builds it (`final_options`)
+    return GaitPlanner(star5, n_knots=12, options=final_options(PlannerOptions()))
 
 
 @pytest.fixture(scope="module")

@@ -13,9 +13,10 @@ import pytest
 
 import robots
 from planner.errors import PlannerConfigError
+from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
-from planner.search.defaults import SEARCH_HALF_CYCLE
+from planner.search.defaults import FINAL_HALF_CYCLE, SEARCH_HALF_CYCLE
 from planner.search.executors import SerialExecutor
 from planner.search.gait_search import (
     DEFAULT_TIPPING_WEIGHT,
@@ -26,6 +27,7 @@ from planner.search.gait_search import (
     TimingSolverFactory,
     TimingSpace,
     cost_of_transport,
+    final_options,
     identical_schedules,
     search_gait,
     searchable_templates,
@@ -81,7 +83,8 @@ def test_decode_wraps_phases_and_clips_durations() -> None:
 
 @pytest.fixture(scope="module")
 def small_quad_planner() -> GaitPlanner:
-    return GaitPlanner(robots.load("quad12"), n_knots=20)
+    # the search's final planner: full-cycle unless asked (`final_options`)
+    return GaitPlanner(robots.load("quad12"), n_knots=20, options=final_options(PlannerOptions()))
 
 
 def test_timing_solver_is_a_cma_only_projection(small_quad_planner: GaitPlanner) -> None:
@@ -213,14 +216,12 @@ def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
     full-resolution planner (which writes the gait file's metadata); `max_iter` and
     `inactive_rows` ("rows" for the coarse solves) and `half_cycle_solve` (`SEARCH_HALF_CYCLE`)
     are the only options the search changes for its coarse NLP."""
-    from planner.nlp.config import PlannerOptions
-
     options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=50)
     assert factory.n_knots == 12
     assert factory.options == replace(options, max_iter=50, inactive_rows="rows",
                                       half_cycle_solve=SEARCH_HALF_CYCLE)
-    assert built == [(20, options)]
+    assert built == [(20, final_options(options))]
 
 
 @pytest.mark.parametrize(("own", "coarse"), [
@@ -231,15 +232,13 @@ def test_search_swing_wrench_reaches_the_coarse_solves_only(
 ) -> None:
     """`search_swing_wrench` is the coarse NLP's `swing_wrench`; the final planner keeps the
     options' own (so final costs compare between settings); None: the options' own for both."""
-    from planner.nlp.config import PlannerOptions
-
     options = PlannerOptions(swing_wrench=own)
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=60,
                                               search_swing_wrench=coarse)
     assert factory.options.swing_wrench == (coarse or own)
     assert factory.options == replace(options, max_iter=60, swing_wrench=coarse or own,
                                       inactive_rows="rows", half_cycle_solve=SEARCH_HALF_CYCLE)
-    assert built == [(20, options)]
+    assert built == [(20, final_options(options))]
 
 
 @pytest.mark.parametrize(("own", "coarse"), [
@@ -251,14 +250,12 @@ def test_coarse_solves_keep_rows_and_the_final_planner_the_options_inactive_rows
     """The coarse (12-knot) NLP gets `search_inactive_rows` ("rows" unless asked: "free" lost
     2 of 35 optima at N = 12, planner_speed_ipopt.md session 33), whatever the options say; the
     final planner is built with the options' own `inactive_rows`."""
-    from planner.nlp.config import PlannerOptions
-
     options = PlannerOptions(inactive_rows=own)
     kwargs = {} if coarse is None else {"search_inactive_rows": coarse}
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=60, **kwargs)
     assert factory.options == replace(options, max_iter=60, inactive_rows=coarse or "rows",
                                       half_cycle_solve=SEARCH_HALF_CYCLE)
-    assert built == [(20, options)]
+    assert built == [(20, final_options(options))]
 
 
 def test_unknown_search_inactive_rows_is_one_line_before_any_solve() -> None:
@@ -274,16 +271,42 @@ def test_search_tol_reaches_the_coarse_solves_only(
 ) -> None:
     """`search_tol` is the coarse NLP's IPOPT `tol`; the final planner keeps the options' own
     (so final costs compare between settings); None: the options' own for both."""
-    from planner.nlp.config import PlannerOptions
-
     options = PlannerOptions()
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=40,
                                               search_tol=tol)
     assert factory.options == replace(options, max_iter=40, inactive_rows="rows",
-                                      half_cycle_solve=SEARCH_HALF_CYCLE,
-                                      tol=options.tol if tol is None
-                                      else tol)
-    assert built == [(20, options)]
+                                      tol=options.tol if tol is None else tol,
+                                      half_cycle_solve=SEARCH_HALF_CYCLE)
+    assert built == [(20, final_options(options))]
+
+
+@pytest.mark.parametrize(("own", "final"), [(True, None), (False, None), (True, True),
+                                            (False, True), (True, False)])
+def test_the_final_planner_takes_final_half_cycle_not_the_options(
+    monkeypatch: pytest.MonkeyPatch, own: bool, final: bool | None,
+) -> None:
+    """The final re-solves' `half_cycle_solve` is `final_half_cycle` (default
+    `FINAL_HALF_CYCLE`, off), whatever the options say (`PlannerOptions`' default, on, is the
+    template path's); the coarse solves' is `search_half_cycle`'s."""
+    options = PlannerOptions(half_cycle_solve=own)
+    kwargs = {} if final is None else {"final_half_cycle": final}
+    (factory,), built = _planners_of_a_search(monkeypatch, options, **kwargs)
+    final_half = FINAL_HALF_CYCLE if final is None else final
+    assert built == [(20, replace(options, half_cycle_solve=final_half))]
+    assert factory.options.half_cycle_solve is SEARCH_HALF_CYCLE
+
+
+def test_a_final_planner_that_disagrees_with_final_half_cycle_is_refused_before_any_solve(
+    small_quad_planner: GaitPlanner,
+) -> None:
+    """A final planner passed in must have the final re-solves' `half_cycle_solve` (a planner
+    built with the default options, half-cycle on, would silently re-solve on half the knots)."""
+    assert small_quad_planner.options.half_cycle_solve is False
+    with pytest.raises(PlannerConfigError, match=r"half_cycle_solve=False.*final_half_cycle="
+                       r"True: build it with final_options\(\)") as err:
+        search_gait(small_quad_planner.robot, 0.2, n_knots=20, planner=small_quad_planner,
+                    final_half_cycle=True)
+    assert "\n" not in str(err.value)
 
 
 @pytest.mark.parametrize("tol", [0.0, 1.0, -1e-4, math.nan])
@@ -384,8 +407,6 @@ def test_the_coarse_search_nlp_has_the_rotor_reserve_rows() -> None:
     """A worker's planner built by the factory (the search's 12-knot NLP, assembled Jacobian)
     has the 2·J·N rotor-reserve rows (ranged, `PlannerOptions.compact_rows`) and the given
     swing clearance."""
-    from planner.nlp.config import PlannerOptions
-
     robot = robots.load("quad12")
     options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
     solver = TimingSolverFactory(str(robot.root_dir), 12, 0.2, True, options)()
