@@ -334,6 +334,8 @@ class FinalReplayer:
         self.robot = robots.load(self.search.robot)
         self.options, acceptance = cli_search_options(self.robot, swing_wrench=self.swing_wrench,
                                                       speed_m_s=self.search.speed_m_s)
+        #: the templates are solved as the template path plans them (`final_tasks`)
+        self.template_half_cycle = self.options.half_cycle_solve
         self.options = final_options(self.options, self.half_cycle)
         self.seeds: dict[str, robots.ContactSchedule] = acceptance.get("seed_schedules", {})
         factory = acceptance["final_acceptance"]
@@ -341,15 +343,15 @@ class FinalReplayer:
                                          self.search.speed_m_s, factory)
         self.planner = GaitPlanner(self.robot, self.knots, self.options)
         self.check = factory()
-        self.cache: dict[tuple[float, ...], FinalOutcome] = {}
+        self.cache: dict[tuple[bool | float | None, ...], FinalOutcome] = {}
 
     def outcomes(self, tasks: Sequence[FinalTask]) -> Iterator[FinalOutcome]:
         for task in tasks:
             sch = task.schedule
-            key = (sch.period_s, *sch.touchdown_phase, *sch.duty_factor)
+            key = (task.half_cycle, sch.period_s, *sch.touchdown_phase, *sch.duty_factor)
             if key not in self.cache:
                 self.cache[key] = evaluate_final(self.planner, self.check, sch,
-                                                 self.search.speed_m_s)
+                                                 self.search.speed_m_s, task.half_cycle)
             yield self.cache[key]
 
     def truncated(self, rec: dict, k: int, candidates: int = FINAL_CANDIDATES,
@@ -371,7 +373,8 @@ class FinalReplayer:
         space = TimingSpace.for_robot(self.robot, rec["symmetric"])
         own = {name: self.seeds.get(name) or make_schedule(self.robot, name) for name in names}
         tasks, searched = final_tasks(self.spec, space, cut, candidates, start, seed_results,
-                                      own, templates_read_first(choice, templates, candidates))
+                                      own, templates_read_first(choice, templates, candidates),
+                                      self.template_half_cycle)
         c0 = time.process_time()
         tipping = TippingCost.for_robot(self.robot, DEFAULT_TIPPING_WEIGHT)
 

@@ -466,9 +466,12 @@ class GaitPlanner:
         *,
         vy_m_s: float = 0.0,
         yaw_rate_rad_s: float = 0.0,
+        half_cycle: bool | None = None,
     ) -> PlanResult:
         """Plan one gait cycle at the command (vx = `speed_m_s`, `vy_m_s`, `yaw_rate_rad_s`;
-        `planner.nlp.command`). `warm_start`: None → the last solution if any, False → cold."""
+        `planner.nlp.command`). `warm_start`: None → the last solution if any, False → cold.
+        `half_cycle`: solve on the first half of the knots where it fits (`_half_cycle_for`);
+        None → `PlannerOptions.half_cycle_solve`."""
         self._check(schedule, speed_m_s, vy_m_s, yaw_rate_rad_s)
         p = parameter_vector(
             schedule, self.n_knots, speed_m_s, self.swing_clearance_m, vy_m_s, yaw_rate_rad_s
@@ -488,8 +491,9 @@ class GaitPlanner:
         xs, gs = self._x_scale, self._g_scale
         bounds = self._solve_bounds(schedule)
         lbg, ubg = bounds.lbg / gs, bounds.ubg / gs
-        half = self._half_cycle_for(schedule, p, start, bounds, vy_m_s, yaw_rate_rad_s,
-                                    warm)
+        half = self._half_cycle_for(schedule, p, start, bounds, vy_m_s, yaw_rate_rad_s, warm,
+                                    self.options.half_cycle_solve if half_cycle is None
+                                    else half_cycle)
         abort = getattr(self, "_abort", None) if half is None else half.abort
         self._used_abort = abort
         with _sigint_watch() as interrupted:
@@ -531,15 +535,14 @@ class GaitPlanner:
         return result
 
     def _half_cycle_for(self, schedule: ContactSchedule, p: np.ndarray, start: WarmStart,
-                        bounds: SolveBounds, vy_m_s: float, yaw_rate_rad_s: float, warm: bool
-                        ) -> HalfCycleNLP | None:
-        """The reduced NLP (`planner.nlp.half_cycle`) if `PlannerOptions.half_cycle_solve` is on
-        and this solve fits it: a straight command, a schedule that is half-cycle mirror
-        symmetric at the knots, a start and variable bounds on the mirror subspace; None: solve
-        the full NLP."""
+                        bounds: SolveBounds, vy_m_s: float, yaw_rate_rad_s: float, warm: bool,
+                        wanted: bool) -> HalfCycleNLP | None:
+        """The reduced NLP (`planner.nlp.half_cycle`) if `wanted` (`solve(half_cycle=)`) and this
+        solve fits it: a straight command, a schedule that is half-cycle mirror symmetric at the
+        knots, a start and variable bounds on the mirror subspace; None: solve the full NLP."""
         from planner.templates import mirror_permutation
 
-        if not self.options.half_cycle_solve or self._half_cycle is False:
+        if not wanted or self._half_cycle is False:
             return None
         if vy_m_s != 0.0 or yaw_rate_rad_s != 0.0 or self.options.nondimensional:
             return None

@@ -71,11 +71,13 @@ class FinalPlannerSpec:
 @dataclass(frozen=True)
 class FinalTask:
     """One full-resolution solve of the final phase: a searched candidate (`template` None) or
-    the fallback's template `template`."""
+    the template `template` (the fallback's, or a rival); `half_cycle` the solve's
+    `GaitPlanner.solve(half_cycle=)` (None: the spec's options)."""
 
     spec: FinalPlannerSpec
     schedule: ContactSchedule
     template: str | None = None
+    half_cycle: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -113,10 +115,12 @@ class FinalChoice:
 
 
 def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
-                   schedule: ContactSchedule, speed_m_s: float) -> FinalOutcome:
-    """Solve `schedule` cold at the planner's knots and, if feasible, judge its gait."""
+                   schedule: ContactSchedule, speed_m_s: float,
+                   half_cycle: bool | None = None) -> FinalOutcome:
+    """Solve `schedule` cold at the planner's knots (`half_cycle`: `GaitPlanner.solve`'s) and,
+    if feasible, judge its gait."""
     c0, started = time.process_time(), time.time()
-    solved = planner.solve(schedule, speed_m_s, warm_start=False)
+    solved = planner.solve(schedule, speed_m_s, warm_start=False, half_cycle=half_cycle)
     solve_cpu_s = time.process_time() - c0
     if not solved.feasible:
         return FinalOutcome(solved, 0.0, None, solve_cpu_s, pid=os.getpid(),
@@ -151,7 +155,7 @@ def worker_final_solve(task: FinalTask) -> FinalOutcome:
     build_s, build_cpu_s = prepare_final(task.spec)
     assert _WORKER_FINAL is not None
     _, planner, check = _WORKER_FINAL
-    out = evaluate_final(planner, check, task.schedule, task.spec.speed_m_s)
+    out = evaluate_final(planner, check, task.schedule, task.spec.speed_m_s, task.half_cycle)
     return replace(out, build_s=build_s, build_cpu_s=build_cpu_s)
 
 

@@ -815,7 +815,8 @@ def search_gait(
         tasks, searched = final_tasks(
             spec, space, pool.records, n_final, (x0, seed_results[best_template]),
             seed_results, seed_schedule if final_check is not None else None,
-            templates_read_first(final_choice, final_templates, n_final))
+            templates_read_first(final_choice, final_templates, n_final),
+            options.half_cycle_solve)
 
         def final_planner() -> tuple[GaitPlanner, float, float]:
             """The final planner (passed in, or built here) and its build's wall and CPU s."""
@@ -837,8 +838,8 @@ def search_gait(
         else:
             final, final_build_s, final_build_cpu_s = final_planner()
             check = final_check() if final_check is not None else None
-            with ex.ordered(lambda task: evaluate_final(final, check, task.schedule, speed_m_s),
-                            tasks) as outcomes:
+            with ex.ordered(lambda task: evaluate_final(final, check, task.schedule, speed_m_s,
+                                                        task.half_cycle), tasks) as outcomes:
                 choice = choose_final(tasks, searched, outcomes, final_choice, score, rival)
     # the final phase ends when the pool has shut down (workers still solving are stopped)
     t_end, c_end = time.perf_counter(), time.process_time()
@@ -881,7 +882,7 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
                 records: Iterable[tuple[np.ndarray, LocalResult]], final_candidates: int,
                 start: tuple[np.ndarray, LocalResult], seed_results: Mapping[str, LocalResult],
                 seed_schedules: Mapping[str, ContactSchedule] | None,
-                read_first: int | None = None,
+                read_first: int | None = None, template_half_cycle: bool | None = None,
                 ) -> tuple[list[FinalTask], list[LocalResult]]:
     """The final phase's tasks in the order `choose_final` reads them, with the search result of
     each one's timing: the `final_candidates` cheapest usable samples of `records`
@@ -890,8 +891,10 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
     candidates are (`final_rank`: until session 34 every seed the coarse check rejected tied
     at an infinite cost and came in template order), as their own schedules, skipping any
     identical to a candidate — to one of the first `read_first` candidates if given (those the
-    final choice always reads: `templates_read_first`). A search stopped after generation k is
-    its recording truncated there (`benchmarks/search_outcomes.py replay`)."""
+    final choice always reads: `templates_read_first`), each solved with `template_half_cycle`
+    (`FinalTask.half_cycle`; `search_gait` passes its options' own, so a template is planned as
+    `gaitsmith plan ROBOT --gait NAME` plans it). A search stopped after generation k is its
+    recording truncated there (`benchmarks/search_outcomes.py replay`)."""
     candidates = final_candidates_of(records, final_candidates) or [start]
     tasks = [FinalTask(spec, space.decode(x)) for x, _ in candidates]
     searched: list[LocalResult] = [r for _, r in candidates]
@@ -904,7 +907,7 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
         for name in sorted(seed_results, key=lambda n: final_rank(seed_results[n])):
             own_schedule = seed_schedules[name]
             if not any(identical_schedules(own_schedule, t) for t in tried):
-                tasks.append(FinalTask(spec, own_schedule, name))
+                tasks.append(FinalTask(spec, own_schedule, name, template_half_cycle))
                 searched.append(seed_results[name])
     return tasks, searched
 

@@ -157,7 +157,8 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
            "lam": 2, "final_cpu_s": 3.0, "row": row, "knots": 30}
     solved: list[float] = []
 
-    def fake_evaluate(planner: Any, check: Any, schedule: Any, speed: float) -> FinalOutcome:
+    def fake_evaluate(planner: Any, check: Any, schedule: Any, speed: float,
+                      half_cycle: bool | None = None) -> FinalOutcome:
         solved.append(schedule.period_s)
         passes = math.isclose(schedule.period_s, space.decode(gen[1]).period_s)
         return FinalOutcome(_Plan(schedule, 0.4), 0.0, passes, solve_cpu_s=1.0,  # type: ignore[arg-type]
@@ -195,7 +196,8 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     # trot's is its encoding) is read; it passes and is cheaper, so it is written
     own_walk = make_schedule(robot, "walk")
 
-    def cheap_walk(planner: Any, check: Any, schedule: Any, speed: float) -> FinalOutcome:
+    def cheap_walk(planner: Any, check: Any, schedule: Any, speed: float,
+                   half_cycle: bool | None = None) -> FinalOutcome:
         walk = np.allclose(schedule.touchdown_phase, own_walk.touchdown_phase)  # not encoded
         passes = walk or math.isclose(schedule.period_s, space.decode(gen[1]).period_s)
         return FinalOutcome(_Plan(schedule, 0.01 if walk else 0.4), 0.0, passes)  # type: ignore[arg-type]

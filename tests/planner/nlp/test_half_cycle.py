@@ -62,6 +62,23 @@ def test_a_symmetric_schedule_takes_the_full_solves_iterates(
     assert b.max_violation <= 1e-6
 
 
+def test_one_solve_asks_for_the_other_path_than_its_options(
+        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+    """`solve(half_cycle=)` overrides `PlannerOptions.half_cycle_solve` for that solve (the
+    search's final phase solves its templates as the template path does, its candidates full):
+    the same plans as the planner built with the other option, bit for bit."""
+    full, half = quad12_pair
+    schedule = make_schedule(full.robot, "trot")
+    a = full.solve(schedule, SPEED_M_S, warm_start=False, half_cycle=True)
+    b = half.solve(schedule, SPEED_M_S, warm_start=False)
+    assert a.stats["half_cycle"] is True and a.cost == b.cost
+    assert np.array_equal(a.warm_start.x, b.warm_start.x)
+    c = half.solve(schedule, SPEED_M_S, warm_start=False, half_cycle=False)
+    d = full.solve(schedule, SPEED_M_S, warm_start=False)
+    assert c.stats["half_cycle"] is False and c.cost == d.cost
+    assert np.array_equal(c.warm_start.x, d.warm_start.x)
+
+
 def test_what_is_not_symmetric_is_solved_on_the_full_nlp(
         quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
     _, half = quad12_pair

@@ -389,6 +389,10 @@ def test_final_tasks_are_the_candidates_then_the_other_templates_by_cost() -> No
                                templates_read_first(choice, templates, 2))
         kept = ["walk", "trot", "pace"] if choice == "first" else ["walk", "pace"]
         assert [t.template for t in tasks] == [None, None, *kept]
+    # the templates are solved as the template path plans them, the candidates as the options
+    tasks, _ = final_tasks(spec, space, records, 2, (x_of["walk"], seeds["walk"]), seeds, own,
+                           template_half_cycle=True)
+    assert [t.half_cycle for t in tasks] == [None, None, True, True, True]
     # no check: the candidates only; nothing usable: CMA's start
     tasks, searched = final_tasks(spec, space, records[2:3], 4, (x_of["walk"], seeds["walk"]),
                                   seeds, None)
