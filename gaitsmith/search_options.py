@@ -74,8 +74,9 @@ def final_templates_option() -> Any:
     return typer.Option(DEFAULT_FINAL_TEMPLATES, "--final-templates",
                         help="the templates the search started from: fallback (re-solved at "
                         "--knots only if no searched timing passes) | compete (those whose "
-                        "coarse plan solved are re-solved too, and the cheapest that passes "
-                        "is written if it beats the searched winner)")
+                        "coarse plan solved are re-solved too, as plan --gait NAME plans them, "
+                        "and the cheapest that passes is written if it beats the searched "
+                        "winner); either way a template is solved as plan --gait plans it")
 
 
 def check_final_templates(value: str) -> None:
