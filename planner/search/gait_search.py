@@ -973,9 +973,11 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
                     if result.search_half_cycle else "") + "; winner search cost "
                  f"{result.search_cost:.6g} (support term {result.support_cost:.6g}, open-loop "
                  f"tipping amplification {result.tipping_amplification:.4g})")
+    # how the written plan was solved: a candidate as `final_half_cycle` says, a template as
+    # the template path (`final_tasks(template_half_cycle=)`), on half the knots where it fits
     lines.append(f"# final solve: {result.planner.n_knots} knots"
-                 + (" (symmetric timings on the first half of them, `half_cycle`)"
-                    if result.final_half_cycle else " (full cycle)")
+                 + (" (a symmetric timing on the first half of them, `half_cycle`)"
+                    if result.best.stats.get("half_cycle") else " (full cycle)")
                  + f", {result.label}, cost "
                  f"{result.best.cost:.6g} + support {result.support_cost:.6g} = "
                  f"{result.total_cost:.6g}, feasible {result.best.feasible}, accepted "

@@ -36,11 +36,14 @@ def test_plan_search_writes_the_gait_and_its_log(tmp_path: Path) -> None:
         "bound", "gallop_rotary", "gallop_transverse", "pronk")
     log = out.with_suffix(".search.csv").read_text().splitlines()
     assert log[0].startswith("generation,best_cost") and log[1].startswith("0,")
-    # the final re-solves: full-cycle unless --half-cycle is given (FINAL_HALF_CYCLE), and the
-    # gait file and the search log say so
+    # the final re-solves: the candidates full-cycle unless --half-cycle is given
+    # (FINAL_HALF_CYCLE), a template as the template path plans it (half-cycle where it fits);
+    # the gait file and the search log say which the written plan was
     assert search["final_half_cycle"] is False
-    assert gait["planner"]["solver"]["half_cycle"] is False
-    assert any(line.startswith("# final solve: 20 knots (full cycle)") for line in log)
+    half = gait["planner"]["solver"]["half_cycle"]
+    assert half is False or search["fallback_template"] is not None
+    how = "(a symmetric timing on the first half of them" if half else "(full cycle)"
+    assert any(line.startswith(f"# final solve: 20 knots {how}") for line in log)
     assert any(line.startswith(f"# final phase: up to {search['final_candidates']} searched")
                for line in log)
 
