@@ -45,15 +45,17 @@ SEARCH_INACTIVE_ROWS = "rows"
 #: `PlannerOptions.half_cycle_solve` of the search's coarse solves: a symmetric sample (every
 #: sample of a symmetric timing space, straight) is solved on the first half of its knots
 #: (`planner.nlp.half_cycle`); the final re-solves take `FINAL_HALF_CYCLE`. On since session 38
-#: with "compete" (`DEFAULT_FINAL_TEMPLATES`): over 32 searches on 8 bodies the written gaits'
-#: cost + support term 0.999× full-cycle ones, unpaired [0.92, 1.09] (the seeds are draws), at
-#: 0.79× the CPU; the courses part as a seed change parts them (paired |log ratio| 90th
-#: percentile 1.46, seed to seed 1.46); the README search 0.47× the CPU, the same trot
-#: (docs/results/planner_speed_search.md, sessions 36, 37, 38 (lead))
+#: with "compete" (`DEFAULT_FINAL_TEMPLATES`): real runs of 32 searches on 8 bodies wrote gaits
+#: whose cost + support term is 0.995× the full-cycle search's, unpaired [0.92, 1.08] (the
+#: seeds are draws), 32 of 32 passing, at 0.66× the CPU; the courses part as a seed change parts
+#: them (paired |log ratio| 90th percentile 1.46, seed to seed 1.46); the README search 0.51×
+#: the CPU, the same trot (docs/results/planner_speed_search.md, sessions 36, 37, 38 (lead))
 SEARCH_HALF_CYCLE = True
-#: `PlannerOptions.half_cycle_solve` of the search's final re-solves (its full-resolution
-#: candidates and templates; `search_gait(final_half_cycle=)`), whatever the options say
-#: (`PlannerOptions`' own default is on, for the template path): "halffinal" read the same
+#: `PlannerOptions.half_cycle_solve` of the search's final re-solves of its candidates
+#: (`search_gait(final_half_cycle=)`), whatever the options say (`PlannerOptions`' own default
+#: is on, for the template path; the templates the final phase re-solves are planned as the
+#: template path plans them, with the options' own: `final_tasks(template_half_cycle=)`, session
+#: 38): "halffinal" read the same
 #: verdict on 35 of 35 candidates in 12 exact replays at 0.26–0.43× the final phase's CPU, but
 #: lost two candidates whose half-cycle point fails a MuJoCo check the full one passes
 #: (docs/results/planner_speed_search.md, 36-lead e and i), so the final re-solves stay full

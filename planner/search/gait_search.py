@@ -693,10 +693,11 @@ def search_gait(
     `search_half_cycle`: `PlannerOptions.half_cycle_solve` of the coarse solves only (default
     `planner.search.defaults.SEARCH_HALF_CYCLE`): a symmetric sample is solved on the first half
     of its knots (`planner.nlp.half_cycle`); the final re-solves take `final_half_cycle`.
-    `final_half_cycle`: `PlannerOptions.half_cycle_solve` of the final re-solves, whatever
-    `options` says (default `planner.search.defaults.FINAL_HALF_CYCLE`, off: full-cycle, as
-    measured; `PlannerOptions`' own default, on, is the template path's); a `planner` passed in
-    must have it (`final_options`).
+    `final_half_cycle`: `PlannerOptions.half_cycle_solve` of the final re-solves of searched
+    candidates, whatever `options` says (default `planner.search.defaults.FINAL_HALF_CYCLE`,
+    off: full-cycle, as measured; `PlannerOptions`' own default, on, is the template path's); a
+    `planner` passed in must have it (`final_options`). The templates the final phase re-solves
+    are planned as the template path plans them, with `options`' own `half_cycle_solve`.
     `final_templates` (`defaults.FINAL_TEMPLATES`): "fallback" — the templates are re-solved
     only if no searched timing passes; "compete" — every template whose coarse plan solved is
     re-solved too, and the cheapest accepted one is written if it beats the searched winner

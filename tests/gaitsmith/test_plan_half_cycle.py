@@ -68,8 +68,9 @@ def test_the_help_says_what_the_unset_flag_means() -> None:
 
     option = inspect.signature(plan).parameters["half_cycle"].default
     assert option.default is None
-    assert "Default: half-cycle for the planned gait, full-cycle for the final re-solves of " \
-        "--search; given, it sets both" in " ".join(option.help.split())
+    assert "Default: half-cycle for the planned gait (and the templates --search re-solves), " \
+        "full-cycle for the searched candidates --search re-solves; given, it sets both" \
+        in " ".join(option.help.split())
     assert (template_half_cycle(None), search_final_half_cycle(None)) == (True, False)
     for given in (True, False):
         assert template_half_cycle(given) is search_final_half_cycle(given) is given
