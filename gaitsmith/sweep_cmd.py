@@ -19,11 +19,19 @@ from gaitsmith.options import (
     check_output_dir,
     check_speed,
 )
-from gaitsmith.plan_options import planner_options, search_planner_options
+from gaitsmith.plan_options import (
+    planner_options,
+    search_final_half_cycle,
+    search_planner_options,
+    template_half_cycle,
+)
 from gaitsmith.plan_output import DEFAULT_CYCLES
 from gaitsmith.search_options import (
+    check_final_templates,
     check_search_options,
     executor_option,
+    final_templates_option,
+    search_half_cycle_option,
     search_knots_option,
     sim_accept_option,
     sim_acceptance,
@@ -69,12 +77,20 @@ def sweep(
         DEFAULT_CYCLES, "--cycles",
         help=f"cycles to simulate (--simulate, --sim-accept; default {DEFAULT_CYCLES}, as plan)"),
     attitude_gain: float | None = attitude_gain_option(),
+    search_half_cycle: bool = search_half_cycle_option(),
+    final_templates: str = final_templates_option(),
+    half_cycle: bool | None = typer.Option(
+        None, "--half-cycle/--full-cycle",
+        help="the final re-solves on the first half of a symmetric timing's knots, or on all "
+        "of them. Default: full-cycle for the searched candidates, half-cycle for the "
+        "templates (as plan --gait plans them); given, it sets both"),
 ) -> None:
     """Search the best gait at each speed; table + plot of gait, duty factor and CoT vs Froude."""
     values = None if speeds is None else parse_speeds(speeds)
     check_knots("--knots", knots)
     check_friction("--mu", mu)
     check_search_options(executor, generations, popsize, workers, search_knots, tipping_weight)
+    check_final_templates(final_templates)
     if simulate or sim_accept:
         check_cycles("--cycles", cycles)
     check_attitude_judged(attitude_gain, simulate or sim_accept, "--simulate or --sim-accept")
@@ -109,7 +125,8 @@ def sweep(
     # the stance-compliance rule, as `plan` applies it (`gaitsmith.stance_options`)
     shaped = stance_shaped(bot, None, None, None, None)
     options = search_planner_options(planner_options(mu, PlannerOptions.derivatives, shaped,
-                                                     rotor_reserve=None, swing_clearance=None))
+                                                     rotor_reserve=None, swing_clearance=None,
+                                                     half_cycle=template_half_cycle(half_cycle)))
     entry = shaped.entry or 1
     rows = sweep_speeds(bot, values, n_knots=knots, options=options,
                         symmetric=symmetric, max_generations=generations, popsize=popsize,
@@ -118,7 +135,9 @@ def sweep(
                         **sim_acceptance(bot, sim_accept, cycles, entry, attitude_gain),
                         validator=(_sim_validator(cycles, entry, attitude_gain) if simulate
                                    else None),
-                        on_row=on_row, progress=progress)
+                        on_row=on_row, progress=progress,
+                        final_half_cycle=search_final_half_cycle(half_cycle),
+                        search_half_cycle=search_half_cycle, final_templates=final_templates)
     try:
         paths = write_sweep(rows, output, bot)
     except OutputWriteError:

@@ -20,7 +20,12 @@ import numpy as np
 
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner
-from planner.search.defaults import DEFAULT_GENERATIONS, FINAL_HALF_CYCLE
+from planner.search.defaults import (
+    DEFAULT_FINAL_TEMPLATES,
+    DEFAULT_GENERATIONS,
+    FINAL_HALF_CYCLE,
+    SEARCH_HALF_CYCLE,
+)
 from planner.search.gait_search import (
     DEFAULT_SEARCH_KNOTS,
     DEFAULT_TIPPING_WEIGHT,
@@ -186,11 +191,14 @@ def sweep_speeds(
     progress: Callable[[SearchLogRow], None] | None = None,
     final_candidates: int = SWEEP_FINAL_CANDIDATES,
     final_half_cycle: bool = FINAL_HALF_CYCLE,
+    search_half_cycle: bool = SEARCH_HALF_CYCLE,
+    final_templates: str = DEFAULT_FINAL_TEMPLATES,
 ) -> tuple[SweepRow, ...]:
     """Search the best gait at each speed; one final planner (one NLP build) serves every speed.
     `final_candidates` timings per speed are re-solved for `final_acceptance`, cheapest first,
     on the first half of a symmetric timing's knots if `final_half_cycle`
-    (`search_gait(final_half_cycle=)`)."""
+    (`search_gait(final_half_cycle=)`); `search_half_cycle` and `final_templates` are
+    `search_gait`'s."""
     options = options or PlannerOptions()
     planner = GaitPlanner(robot, n_knots, final_options(options, final_half_cycle))
     rows = []
@@ -202,7 +210,9 @@ def sweep_speeds(
                              acceptance=acceptance, final_acceptance=final_acceptance,
                              planner=planner, progress=progress,
                              final_candidates=final_candidates,
-                             final_half_cycle=final_half_cycle)
+                             final_half_cycle=final_half_cycle,
+                             search_half_cycle=search_half_cycle,
+                             final_templates=final_templates)
         row = row_from(result, validator)
         rows.append(row)
         if on_row is not None:

@@ -232,6 +232,34 @@ def test_plan_onto_a_full_disk_fails_cleanly_after_the_solve(
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(("extra", "expected"), [
+    # (search_half_cycle, final_templates, final_half_cycle, the templates' half_cycle_solve)
+    ([], (True, "compete", False, True)),
+    (["--search-full-cycle", "--final-templates", "fallback", "--full-cycle"],
+     (False, "fallback", False, False)),  # session 37's search exactly
+    (["--half-cycle"], (True, "compete", True, True)),
+])
+def test_sweep_searches_with_plans_search_options(
+    extra: list[str], expected: tuple[bool, str, bool, bool], tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`gaitsmith sweep` takes `plan --search`'s `--search-half-cycle/--search-full-cycle`,
+    `--final-templates` and `--half-cycle/--full-cycle` with the same defaults."""
+    seen = captured_kwargs(monkeypatch, sweep_cmd, "sweep_speeds",
+                           ["sweep", "quad12", "--speeds", "0.1", "-o", str(tmp_path / "s"),
+                            *extra])
+    assert (seen["search_half_cycle"], seen["final_templates"], seen["final_half_cycle"],
+            seen["options"].half_cycle_solve) == expected
+
+
+def test_sweep_refuses_an_unknown_final_templates_before_sweeping(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["sweep", "quad12", "--final-templates", "best", "-o",
+                 str(tmp_path / "s")]) == 2
+    assert "--final-templates must be one of fallback, compete" in _error_line(capsys)
+
+
 def test_sweep_write_failure_after_the_sweep_is_one_line(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -125,3 +125,35 @@ def test_the_table_says_which_rows_were_judged_closed_loop() -> None:
     opened = SweepRow(0.4, 0.08, "biped_run", "biped_run", 0.5, 0.4, 0.2, 0.2, 0.9, True, 18,
                       60.0, sim_passed=True, sim_speed_m_s=0.4, sim_attitude_gain=0.0)
     assert "| pass 0.400 m/s |" in to_markdown([opened])
+
+
+def test_every_speed_searches_with_the_sweeps_search_settings(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """`sweep_speeds` hands `search_half_cycle`, `final_templates` and `final_half_cycle` to
+    every speed's `search_gait`, with the final planner built for `final_half_cycle`."""
+    import robots
+    from planner.search import speed_sweep
+
+    built: list[bool] = []
+    seen: list[dict[str, object]] = []
+
+    class Stop(Exception):
+        pass
+
+    def planner(robot: object, n_knots: int, options: object) -> object:
+        built.append(options.half_cycle_solve)  # type: ignore[attr-defined]
+        return object()
+
+    def search(robot: object, speed: float, **kwargs: object) -> object:
+        seen.append(kwargs)
+        raise Stop
+
+    monkeypatch.setattr(speed_sweep, "GaitPlanner", planner)
+    monkeypatch.setattr(speed_sweep, "search_gait", search)
+    with pytest.raises(Stop):
+        speed_sweep.sweep_speeds(robots.load("quad12"), [0.1], search_half_cycle=False,
+                                 final_templates="fallback", final_half_cycle=True)
+    assert built == [True]
+    assert {k: seen[0][k] for k in ("search_half_cycle", "final_templates",
+                                     "final_half_cycle")} == {
+        "search_half_cycle": False, "final_templates": "fallback", "final_half_cycle": True}
