@@ -114,9 +114,7 @@ from planner.search.gait_search import (
     SEARCH_WARM_STARTS,
     TimingSpace,
     final_options,
-    final_order,
-    final_tasks,
-    templates_read_first,
+    ordered_final_tasks,
 )
 from planner.search.support import TippingCost
 from planner.templates import label_gait, make_schedule
@@ -372,9 +370,9 @@ class FinalReplayer:
         start = (records[names.index(best)][0], seed_results[best])
         space = TimingSpace.for_robot(self.robot, rec["symmetric"])
         own = {name: self.seeds.get(name) or make_schedule(self.robot, name) for name in names}
-        tasks, searched = final_tasks(self.spec, space, cut, candidates, start, seed_results,
-                                      own, templates_read_first(choice, templates, candidates),
-                                      self.template_half_cycle)
+        tasks, searched, rival = ordered_final_tasks(
+            self.spec, space, cut, candidates, start, seed_results, own, choice, templates,
+            self.template_half_cycle)
         c0 = time.process_time()
         tipping = TippingCost.for_robot(self.robot, DEFAULT_TIPPING_WEIGHT)
 
@@ -382,7 +380,6 @@ class FinalReplayer:
             """The search's objective at full resolution (`search_gait`'s final score)."""
             return plan.cost + tipping(plan.schedule)
 
-        tasks, searched, rival = final_order(tasks, searched, choice, templates)
         chosen = choose_final(tasks, searched, self.outcomes(tasks), choice, total, rival)
         replay_cpu = sum(o.solve_cpu_s + o.check_cpu_s for o in chosen.read)
         base: dict = rec["row"]

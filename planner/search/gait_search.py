@@ -813,11 +813,10 @@ def search_gait(
         t_final, c_final = time.perf_counter(), time.process_time()
         n_final = final_candidate_count(pool.records, final_candidates)
         n_final_reason = final_candidates_reason(pool.records, final_candidates)
-        tasks, searched = final_tasks(
+        tasks, searched, rival = ordered_final_tasks(
             spec, space, pool.records, n_final, (x0, seed_results[best_template]),
             seed_results, seed_schedule if final_check is not None else None,
-            templates_read_first(final_choice, final_templates, n_final),
-            options.half_cycle_solve)
+            final_choice, final_templates, options.half_cycle_solve)
 
         def final_planner() -> tuple[GaitPlanner, float, float]:
             """The final planner (passed in, or built here) and its build's wall and CPU s."""
@@ -830,7 +829,6 @@ def search_gait(
             """What the search minimises, at full resolution: how `final_choice` compares."""
             return plan.cost + tipping(plan.schedule)
 
-        tasks, searched, rival = final_order(tasks, searched, final_choice, final_templates)
         if on_workers:
             with ex.ordered(worker_final_solve, tasks) as outcomes:
                 # the workers solve the first candidates meanwhile
@@ -942,6 +940,25 @@ def final_order(tasks: list[FinalTask], searched: list[LocalResult], final_choic
     return (*compete_order(tasks, searched, final_choice, coarse_plan_solved), coarse_plan_solved)
 
 
+def ordered_final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
+                        records: Iterable[tuple[np.ndarray, LocalResult]],
+                        final_candidates: int, start: tuple[np.ndarray, LocalResult],
+                        seed_results: Mapping[str, LocalResult],
+                        seed_schedules: Mapping[str, ContactSchedule] | None,
+                        final_choice: str, final_templates: str,
+                        template_half_cycle: bool | None = None,
+                        ) -> tuple[list[FinalTask], list[LocalResult], Rival | None]:
+    """The final phase's tasks, their search results and `rival` as `choose_final` reads them
+    under `final_choice` and `final_templates`: `final_tasks` (skipping the templates
+    `templates_read_first` says) in `final_order`. The search and its replay
+    (`benchmarks/search_outcomes.py`) both build them here, so the two cannot part."""
+    tasks, searched = final_tasks(
+        spec, space, records, final_candidates, start, seed_results, seed_schedules,
+        templates_read_first(final_choice, final_templates, final_candidates),
+        template_half_cycle)
+    return final_order(tasks, searched, final_choice, final_templates)
+
+
 def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
     """CSV: one row per generation (best cost, mean schedule, its gait label)."""
     from robots.gait import atomic_write_text
@@ -1009,6 +1026,7 @@ __all__ = [
     "final_order",
     "final_rank",
     "final_tasks",
+    "ordered_final_tasks",
     "search_gait",
     "searchable_templates",
     "templates_read_first",
