@@ -254,6 +254,13 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     ),
     # inequality rows in a smaller form, the same feasible set (`PlannerOptions.compact_rows`,
     # docs/results/planner_speed_rows.md): every form, none, and each alone
+    # docs/results/planner_speed_coldstart.md: the default options (the half-cycle solve where it
+    # fits, as `gaitsmith plan` plans) and with the stance feet's clearance rows freed
+    # (`PlannerOptions.stance_clearance`)
+    "default": lambda robot, n: GaitPlanner(robot, n, PlannerOptions()),
+    "default-sc-free": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(stance_clearance="free")
+    ),
     "knot-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(compact_rows=())),
     "knot-compact": lambda robot, n: GaitPlanner(
         robot, n, _full_cycle(compact_rows=COMPACT_ROWS)

@@ -62,6 +62,16 @@ DEFAULT_COMPACT_ROWS = ("torque envelope",)
 COLD_STARTS = ("stance", "balanced", "stride")
 #: values of `PlannerOptions.swing_wrench` (`planner.nlp.swing_wrench`)
 SWING_WRENCHES = ("rows", "bounds")
+#: values of `PlannerOptions.cold_mu_centrality`: IPOPT's ``quality_function_centrality``
+COLD_MU_CENTRALITIES = ("none", "reciprocal")
+#: `PlannerOptions.cold_mu_centrality`'s default (the search's coarse solves use
+#: `planner.search.defaults.SEARCH_COLD_MU_CENTRALITY` whatever the options say)
+DEFAULT_COLD_MU_CENTRALITY = "none"
+#: values of `PlannerOptions.stance_clearance` (`planner.nlp.stance_clearance`)
+STANCE_CLEARANCES = ("rows", "free")
+#: `PlannerOptions.stance_clearance`'s default (the search's coarse solves use
+#: `planner.search.defaults.SEARCH_STANCE_CLEARANCE` whatever the options say)
+DEFAULT_STANCE_CLEARANCE = "rows"
 #: values of `PlannerOptions.inactive_rows` (`planner.nlp.inactive_rows`)
 INACTIVE_ROWS = ("rows", "free", "free stance", "regularised")
 #: `PlannerOptions.inactive_rows`' default ("rows"; the search's coarse solves use
@@ -382,6 +392,16 @@ class PlannerOptions:
       regularise the constraint block from the first iteration (``perturb_always_cd``) instead
       of after its degeneracy test. The same feasible set. The search's coarse solves use
       `planner.search.defaults.SEARCH_INACTIVE_ROWS` whatever this says.
+    - `stance_clearance`: the "swing clearance" rows of the (foot, knot) pairs in contact, which
+      repeat the "stance height" equality there (`planner.nlp.stance_clearance`): "rows" keeps
+      them, "free" unbounds them per solve. The same feasible set. The search's coarse solves
+      use `planner.search.defaults.SEARCH_STANCE_CLEARANCE` whatever this says.
+    - `cold_mu_centrality`: IPOPT's ``quality_function_centrality`` for the solves that start
+      with the cold options (`planner.nlp.spacetime.ipopt_options`: every solve but a warm one
+      under the "tuned" tuning): "none" (IPOPT's default) or "reciprocal", a term that makes
+      the adaptive μ oracle avoid μ far below the iterate's complementarity spread
+      (docs/results/planner_speed_coldstart.md). The search's coarse solves use
+      `planner.search.defaults.SEARCH_COLD_MU_CENTRALITY` whatever this says.
     """
 
     mu: float = 0.5
@@ -425,6 +445,8 @@ class PlannerOptions:
     cold_start: str = DEFAULT_COLD_START
     swing_wrench: str = "rows"
     inactive_rows: str = DEFAULT_INACTIVE_ROWS
+    stance_clearance: str = DEFAULT_STANCE_CLEARANCE
+    cold_mu_centrality: str = DEFAULT_COLD_MU_CENTRALITY
 
     def __post_init__(self) -> None:
         checks = {
@@ -488,6 +510,16 @@ class PlannerOptions:
             raise PlannerConfigError(
                 f"planner option inactive_rows={self.inactive_rows!r}: use one of "
                 f"{', '.join(INACTIVE_ROWS)}"
+            )
+        if self.cold_mu_centrality not in COLD_MU_CENTRALITIES:
+            raise PlannerConfigError(
+                f"planner option cold_mu_centrality={self.cold_mu_centrality!r}: use one of "
+                f"{', '.join(COLD_MU_CENTRALITIES)}"
+            )
+        if self.stance_clearance not in STANCE_CLEARANCES:
+            raise PlannerConfigError(
+                f"planner option stance_clearance={self.stance_clearance!r}: use one of "
+                f"{', '.join(STANCE_CLEARANCES)}"
             )
         for name, ok in checks.items():
             if not ok:

@@ -70,6 +70,7 @@ from planner.nlp.solver_cache import (
     used_directions,
     with_knot_derivatives,
 )
+from planner.nlp.stance_clearance import free_stance_clearance
 from planner.nlp.swing_wrench import swing_wrench_bounds
 from planner.nlp.variables import (
     Layout,
@@ -159,6 +160,8 @@ def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
         # the Jacobian is rank-deficient (`planner.nlp.inactive_rows`): δ_c > 0 from the start
         ipopt["perturb_always_cd"] = "yes"
     tuned_warm = warm and options.ipopt_tuning == "tuned"
+    if not tuned_warm and options.cold_mu_centrality != "none":
+        ipopt["quality_function_centrality"] = options.cold_mu_centrality
     push = TUNED_WARM_BOUND_PUSH if tuned_warm else 1e-6
     ipopt.update(
         {
@@ -665,13 +668,19 @@ class GaitPlanner:
 
     def _solve_bounds(self, schedule: ContactSchedule) -> SolveBounds:
         """The bounds of a solve of `schedule` (physical units): the built ones, the rows not in
-        force freed (`_row_lower_bounds`) and with `PlannerOptions.swing_wrench` "bounds" the
-        swing feet's wrench fixed (`planner.nlp.swing_wrench`). The schedule's contact matrix,
-        which each of the three needs when its option is on, is computed once."""
+        force freed (`_row_lower_bounds`), with `PlannerOptions.stance_clearance` "free" the stance
+        feet's clearance rows freed (`planner.nlp.stance_clearance`) and with
+        `PlannerOptions.swing_wrench` "bounds" the swing feet's wrench fixed
+        (`planner.nlp.swing_wrench`). The schedule's contact matrix, which each of them needs
+        when its option is on, is computed once."""
         uses = ("line capture" in dict(self._slices), "swing force" in self.options.compact_rows,
-                self.options.swing_wrench == "bounds", self._row_activity is not None)
+                self.options.swing_wrench == "bounds", self._row_activity is not None,
+                self.options.stance_clearance == "free")
         contact = schedule.contact_matrix(self.n_knots) if any(uses) else None
         lbg = self._row_lower_bounds(schedule, contact)
+        if self.options.stance_clearance == "free":
+            assert contact is not None
+            lbg = free_stance_clearance(dict(self._slices), contact, lbg)
         lbx, ubx = self._variable_bounds(schedule, contact)
         ubg = self._ubg
         if self.options.swing_wrench == "bounds":

@@ -42,6 +42,14 @@ DEFAULT_FINAL_TEMPLATES = FINAL_TEMPLATES_COMPETE
 #: at N = 12 "free" ended on another local optimum on 2 of 35 quad12/hex18 schedules
 #: (docs/results/planner_speed_ipopt.md, session 33, branch rank)
 SEARCH_INACTIVE_ROWS = "rows"
+#: `PlannerOptions.stance_clearance` of the search's coarse solves, whatever the final solves
+#: use: "rows", as the searches of docs/results were measured (a changed projection changes
+#: CMA's course; "free" was measured at N = 30 only, planner_speed_coldstart.md, session 39)
+SEARCH_STANCE_CLEARANCE = "rows"
+#: `PlannerOptions.cold_mu_centrality` of the search's coarse solves, whatever the final solves
+#: use: "none", as the searches of docs/results were measured (planner_speed_coldstart.md,
+#: session 39: measured at N = 30 only)
+SEARCH_COLD_MU_CENTRALITY = "none"
 #: `PlannerOptions.half_cycle_solve` of the search's coarse solves: a symmetric sample (every
 #: sample of a symmetric timing space, straight) is solved on the first half of its knots
 #: (`planner.nlp.half_cycle`); the final re-solves take `FINAL_HALF_CYCLE`. On since session 38

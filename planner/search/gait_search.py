@@ -685,7 +685,10 @@ def search_gait(
     the final re-solves keep `options.tol` (planner_speed_search.md, session 33).
     `search_inactive_rows`: `PlannerOptions.inactive_rows` of the coarse solves only (default
     `planner.search.defaults.SEARCH_INACTIVE_ROWS`, "rows", whatever `options` has); the final
-    re-solves keep `options.inactive_rows` (planner_speed_ipopt.md, session 34).
+    re-solves keep `options.inactive_rows` (planner_speed_ipopt.md, session 34). The coarse
+    solves' `PlannerOptions.stance_clearance` and `cold_mu_centrality` are
+    `defaults.SEARCH_STANCE_CLEARANCE` and `defaults.SEARCH_COLD_MU_CENTRALITY` whatever
+    `options` has; the final re-solves keep the options' own.
     `final_choice` (`FINAL_CHOICES`, `final_phase.choose_final`): "first" — the first candidate in
     coarse rank order that is feasible and accepted wins; "cheapest-of-2" (the default) — the one
     of the first two with the lower full-resolution cost plus support term, else the first
@@ -751,6 +754,8 @@ def search_gait(
                              swing_wrench=search_swing_wrench or options.swing_wrench,
                              tol=options.tol if search_tol is None else search_tol,
                              inactive_rows=search_inactive_rows,
+                             stance_clearance=defaults.SEARCH_STANCE_CLEARANCE,
+                             cold_mu_centrality=defaults.SEARCH_COLD_MU_CENTRALITY,
                              half_cycle_solve=search_half_cycle)
     factory = TimingSolverFactory(str(robot.root_dir), search_knots, speed_m_s, symmetric,
                                   search_options, tipping_weight, acceptance, warm_start,

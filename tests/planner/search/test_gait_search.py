@@ -258,6 +258,27 @@ def test_coarse_solves_keep_rows_and_the_final_planner_the_options_inactive_rows
     assert built == [(20, final_options(options))]
 
 
+@pytest.mark.parametrize(("clearance", "centrality"), [
+    ("rows", "none"), ("free", "none"), ("rows", "reciprocal"), ("free", "reciprocal"),
+])
+def test_coarse_solves_keep_the_stance_clearance_rows_and_the_mu_oracle(
+    monkeypatch: pytest.MonkeyPatch, clearance: str, centrality: str,
+) -> None:
+    """The coarse NLP gets `SEARCH_STANCE_CLEARANCE` ("rows") and `SEARCH_COLD_MU_CENTRALITY`
+    ("none"), measured at N = 30 only (planner_speed_coldstart.md, session 39), whatever the
+    options say; the final planner the options' own."""
+    options = PlannerOptions(stance_clearance=clearance, cold_mu_centrality=centrality)
+    (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=60)
+    assert factory.options.stance_clearance == "rows"
+    assert factory.options.cold_mu_centrality == "none"
+    assert factory.options == replace(options, max_iter=60, inactive_rows="rows",
+                                      stance_clearance="rows", cold_mu_centrality="none",
+                                      half_cycle_solve=SEARCH_HALF_CYCLE)
+    assert built == [(20, final_options(options))]
+    assert built[0][1].stance_clearance == clearance
+    assert built[0][1].cold_mu_centrality == centrality
+
+
 def test_unknown_search_inactive_rows_is_one_line_before_any_solve() -> None:
     with pytest.raises(PlannerConfigError,
                        match=r"search_inactive_rows must be one of rows, free.*'none'") as err:
