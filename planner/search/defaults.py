@@ -60,3 +60,10 @@ SEARCH_HALF_CYCLE = True
 #: lost two candidates whose half-cycle point fails a MuJoCo check the full one passes
 #: (docs/results/planner_speed_search.md, 36-lead e and i), so the final re-solves stay full
 FINAL_HALF_CYCLE = False
+#: `search_gait(final_retry_full=)`: a candidate whose final re-solve ran on half the knots
+#: (`FINAL_HALF_CYCLE`) and is infeasible or fails the final check is re-solved cold on the
+#: full NLP, and that plan is judged instead (`planner.search.final_phase.evaluate_final`):
+#: the half-cycle re-solve then loses no candidate the full one passes (36-lead i's bittle8
+#: seed 3). One task either way, so the final rule and its reading order are unchanged; the
+#: templates are not retried (they are planned as the template path plans them).
+FINAL_RETRY_FULL = True

@@ -77,7 +77,7 @@ def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     ("speed0", r"'speed0' in 'speed0' needs a number in \(0, 1\) after 'speed'"),
     ("speed1.5", r"needs a number in \(0, 1\) after 'speed'"),
     ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN, speedX, half, full, "
-             r"halffinal, fallback or compete"),
+             r"fullfinal, halffinal, halfretry, fallback or compete"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:
@@ -157,15 +157,15 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
            "lam": 2, "final_cpu_s": 3.0, "row": row, "knots": 30}
     solved: list[float] = []
 
-    def fake_evaluate(planner: Any, check: Any, schedule: Any, speed: float,
-                      half_cycle: bool | None = None) -> FinalOutcome:
+    def fake_evaluate(planner: Any, check: Any, task: Any) -> FinalOutcome:
+        schedule = task.schedule
         solved.append(schedule.period_s)
         passes = math.isclose(schedule.period_s, space.decode(gen[1]).period_s)
         return FinalOutcome(_Plan(schedule, 0.4), 0.0, passes, solve_cpu_s=1.0,  # type: ignore[arg-type]
                             check_cpu_s=0.25)
 
     monkeypatch.setattr(so, "GaitPlanner", lambda *a: None)
-    monkeypatch.setattr(so, "evaluate_final", fake_evaluate)
+    monkeypatch.setattr(so, "evaluate_task", fake_evaluate)
     replayer = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30)
     one = replayer.truncated(rec, 1, templates="fallback")
     # candidates after generation 0: walk template (0.6), trot (0.7), sample 1 (0.8), sample 0
@@ -196,13 +196,13 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     # trot's is its encoding) is read; it passes and is cheaper, so it is written
     own_walk = make_schedule(robot, "walk")
 
-    def cheap_walk(planner: Any, check: Any, schedule: Any, speed: float,
-                   half_cycle: bool | None = None) -> FinalOutcome:
+    def cheap_walk(planner: Any, check: Any, task: Any) -> FinalOutcome:
+        schedule = task.schedule
         walk = np.allclose(schedule.touchdown_phase, own_walk.touchdown_phase)  # not encoded
         passes = walk or math.isclose(schedule.period_s, space.decode(gen[1]).period_s)
         return FinalOutcome(_Plan(schedule, 0.01 if walk else 0.4), 0.0, passes)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(so, "evaluate_final", cheap_walk)
+    monkeypatch.setattr(so, "evaluate_task", cheap_walk)
     rival = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30)
     fallback = rival.truncated(rec, 1, templates="fallback")
     assert (fallback["fallback_template"], fallback["beaten_search_total"]) == (None, None)
