@@ -40,7 +40,7 @@ from planner.search.final_phase import (
     evaluate_task,
     prepare_final,
 )
-from planner.search.gait_search import search_gait
+from planner.search.gait_search import search_gait, write_search_log
 from planner.search.support import TippingCost
 from planner.templates import make_schedule
 from robots import Gait
@@ -520,6 +520,52 @@ class PassAll:
 class PassAllCheck:
     def __call__(self, gait: Gait) -> _Verdict:
         return _Verdict(True, 0.0)
+
+
+@dataclass(frozen=True)
+class RejectHalfCycle:
+    """A picklable final check factory that fails every plan solved on half the knots."""
+
+    def __call__(self) -> RejectHalfCycleCheck:
+        return RejectHalfCycleCheck()
+
+
+@dataclass(frozen=True)
+class RejectHalfCycleCheck:
+    def __call__(self, gait: Gait) -> _Verdict:
+        ok = not gait.planner["solver"]["half_cycle"]
+        return _Verdict(ok, 0.0 if ok else 1.0)
+
+
+@pytest.mark.slow
+def test_a_search_retries_on_the_full_nlp_the_candidates_whose_half_cycle_plan_fails(
+        tmp_path: Path) -> None:
+    """`search_gait(final_half_cycle=True, final_retry_full=True)` with a final check that
+    fails every half-cycle plan: the first candidate is solved on half the knots, fails, is
+    re-solved on the full NLP, passes and is written (as a full-cycle plan, and the search log
+    says it was a retry), on the serial executor and on two workers alike; without the retry
+    no candidate passes."""
+    kw = dict(n_knots=16, search_knots=10, max_generations=1, popsize=4, seed=1,
+              final_candidates=2, final_acceptance=RejectHalfCycle(), final_templates="fallback",
+              final_half_cycle=True)
+    serial = search_gait(ROBOT, 0.2, executor="serial", final_retry_full=True, **kw)  # type: ignore[arg-type]
+    par = search_gait(ROBOT, 0.2, executor="process", workers=2, final_retry_full=True, **kw)  # type: ignore[arg-type]
+    for res in (serial, par):
+        first = res.final_outcomes[0]
+        assert first.retried and first.half_tried is not None
+        assert first.half_tried.plan.stats["half_cycle"] is True and first.half_tried.ok is False
+        assert res.accepted is True and res.fallback_template is None
+        assert res.final_retried and res.best.stats["half_cycle"] is False
+        assert res.final_retry_full and res.final_half_cycle
+    assert [o.plan.cost for o in serial.final_outcomes] == [o.plan.cost for o in
+                                                            par.final_outcomes]
+    assert np.array_equal(serial.best.joint_angles_rad, par.best.joint_angles_rad)
+    log = tmp_path / "search.csv"
+    write_search_log(serial, log)
+    assert "(full cycle, a retry: its half-cycle plan failed)" in log.read_text()
+    plain = search_gait(ROBOT, 0.2, executor="serial", final_retry_full=False, **kw)  # type: ignore[arg-type]
+    assert not any(o.retried for o in plain.final_outcomes) and not plain.final_retried
+    assert all(o.ok is not True for o in plain.final_outcomes[:2])
 
 
 @pytest.mark.slow
