@@ -66,7 +66,12 @@ from planner.nlp.config import (
     PlannerOptions,
 )
 from planner.nlp.iteration_abort import StallAbort
-from planner.search.defaults import DEFAULT_FINAL_TEMPLATES, FINAL_HALF_CYCLE, SEARCH_HALF_CYCLE
+from planner.search.defaults import (
+    DEFAULT_FINAL_TEMPLATES,
+    FINAL_HALF_CYCLE,
+    FINAL_RETRY_FULL,
+    SEARCH_HALF_CYCLE,
+)
 from planner.search.executors import ExecutorKind
 from planner.search.gait_search import (
     ABORTED_STATUS,
@@ -158,14 +163,17 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         coarse_speed_tol: float | None = None,
         search_half_cycle: bool = SEARCH_HALF_CYCLE,
         final_half_cycle: bool = FINAL_HALF_CYCLE,
-        final_templates: str = DEFAULT_FINAL_TEMPLATES) -> SearchRun:
+        final_templates: str = DEFAULT_FINAL_TEMPLATES,
+        final_retry_full: bool = FINAL_RETRY_FULL) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
     NLP's; `search_swing_wrench` (not None), `search_max_iter`, `search_tol` (not None) and
     `search_knots` the coarse solves' only; `coarse_speed_tol` (not None) the coarse MuJoCo
     check's `PassCriteria.speed_rel_tol` (the final check keeps the default);
     `search_half_cycle` the coarse solves' `PlannerOptions.half_cycle_solve`,
-    `final_half_cycle` the final re-solves' (`search_gait(final_half_cycle=)`);
+    `final_half_cycle` the final re-solves' (`search_gait(final_half_cycle=)`), with
+    `final_retry_full` a failed half-cycle candidate re-solved full (`search_gait(
+    final_retry_full=)`);
     `final_templates` whether the templates compete with the searched winner
     (`search_gait(final_templates=...)`)."""
     robot = robots.load(robot_name)
@@ -183,7 +191,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_swing_wrench=search_swing_wrench, search_max_iter=search_max_iter,
         search_tol=search_tol, search_knots=search_knots,
         search_half_cycle=search_half_cycle, final_half_cycle=final_half_cycle,
-        final_templates=final_templates, **acceptance,
+        final_templates=final_templates, final_retry_full=final_retry_full, **acceptance,
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
@@ -198,10 +206,17 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if coarse_speed_tol is None else f"+speed{coarse_speed_tol:g}"
     label += "" if search_half_cycle == SEARCH_HALF_CYCLE else (
         "+half" if search_half_cycle else "+full")
-    label += "" if final_half_cycle == FINAL_HALF_CYCLE else (
-        "+halffinal" if final_half_cycle else "+fullfinal")
+    label += "" if (final_half_cycle, final_retry_full) == (FINAL_HALF_CYCLE, FINAL_RETRY_FULL) \
+        else final_solve_token(final_half_cycle, final_retry_full)
     label += "" if final_templates == DEFAULT_FINAL_TEMPLATES else f"+{final_templates}"
     return SearchRun(label, executor, wall, result, cpu, wcpu)
+
+
+def final_solve_token(half_cycle: bool, retry_full: bool) -> str:
+    """The label of a final re-solve policy (`search_gait(final_half_cycle=, final_retry_full=)`):
+    "+fullfinal" (the full NLP), "+halffinal" (half the knots where a timing is symmetric),
+    "+halfretry" (half, a failed candidate re-solved full)."""
+    return "+fullfinal" if not half_cycle else "+halfretry" if retry_full else "+halffinal"
 
 
 def cli_search_kwargs(robot: robots.Robot, derivatives: str, sim_accept: bool,

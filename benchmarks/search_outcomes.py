@@ -28,7 +28,10 @@ entry), "speedX" (the coarse MuJoCo check's relative speed tolerance,
 `PassCriteria.speed_rel_tol`, X instead of 0.10; the final check keeps the default), "half" /
 "full" (the coarse solves on the first half of a symmetric sample's knots or on all of them,
 `search_gait(search_half_cycle=...)`, `planner.nlp.half_cycle`), "halffinal" (the final
-re-solves on the first half too: `search_gait(final_half_cycle=True)`),
+re-solves of the candidates on the first half too, as solved: `search_gait(
+final_half_cycle=True, final_retry_full=False)`), "halfretry" (on the first half, a candidate
+infeasible or failing the check there re-solved on the full NLP: `final_half_cycle=True,
+final_retry_full=True`), "fullfinal" (on the full NLP: `final_half_cycle=False`),
 "fallback" / "compete" (the templates re-solved only when nothing searched passes, or also held
 against the searched winner: `search_gait(final_templates=...)`).
 Measured in docs/results/planner_speed_search.md, sessions 32-37.
@@ -82,7 +85,14 @@ from scipy.stats import t as student_t
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from gait_search_bench import COARSE_BOUNDS, SearchRun, _abort_rule, cli_search_options, run
+from gait_search_bench import (
+    COARSE_BOUNDS,
+    SearchRun,
+    _abort_rule,
+    cli_search_options,
+    final_solve_token,
+    run,
+)
 
 import robots
 from gaitsmith.options import KNOTS_RANGE
@@ -95,6 +105,7 @@ from planner.search.defaults import (
     DEFAULT_FINAL_TEMPLATES,
     DEFAULT_TIPPING_WEIGHT,
     FINAL_HALF_CYCLE,
+    FINAL_RETRY_FULL,
     FINAL_TEMPLATES,
     SEARCH_HALF_CYCLE,
 )
@@ -105,7 +116,7 @@ from planner.search.final_phase import (
     FinalPlannerSpec,
     FinalTask,
     choose_final,
-    evaluate_final,
+    evaluate_task,
 )
 from planner.search.gait_search import (
     DEFAULT_SEARCH_KNOTS,
@@ -140,6 +151,12 @@ class Setting:
     search_half_cycle: bool = SEARCH_HALF_CYCLE
     final_half_cycle: bool = FINAL_HALF_CYCLE
     final_templates: str = DEFAULT_FINAL_TEMPLATES
+    final_retry_full: bool = FINAL_RETRY_FULL
+
+
+#: the final re-solve tokens: (final_half_cycle, final_retry_full)
+FINAL_SOLVE_TOKENS = {"fullfinal": (False, FINAL_RETRY_FULL), "halffinal": (True, False),
+                      "halfretry": (True, True)}
 
 
 def _number(token: str, prefix: str, kind: type[int] | type[float], text: str,
@@ -187,15 +204,19 @@ def parse_setting(text: str) -> Setting:
             key, value = "coarse_speed_tol", _number(token, "speed", float, text)
         elif token in ("half", "full"):
             key, value = "search_half_cycle", token == "half"
-        elif token == "halffinal":
-            key, value = "final_half_cycle", True
+        elif token in FINAL_SOLVE_TOKENS:
+            if "final_half_cycle" in fields:
+                raise SystemExit(f"--settings: {text!r} sets final_half_cycle twice")
+            fields["final_half_cycle"], fields["final_retry_full"] = FINAL_SOLVE_TOKENS[token]
+            continue
         elif token in FINAL_TEMPLATES:
             key, value = "final_templates", token
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
                 f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)}, "
-                "abortK/V, capN, tolX, genK, knotsN, speedX, half, full, halffinal, "
+                "abortK/V, capN, tolX, genK, knotsN, speedX, half, full, "
+                f"{', '.join(FINAL_SOLVE_TOKENS)}, "
                 f"{' or '.join(FINAL_TEMPLATES)}, joined by +")
         if key in fields:
             raise SystemExit(f"--settings: {text!r} sets {key} twice")
@@ -255,8 +276,19 @@ def record(search: Search, setting: Setting, r: SearchRun, load_start: float) ->
         "final_total": res.total_cost if res.best.feasible else None,
         "beaten_search_total": res.beaten_search_total,
         "final_solves": len(res.final_solves), "final_choice": res.final_choice,
-        "verdict": r.verdict(),
+        "verdict": r.verdict(), **retry_fields(res.final_outcomes), "final_retried":
+        res.final_retried,
     }
+
+
+def retry_fields(outcomes: Sequence[FinalOutcome]) -> dict[str, object]:
+    """How often the final phase's full-cycle retry fired among the outcomes read and what it
+    cost (`FinalOutcome.half_tried`): "retries", the half-cycle attempts' CPU ("retry_half_cpu_s",
+    solve + check) and the full re-solves' ("retry_full_cpu_s")."""
+    tried = [o for o in outcomes if o.half_tried is not None]
+    half = sum(o.half_tried.solve_cpu_s + o.half_tried.check_cpu_s for o in tried)  # type: ignore[union-attr]
+    return {"retries": len(tried), "retry_half_cpu_s": half,
+            "retry_full_cpu_s": sum(o.solve_cpu_s + o.check_cpu_s for o in tried) - half}
 
 
 def cmd_run(args: argparse.Namespace) -> None:
@@ -283,7 +315,8 @@ def cmd_run(args: argparse.Namespace) -> None:
                     coarse_speed_tol=setting.coarse_speed_tol,
                     search_half_cycle=setting.search_half_cycle,
                     final_half_cycle=setting.final_half_cycle,
-                    final_templates=setting.final_templates)
+                    final_templates=setting.final_templates,
+                    final_retry_full=setting.final_retry_full)
             row = record(search, setting, r, load)
             if save is not None:
                 with (save / recording_name(search.key, setting.name)).open("wb") as fh:
@@ -327,6 +360,8 @@ class FinalReplayer:
     #: the final re-solves on the first half of a symmetric candidate's knots (as the search's
     #: `final_half_cycle`: `final_options`)
     half_cycle: bool = FINAL_HALF_CYCLE
+    #: a candidate failed on half the knots re-solved on the full NLP (`final_retry_full`)
+    retry_full: bool = FINAL_RETRY_FULL
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
@@ -346,10 +381,10 @@ class FinalReplayer:
     def outcomes(self, tasks: Sequence[FinalTask]) -> Iterator[FinalOutcome]:
         for task in tasks:
             sch = task.schedule
-            key = (task.half_cycle, sch.period_s, *sch.touchdown_phase, *sch.duty_factor)
+            key = (task.half_cycle, task.retry_full, sch.period_s, *sch.touchdown_phase,
+                   *sch.duty_factor)
             if key not in self.cache:
-                self.cache[key] = evaluate_final(self.planner, self.check, sch,
-                                                 self.search.speed_m_s, task.half_cycle)
+                self.cache[key] = evaluate_task(self.planner, self.check, task)
             yield self.cache[key]
 
     def truncated(self, rec: dict, k: int, candidates: int = FINAL_CANDIDATES,
@@ -372,7 +407,7 @@ class FinalReplayer:
         own = {name: self.seeds.get(name) or make_schedule(self.robot, name) for name in names}
         tasks, searched, rival = ordered_final_tasks(
             self.spec, space, cut, candidates, start, seed_results, own, choice, templates,
-            self.template_half_cycle)
+            self.template_half_cycle, self.half_cycle and self.retry_full)
         c0 = time.process_time()
         tipping = TippingCost.for_robot(self.robot, DEFAULT_TIPPING_WEIGHT)
 
@@ -405,6 +440,8 @@ class FinalReplayer:
             # infeasible), verdict] — any "cheapest of the first m" rule can be computed from it
             "final_read": [[total(o.plan) if o.plan.feasible else None, o.ok]
                            for o in chosen.read], "verdict": verdict, "replayed": True,
+            **retry_fields(chosen.read),
+            "final_retried": any(o.plan is plan and o.retried for o in chosen.read),
             "replay_cpu_s": time.process_time() - c0,
         }
 
@@ -434,19 +471,24 @@ def cmd_replay(args: argparse.Namespace) -> None:
     replayers: dict[tuple[str, str, int, bool], FinalReplayer] = {}
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
-        recorded = setting.final_half_cycle
-        half = recorded if args.final_half_cycle is None else args.final_half_cycle == "on"
+        recorded = (setting.final_half_cycle, setting.final_retry_full)
+        policy = recorded if args.final_half_cycle is None else {
+            "on": (True, False), "off": (False, FINAL_RETRY_FULL), "retry": (True, True)}[
+            args.final_half_cycle]
+        # a policy that does not re-solve on half the knots retries nothing
+        same = policy == recorded or not (policy[0] or recorded[0])
         for k, c, ch, tm in ((k, c, ch, tm) for tm in rivals for ch in choices for c in cs
                              for k in ks):
             name = replay_setting(setting.name, k, c, ch) + (
-                "" if half == recorded else "+halffinal" if half else "+fullfinal") + (
+                "" if same else final_solve_token(*policy)) + (
                 "" if tm == setting.final_templates else f"+{tm}")
             if k > rec["generations"] or (search.key, name) in done:
                 continue
-            key = (search.key, setting.swing_wrench, rec["knots"], half)
+            key = (search.key, setting.swing_wrench, rec["knots"], *policy)
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
-                replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"], half)
+                replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"],
+                                               *policy)
             row = {**replayers[key].truncated(rec, k, c, ch, tm), "setting": name}
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
@@ -647,10 +689,12 @@ def main() -> None:
                    help=f"comma-separated: {', '.join(FINAL_CHOICES)} (how the final phase picks "
                         f"among its candidates; default {DEFAULT_FINAL_CHOICE}, as the search; "
                         "rows are named '+CHOICE' unless 'first')")
-    p.add_argument("--final-half-cycle", choices=("on", "off"), default=None,
+    p.add_argument("--final-half-cycle", choices=("on", "off", "retry"), default=None,
                    help="re-solve the final candidates on the first half of a symmetric one's "
-                        "knots or on all of them (`PlannerOptions.half_cycle_solve`; rows named "
-                        "'+halffinal' / '+fullfinal' when not as recorded; default: as the "
+                        "knots (on), on all of them (off), or on the first half with a failed "
+                        "one re-solved on all of them (retry; `PlannerOptions.half_cycle_solve`,"
+                        " `search_gait(final_retry_full=)`; rows named '+halffinal' / "
+                        "'+fullfinal' / '+halfretry' when not as recorded; default: as the "
                         "recorded search did)")
     p.add_argument("--final-templates", default=DEFAULT_FINAL_TEMPLATES,
                    help=f"comma-separated: {', '.join(FINAL_TEMPLATES)} (the templates only as "

@@ -66,5 +66,18 @@ SEARCH_HALF_CYCLE = True
 #: 38): "halffinal" read the same
 #: verdict on 35 of 35 candidates in 12 exact replays at 0.26–0.43× the final phase's CPU, but
 #: lost two candidates whose half-cycle point fails a MuJoCo check the full one passes
-#: (docs/results/planner_speed_search.md, 36-lead e and i), so the final re-solves stay full
+#: (docs/results/planner_speed_search.md, 36-lead e and i), so the final re-solves stay full.
+#: With `FINAL_RETRY_FULL` ("halfretry", session 39) the 32 searches of session 38 wrote the same
+#: gait, cost and verdict as full-cycle re-solves in 32 of 32 (exact replays), but the final
+#: phase took 1.11× the CPU (each candidate failing at 30 knots is solved twice; the retry fired
+#: 47 times and changed one gait) and the search 1.03×; halffinal alone 0.70× but bittle8 seed
+#: 3 wrote a gait 2.17× as costly (planner_speed_search.md, session 39 (branch robustfinal))
 FINAL_HALF_CYCLE = False
+#: `search_gait(final_retry_full=)`: a candidate whose final re-solve ran on half the knots
+#: (`FINAL_HALF_CYCLE`) and is infeasible or fails the final check is re-solved cold on the
+#: full NLP, and that plan is judged instead (`planner.search.final_phase.evaluate_final`):
+#: the half-cycle re-solve then loses no candidate the full one passes (36-lead i's bittle8
+#: seed 3). One task either way, so the final rule and its reading order are unchanged; the
+#: templates are not retried (they are planned as the template path plans them). Only with
+#: the half-cycle re-solves (`--half-cycle`), which are not the default: see `FINAL_HALF_CYCLE`.
+FINAL_RETRY_FULL = True

@@ -72,19 +72,26 @@ class FinalPlannerSpec:
 class FinalTask:
     """One full-resolution solve of the final phase: a searched candidate (`template` None) or
     the template `template` (the fallback's, or a rival); `half_cycle` the solve's
-    `GaitPlanner.solve(half_cycle=)` (None: the spec's options)."""
+    `GaitPlanner.solve(half_cycle=)` (None: the spec's options); `retry_full`: if the solve ran
+    on half the knots and its plan is infeasible or fails the check, the schedule is re-solved
+    cold on the full NLP and that plan is judged instead (`evaluate_final`; the search's
+    `final_retry_full`, for its candidates)."""
 
     spec: FinalPlannerSpec
     schedule: ContactSchedule
     template: str | None = None
     half_cycle: bool | None = None
+    retry_full: bool = False
 
 
 @dataclass(frozen=True)
 class FinalOutcome:
     """A task's solve and verdict: `ok` None when the plan is infeasible or nothing checks;
     `check_s` the check's wall time; CPU seconds of the process that ran it (`cpu` of the solve
-    and of the check); `build_s`, `build_cpu_s` the final planner's build if this task paid it."""
+    and of the check); `build_s`, `build_cpu_s` the final planner's build if this task paid it.
+    After a full-cycle retry (`FinalTask.retry_full`) `plan` and `ok` are the full solve's,
+    `check_s`, `solve_cpu_s` and `check_cpu_s` the sums over both attempts, and `half_tried`
+    the half-cycle attempt that failed (its own plan, verdict and CPU)."""
 
     plan: PlanResult
     check_s: float
@@ -97,6 +104,13 @@ class FinalOutcome:
     pid: int = 0
     started_at_s: float = 0.0
     ended_at_s: float = 0.0
+    #: the half-cycle attempt a full-cycle retry replaced (None: no retry)
+    half_tried: FinalOutcome | None = None
+
+    @property
+    def retried(self) -> bool:
+        """The plan is a full-cycle retry after a failed half-cycle attempt."""
+        return self.half_tried is not None
 
 
 @dataclass(frozen=True)
@@ -116,9 +130,29 @@ class FinalChoice:
 
 def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                    schedule: ContactSchedule, speed_m_s: float,
-                   half_cycle: bool | None = None) -> FinalOutcome:
+                   half_cycle: bool | None = None, retry_full: bool = False) -> FinalOutcome:
     """Solve `schedule` cold at the planner's knots (`half_cycle`: `GaitPlanner.solve`'s) and,
-    if feasible, judge its gait."""
+    if feasible, judge its gait. `retry_full`: if that solve ran on half the knots
+    (`stats["half_cycle"]`) and its plan is infeasible or not passed (`ok` not True while a
+    check exists), solve it again cold on the full NLP and judge that one (the outcome's
+    `half_tried` holds the first attempt): a half-cycle optimum can fail a MuJoCo check that
+    the full one passes (docs/results/planner_speed_search.md, 36-lead i)."""
+    first = _solve_and_judge(planner, check, schedule, speed_m_s, half_cycle)
+    if not (retry_full and first.plan.stats.get("half_cycle")):
+        return first
+    if first.plan.feasible and (check is None or first.ok):
+        return first
+    full = _solve_and_judge(planner, check, schedule, speed_m_s, False)
+    return replace(full, check_s=first.check_s + full.check_s,
+                   solve_cpu_s=first.solve_cpu_s + full.solve_cpu_s,
+                   check_cpu_s=first.check_cpu_s + full.check_cpu_s,
+                   started_at_s=first.started_at_s, half_tried=first)
+
+
+def _solve_and_judge(planner: GaitPlanner, check: Callable[[Gait], object] | None,
+                     schedule: ContactSchedule, speed_m_s: float,
+                     half_cycle: bool | None) -> FinalOutcome:
+    """One cold solve of `schedule` and, if feasible, its gait's verdict (`evaluate_final`)."""
     c0, started = time.process_time(), time.time()
     solved = planner.solve(schedule, speed_m_s, warm_start=False, half_cycle=half_cycle)
     solve_cpu_s = time.process_time() - c0
@@ -155,8 +189,15 @@ def worker_final_solve(task: FinalTask) -> FinalOutcome:
     build_s, build_cpu_s = prepare_final(task.spec)
     assert _WORKER_FINAL is not None
     _, planner, check = _WORKER_FINAL
-    out = evaluate_final(planner, check, task.schedule, task.spec.speed_m_s, task.half_cycle)
-    return replace(out, build_s=build_s, build_cpu_s=build_cpu_s)
+    return replace(evaluate_task(planner, check, task), build_s=build_s, build_cpu_s=build_cpu_s)
+
+
+def evaluate_task(planner: GaitPlanner, check: Callable[[Gait], object] | None,
+                  task: FinalTask) -> FinalOutcome:
+    """`task` solved and judged with `planner` and `check` (`evaluate_final` with the task's
+    `half_cycle` and `retry_full`): on a worker, in the search's process and in its replay."""
+    return evaluate_final(planner, check, task.schedule, task.spec.speed_m_s, task.half_cycle,
+                          task.retry_full)
 
 
 def compared_candidates(choice: str, n_tasks: int) -> int:
@@ -280,6 +321,7 @@ __all__ = [
     "compared_candidates",
     "compete_order",
     "evaluate_final",
+    "evaluate_task",
     "prepare_final",
     "worker_final_solve",
 ]

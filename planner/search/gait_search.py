@@ -87,7 +87,7 @@ from planner.search.final_phase import (
     choose_final,
     compared_candidates,
     compete_order,
-    evaluate_final,
+    evaluate_task,
     prepare_final,
     worker_final_solve,
 )
@@ -600,6 +600,11 @@ class GaitSearchResult:
     search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE
     #: `PlannerOptions.half_cycle_solve` of the final re-solves (`search_gait(final_half_cycle=)`)
     final_half_cycle: bool = defaults.FINAL_HALF_CYCLE
+    #: a candidate whose half-cycle re-solve failed was re-solved on the full NLP
+    #: (`search_gait(final_retry_full=)`, `final_phase.FinalTask.retry_full`)
+    final_retry_full: bool = defaults.FINAL_RETRY_FULL
+    #: the written plan is such a full-cycle retry (`final_phase.FinalOutcome.half_tried`)
+    final_retried: bool = False
     #: the templates only as the fallback, or competing with the searched winner
     #: (`defaults.FINAL_TEMPLATES`, `final_phase.choose_final(rival=)`)
     final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES
@@ -661,6 +666,7 @@ def search_gait(
     search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE,
     final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES,
     final_half_cycle: bool = defaults.FINAL_HALF_CYCLE,
+    final_retry_full: bool = defaults.FINAL_RETRY_FULL,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -701,6 +707,10 @@ def search_gait(
     off: full-cycle, as measured; `PlannerOptions`' own default, on, is the template path's); a
     `planner` passed in must have it (`final_options`). The templates the final phase re-solves
     are planned as the template path plans them, with `options`' own `half_cycle_solve`.
+    `final_retry_full` (default `planner.search.defaults.FINAL_RETRY_FULL`): a candidate whose
+    final re-solve ran on half the knots and is infeasible or fails the final check is re-solved
+    cold on the full NLP and that plan judged instead (one task: the rule and its order are
+    unchanged; `final_phase.evaluate_final`); no effect with `final_half_cycle` off.
     `final_templates` (`defaults.FINAL_TEMPLATES`): "fallback" — the templates are re-solved
     only if no searched timing passes; "compete" — every template whose coarse plan solved is
     re-solved too, and the cheapest accepted one is written if it beats the searched winner
@@ -821,7 +831,8 @@ def search_gait(
         tasks, searched, rival = ordered_final_tasks(
             spec, space, pool.records, n_final, (x0, seed_results[best_template]),
             seed_results, seed_schedule if final_check is not None else None,
-            final_choice, final_templates, options.half_cycle_solve)
+            final_choice, final_templates, options.half_cycle_solve,
+            final_half_cycle and final_retry_full)
 
         def final_planner() -> tuple[GaitPlanner, float, float]:
             """The final planner (passed in, or built here) and its build's wall and CPU s."""
@@ -842,8 +853,7 @@ def search_gait(
         else:
             final, final_build_s, final_build_cpu_s = final_planner()
             check = final_check() if final_check is not None else None
-            with ex.ordered(lambda task: evaluate_final(final, check, task.schedule, speed_m_s,
-                                                        task.half_cycle), tasks) as outcomes:
+            with ex.ordered(lambda task: evaluate_task(final, check, task), tasks) as outcomes:
                 choice = choose_final(tasks, searched, outcomes, final_choice, score, rival)
     # the final phase ends when the pool has shut down (workers still solving are stopped)
     t_end, c_end = time.perf_counter(), time.process_time()
@@ -864,6 +874,8 @@ def search_gait(
         final_candidates=n_final, final_candidates_reason=n_final_reason,
         final_choice=final_choice, search_half_cycle=search_half_cycle,
         final_half_cycle=final_half_cycle, final_templates=final_templates,
+        final_retry_full=final_retry_full,
+        final_retried=any(o.plan is best and o.retried for o in choice.read),
         beaten_search_total=choice.beaten_score,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
@@ -887,7 +899,7 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
                 start: tuple[np.ndarray, LocalResult], seed_results: Mapping[str, LocalResult],
                 seed_schedules: Mapping[str, ContactSchedule] | None,
                 read_first: int | None = None, template_half_cycle: bool | None = None,
-                ) -> tuple[list[FinalTask], list[LocalResult]]:
+                retry_full: bool = False) -> tuple[list[FinalTask], list[LocalResult]]:
     """The final phase's tasks in the order `choose_final` reads them, with the search result of
     each one's timing: the `final_candidates` cheapest usable samples of `records`
     (`final_candidates_of`; `start`, CMA's first mean and its seed's result, if none is usable),
@@ -897,10 +909,11 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
     identical to a candidate — to one of the first `read_first` candidates if given (those the
     final choice always reads: `templates_read_first`), each solved with `template_half_cycle`
     (`FinalTask.half_cycle`; `search_gait` passes its options' own, so a template is planned as
-    `gaitsmith plan ROBOT --gait NAME` plans it). A search stopped after generation k is its
-    recording truncated there (`benchmarks/search_outcomes.py replay`)."""
+    `gaitsmith plan ROBOT --gait NAME` plans it); the candidates with `retry_full`
+    (`FinalTask.retry_full`, `search_gait(final_retry_full=)`). A search stopped after
+    generation k is its recording truncated there (`benchmarks/search_outcomes.py replay`)."""
     candidates = final_candidates_of(records, final_candidates) or [start]
-    tasks = [FinalTask(spec, space.decode(x)) for x, _ in candidates]
+    tasks = [FinalTask(spec, space.decode(x), retry_full=retry_full) for x, _ in candidates]
     searched: list[LocalResult] = [r for _, r in candidates]
     if seed_schedules is not None:
         # nothing searched may pass: the templates the search started from, at full
@@ -951,7 +964,7 @@ def ordered_final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
                         seed_results: Mapping[str, LocalResult],
                         seed_schedules: Mapping[str, ContactSchedule] | None,
                         final_choice: str, final_templates: str,
-                        template_half_cycle: bool | None = None,
+                        template_half_cycle: bool | None = None, retry_full: bool = False,
                         ) -> tuple[list[FinalTask], list[LocalResult], Rival | None]:
     """The final phase's tasks, their search results and `rival` as `choose_final` reads them
     under `final_choice` and `final_templates`: `final_tasks` (skipping the templates
@@ -960,7 +973,7 @@ def ordered_final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
     tasks, searched = final_tasks(
         spec, space, records, final_candidates, start, seed_results, seed_schedules,
         templates_read_first(final_choice, final_templates, final_candidates),
-        template_half_cycle)
+        template_half_cycle, retry_full)
     return final_order(tasks, searched, final_choice, final_templates)
 
 
@@ -1000,7 +1013,9 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
     # the template path (`final_tasks(template_half_cycle=)`), on half the knots where it fits
     lines.append(f"# final solve: {result.planner.n_knots} knots"
                  + (" (a symmetric timing on the first half of them, `half_cycle`)"
-                    if result.best.stats.get("half_cycle") else " (full cycle)")
+                    if result.best.stats.get("half_cycle") else
+                    " (full cycle, a retry: its half-cycle plan failed)" if result.final_retried
+                    else " (full cycle)")
                  + f", {result.label}, cost "
                  f"{result.best.cost:.6g} + support {result.support_cost:.6g} = "
                  f"{result.total_cost:.6g}, feasible {result.best.feasible}, accepted "

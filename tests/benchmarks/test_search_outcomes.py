@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -77,7 +78,7 @@ def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     ("speed0", r"'speed0' in 'speed0' needs a number in \(0, 1\) after 'speed'"),
     ("speed1.5", r"needs a number in \(0, 1\) after 'speed'"),
     ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN, speedX, half, full, "
-             r"halffinal, fallback or compete"),
+             r"fullfinal, halffinal, halfretry, fallback or compete"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:
@@ -132,12 +133,9 @@ class _Plan:
         self.schedule, self.cost, self.feasible = schedule, cost, True
 
 
-def test_replay_truncates_the_record_and_runs_its_final_phase(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """Generation k's record is the templates + k·λ samples; its final phase re-solves the
-    truncated record's candidates (each schedule once) and the row carries its iterations and
-    the CPU estimate; the template fallback follows when no candidate passes."""
+def _recording() -> tuple[robots.Robot, TimingSpace, list[np.ndarray], dict[str, Any]]:
+    """A quad12 recording: the trot and walk templates' encodings, then two generations of two
+    samples each (coarse costs 0.9, 0.8, then 0.5, 0.2)."""
     robot = robots.load("quad12")
     space = TimingSpace.for_robot(robot)
     names = ["trot", "walk"]
@@ -155,17 +153,79 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
            "solves": 6}
     rec = {"records": records, "templates": names, "symmetric": True, "generations": 2,
            "lam": 2, "final_cpu_s": 3.0, "row": row, "knots": 30}
+    return robot, space, gen, rec
+
+
+def test_replay_with_the_full_cycle_retry_hands_it_to_the_candidates_and_counts_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`FinalReplayer(half_cycle=True, retry_full=True)` ("halfretry"): every candidate task
+    asks for the retry, no template task does; a retried outcome is counted in the row
+    ("retries", the CPU of both attempts) and the written plan is marked as one; the row's CPU
+    estimate takes both attempts' CPU."""
+    _, space, gen, rec = _recording()
+    seen: list[tuple[str | None, bool]] = []
+
+    def retried_sample_1(planner: Any, check: Any, task: Any) -> FinalOutcome:
+        seen.append((task.template, task.retry_full))
+        passes = math.isclose(task.schedule.period_s, space.decode(gen[1]).period_s)
+        out = FinalOutcome(_Plan(task.schedule, 0.4), 0.0, passes, solve_cpu_s=1.0,  # type: ignore[arg-type]
+                           check_cpu_s=0.25)
+        if not (passes and task.retry_full):
+            return out
+        half = FinalOutcome(_Plan(task.schedule, 0.3), 0.0, False, solve_cpu_s=0.5,  # type: ignore[arg-type]
+                            check_cpu_s=0.25)
+        return replace(out, solve_cpu_s=1.5, check_cpu_s=0.5, half_tried=half)
+
+    monkeypatch.setattr(so, "GaitPlanner", lambda *a: None)
+    monkeypatch.setattr(so, "evaluate_task", retried_sample_1)
+    replayer = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30, half_cycle=True,
+                                retry_full=True)
+    row = replayer.truncated(rec, 1, templates="compete")
+    assert seen and all(retry == (template is None) for template, retry in seen)
+    # sample 1 (the second candidate, coarse 0.8) failed on half the knots, passed full
+    assert (row["search_cost"], row["verdict"], row["retries"]) == (0.8, "MuJoCo pass", 1)
+    assert row["final_retried"] is True
+    assert (row["retry_half_cpu_s"], row["retry_full_cpu_s"]) == (0.75, 1.25)
+    # the final phase's CPU: every outcome read at 1.25 CPU-s, the retried one at 2.0
+    assert row["cpu_s"] == pytest.approx(50.0 - 5.0 - 3.0 + 1.25 * (row["final_solves"] - 1)
+                                         + 2.0)
+    # "halffinal" (no retry): no task asks for it, sample 1 fails as solved on half the knots
+    seen.clear()
+    plain = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30, half_cycle=True,
+                             retry_full=False).truncated(rec, 1, templates="compete")
+    assert not any(retry for _, retry in seen) and plain["retries"] == 0
+    assert plain["final_retried"] is False
+
+
+def test_final_solve_tokens_name_the_three_policies() -> None:
+    assert (so.parse_setting("halfretry").final_half_cycle,
+            so.parse_setting("halfretry").final_retry_full) == (True, True)
+    assert (so.parse_setting("halffinal").final_half_cycle,
+            so.parse_setting("halffinal").final_retry_full) == (True, False)
+    assert so.parse_setting("fullfinal").final_half_cycle is False
+    with pytest.raises(SystemExit, match="sets final_half_cycle twice"):
+        so.parse_setting("halffinal+halfretry")
+
+
+def test_replay_truncates_the_record_and_runs_its_final_phase(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Generation k's record is the templates + k·λ samples; its final phase re-solves the
+    truncated record's candidates (each schedule once) and the row carries its iterations and
+    the CPU estimate; the template fallback follows when no candidate passes."""
+    robot, space, gen, rec = _recording()
     solved: list[float] = []
 
-    def fake_evaluate(planner: Any, check: Any, schedule: Any, speed: float,
-                      half_cycle: bool | None = None) -> FinalOutcome:
+    def fake_evaluate(planner: Any, check: Any, task: Any) -> FinalOutcome:
+        schedule = task.schedule
         solved.append(schedule.period_s)
         passes = math.isclose(schedule.period_s, space.decode(gen[1]).period_s)
         return FinalOutcome(_Plan(schedule, 0.4), 0.0, passes, solve_cpu_s=1.0,  # type: ignore[arg-type]
                             check_cpu_s=0.25)
 
     monkeypatch.setattr(so, "GaitPlanner", lambda *a: None)
-    monkeypatch.setattr(so, "evaluate_final", fake_evaluate)
+    monkeypatch.setattr(so, "evaluate_task", fake_evaluate)
     replayer = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30)
     one = replayer.truncated(rec, 1, templates="fallback")
     # candidates after generation 0: walk template (0.6), trot (0.7), sample 1 (0.8), sample 0
@@ -196,13 +256,13 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     # trot's is its encoding) is read; it passes and is cheaper, so it is written
     own_walk = make_schedule(robot, "walk")
 
-    def cheap_walk(planner: Any, check: Any, schedule: Any, speed: float,
-                   half_cycle: bool | None = None) -> FinalOutcome:
+    def cheap_walk(planner: Any, check: Any, task: Any) -> FinalOutcome:
+        schedule = task.schedule
         walk = np.allclose(schedule.touchdown_phase, own_walk.touchdown_phase)  # not encoded
         passes = walk or math.isclose(schedule.period_s, space.decode(gen[1]).period_s)
         return FinalOutcome(_Plan(schedule, 0.01 if walk else 0.4), 0.0, passes)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(so, "evaluate_final", cheap_walk)
+    monkeypatch.setattr(so, "evaluate_task", cheap_walk)
     rival = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30)
     fallback = rival.truncated(rec, 1, templates="fallback")
     assert (fallback["fallback_template"], fallback["beaten_search_total"]) == (None, None)

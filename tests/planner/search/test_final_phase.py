@@ -9,8 +9,9 @@ import sys
 import time
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -35,9 +36,11 @@ from planner.search.final_phase import (
     FinalTask,
     choose_final,
     compete_order,
+    evaluate_final,
+    evaluate_task,
     prepare_final,
 )
-from planner.search.gait_search import search_gait
+from planner.search.gait_search import search_gait, write_search_log
 from planner.search.support import TippingCost
 from planner.templates import make_schedule
 from robots import Gait
@@ -363,6 +366,101 @@ class InterruptingCheck:
         raise KeyboardInterrupt("Ctrl-C during the final MuJoCo check")
 
 
+@dataclass
+class HalfCyclePlanner:
+    """A fake final planner: `solve` plans on half the knots unless asked for the full NLP
+    (`half_cycle=False`) or `symmetric` is off (the half path does not apply), cost 1.0 on half
+    and 2.0 on all knots; the half plan is infeasible if `half_feasible` is off. It records every
+    `half_cycle` it was asked for."""
+
+    symmetric: bool = True
+    half_feasible: bool = True
+    asked: list[bool | None] = field(default_factory=list)
+
+    def solve(self, schedule: object, speed_m_s: float, warm_start: bool = False,
+              half_cycle: bool | None = None) -> PlanResult:
+        assert warm_start is False  # every final solve is cold
+        self.asked.append(half_cycle)
+        half = half_cycle is not False and self.symmetric
+        plan = _plan(1.0 if half else 2.0, self.half_feasible or not half)
+        plan.stats["half_cycle"] = half
+        return plan
+
+    def to_gait(self, plan: PlanResult, label: str) -> SimpleNamespace:
+        return SimpleNamespace(planner={"solver": {"half_cycle": plan.stats["half_cycle"]}})
+
+
+def reject_half_cycle(gait: SimpleNamespace) -> _Verdict:
+    """A final check that fails every plan solved on half the knots (`planner.solver`)."""
+    ok = not gait.planner["solver"]["half_cycle"]
+    return _Verdict(ok, 0.0 if ok else 1.0)
+
+
+def test_a_half_cycle_plan_that_fails_the_check_is_re_solved_on_the_full_nlp() -> None:
+    """`retry_full`: the half-cycle plan fails the check, so the schedule is solved again cold
+    on the full NLP and that plan is judged (and passes); the outcome keeps the first attempt
+    and its CPU, and sums both. Without `retry_full` the half-cycle verdict stands."""
+    planner = HalfCyclePlanner()
+    out = evaluate_final(planner, reject_half_cycle, SCHEDULE, 0.2, None, retry_full=True)  # type: ignore[arg-type]
+    assert planner.asked == [None, False]
+    assert out.retried and out.half_tried is not None and out.ok is True
+    assert (out.plan.cost, out.plan.stats["half_cycle"]) == (2.0, False)
+    first = out.half_tried
+    assert (first.ok, first.plan.cost, first.plan.stats["half_cycle"], first.retried) == (
+        False, 1.0, True, False)
+    assert out.solve_cpu_s >= first.solve_cpu_s >= 0.0
+    assert out.check_cpu_s >= first.check_cpu_s and out.check_s >= first.check_s
+    assert out.started_at_s == first.started_at_s <= out.ended_at_s
+    plain = HalfCyclePlanner()
+    kept = evaluate_final(plain, reject_half_cycle, SCHEDULE, 0.2)  # type: ignore[arg-type]
+    assert plain.asked == [None] and kept.ok is False and not kept.retried
+    # the task carries the flag to the same function (`evaluate_task`: workers, search, replay)
+    task_planner = HalfCyclePlanner()
+    by_task = evaluate_task(task_planner, reject_half_cycle,  # type: ignore[arg-type]
+                            FinalTask(SPEC, SCHEDULE, retry_full=True))
+    assert task_planner.asked == [None, False] and by_task.retried and by_task.ok is True
+
+
+def test_the_retry_fires_only_when_the_half_path_applied_and_its_plan_failed() -> None:
+    """No retry when the half-cycle plan passes, when the half path did not apply (a timing
+    that is not half-cycle symmetric: its plan already is the full one's), or when nothing
+    checks a feasible plan; an infeasible half-cycle plan is retried, checked or not."""
+    def passes(gait: object) -> _Verdict:
+        return _Verdict(True, 0.0)
+
+    def fails(gait: object) -> _Verdict:
+        return _Verdict(False, 1.0)
+
+    cases = [(HalfCyclePlanner(), passes, [None], True),
+             (HalfCyclePlanner(symmetric=False), fails, [None], False),
+             (HalfCyclePlanner(), None, [None], None),
+             (HalfCyclePlanner(half_feasible=False), None, [None, False], None),
+             (HalfCyclePlanner(half_feasible=False), reject_half_cycle, [None, False], True)]
+    for planner, check, asked, ok in cases:
+        out = evaluate_final(planner, check, SCHEDULE, 0.2, retry_full=True)  # type: ignore[arg-type]
+        assert planner.asked == asked and out.ok is ok
+        assert out.retried == (len(asked) == 2) and out.plan.feasible
+
+
+def test_the_rule_reads_a_retried_candidate_as_its_full_cycle_plan() -> None:
+    """One task, one outcome: a candidate retried on the full NLP is read in its rank place
+    with the full plan's verdict and cost, and wins as any accepted candidate does; the
+    templates are never retried."""
+    tasks, searched = _tasks([Fake(1.0, 0.0, True), Fake(2.0, 0.0, True), Fake(3.0, 0.0, True)],
+                             templates=1)
+    tasks = [replace(t, retry_full=t.template is None) for t in tasks]
+    planners = [HalfCyclePlanner(), HalfCyclePlanner(), HalfCyclePlanner()]
+    outcomes = (evaluate_task(p, reject_half_cycle, t)  # type: ignore[arg-type]
+                for p, t in zip(planners, tasks, strict=True))
+    choice = choose_final(tasks, searched, outcomes, FINAL_CHOICE_CHEAPEST_OF_2,
+                          rival=lambda r: True)
+    assert [o.retried for o in choice.read] == [True, True, False]
+    assert [o.ok for o in choice.read] == [True, True, False]  # the template's half plan fails
+    assert choice.accepted is True and choice.fallback_template is None
+    assert choice.plan is choice.read[0].plan and choice.plan.stats["half_cycle"] is False
+    assert [p.asked for p in planners] == [[None, False], [None, False], [None]]
+
+
 def test_prepare_final_builds_once_per_search() -> None:
     spec = FinalPlannerSpec.new(ROBOT, 12, PlannerOptions(), 0.2, LongStanceCostly())
     first = prepare_final(spec)
@@ -422,6 +520,52 @@ class PassAll:
 class PassAllCheck:
     def __call__(self, gait: Gait) -> _Verdict:
         return _Verdict(True, 0.0)
+
+
+@dataclass(frozen=True)
+class RejectHalfCycle:
+    """A picklable final check factory that fails every plan solved on half the knots."""
+
+    def __call__(self) -> RejectHalfCycleCheck:
+        return RejectHalfCycleCheck()
+
+
+@dataclass(frozen=True)
+class RejectHalfCycleCheck:
+    def __call__(self, gait: Gait) -> _Verdict:
+        ok = not gait.planner["solver"]["half_cycle"]
+        return _Verdict(ok, 0.0 if ok else 1.0)
+
+
+@pytest.mark.slow
+def test_a_search_retries_on_the_full_nlp_the_candidates_whose_half_cycle_plan_fails(
+        tmp_path: Path) -> None:
+    """`search_gait(final_half_cycle=True, final_retry_full=True)` with a final check that
+    fails every half-cycle plan: the first candidate is solved on half the knots, fails, is
+    re-solved on the full NLP, passes and is written (as a full-cycle plan, and the search log
+    says it was a retry), on the serial executor and on two workers alike; without the retry
+    no candidate passes."""
+    kw = dict(n_knots=16, search_knots=10, max_generations=1, popsize=4, seed=1,
+              final_candidates=2, final_acceptance=RejectHalfCycle(), final_templates="fallback",
+              final_half_cycle=True)
+    serial = search_gait(ROBOT, 0.2, executor="serial", final_retry_full=True, **kw)  # type: ignore[arg-type]
+    par = search_gait(ROBOT, 0.2, executor="process", workers=2, final_retry_full=True, **kw)  # type: ignore[arg-type]
+    for res in (serial, par):
+        first = res.final_outcomes[0]
+        assert first.retried and first.half_tried is not None
+        assert first.half_tried.plan.stats["half_cycle"] is True and first.half_tried.ok is False
+        assert res.accepted is True and res.fallback_template is None
+        assert res.final_retried and res.best.stats["half_cycle"] is False
+        assert res.final_retry_full and res.final_half_cycle
+    assert [o.plan.cost for o in serial.final_outcomes] == [o.plan.cost for o in
+                                                            par.final_outcomes]
+    assert np.array_equal(serial.best.joint_angles_rad, par.best.joint_angles_rad)
+    log = tmp_path / "search.csv"
+    write_search_log(serial, log)
+    assert "(full cycle, a retry: its half-cycle plan failed)" in log.read_text()
+    plain = search_gait(ROBOT, 0.2, executor="serial", final_retry_full=False, **kw)  # type: ignore[arg-type]
+    assert not any(o.retried for o in plain.final_outcomes) and not plain.final_retried
+    assert all(o.ok is not True for o in plain.final_outcomes[:2])
 
 
 @pytest.mark.slow
