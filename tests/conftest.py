@@ -9,8 +9,13 @@ from __future__ import annotations
 import atexit
 import os
 import shutil
+import signal
 import tempfile
+import threading
+from collections.abc import Callable, Iterator
+from typing import Any
 
+import pytest
 from hypothesis import settings as _hypothesis_settings
 
 if "GAITSMITH_CACHE" not in os.environ:
@@ -28,3 +33,31 @@ os.environ["GAITSMITH_BACKGROUND_COMPILE"] = "0"
 # default deadline is 200 ms); a test that must be fast says so in a benchmark, not here.
 _hypothesis_settings.register_profile("gaitsmith", deadline=None)
 _hypothesis_settings.load_profile("gaitsmith")
+
+@pytest.fixture
+def ctrl_c_reaches_python() -> Iterator[None]:
+    """Python's own SIGINT handler for a test that sends itself Ctrl-C: a process started in
+    the background by a non-interactive shell inherits SIGINT ignored (`signal.getsignal` is
+    SIG_IGN), so no Ctrl-C would reach it and the test would measure the shell, not the code."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+@pytest.fixture
+def ctrl_c_during(ctrl_c_reaches_python: None) -> Callable[..., Any]:
+    """`ctrl_c_during(call, delay_s, **kwargs)`: `call(**kwargs)` with a Ctrl-C (SIGINT to the
+    main thread) `delay_s` into it. The timer is joined before it returns, so the signal always
+    lands inside the call — however late a loaded machine runs the timer's thread — and never in
+    a later test."""
+
+    def run(call: Callable[..., Any], delay_s: float, **kwargs: Any) -> Any:
+        main_thread = threading.main_thread().ident
+        assert main_thread is not None
+        timer = threading.Timer(delay_s, signal.pthread_kill, (main_thread, signal.SIGINT))
+        timer.start()
+        try:
+            return call(**kwargs)
+        finally:
+            timer.join()
+
+    return run

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import signal
-import threading
 from typing import Any
 
 import pytest
@@ -16,18 +15,7 @@ from planner.nlp.spacetime import GaitPlanner
 from planner.templates import make_schedule
 
 
-@pytest.fixture
-def ctrl_c_reaches_python() -> Any:
-    """Python's own SIGINT handler for the test: a process started in the background by a
-    non-interactive shell inherits SIGINT ignored (`signal.getsignal` is SIG_IGN), so no Ctrl-C
-    would reach it and the test would measure the shell, not the planner."""
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    yield
-    signal.signal(signal.SIGINT, previous)
-
-
-@pytest.mark.usefixtures("ctrl_c_reaches_python")
-def test_ctrl_c_inside_ipopt_raises_keyboard_interrupt() -> None:
+def test_ctrl_c_inside_ipopt_raises_keyboard_interrupt(ctrl_c_during: Any) -> None:
     """CasADi catches the KeyboardInterrupt of a SIGINT and ends IPOPT with a failure status;
     the planner must turn that back into KeyboardInterrupt instead of an infeasible result."""
     bot = robots.load("quad12")
@@ -35,13 +23,10 @@ def test_ctrl_c_inside_ipopt_raises_keyboard_interrupt() -> None:
     # tests/planner/nlp/test_half_cycle.py)
     planner = GaitPlanner(bot, n_knots=12, options=PlannerOptions(half_cycle_solve=False))
     solver = planner._solver
-    main_thread = threading.main_thread().ident
-    assert main_thread is not None
 
     def solve_with_ctrl_c(**kwargs: Any) -> Any:
         # 50 ms into a cold solve (≈ 0.5 s or more): Ctrl-C while IPOPT iterates
-        threading.Timer(0.05, signal.pthread_kill, (main_thread, signal.SIGINT)).start()
-        return solver(**kwargs)
+        return ctrl_c_during(solver, 0.05, **kwargs)
 
     planner._solver = solve_with_ctrl_c  # stats() is read from the real solver object below
     planner._solver.stats = solver.stats  # type: ignore[attr-defined]

@@ -180,11 +180,10 @@ def test_a_body_without_mirror_images_has_no_half_cycle() -> None:
 
 
 def test_ctrl_c_inside_a_half_cycle_solve_raises_keyboard_interrupt(
-        quad12_pair: tuple[GaitPlanner, GaitPlanner]) -> None:
+        quad12_pair: tuple[GaitPlanner, GaitPlanner], ctrl_c_during: Any) -> None:
     """As the full NLP's (tests/gaitsmith/test_plan_interrupt.py): an interrupted reduced solve
     is a KeyboardInterrupt, not an infeasible result."""
     import signal
-    import threading
 
     _, half = quad12_pair
     schedule = make_schedule(half.robot, "trot")
@@ -192,13 +191,10 @@ def test_ctrl_c_inside_a_half_cycle_solve_raises_keyboard_interrupt(
     nlp = half._half_cycle
     assert isinstance(nlp, hc.HalfCycleNLP)
     solver = nlp.solver
-    main_thread = threading.main_thread().ident
-    assert main_thread is not None
 
     class Interrupted:
         def __call__(self, **kwargs: Any) -> Any:
-            threading.Timer(0.02, signal.pthread_kill, (main_thread, signal.SIGINT)).start()
-            return solver(**kwargs)
+            return ctrl_c_during(solver, 0.02, **kwargs)
 
         def stats(self) -> Any:
             return solver.stats()
