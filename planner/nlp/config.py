@@ -496,31 +496,14 @@ class PlannerOptions:
             and all(r in COMPACT_ROWS for r in self.compact_rows)
             and len(set(self.compact_rows)) == len(self.compact_rows),
         }
-        if self.cold_start not in COLD_STARTS:
-            raise PlannerConfigError(
-                f"planner option cold_start={self.cold_start!r}: use one of "
-                f"{', '.join(COLD_STARTS)}"
-            )
-        if self.swing_wrench not in SWING_WRENCHES:
-            raise PlannerConfigError(
-                f"planner option swing_wrench={self.swing_wrench!r}: use one of "
-                f"{', '.join(SWING_WRENCHES)}"
-            )
-        if self.inactive_rows not in INACTIVE_ROWS:
-            raise PlannerConfigError(
-                f"planner option inactive_rows={self.inactive_rows!r}: use one of "
-                f"{', '.join(INACTIVE_ROWS)}"
-            )
-        if self.cold_mu_centrality not in COLD_MU_CENTRALITIES:
-            raise PlannerConfigError(
-                f"planner option cold_mu_centrality={self.cold_mu_centrality!r}: use one of "
-                f"{', '.join(COLD_MU_CENTRALITIES)}"
-            )
-        if self.stance_clearance not in STANCE_CLEARANCES:
-            raise PlannerConfigError(
-                f"planner option stance_clearance={self.stance_clearance!r}: use one of "
-                f"{', '.join(STANCE_CLEARANCES)}"
-            )
+        for name, choices in (("cold_start", COLD_STARTS), ("swing_wrench", SWING_WRENCHES),
+                              ("inactive_rows", INACTIVE_ROWS),
+                              ("cold_mu_centrality", COLD_MU_CENTRALITIES),
+                              ("stance_clearance", STANCE_CLEARANCES)):
+            value = getattr(self, name)
+            if value not in choices:
+                raise PlannerConfigError(
+                    f"planner option {name}={value!r}: use one of {', '.join(choices)}")
         for name, ok in checks.items():
             if not ok:
                 hint = (f" (a tuple of distinct names from {', '.join(COMPACT_ROWS)})"
