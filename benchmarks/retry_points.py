@@ -74,6 +74,12 @@ def main() -> None:
     ap.add_argument("recordings", nargs="+", type=Path)
     ap.add_argument("--final-candidates", type=int, default=so.FINAL_CANDIDATES)
     args = ap.parse_args()
+    if args.final_candidates < 1:
+        raise SystemExit(f"--final-candidates must be ≥ 1, got {args.final_candidates}")
+    for path in args.recordings:
+        if not path.is_file():
+            raise SystemExit(f"{path}: no such recording (save them with `search_outcomes.py run "
+                             "--settings halfretry --save DIR`)")
     classes: Counter[str] = Counter()
     rescued: Counter[str] = Counter()
     for path in args.recordings:
