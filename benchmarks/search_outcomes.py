@@ -157,6 +157,8 @@ class Setting:
 #: the final re-solve tokens: (final_half_cycle, final_retry_full)
 FINAL_SOLVE_TOKENS = {"fullfinal": (False, FINAL_RETRY_FULL), "halffinal": (True, False),
                       "halfretry": (True, True)}
+#: `replay --final-half-cycle` values: the final re-solve token each stands for
+REPLAY_FINAL_SOLVES = {"on": "halffinal", "off": "fullfinal", "retry": "halfretry"}
 
 
 def _number(token: str, prefix: str, kind: type[int] | type[float], text: str,
@@ -441,7 +443,7 @@ class FinalReplayer:
             "final_read": [[total(o.plan) if o.plan.feasible else None, o.ok]
                            for o in chosen.read], "verdict": verdict, "replayed": True,
             **retry_fields(chosen.read),
-            "final_retried": any(o.plan is plan and o.retried for o in chosen.read),
+            "final_retried": chosen.retried,
             "replay_cpu_s": time.process_time() - c0,
         }
 
@@ -472,9 +474,8 @@ def cmd_replay(args: argparse.Namespace) -> None:
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
         recorded = (setting.final_half_cycle, setting.final_retry_full)
-        policy = recorded if args.final_half_cycle is None else {
-            "on": (True, False), "off": (False, FINAL_RETRY_FULL), "retry": (True, True)}[
-            args.final_half_cycle]
+        policy = recorded if args.final_half_cycle is None else FINAL_SOLVE_TOKENS[
+            REPLAY_FINAL_SOLVES[args.final_half_cycle]]
         # a policy that does not re-solve on half the knots retries nothing
         same = policy == recorded or not (policy[0] or recorded[0])
         for k, c, ch, tm in ((k, c, ch, tm) for tm in rivals for ch in choices for c in cs
@@ -689,7 +690,7 @@ def main() -> None:
                    help=f"comma-separated: {', '.join(FINAL_CHOICES)} (how the final phase picks "
                         f"among its candidates; default {DEFAULT_FINAL_CHOICE}, as the search; "
                         "rows are named '+CHOICE' unless 'first')")
-    p.add_argument("--final-half-cycle", choices=("on", "off", "retry"), default=None,
+    p.add_argument("--final-half-cycle", choices=tuple(REPLAY_FINAL_SOLVES), default=None,
                    help="re-solve the final candidates on the first half of a symmetric one's "
                         "knots (on), on all of them (off), or on the first half with a failed "
                         "one re-solved on all of them (retry; `PlannerOptions.half_cycle_solve`,"

@@ -127,6 +127,12 @@ class FinalChoice:
     #: did not, or no candidate was accepted)
     beaten_score: float | None = None
 
+    @property
+    def retried(self) -> bool:
+        """The chosen plan is a full-cycle retry after a failed half-cycle attempt
+        (`FinalOutcome.retried`)."""
+        return any(o.plan is self.plan and o.retried for o in self.read)
+
 
 def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                    schedule: ContactSchedule, speed_m_s: float,

@@ -875,7 +875,7 @@ def search_gait(
         final_choice=final_choice, search_half_cycle=search_half_cycle,
         final_half_cycle=final_half_cycle, final_templates=final_templates,
         final_retry_full=final_retry_full,
-        final_retried=any(o.plan is best and o.retried for o in choice.read),
+        final_retried=choice.retried,
         beaten_search_total=choice.beaten_score,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
