@@ -390,10 +390,16 @@ class HalfCyclePlanner:
         return SimpleNamespace(planner={"solver": {"half_cycle": plan.stats["half_cycle"]}})
 
 
-def reject_half_cycle(gait: SimpleNamespace) -> _Verdict:
+@dataclass(frozen=True)
+class RejectHalfCycleCheck:
     """A final check that fails every plan solved on half the knots (`planner.solver`)."""
-    ok = not gait.planner["solver"]["half_cycle"]
-    return _Verdict(ok, 0.0 if ok else 1.0)
+
+    def __call__(self, gait: Gait) -> _Verdict:
+        ok = not gait.planner["solver"]["half_cycle"]
+        return _Verdict(ok, 0.0 if ok else 1.0)
+
+
+reject_half_cycle = RejectHalfCycleCheck()
 
 
 def test_a_half_cycle_plan_that_fails_the_check_is_re_solved_on_the_full_nlp() -> None:
@@ -528,13 +534,6 @@ class RejectHalfCycle:
 
     def __call__(self) -> RejectHalfCycleCheck:
         return RejectHalfCycleCheck()
-
-
-@dataclass(frozen=True)
-class RejectHalfCycleCheck:
-    def __call__(self, gait: Gait) -> _Verdict:
-        ok = not gait.planner["solver"]["half_cycle"]
-        return _Verdict(ok, 0.0 if ok else 1.0)
 
 
 @pytest.mark.slow
