@@ -52,6 +52,7 @@ from planner.errors import PlannerConfigError
 from planner.nlp import cold_start as cs
 from planner.nlp import spacetime as st
 from planner.nlp.config import PlannerOptions
+from planner.nlp.stance_clearance import free_stance_clearance
 from planner.nlp.variables import parameter_vector
 from planner.templates import default_gait_for, make_schedule, templates_for
 
@@ -110,12 +111,8 @@ def _bounds(self: st.GaitPlanner, schedule: robots.ContactSchedule) -> st.SolveB
     b = _solve_bounds(self, schedule)
     if not EXTRA.get("_freeclr"):
         return b
-    rows = dict(self._slices)["swing clearance"]  # knot-major, feet within a knot
-    contact = schedule.contact_matrix(self.n_knots).astype(bool).ravel()
-    lbg = b.lbg.copy()
-    part = lbg[rows]
-    part[contact] = -np.inf
-    lbg[rows] = part
+    # the same rows `PlannerOptions(stance_clearance="free")` frees
+    lbg = free_stance_clearance(dict(self._slices), schedule.contact_matrix(self.n_knots), b.lbg)
     return st.SolveBounds(b.lbx, b.ubx, lbg, b.ubg)
 
 
