@@ -69,7 +69,10 @@ from planner.nlp.iteration_abort import StallAbort
 from planner.search.defaults import (
     DEFAULT_FINAL_TEMPLATES,
     FINAL_HALF_CYCLE,
+    FINAL_RETRY_ALL,
     FINAL_RETRY_FULL,
+    FINAL_RETRY_NARROW,
+    FINAL_RETRY_OFF,
     SEARCH_HALF_CYCLE,
 )
 from planner.search.executors import ExecutorKind
@@ -164,7 +167,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_half_cycle: bool = SEARCH_HALF_CYCLE,
         final_half_cycle: bool = FINAL_HALF_CYCLE,
         final_templates: str = DEFAULT_FINAL_TEMPLATES,
-        final_retry_full: bool = FINAL_RETRY_FULL) -> SearchRun:
+        final_retry_full: str = FINAL_RETRY_FULL) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
     NLP's; `search_swing_wrench` (not None), `search_max_iter`, `search_tol` (not None) and
@@ -172,8 +175,8 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     check's `PassCriteria.speed_rel_tol` (the final check keeps the default);
     `search_half_cycle` the coarse solves' `PlannerOptions.half_cycle_solve`,
     `final_half_cycle` the final re-solves' (`search_gait(final_half_cycle=)`), with
-    `final_retry_full` a failed half-cycle candidate re-solved full (`search_gait(
-    final_retry_full=)`);
+    `final_retry_full` which failed half-cycle candidates are re-solved full (`search_gait(
+    final_retry_full=)`: "all", "narrow", "off");
     `final_templates` whether the templates compete with the searched winner
     (`search_gait(final_templates=...)`)."""
     robot = robots.load(robot_name)
@@ -212,11 +215,20 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 
-def final_solve_token(half_cycle: bool, retry_full: bool) -> str:
-    """The label of a final re-solve policy (`search_gait(final_half_cycle=, final_retry_full=)`):
-    "+fullfinal" (the full NLP), "+halffinal" (half the knots where a timing is symmetric),
-    "+halfretry" (half, a failed candidate re-solved full)."""
-    return "+fullfinal" if not half_cycle else "+halfretry" if retry_full else "+halffinal"
+#: the final re-solve policies' tokens: (final_half_cycle, final_retry_full) of each
+#: (`search_gait(final_half_cycle=, final_retry_full=)`): the full NLP; half the knots where a
+#: timing is symmetric; half, every failed candidate re-solved full; half, a candidate that
+#: fails the final check narrowly re-solved full (`defaults.FINAL_RETRY_MARGIN`)
+FINAL_SOLVE_TOKENS: dict[str, tuple[bool, str]] = {
+    "fullfinal": (False, FINAL_RETRY_FULL), "halffinal": (True, FINAL_RETRY_OFF),
+    "halfretry": (True, FINAL_RETRY_ALL), "halfnarrow": (True, FINAL_RETRY_NARROW)}
+
+
+def final_solve_token(half_cycle: bool, retry_full: str) -> str:
+    """The label of a final re-solve policy ("+" and its `FINAL_SOLVE_TOKENS` key)."""
+    if not half_cycle:
+        return "+fullfinal"
+    return "+" + next(k for k, (h, r) in FINAL_SOLVE_TOKENS.items() if h and r == retry_full)
 
 
 def cli_search_kwargs(robot: robots.Robot, derivatives: str, sim_accept: bool,

@@ -30,7 +30,7 @@ import numpy as np
 import search_outcomes as so
 
 from planner.nlp.spacetime import PlanResult
-from planner.search.defaults import FINAL_CHOICE_CHEAPEST_OF_2
+from planner.search.defaults import FINAL_CHOICE_CHEAPEST_OF_2, FINAL_RETRY_ALL
 from planner.search.final_phase import FinalOutcome, FinalTask
 
 
@@ -53,7 +53,8 @@ def point_class(d: float) -> str:
 def retried(recording: Path, final_candidates: int) -> list[tuple[FinalTask, FinalOutcome]]:
     """The retried candidates of the recording's final phase, replayed with the retry on."""
     rec = pickle.loads(recording.read_bytes())
-    replayer = so.FinalReplayer(so.Search(**rec["search"]), "rows", rec["knots"], True, True)
+    replayer = so.FinalReplayer(so.Search(**rec["search"]), "rows", rec["knots"], True,
+                                 FINAL_RETRY_ALL)
     solve = replayer.outcomes
     seen: list[tuple[FinalTask, FinalOutcome]] = []
 

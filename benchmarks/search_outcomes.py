@@ -29,9 +29,11 @@ entry), "speedX" (the coarse MuJoCo check's relative speed tolerance,
 "full" (the coarse solves on the first half of a symmetric sample's knots or on all of them,
 `search_gait(search_half_cycle=...)`, `planner.nlp.half_cycle`), "halffinal" (the final
 re-solves of the candidates on the first half too, as solved: `search_gait(
-final_half_cycle=True, final_retry_full=False)`), "halfretry" (on the first half, a candidate
+final_half_cycle=True, final_retry_full="off")`), "halfretry" (on the first half, a candidate
 infeasible or failing the check there re-solved on the full NLP: `final_half_cycle=True,
-final_retry_full=True`), "fullfinal" (on the full NLP: `final_half_cycle=False`),
+final_retry_full="all"`), "halfnarrow" (on the first half, only a candidate failing the check
+there narrowly re-solved on the full NLP: `final_retry_full="narrow"`,
+`defaults.FINAL_RETRY_MARGIN`), "fullfinal" (on the full NLP: `final_half_cycle=False`),
 "fallback" / "compete" (the templates re-solved only when nothing searched passes, or also held
 against the searched winner: `search_gait(final_templates=...)`).
 Measured in docs/results/planner_speed_search.md, sessions 32-37.
@@ -87,6 +89,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gait_search_bench import (
     COARSE_BOUNDS,
+    FINAL_SOLVE_TOKENS,
     SearchRun,
     _abort_rule,
     cli_search_options,
@@ -105,7 +108,9 @@ from planner.search.defaults import (
     DEFAULT_FINAL_TEMPLATES,
     DEFAULT_TIPPING_WEIGHT,
     FINAL_HALF_CYCLE,
+    FINAL_RETRY_ALL,
     FINAL_RETRY_FULL,
+    FINAL_RETRY_OFF,
     FINAL_TEMPLATES,
     SEARCH_HALF_CYCLE,
 )
@@ -151,14 +156,25 @@ class Setting:
     search_half_cycle: bool = SEARCH_HALF_CYCLE
     final_half_cycle: bool = FINAL_HALF_CYCLE
     final_templates: str = DEFAULT_FINAL_TEMPLATES
-    final_retry_full: bool = FINAL_RETRY_FULL
+    final_retry_full: str = FINAL_RETRY_FULL
+
+    def __post_init__(self) -> None:
+        # recordings before session 40 hold the retry as a bool: True was "all", False "off"
+        if isinstance(self.final_retry_full, bool):
+            object.__setattr__(self, "final_retry_full", retry_policy(self.final_retry_full))
 
 
-#: the final re-solve tokens: (final_half_cycle, final_retry_full)
-FINAL_SOLVE_TOKENS = {"fullfinal": (False, FINAL_RETRY_FULL), "halffinal": (True, False),
-                      "halfretry": (True, True)}
+def retry_policy(value: bool | str) -> str:
+    """`search_gait(final_retry_full=)` of a setting: a bool of a recording made before
+    session 40 read as that day's meaning (True: every failed candidate, "all"; False: "off")."""
+    if isinstance(value, bool):
+        return FINAL_RETRY_ALL if value else FINAL_RETRY_OFF
+    return value
+
+
 #: `replay --final-half-cycle` values: the final re-solve token each stands for
-REPLAY_FINAL_SOLVES = {"on": "halffinal", "off": "fullfinal", "retry": "halfretry"}
+REPLAY_FINAL_SOLVES = {"on": "halffinal", "off": "fullfinal", "retry": "halfretry",
+                       "narrow": "halfnarrow"}
 
 
 def _number(token: str, prefix: str, kind: type[int] | type[float], text: str,
@@ -288,9 +304,20 @@ def retry_fields(outcomes: Sequence[FinalOutcome]) -> dict[str, object]:
     cost (`FinalOutcome.half_tried`): "retries", the half-cycle attempts' CPU ("retry_half_cpu_s",
     solve + check) and the full re-solves' ("retry_full_cpu_s")."""
     tried = [o for o in outcomes if o.half_tried is not None]
-    half = sum(o.half_tried.solve_cpu_s + o.half_tried.check_cpu_s for o in tried)  # type: ignore[union-attr]
+    half = sum(t.solve_cpu_s + t.check_cpu_s for t in (o.half_tried for o in tried) if t)
     return {"retries": len(tried), "retry_half_cpu_s": half,
-            "retry_full_cpu_s": sum(o.solve_cpu_s + o.check_cpu_s for o in tried) - half}
+            "retry_full_cpu_s": sum(o.solve_cpu_s + o.check_cpu_s for o in tried) - half,
+            # every half-cycle plan read that did not pass: [how it failed, retried, its failed
+            # criteria's relative excess (`FinalOutcome.excess`), the retry's verdict]
+            "half_failed": [half_failed(o) for o in outcomes if o.half_failure]}
+
+
+def half_failed(o: FinalOutcome) -> list[object]:
+    """A half-cycle plan that did not pass, as a row field: [how it failed, retried, its failed
+    criteria's relative excess, the retry's verdict (None: not retried)]."""
+    excess = (o.half_tried or o).excess
+    return [o.half_failure, o.half_tried is not None, [[n, e] for n, e in excess],
+            o.ok if o.half_tried is not None else None]
 
 
 def cmd_run(args: argparse.Namespace) -> None:
@@ -362,8 +389,9 @@ class FinalReplayer:
     #: the final re-solves on the first half of a symmetric candidate's knots (as the search's
     #: `final_half_cycle`: `final_options`)
     half_cycle: bool = FINAL_HALF_CYCLE
-    #: a candidate failed on half the knots re-solved on the full NLP (`final_retry_full`)
-    retry_full: bool = FINAL_RETRY_FULL
+    #: which candidates failed on half the knots are re-solved on the full NLP
+    #: (`final_retry_full`: "all", "narrow", "off")
+    retry_full: str = FINAL_RETRY_FULL
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
@@ -378,7 +406,7 @@ class FinalReplayer:
                                          self.search.speed_m_s, factory)
         self.planner = GaitPlanner(self.robot, self.knots, self.options)
         self.check = factory()
-        self.cache: dict[tuple[bool | float | None, ...], FinalOutcome] = {}
+        self.cache: dict[tuple[bool | float | str | None, ...], FinalOutcome] = {}
 
     def outcomes(self, tasks: Sequence[FinalTask]) -> Iterator[FinalOutcome]:
         for task in tasks:
@@ -409,7 +437,7 @@ class FinalReplayer:
         own = {name: self.seeds.get(name) or make_schedule(self.robot, name) for name in names}
         tasks, searched, rival = ordered_final_tasks(
             self.spec, space, cut, candidates, start, seed_results, own, choice, templates,
-            self.template_half_cycle, self.half_cycle and self.retry_full)
+            self.template_half_cycle, self.retry_full if self.half_cycle else FINAL_RETRY_OFF)
         c0 = time.process_time()
         tipping = TippingCost.for_robot(self.robot, DEFAULT_TIPPING_WEIGHT)
 
@@ -470,7 +498,7 @@ def cmd_replay(args: argparse.Namespace) -> None:
             raise SystemExit(f"replay: cannot read recording {name}: {e}") from None
     out = Path(args.out)
     done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
-    replayers: dict[tuple[str, str, int, bool], FinalReplayer] = {}
+    replayers: dict[tuple[str, str, int, bool, str], FinalReplayer] = {}
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
         recorded = (setting.final_half_cycle, setting.final_retry_full)
@@ -692,11 +720,12 @@ def main() -> None:
                         "rows are named '+CHOICE' unless 'first')")
     p.add_argument("--final-half-cycle", choices=tuple(REPLAY_FINAL_SOLVES), default=None,
                    help="re-solve the final candidates on the first half of a symmetric one's "
-                        "knots (on), on all of them (off), or on the first half with a failed "
-                        "one re-solved on all of them (retry; `PlannerOptions.half_cycle_solve`,"
+                        "knots (on), on all of them (off), on the first half with a failed "
+                        "one re-solved on all of them (retry), or only one that fails the check "
+                        "narrowly (narrow; `PlannerOptions.half_cycle_solve`,"
                         " `search_gait(final_retry_full=)`; rows named '+halffinal' / "
-                        "'+fullfinal' / '+halfretry' when not as recorded; default: as the "
-                        "recorded search did)")
+                        "'+fullfinal' / '+halfretry' / '+halfnarrow' when not as recorded; "
+                        "default: as the recorded search did)")
     p.add_argument("--final-templates", default=DEFAULT_FINAL_TEMPLATES,
                    help=f"comma-separated: {', '.join(FINAL_TEMPLATES)} (the templates only as "
                         "the fallback, or also held against the searched winner; rows named "

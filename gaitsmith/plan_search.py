@@ -157,9 +157,11 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         "final_choice": st.final_choice,
         "search_half_cycle": st.search_half_cycle,
         "final_half_cycle": st.final_half_cycle,
-        # a candidate failed on half the knots re-solved full (`search_gait(final_retry_full=)`),
-        # and whether the written plan is such a retry (planner.solver.half_cycle then false)
+        # which candidates failed on half the knots are re-solved full ("all", "narrow", "off":
+        # `search_gait(final_retry_full=)`), whether the written plan is such a retry
+        # (planner.solver.half_cycle then false) and why (how its half-cycle plan failed)
         "final_retry_full": result.final_retry_full, "final_retried": result.final_retried,
+        "final_retry_reason": result.final_retry_reason,
         "final_templates": st.final_templates,
         "beaten_search_total": result.beaten_search_total,
         "local_solves": result.cma.n_local_solves, "elapsed_s": result.elapsed_s,

@@ -26,6 +26,7 @@ in the validation's conditions (`sim.validate`, ``attitude_gain``), which the pl
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -34,7 +35,7 @@ from robots import load as load_robot
 from robots.attitude import ATTITUDE_GAIN_KEY, gait_attitude_gain
 from robots.gait import ENTRY_CYCLES_KEY
 from sim.attitude_loop import closed_loop
-from sim.validate import PassCriteria, ValidationResult, validate
+from sim.validate import PassCriteria, ValidationResult, criterion_excess, validate
 
 #: Cycles per acceptance run: 2 warm-up + 6 judged keeps a check ≈ 0.1 s at ~80× real time.
 DEFAULT_ACCEPTANCE_CYCLES = 8
@@ -48,6 +49,9 @@ class GaitVerdict:
     achieved_speed_m_s: float
     reasons: tuple[str, ...]
     attitude_gain: float = 0.0  # the IMU feedback's gain the gait was judged with (0: open loop)
+    #: every failed criterion and how far its metric is past the limit, relative to it
+    #: (`sim.validate.criterion_excess`: 0.004 is 0.4 % past, a fall +inf); empty when passed
+    excess: tuple[tuple[str, float], ...] = ()
 
 
 def validate_as_played(gait: Gait, robot: Robot, cycles: int,
@@ -77,7 +81,8 @@ class GaitCheck:
         failed = sum(1 for _, ok, _ in result.checks if not ok)
         gain = result.conditions.get(ATTITUDE_GAIN_KEY) or 0.0
         return GaitVerdict(result.passed, 0.0 if result.passed else float(max(failed, 1)),
-                           result.metrics.achieved_speed_m_s, result.reasons, float(gain))
+                           result.metrics.achieved_speed_m_s, result.reasons, float(gain),
+                           failed_excess(result, self.robot.leg_length_m))
 
 
 @dataclass(frozen=True)
@@ -95,6 +100,15 @@ class SimAcceptance:
                          self.entry_cycles, self.attitude_gain)
 
 
+def failed_excess(result: ValidationResult, leg_length_m: float
+                  ) -> tuple[tuple[str, float], ...]:
+    """The failed checks of `result` with their metrics' relative excess over the limits
+    (`sim.validate.criterion_excess`, floored at 0 so a failed check never reads as within)."""
+    excess = dict(criterion_excess(result.metrics, result.criteria, leg_length_m))
+    return tuple((name, max(excess.get(name, math.inf), 0.0))
+                 for name, ok, _ in result.checks if not ok)
+
+
 def with_entry_cycles(gait: Gait, cycles: int) -> Gait:
     """`gait` asking for at least `cycles` entry blend cycles (unchanged for 1)."""
     if cycles <= 1:
@@ -108,6 +122,7 @@ __all__ = [
     "GaitCheck",
     "GaitVerdict",
     "SimAcceptance",
+    "failed_excess",
     "validate_as_played",
     "with_entry_cycles",
 ]

@@ -253,6 +253,53 @@ def judge(
     return tuple(checks)
 
 
+def _over(value: float, limit: float) -> float:
+    """How far `value` is past `limit`, relative to it: value / limit − 1 (≤ 0 within it)."""
+    return value / limit - 1.0 if limit > 0.0 else (math.inf if value > limit else -math.inf)
+
+
+def criterion_excess(m: Metrics, c: PassCriteria, leg_length_m: float
+                     ) -> tuple[tuple[str, float], ...]:
+    """Every criterion `judge` applies (the same names, in its order) with how far its metric is
+    past its limit, relative to the limit: (metric − limit) / limit, ≤ 0 where the check holds
+    (speed: |achieved − commanded| against the tolerance; drift: the larger of its two ratios;
+    heading, path and yaw drift: their absolute values). A fall is +inf (no margin: the run
+    stopped), a check that does not apply (turning, no distance) −inf. So a failed check's
+    excess says whether it failed by a hair (+0.002: 0.2 % past the limit) or clearly."""
+    out: list[tuple[str, float]] = []
+    if standing_command(m):
+        run_drift = abs(m.lateral_drift_m)
+        out.append(("drift", max(
+            _over(m.achieved_speed_m_s, c.max_drift_leg_lengths_per_s * leg_length_m),
+            _over(run_drift, c.max_run_drift_leg_lengths * leg_length_m))))
+    else:
+        cmd = m.commanded_speed_m_s
+        tol = max(c.speed_rel_tol * cmd, c.speed_abs_tol_m_s)
+        out.append(("speed", _over(abs(m.achieved_speed_m_s - cmd), tol)))
+    out.append(("no fall", math.inf if m.fell else -math.inf))
+    out.append(("peak torque", _over(m.peak_torque_fraction, c.max_peak_torque_fraction)))
+    turning = m.commanded_yaw_rate_rad_s != 0.0
+    if turning:
+        w_cmd = m.commanded_yaw_rate_rad_s
+        w_tol = max(c.yaw_rate_rel_tol * abs(w_cmd), c.yaw_rate_abs_tol_rad_s)
+        out.append(("yaw rate", _over(abs(m.achieved_yaw_rate_rad_s - w_cmd), w_tol)))
+    elif m.commanded_vy_m_s != 0.0:
+        vy_cmd = m.commanded_vy_m_s
+        vy_tol = max(c.vy_rel_tol * abs(vy_cmd), c.vy_abs_tol_m_s)
+        out.append(("lateral speed", _over(abs(m.achieved_vy_m_s - vy_cmd), vy_tol)))
+    out.append(("heading", -math.inf if turning
+                else _over(abs(m.heading_error_rad), c.max_heading_error_rad)))
+    lat = m.lateral_drift_per_m
+    out.append(("lateral drift", -math.inf if lat is None
+                else _over(lat, c.max_lateral_drift_per_m)))
+    yaw = m.yaw_drift_rad_per_m
+    out.append(("yaw drift", -math.inf if turning or yaw is None
+                else _over(yaw, c.max_yaw_drift_rad_per_m)))
+    out.append(("tilt", _over(m.tilt_max_rad, c.max_tilt_rad)))
+    out.append(("foot slip", _over(m.slip_mean_m, slip_limit_m(c, leg_length_m))))
+    return tuple(out)
+
+
 def simulate(
     gait: Gait,
     robot: Robot,
@@ -410,6 +457,7 @@ def validate_and_annotate(gait: Gait, robot: Robot, cycles: int = 20, **kwargs: 
 __all__ = [
     "PassCriteria",
     "ValidationResult",
+    "criterion_excess",
     "detect_fall",
     "evaluate",
     "judge",

@@ -73,15 +73,25 @@ SEARCH_HALF_CYCLE = True
 #: 47 times and changed one gait) and the search 1.03×; halffinal alone 0.70× but bittle8 seed
 #: 3 wrote a gait 2.17× as costly (planner_speed_search.md, session 39 (branch robustfinal))
 FINAL_HALF_CYCLE = False
-#: `search_gait(final_retry_full=)`: a candidate whose final re-solve ran on half the knots
-#: (`FINAL_HALF_CYCLE`) and is infeasible or fails the final check is re-solved cold on the
-#: full NLP, and that plan is judged instead (`planner.search.final_phase.evaluate_final`):
-#: the half-cycle re-solve then loses no candidate the full one passes (36-lead i's bittle8
-#: seed 3). One task either way, so the final rule and its reading order are unchanged; the
-#: templates are not retried (they are planned as the template path plans them). Only with
-#: the half-cycle re-solves (`--half-cycle`), which are not the default: see `FINAL_HALF_CYCLE`.
-#: Where it lands (session 39 (lead), `benchmarks/retry_points.py`, 41 replayed retries): the
-#: half plan's own point in 15, the same optimum to < 1e-3 in 15, another point or infeasible in
-#: 11; its one rescue (bittle8 seed 3) was the same plan to 6.5e-6 judged again — a knife-edge
-#: MuJoCo verdict, which a robust final check would settle on either path.
-FINAL_RETRY_FULL = True
+#: `search_gait(final_retry_full=)`: which candidates whose final re-solve ran on half the
+#: knots (`FINAL_HALF_CYCLE`) and did not pass are re-solved cold on the full NLP, that plan
+#: judged instead (`planner.search.final_phase.evaluate_final`): "all" — every infeasible or
+#: failing one (session 39 (branch robustfinal), "halfretry"); "narrow" — only a feasible plan
+#: that fails the final check narrowly, every failed criterion's metric within
+#: `FINAL_RETRY_MARGIN` of its limit (`final_phase.narrow_failure`; session 40 (branch
+#: narrowretry)); "off" — none. One task either way, so the final rule and its reading order
+#: are unchanged; the templates are not retried (they are planned as the template path plans
+#: them). No effect with the full-cycle re-solves.
+#: "all" (session 39 (lead), `benchmarks/retry_points.py`, 41 replayed retries) landed on the
+#: half plan's own point in 15, the same optimum to < 1e-3 in 15, another point or infeasible
+#: in 11; its one rescue (bittle8 seed 3) was the same plan to 6.5e-6 judged again — a
+#: knife-edge MuJoCo verdict — and none of the infeasible or other-point retries passed.
+FINAL_RETRY_ALL = "all"
+FINAL_RETRY_NARROW = "narrow"
+FINAL_RETRY_OFF = "off"
+FINAL_RETRIES = (FINAL_RETRY_ALL, FINAL_RETRY_NARROW, FINAL_RETRY_OFF)
+FINAL_RETRY_FULL = FINAL_RETRY_ALL
+#: "narrow": a failed criterion counts as narrow when its metric is at most this far past its
+#: limit, relative to the limit (`sim.validate.criterion_excess`: 0.05 is a heading error of
+#: 5.25° against 5°, a speed 10.5 % off against ±10 %); a fall is never narrow.
+FINAL_RETRY_MARGIN = 0.05

@@ -42,12 +42,21 @@ from planner.search.defaults import (
     FINAL_CHOICE_CHEAPEST_OF_2,
     FINAL_CHOICE_FIRST,
     FINAL_CHOICES,
+    FINAL_RETRIES,
+    FINAL_RETRY_ALL,
+    FINAL_RETRY_MARGIN,
+    FINAL_RETRY_OFF,
 )
 from planner.templates import identical_schedules
 from robots import ContactSchedule, Gait, Robot
 
 #: the label of the gait the final check judges (as the serial loop wrote it)
 CHECK_LABEL = "search"
+#: how a half-cycle final plan that did not pass failed (`FinalOutcome.half_failure`): its
+#: plan infeasible, failing the check narrowly (`narrow_failure`), or failing it clearly
+HALF_INFEASIBLE = "infeasible"
+HALF_NARROW = "narrow"
+HALF_CLEAR = "clear"
 
 
 @dataclass(frozen=True)
@@ -72,16 +81,16 @@ class FinalPlannerSpec:
 class FinalTask:
     """One full-resolution solve of the final phase: a searched candidate (`template` None) or
     the template `template` (the fallback's, or a rival); `half_cycle` the solve's
-    `GaitPlanner.solve(half_cycle=)` (None: the spec's options); `retry_full`: if the solve ran
-    on half the knots and its plan is infeasible or fails the check, the schedule is re-solved
-    cold on the full NLP and that plan is judged instead (`evaluate_final`; the search's
-    `final_retry_full`, for its candidates)."""
+    `GaitPlanner.solve(half_cycle=)` (None: the spec's options); `retry_full`
+    (`defaults.FINAL_RETRIES`): which half-cycle plans that did not pass are re-solved cold on
+    the full NLP, that plan judged instead (`evaluate_final`; the search's `final_retry_full`,
+    for its candidates)."""
 
     spec: FinalPlannerSpec
     schedule: ContactSchedule
     template: str | None = None
     half_cycle: bool | None = None
-    retry_full: bool = False
+    retry_full: str = FINAL_RETRY_OFF
 
 
 @dataclass(frozen=True)
@@ -91,7 +100,10 @@ class FinalOutcome:
     and of the check); `build_s`, `build_cpu_s` the final planner's build if this task paid it.
     After a full-cycle retry (`FinalTask.retry_full`) `plan` and `ok` are the full solve's,
     `check_s`, `solve_cpu_s` and `check_cpu_s` the sums over both attempts, and `half_tried`
-    the half-cycle attempt that failed (its own plan, verdict and CPU)."""
+    the half-cycle attempt that failed (its own plan, verdict and CPU). `half_failure` says how
+    a half-cycle plan that did not pass failed (`HALF_INFEASIBLE`, `HALF_NARROW`, `HALF_CLEAR`;
+    "" if it passed or the solve was not on half the knots): on the retry's outcome, why it was
+    retried; on the half plan's own outcome, why it was not."""
 
     plan: PlanResult
     check_s: float
@@ -106,6 +118,11 @@ class FinalOutcome:
     ended_at_s: float = 0.0
     #: the half-cycle attempt a full-cycle retry replaced (None: no retry)
     half_tried: FinalOutcome | None = None
+    #: the check's failed criteria and how far past their limits, relative (the verdict's
+    #: `excess`, `sim.validate.criterion_excess`; empty if passed, infeasible or not given)
+    excess: tuple[tuple[str, float], ...] = ()
+    #: how the half-cycle plan failed (see above): why it was, or was not, retried
+    half_failure: str = ""
 
     @property
     def retried(self) -> bool:
@@ -133,26 +150,76 @@ class FinalChoice:
         (`FinalOutcome.retried`)."""
         return any(o.plan is self.plan and o.retried for o in self.read)
 
+    @property
+    def retry_reason(self) -> str:
+        """Why the chosen plan is a full-cycle retry (`describe_failure` of its half-cycle
+        attempt; "" if it is not one)."""
+        return next((describe_failure(o.half_tried) for o in self.read
+                     if o.plan is self.plan and o.half_tried is not None), "")
+
+
+def describe_failure(outcome: FinalOutcome) -> str:
+    """How a half-cycle plan failed, for a log: "infeasible", or "narrow"/"clear" and its failed
+    criteria with their relative excess ("narrow: heading +0.4 %")."""
+    if not outcome.half_failure or outcome.half_failure == HALF_INFEASIBLE:
+        return outcome.half_failure
+    parts = ", ".join(f"{name} +{100 * e:.1f} %" for name, e in outcome.excess)
+    return f"{outcome.half_failure}: {parts}" if parts else outcome.half_failure
+
+
+def narrow_failure(excess: Sequence[tuple[str, float]], margin: float = FINAL_RETRY_MARGIN
+                   ) -> bool:
+    """A failed check is narrow when it names its failed criteria (`FinalOutcome.excess`) and
+    every one's metric is at most `margin` past its limit, relative to it (a fall is +inf:
+    never narrow; a verdict that gives no excess is not judged narrow)."""
+    return bool(excess) and all(e <= margin for _, e in excess)
+
+
+def half_failure(outcome: FinalOutcome, margin: float = FINAL_RETRY_MARGIN) -> str:
+    """How `outcome`'s plan failed (`HALF_INFEASIBLE`, `HALF_NARROW`, `HALF_CLEAR`; "" if it
+    is feasible and passed or nothing checks it)."""
+    if not outcome.plan.feasible:
+        return HALF_INFEASIBLE
+    if outcome.ok is not False:
+        return ""
+    return HALF_NARROW if narrow_failure(outcome.excess, margin) else HALF_CLEAR
+
+
+def retries(policy: str, failure: str) -> bool:
+    """Whether the final-retry `policy` (`defaults.FINAL_RETRIES`) re-solves on the full NLP a
+    half-cycle plan that failed as `failure` says (`half_failure`; "" never)."""
+    if policy not in FINAL_RETRIES:
+        raise ValueError(f"final retry must be one of {', '.join(FINAL_RETRIES)}, got {policy!r}")
+    if not failure or policy == FINAL_RETRY_OFF:
+        return False
+    return policy == FINAL_RETRY_ALL or failure == HALF_NARROW
+
 
 def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                    schedule: ContactSchedule, speed_m_s: float,
-                   half_cycle: bool | None = None, retry_full: bool = False) -> FinalOutcome:
+                   half_cycle: bool | None = None, retry_full: str = FINAL_RETRY_OFF,
+                   margin: float = FINAL_RETRY_MARGIN) -> FinalOutcome:
     """Solve `schedule` cold at the planner's knots (`half_cycle`: `GaitPlanner.solve`'s) and,
-    if feasible, judge its gait. `retry_full`: if that solve ran on half the knots
-    (`stats["half_cycle"]`) and its plan is infeasible or not passed (`ok` not True while a
-    check exists), solve it again cold on the full NLP and judge that one (the outcome's
-    `half_tried` holds the first attempt): a half-cycle optimum can fail a MuJoCo check that
-    the full one passes (docs/results/planner_speed_search.md, 36-lead i)."""
+    if feasible, judge its gait. If that solve ran on half the knots (`stats["half_cycle"]`)
+    and its plan did not pass (`half_failure`: infeasible, or failing the check narrowly —
+    every failed criterion within `margin` of its limit — or clearly), `retry_full`
+    (`defaults.FINAL_RETRIES`) says whether to solve it again cold on the full NLP and judge
+    that one: "all" every such plan, "narrow" only a narrow failure, "off" none (the outcome's
+    `half_tried` holds the first attempt, `half_failure` why). A half-cycle optimum can fail a
+    MuJoCo check by a hair that the same point solved on all knots passes
+    (docs/results/planner_speed_search.md, 36-lead i, session 39 (lead), session 40)."""
     first = _solve_and_judge(planner, check, schedule, speed_m_s, half_cycle)
-    if not (retry_full and first.plan.stats.get("half_cycle")):
+    if not first.plan.stats.get("half_cycle"):
         return first
-    if first.plan.feasible and (check is None or first.ok):
+    failure = half_failure(first, margin) if check is not None or not first.plan.feasible else ""
+    first = replace(first, half_failure=failure)
+    if not retries(retry_full, failure):
         return first
     full = _solve_and_judge(planner, check, schedule, speed_m_s, False)
     return replace(full, check_s=first.check_s + full.check_s,
                    solve_cpu_s=first.solve_cpu_s + full.solve_cpu_s,
                    check_cpu_s=first.check_cpu_s + full.check_cpu_s,
-                   started_at_s=first.started_at_s, half_tried=first)
+                   started_at_s=first.started_at_s, half_tried=first, half_failure=failure)
 
 
 def _solve_and_judge(planner: GaitPlanner, check: Callable[[Gait], object] | None,
@@ -166,10 +233,12 @@ def _solve_and_judge(planner: GaitPlanner, check: Callable[[Gait], object] | Non
         return FinalOutcome(solved, 0.0, None, solve_cpu_s, pid=os.getpid(),
                             started_at_s=started, ended_at_s=time.time())
     t_check, c_check = time.perf_counter(), time.process_time()
-    ok = None if check is None else bool(check(planner.to_gait(solved, CHECK_LABEL)).passed)  # type: ignore[attr-defined]
+    verdict = None if check is None else check(planner.to_gait(solved, CHECK_LABEL))
+    ok = None if verdict is None else bool(verdict.passed)  # type: ignore[attr-defined]
+    excess = () if verdict is None or ok else tuple(getattr(verdict, "excess", ()))
     return FinalOutcome(solved, time.perf_counter() - t_check, ok, solve_cpu_s,
                         time.process_time() - c_check, pid=os.getpid(), started_at_s=started,
-                        ended_at_s=time.time())
+                        ended_at_s=time.time(), excess=excess)
 
 
 #: this worker's final planner and check: (spec token, planner, check)
@@ -201,7 +270,8 @@ def worker_final_solve(task: FinalTask) -> FinalOutcome:
 def evaluate_task(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                   task: FinalTask) -> FinalOutcome:
     """`task` solved and judged with `planner` and `check` (`evaluate_final` with the task's
-    `half_cycle` and `retry_full`): on a worker, in the search's process and in its replay."""
+    `half_cycle` and `retry_full`, the default margin): on a worker, in the search's process
+    and in its replay."""
     return evaluate_final(planner, check, task.schedule, task.spec.speed_m_s, task.half_cycle,
                           task.retry_full)
 
@@ -319,6 +389,9 @@ __all__ = [
     "FINAL_CHOICE_CHEAPEST",
     "FINAL_CHOICE_CHEAPEST_OF_2",
     "FINAL_CHOICE_FIRST",
+    "HALF_CLEAR",
+    "HALF_INFEASIBLE",
+    "HALF_NARROW",
     "FinalChoice",
     "FinalOutcome",
     "FinalPlannerSpec",
@@ -326,8 +399,12 @@ __all__ = [
     "choose_final",
     "compared_candidates",
     "compete_order",
+    "describe_failure",
     "evaluate_final",
     "evaluate_task",
+    "half_failure",
+    "narrow_failure",
     "prepare_final",
+    "retries",
     "worker_final_solve",
 ]

@@ -600,11 +600,14 @@ class GaitSearchResult:
     search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE
     #: `PlannerOptions.half_cycle_solve` of the final re-solves (`search_gait(final_half_cycle=)`)
     final_half_cycle: bool = defaults.FINAL_HALF_CYCLE
-    #: a candidate whose half-cycle re-solve failed was re-solved on the full NLP
-    #: (`search_gait(final_retry_full=)`, `final_phase.FinalTask.retry_full`)
-    final_retry_full: bool = defaults.FINAL_RETRY_FULL
+    #: which candidates whose half-cycle re-solve failed were re-solved on the full NLP
+    #: (`search_gait(final_retry_full=)`, `defaults.FINAL_RETRIES`, `FinalTask.retry_full`)
+    final_retry_full: str = defaults.FINAL_RETRY_FULL
     #: the written plan is such a full-cycle retry (`final_phase.FinalOutcome.half_tried`)
     final_retried: bool = False
+    #: why it was retried: how its half-cycle plan failed (`final_phase.describe_failure`,
+    #: e.g. "narrow: heading +0.4 %"; "" if the written plan is not a retry)
+    final_retry_reason: str = ""
     #: the templates only as the fallback, or competing with the searched winner
     #: (`defaults.FINAL_TEMPLATES`, `final_phase.choose_final(rival=)`)
     final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES
@@ -666,7 +669,7 @@ def search_gait(
     search_half_cycle: bool = defaults.SEARCH_HALF_CYCLE,
     final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES,
     final_half_cycle: bool = defaults.FINAL_HALF_CYCLE,
-    final_retry_full: bool = defaults.FINAL_RETRY_FULL,
+    final_retry_full: str = defaults.FINAL_RETRY_FULL,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -707,10 +710,12 @@ def search_gait(
     off: full-cycle, as measured; `PlannerOptions`' own default, on, is the template path's); a
     `planner` passed in must have it (`final_options`). The templates the final phase re-solves
     are planned as the template path plans them, with `options`' own `half_cycle_solve`.
-    `final_retry_full` (default `planner.search.defaults.FINAL_RETRY_FULL`): a candidate whose
-    final re-solve ran on half the knots and is infeasible or fails the final check is re-solved
-    cold on the full NLP and that plan judged instead (one task: the rule and its order are
-    unchanged; `final_phase.evaluate_final`); no effect with `final_half_cycle` off.
+    `final_retry_full` (`defaults.FINAL_RETRIES`, default `defaults.FINAL_RETRY_FULL`): which
+    candidates whose final re-solve ran on half the knots and did not pass are re-solved cold on
+    the full NLP, that plan judged instead — "all" (infeasible or failing), "narrow" (feasible
+    and failing the final check by at most `defaults.FINAL_RETRY_MARGIN` of every failed
+    criterion's limit), "off" (one task: the rule and its order are unchanged;
+    `final_phase.evaluate_final`); no effect with `final_half_cycle` off.
     `final_templates` (`defaults.FINAL_TEMPLATES`): "fallback" — the templates are re-solved
     only if no searched timing passes; "compete" — every template whose coarse plan solved is
     re-solved too, and the cheapest accepted one is written if it beats the searched winner
@@ -738,6 +743,7 @@ def search_gait(
     _check_one_of("search_inactive_rows", search_inactive_rows, INACTIVE_ROWS)
     _check_one_of("final_choice", final_choice, FINAL_CHOICES)
     _check_one_of("final_templates", final_templates, defaults.FINAL_TEMPLATES)
+    _check_one_of("final_retry_full", final_retry_full, defaults.FINAL_RETRIES)
     if search_tol is not None and not 0 < search_tol < 1:
         raise PlannerConfigError(f"search_tol must be in (0, 1) (or None: the options' own), "
                                  f"got {search_tol!r}")
@@ -832,7 +838,7 @@ def search_gait(
             spec, space, pool.records, n_final, (x0, seed_results[best_template]),
             seed_results, seed_schedule if final_check is not None else None,
             final_choice, final_templates, options.half_cycle_solve,
-            final_half_cycle and final_retry_full)
+            final_retry_full if final_half_cycle else defaults.FINAL_RETRY_OFF)
 
         def final_planner() -> tuple[GaitPlanner, float, float]:
             """The final planner (passed in, or built here) and its build's wall and CPU s."""
@@ -876,6 +882,7 @@ def search_gait(
         final_half_cycle=final_half_cycle, final_templates=final_templates,
         final_retry_full=final_retry_full,
         final_retried=choice.retried,
+        final_retry_reason=choice.retry_reason,
         beaten_search_total=choice.beaten_score,
         phase_s={"seed": t_cma - t_seed, "cma": t_final - t_cma, "final_build": final_build_s,
                  "final": t_end - t_final - (0.0 if on_workers else final_build_s)},
@@ -899,7 +906,8 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
                 start: tuple[np.ndarray, LocalResult], seed_results: Mapping[str, LocalResult],
                 seed_schedules: Mapping[str, ContactSchedule] | None,
                 read_first: int | None = None, template_half_cycle: bool | None = None,
-                retry_full: bool = False) -> tuple[list[FinalTask], list[LocalResult]]:
+                retry_full: str = defaults.FINAL_RETRY_OFF,
+                ) -> tuple[list[FinalTask], list[LocalResult]]:
     """The final phase's tasks in the order `choose_final` reads them, with the search result of
     each one's timing: the `final_candidates` cheapest usable samples of `records`
     (`final_candidates_of`; `start`, CMA's first mean and its seed's result, if none is usable),
@@ -964,7 +972,8 @@ def ordered_final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
                         seed_results: Mapping[str, LocalResult],
                         seed_schedules: Mapping[str, ContactSchedule] | None,
                         final_choice: str, final_templates: str,
-                        template_half_cycle: bool | None = None, retry_full: bool = False,
+                        template_half_cycle: bool | None = None,
+                        retry_full: str = defaults.FINAL_RETRY_OFF,
                         ) -> tuple[list[FinalTask], list[LocalResult], Rival | None]:
     """The final phase's tasks, their search results and `rival` as `choose_final` reads them
     under `final_choice` and `final_templates`: `final_tasks` (skipping the templates
@@ -1014,7 +1023,8 @@ def write_search_log(result: GaitSearchResult, path: str | Path) -> None:
     lines.append(f"# final solve: {result.planner.n_knots} knots"
                  + (" (a symmetric timing on the first half of them, `half_cycle`)"
                     if result.best.stats.get("half_cycle") else
-                    " (full cycle, a retry: its half-cycle plan failed)" if result.final_retried
+                    f" (full cycle, a retry: its half-cycle plan failed, "
+                    f"{result.final_retry_reason})" if result.final_retried
                     else " (full cycle)")
                  + f", {result.label}, cost "
                  f"{result.best.cost:.6g} + support {result.support_cost:.6g} = "

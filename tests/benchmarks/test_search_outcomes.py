@@ -78,7 +78,7 @@ def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     ("speed0", r"'speed0' in 'speed0' needs a number in \(0, 1\) after 'speed'"),
     ("speed1.5", r"needs a number in \(0, 1\) after 'speed'"),
     ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN, speedX, half, full, "
-             r"fullfinal, halffinal, halfretry, fallback or compete"),
+             r"fullfinal, halffinal, halfretry, halfnarrow, fallback or compete"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:
@@ -159,51 +159,62 @@ def _recording() -> tuple[robots.Robot, TimingSpace, list[np.ndarray], dict[str,
 def test_replay_with_the_full_cycle_retry_hands_it_to_the_candidates_and_counts_it(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """`FinalReplayer(half_cycle=True, retry_full=True)` ("halfretry"): every candidate task
+    """`FinalReplayer(half_cycle=True, retry_full="all")` ("halfretry"): every candidate task
     asks for the retry, no template task does; a retried outcome is counted in the row
     ("retries", the CPU of both attempts) and the written plan is marked as one; the row's CPU
     estimate takes both attempts' CPU."""
     _, space, gen, rec = _recording()
-    seen: list[tuple[str | None, bool]] = []
+    seen: list[tuple[str | None, str]] = []
 
     def retried_sample_1(planner: Any, check: Any, task: Any) -> FinalOutcome:
         seen.append((task.template, task.retry_full))
         passes = math.isclose(task.schedule.period_s, space.decode(gen[1]).period_s)
         out = FinalOutcome(_Plan(task.schedule, 0.4), 0.0, passes, solve_cpu_s=1.0,  # type: ignore[arg-type]
                            check_cpu_s=0.25)
-        if not (passes and task.retry_full):
+        if not (passes and task.retry_full == "all"):
             return out
         half = FinalOutcome(_Plan(task.schedule, 0.3), 0.0, False, solve_cpu_s=0.5,  # type: ignore[arg-type]
-                            check_cpu_s=0.25)
-        return replace(out, solve_cpu_s=1.5, check_cpu_s=0.5, half_tried=half)
+                            check_cpu_s=0.25, excess=(("heading", 0.004),))
+        return replace(out, solve_cpu_s=1.5, check_cpu_s=0.5, half_tried=half,
+                       half_failure="narrow")
 
     monkeypatch.setattr(so, "GaitPlanner", lambda *a: None)
     monkeypatch.setattr(so, "evaluate_task", retried_sample_1)
     replayer = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30, half_cycle=True,
-                                retry_full=True)
+                                retry_full="all")
     row = replayer.truncated(rec, 1, templates="compete")
-    assert seen and all(retry == (template is None) for template, retry in seen)
+    assert seen and all((retry == "all") == (template is None) for template, retry in seen)
     # sample 1 (the second candidate, coarse 0.8) failed on half the knots, passed full
     assert (row["search_cost"], row["verdict"], row["retries"]) == (0.8, "MuJoCo pass", 1)
     assert row["final_retried"] is True
     assert (row["retry_half_cpu_s"], row["retry_full_cpu_s"]) == (0.75, 1.25)
+    # how it failed on half the knots, retried, by how much, and the retry's verdict
+    assert row["half_failed"] == [["narrow", True, [["heading", 0.004]], True]]
     # the final phase's CPU: every outcome read at 1.25 CPU-s, the retried one at 2.0
     assert row["cpu_s"] == pytest.approx(50.0 - 5.0 - 3.0 + 1.25 * (row["final_solves"] - 1)
                                          + 2.0)
     # "halffinal" (no retry): no task asks for it, sample 1 fails as solved on half the knots
     seen.clear()
     plain = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30, half_cycle=True,
-                             retry_full=False).truncated(rec, 1, templates="compete")
-    assert not any(retry for _, retry in seen) and plain["retries"] == 0
+                             retry_full="off").truncated(rec, 1, templates="compete")
+    assert all(retry == "off" for _, retry in seen) and plain["retries"] == 0
     assert plain["final_retried"] is False
 
 
-def test_final_solve_tokens_name_the_three_policies() -> None:
+def test_final_solve_tokens_name_the_four_policies() -> None:
     assert (so.parse_setting("halfretry").final_half_cycle,
-            so.parse_setting("halfretry").final_retry_full) == (True, True)
+            so.parse_setting("halfretry").final_retry_full) == (True, "all")
     assert (so.parse_setting("halffinal").final_half_cycle,
-            so.parse_setting("halffinal").final_retry_full) == (True, False)
+            so.parse_setting("halffinal").final_retry_full) == (True, "off")
+    assert (so.parse_setting("halfnarrow").final_half_cycle,
+            so.parse_setting("halfnarrow").final_retry_full) == (True, "narrow")
     assert so.parse_setting("fullfinal").final_half_cycle is False
+    assert [so.final_solve_token(h, r) for h, r in so.FINAL_SOLVE_TOKENS.values()] == [
+        "+fullfinal", "+halffinal", "+halfretry", "+halfnarrow"]
+    assert so.REPLAY_FINAL_SOLVES["narrow"] == "halfnarrow"
+    # a recording made before session 40 holds the retry as a bool
+    assert so.Setting("old", final_retry_full=True).final_retry_full == "all"  # type: ignore[arg-type]
+    assert so.Setting("old", final_retry_full=False).final_retry_full == "off"  # type: ignore[arg-type]
     with pytest.raises(SystemExit, match="sets final_half_cycle twice"):
         so.parse_setting("halffinal+halfretry")
 

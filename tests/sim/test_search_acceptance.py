@@ -28,12 +28,15 @@ def test_factory_pickles_and_builds_a_check_for_its_robot(hex18: Robot) -> None:
 def test_a_walking_gait_passes_and_a_mislabelled_one_fails(hex18: Robot, hex_tripod: Gait) -> None:
     check = GaitCheck(hex18, cycles=6)
     ok = check(hex_tripod)
-    assert ok.passed and ok.badness == 0.0 and ok.reasons == ()
+    assert ok.passed and ok.badness == 0.0 and ok.reasons == () and ok.excess == ()
     assert abs(ok.achieved_speed_m_s - 0.1) < 0.02
     # the same motion claiming three times the speed: walks, but misses the speed criterion
     fast = dataclasses.replace(hex_tripod, velocity=Velocity(vx_m_s=0.3))
     bad = check(fast)
     assert not bad.passed and bad.badness >= 1 and any("speed" in r for r in bad.reasons)
+    # by how much: |0.1 − 0.3| m/s against a ±0.03 m/s tolerance, about 5.7× past it
+    excess = dict(bad.excess)
+    assert len(bad.excess) == bad.badness and 4.0 < excess["speed"] < 7.0
 
 
 def _in_place(robot: Robot, duty: float) -> Gait:

@@ -4,6 +4,8 @@ right reason; the result is JSON-safe and goes into the gait file."""
 from __future__ import annotations
 
 import json
+import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +18,7 @@ from robots.robot import Robot
 from robots.schedule import ContactSchedule
 from sim.errors import SimConfigError
 from sim.synthetic import feet_offset_pose, kinematic_gait, standing_gait, trot_schedule
-from sim.validate import PassCriteria, validate, validate_and_annotate
+from sim.validate import PassCriteria, criterion_excess, judge, validate, validate_and_annotate
 
 
 def _check(result: object, name: str) -> bool:
@@ -121,3 +123,37 @@ def test_bad_settings_and_wrong_robot(quad: Robot, hex18: Robot, quad_stand: Gai
         validate(quad_stand, quad, cycles=4, friction=0.0)
     with pytest.raises(GaitFileError):
         validate(quad_stand, hex18, cycles=4)
+
+
+def test_criterion_excess_agrees_with_every_check_of_judge(hex18: Robot, hex_tripod: Gait) -> None:
+    """Each criterion's excess is ≤ 0 exactly where `judge` passes it, and measures how far past
+    its limit the metric is: the tripod's own metrics and variants pushed past each limit."""
+    res = validate(hex_tripod, hex18, cycles=4, keep_trajectory=False)
+    c, leg = res.criteria, hex18.leg_length_m
+    m0 = res.metrics
+    variants = [m0,
+                replace(m0, achieved_speed_m_s=m0.commanded_speed_m_s * 0.85),
+                replace(m0, achieved_speed_m_s=m0.commanded_speed_m_s * 0.905),
+                replace(m0, fell=True, fall_time_s=1.0, fall_reason="tilt"),
+                replace(m0, peak_torque_fraction=0.81),
+                replace(m0, heading_error_rad=-math.radians(5.02)),
+                replace(m0, heading_error_rad=math.radians(4.9)),
+                replace(m0, lateral_drift_per_m=0.30),
+                replace(m0, yaw_drift_rad_per_m=0.36),
+                replace(m0, tilt_max_rad=math.radians(25.0)),
+                replace(m0, slip_mean_m=0.2 * leg),
+                replace(m0, commanded_speed_m_s=0.0, achieved_speed_m_s=0.001),
+                replace(m0, commanded_speed_m_s=0.0, achieved_speed_m_s=0.2),
+                replace(m0, commanded_yaw_rate_rad_s=0.3, achieved_yaw_rate_rad_s=0.2),
+                replace(m0, commanded_vy_m_s=0.05, achieved_vy_m_s=0.02)]
+    for m in variants:
+        checks = judge(m, c, leg)
+        excess = criterion_excess(m, c, leg)
+        assert [n for n, _, _ in checks] == [n for n, _ in excess]
+        assert [ok for _, ok, _ in checks] == [e <= 0.0 for _, e in excess], excess
+    by_name = dict(criterion_excess(variants[5], c, leg))
+    assert by_name["heading"] == pytest.approx(0.02 / 5.0)  # 5.02° against 5°: 0.4 % past
+    assert dict(criterion_excess(variants[1], c, leg))["speed"] == pytest.approx(0.5)
+    assert dict(criterion_excess(variants[3], c, leg))["no fall"] == math.inf
+    assert dict(criterion_excess(variants[4], c, leg))["peak torque"] == pytest.approx(
+        0.81 / 0.80 - 1.0)

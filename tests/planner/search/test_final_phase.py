@@ -31,14 +31,21 @@ from planner.search.executors import (
 from planner.search.final_phase import (
     FINAL_CHOICE_CHEAPEST,
     FINAL_CHOICE_CHEAPEST_OF_2,
+    HALF_CLEAR,
+    HALF_INFEASIBLE,
+    HALF_NARROW,
     FinalOutcome,
     FinalPlannerSpec,
     FinalTask,
     choose_final,
     compete_order,
+    describe_failure,
     evaluate_final,
     evaluate_task,
+    half_failure,
+    narrow_failure,
     prepare_final,
+    retries,
 )
 from planner.search.gait_search import search_gait, write_search_log
 from planner.search.support import TippingCost
@@ -335,6 +342,7 @@ def test_ray_reads_in_rank_order() -> None:
 class _Verdict:
     passed: bool
     badness: float
+    excess: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -407,7 +415,7 @@ def test_a_half_cycle_plan_that_fails_the_check_is_re_solved_on_the_full_nlp() -
     on the full NLP and that plan is judged (and passes); the outcome keeps the first attempt
     and its CPU, and sums both. Without `retry_full` the half-cycle verdict stands."""
     planner = HalfCyclePlanner()
-    out = evaluate_final(planner, reject_half_cycle, SCHEDULE, 0.2, None, retry_full=True)  # type: ignore[arg-type]
+    out = evaluate_final(planner, reject_half_cycle, SCHEDULE, 0.2, None, retry_full="all")  # type: ignore[arg-type]
     assert planner.asked == [None, False]
     assert out.retried and out.half_tried is not None and out.ok is True
     assert (out.plan.cost, out.plan.stats["half_cycle"]) == (2.0, False)
@@ -423,7 +431,7 @@ def test_a_half_cycle_plan_that_fails_the_check_is_re_solved_on_the_full_nlp() -
     # the task carries the flag to the same function (`evaluate_task`: workers, search, replay)
     task_planner = HalfCyclePlanner()
     by_task = evaluate_task(task_planner, reject_half_cycle,  # type: ignore[arg-type]
-                            FinalTask(SPEC, SCHEDULE, retry_full=True))
+                            FinalTask(SPEC, SCHEDULE, retry_full="all"))
     assert task_planner.asked == [None, False] and by_task.retried and by_task.ok is True
 
 
@@ -443,9 +451,81 @@ def test_the_retry_fires_only_when_the_half_path_applied_and_its_plan_failed() -
              (HalfCyclePlanner(half_feasible=False), None, [None, False], None),
              (HalfCyclePlanner(half_feasible=False), reject_half_cycle, [None, False], True)]
     for planner, check, asked, ok in cases:
-        out = evaluate_final(planner, check, SCHEDULE, 0.2, retry_full=True)  # type: ignore[arg-type]
+        out = evaluate_final(planner, check, SCHEDULE, 0.2, retry_full="all")  # type: ignore[arg-type]
         assert planner.asked == asked and out.ok is ok
         assert out.retried == (len(asked) == 2) and out.plan.feasible
+
+
+def test_a_narrow_failure_is_every_failed_criterion_within_the_margin() -> None:
+    """`narrow_failure` on constructed verdicts' excess (relative, past the limit): every failed
+    criterion within the margin (the margin itself included); one clear criterion, a fall (+inf)
+    or a verdict that names no criterion is not narrow."""
+    assert narrow_failure((("heading", 0.004),), 0.05)
+    assert narrow_failure((("heading", 0.05), ("speed", 0.01)), 0.05)
+    assert not narrow_failure((("heading", 0.004), ("speed", 0.2)), 0.05)
+    assert not narrow_failure((("heading", 0.06),), 0.05)
+    assert not narrow_failure((("no fall", float("inf")),), 0.05)
+    assert not narrow_failure((), 0.05)
+    assert narrow_failure((("heading", 0.06),), 0.1)  # the margin decides
+
+
+def test_half_failure_names_how_a_half_cycle_plan_failed() -> None:
+    """Infeasible, narrow, clear, or "" when it passed or nothing checked it; `retries` maps a
+    policy and that to whether it is re-solved on the full NLP."""
+    def out(feasible: bool, ok: bool | None, excess: tuple[tuple[str, float], ...] = ()
+            ) -> FinalOutcome:
+        return FinalOutcome(_plan(1.0, feasible), 0.0, ok, excess=excess)
+
+    assert half_failure(out(False, None)) == HALF_INFEASIBLE
+    assert half_failure(out(True, False, (("heading", 0.004),))) == HALF_NARROW
+    assert half_failure(out(True, False, (("heading", 0.3),))) == HALF_CLEAR
+    assert half_failure(out(True, False, (("heading", 0.3),)), margin=0.5) == HALF_NARROW
+    assert half_failure(out(True, True)) == half_failure(out(True, None)) == ""
+    table = {(p, f): retries(p, f) for p in ("all", "narrow", "off")
+             for f in (HALF_INFEASIBLE, HALF_NARROW, HALF_CLEAR, "")}
+    assert [k for k, v in table.items() if v] == [
+        ("all", HALF_INFEASIBLE), ("all", HALF_NARROW), ("all", HALF_CLEAR),
+        ("narrow", HALF_NARROW)]
+    with pytest.raises(ValueError, match="final retry must be one of"):
+        retries("some", HALF_NARROW)
+
+
+def test_the_narrow_retry_re_solves_only_a_plan_that_failed_by_a_hair() -> None:
+    """`retry_full="narrow"`: a half-cycle plan failing the check by 0.4 % of the heading limit
+    is re-solved on the full NLP (the retry's outcome says why); one failing clearly, or one
+    that is infeasible, keeps its half-cycle verdict and says why it was not retried. "all"
+    retries the clear one too."""
+    def hair(gait: Gait) -> _Verdict:
+        ok = not gait.planner["solver"]["half_cycle"]
+        return _Verdict(ok, 0.0 if ok else 1.0, () if ok else (("heading", 0.004),))
+
+    def clearly(gait: Gait) -> _Verdict:
+        ok = not gait.planner["solver"]["half_cycle"]
+        return _Verdict(ok, 0.0 if ok else 2.0, () if ok else (("speed", 0.01),
+                                                                ("no fall", float("inf"))))
+
+    planner = HalfCyclePlanner()
+    out = evaluate_final(planner, hair, SCHEDULE, 0.2, retry_full="narrow")  # type: ignore[arg-type]
+    assert planner.asked == [None, False] and out.retried and out.ok is True
+    assert out.half_failure == HALF_NARROW and out.half_tried is not None
+    assert out.half_tried.excess == (("heading", 0.004),)
+    assert describe_failure(out.half_tried) == "narrow: heading +0.4 %"
+    planner = HalfCyclePlanner()
+    kept = evaluate_final(planner, clearly, SCHEDULE, 0.2, retry_full="narrow")  # type: ignore[arg-type]
+    assert planner.asked == [None] and not kept.retried and kept.ok is False
+    assert kept.half_failure == HALF_CLEAR
+    assert describe_failure(kept) == "clear: speed +1.0 %, no fall +inf %"
+    planner = HalfCyclePlanner(half_feasible=False)
+    infeasible = evaluate_final(planner, hair, SCHEDULE, 0.2, retry_full="narrow")  # type: ignore[arg-type]
+    assert planner.asked == [None] and not infeasible.retried
+    assert not infeasible.plan.feasible and infeasible.half_failure == HALF_INFEASIBLE
+    planner = HalfCyclePlanner()
+    every = evaluate_final(planner, clearly, SCHEDULE, 0.2, retry_full="all")  # type: ignore[arg-type]
+    assert planner.asked == [None, False] and every.retried and every.half_failure == HALF_CLEAR
+    # a plan that is not half-cycle (an asymmetric timing) is never classified or retried
+    planner = HalfCyclePlanner(symmetric=False)
+    full = evaluate_final(planner, clearly, SCHEDULE, 0.2, retry_full="narrow")  # type: ignore[arg-type]
+    assert planner.asked == [None] and full.half_failure == "" and full.ok is True
 
 
 def test_the_rule_reads_a_retried_candidate_as_its_full_cycle_plan() -> None:
@@ -454,7 +534,7 @@ def test_the_rule_reads_a_retried_candidate_as_its_full_cycle_plan() -> None:
     templates are never retried."""
     tasks, searched = _tasks([Fake(1.0, 0.0, True), Fake(2.0, 0.0, True), Fake(3.0, 0.0, True)],
                              templates=1)
-    tasks = [replace(t, retry_full=t.template is None) for t in tasks]
+    tasks = [replace(t, retry_full="all" if t.template is None else "off") for t in tasks]
     planners = [HalfCyclePlanner(), HalfCyclePlanner(), HalfCyclePlanner()]
     outcomes = (evaluate_task(p, reject_half_cycle, t)  # type: ignore[arg-type]
                 for p, t in zip(planners, tasks, strict=True))
@@ -539,7 +619,7 @@ class RejectHalfCycle:
 @pytest.mark.slow
 def test_a_search_retries_on_the_full_nlp_the_candidates_whose_half_cycle_plan_fails(
         tmp_path: Path) -> None:
-    """`search_gait(final_half_cycle=True, final_retry_full=True)` with a final check that
+    """`search_gait(final_half_cycle=True, final_retry_full="all")` with a final check that
     fails every half-cycle plan: the first candidate is solved on half the knots, fails, is
     re-solved on the full NLP, passes and is written (as a full-cycle plan, and the search log
     says it was a retry), on the serial executor and on two workers alike; without the retry
@@ -547,8 +627,8 @@ def test_a_search_retries_on_the_full_nlp_the_candidates_whose_half_cycle_plan_f
     kw = dict(n_knots=16, search_knots=10, max_generations=1, popsize=4, seed=1,
               final_candidates=2, final_acceptance=RejectHalfCycle(), final_templates="fallback",
               final_half_cycle=True)
-    serial = search_gait(ROBOT, 0.2, executor="serial", final_retry_full=True, **kw)  # type: ignore[arg-type]
-    par = search_gait(ROBOT, 0.2, executor="process", workers=2, final_retry_full=True, **kw)  # type: ignore[arg-type]
+    serial = search_gait(ROBOT, 0.2, executor="serial", final_retry_full="all", **kw)  # type: ignore[arg-type]
+    par = search_gait(ROBOT, 0.2, executor="process", workers=2, final_retry_full="all", **kw)  # type: ignore[arg-type]
     for res in (serial, par):
         first = res.final_outcomes[0]
         assert first.retried and first.half_tried is not None
@@ -561,8 +641,8 @@ def test_a_search_retries_on_the_full_nlp_the_candidates_whose_half_cycle_plan_f
     assert np.array_equal(serial.best.joint_angles_rad, par.best.joint_angles_rad)
     log = tmp_path / "search.csv"
     write_search_log(serial, log)
-    assert "(full cycle, a retry: its half-cycle plan failed)" in log.read_text()
-    plain = search_gait(ROBOT, 0.2, executor="serial", final_retry_full=False, **kw)  # type: ignore[arg-type]
+    assert "(full cycle, a retry: its half-cycle plan failed, clear)" in log.read_text()
+    plain = search_gait(ROBOT, 0.2, executor="serial", final_retry_full="off", **kw)  # type: ignore[arg-type]
     assert not any(o.retried for o in plain.final_outcomes) and not plain.final_retried
     assert all(o.ok is not True for o in plain.final_outcomes[:2])
 
