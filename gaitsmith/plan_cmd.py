@@ -162,9 +162,10 @@ def plan(
         "tripod, biped walk; N even) on the first half of its knots, the second half its "
         "mirror image: about half the time per solve, the same optimum where the full solve "
         "stays symmetric; anything else (a turn, an asymmetric schedule, a body with no mirror "
-        "image) is solved in full. Default: half-cycle for the planned gait (and the "
-        "templates --search re-solves), full-cycle for the searched candidates --search "
-        "re-solves; given, it sets both (--search-half-cycle: the search's coarse solves)"),
+        "image) is solved in full. Default: half-cycle for the planned gait, the templates "
+        "--search re-solves and the searched candidates it re-solves (a candidate whose "
+        "half-cycle plan fails the MuJoCo check narrowly is re-solved on all knots); given, it "
+        "sets both (--search-half-cycle: the search's coarse solves)"),
     force_rate: float | None = typer.Option(
         None, "--force-rate", help="bound each foot's normal-force rate to this many body "
         "weights per √(L/g) (`PlannerOptions.normal_force_rate_weights_per_t0`): the load "

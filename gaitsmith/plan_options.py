@@ -101,7 +101,8 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
                 "--knife-edge: needs --simulate, a straight command (no --vy, --yaw-rate) and "
                 "no --search"),
     OptionRoute("--half-cycle", "half_cycle", NLP + " (default: half-cycle)",
-                NLP + " of the final re-solves (default: full-cycle); gait-file metadata"),
+                NLP + " of the final re-solves (default: half-cycle, a narrow MuJoCo failure "
+                "re-solved full); gait-file metadata"),
     OptionRoute("--mirror", "mirror", NLP, "",
                 "--mirror: not with --search yet; plan the chosen gait with --mirror"),
     OptionRoute("--force-rate", "force_rate", NLP_META, NLP_META),
@@ -252,8 +253,9 @@ def template_half_cycle(given: bool | None) -> bool:
 
 def search_final_half_cycle(given: bool | None) -> bool:
     """`search_gait(final_half_cycle=)` of `--search`: `--half-cycle/--full-cycle` as given,
-    else `planner.search.defaults.FINAL_HALF_CYCLE` (off: the final re-solves stay full-cycle,
-    as measured; the coarse solves have their own `--search-half-cycle`)."""
+    else `planner.search.defaults.FINAL_HALF_CYCLE` (on since session 40, with a candidate that
+    fails the final check narrowly re-solved on all knots, `FINAL_RETRY_FULL`; the coarse solves
+    have their own `--search-half-cycle`)."""
     return FINAL_HALF_CYCLE if given is None else given
 
 

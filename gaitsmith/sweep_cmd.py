@@ -82,8 +82,9 @@ def sweep(
     half_cycle: bool | None = typer.Option(
         None, "--half-cycle/--full-cycle",
         help="the final re-solves on the first half of a symmetric timing's knots, or on all "
-        "of them. Default: full-cycle for the searched candidates, half-cycle for the "
-        "templates (as plan --gait plans them); given, it sets both"),
+        "of them. Default: half-cycle for the searched candidates (one that fails the MuJoCo "
+        "check narrowly re-solved on all knots) and for the templates (as plan --gait plans "
+        "them); given, it sets both"),
 ) -> None:
     """Search the best gait at each speed; table + plot of gait, duty factor and CoT vs Froude."""
     values = None if speeds is None else parse_speeds(speeds)

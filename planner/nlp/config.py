@@ -321,8 +321,9 @@ class PlannerOptions:
       image (`planner.nlp.half_cycle`): the same iterates as the full NLP where those stay
       symmetric (IPOPT's do from the symmetric cold start), on a KKT system half the size.
       Any other solve (a turn, an asymmetric schedule or start) is the full NLP's. On by
-      default (`DEFAULT_HALF_CYCLE_SOLVE`); the gait search's final re-solves are full unless
-      asked (`planner.search.defaults.FINAL_HALF_CYCLE`).
+      default (`DEFAULT_HALF_CYCLE_SOLVE`); the gait search's final re-solves take
+      `planner.search.defaults.FINAL_HALF_CYCLE` (on since session 40, a narrow MuJoCo failure
+      re-solved full: `FINAL_RETRY_FULL`).
     - `sideways_slip_leg_lengths`: ε/L of the lateral no-slip band of feet whose legs cannot
       move them sideways relative to the body (hip-and-knee legs; `planner.nlp.sideways_locked`):
       their equality rows are degenerate and IPOPT stalled on them. 0: equality rows.

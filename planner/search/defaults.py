@@ -63,16 +63,17 @@ SEARCH_HALF_CYCLE = True
 #: (`search_gait(final_half_cycle=)`), whatever the options say (`PlannerOptions`' own default
 #: is on, for the template path; the templates the final phase re-solves are planned as the
 #: template path plans them, with the options' own: `final_tasks(template_half_cycle=)`, session
-#: 38): "halffinal" read the same
-#: verdict on 35 of 35 candidates in 12 exact replays at 0.26–0.43× the final phase's CPU, but
-#: lost two candidates whose half-cycle point fails a MuJoCo check the full one passes
-#: (docs/results/planner_speed_search.md, 36-lead e and i), so the final re-solves stay full.
-#: With `FINAL_RETRY_FULL` ("halfretry", session 39) the 32 searches of session 38 wrote the same
-#: gait, cost and verdict as full-cycle re-solves in 32 of 32 (exact replays), but the final
-#: phase took 1.11× the CPU (each candidate failing at 30 knots is solved twice; the retry fired
-#: 47 times and changed one gait) and the search 1.03×; halffinal alone 0.70× but bittle8 seed
-#: 3 wrote a gait 2.17× as costly (planner_speed_search.md, session 39 (branch robustfinal))
-FINAL_HALF_CYCLE = False
+#: 38). On since session 40 (was off), with `FINAL_RETRY_FULL` "narrow": over the 32 searches of
+#: session 38, exact replays wrote the same gait, cost and verdict as the full-cycle re-solves in
+#: 32 of 32 at **0.70× the final phase's CPU** (314 against 452 CPU-s; the retry fired 3 times
+#: and rescued bittle8 seed 3's trot, whose half plan misses the heading limit by 0.16 %); real
+#: runs the same 32 of 32 against session 38's rows (geometric mean 1.0000, p90 |log ratio|
+#: 1.000), the search ≈ 0.92× the CPU; the README search 0.92× the CPU, the same trot
+#: (docs/results/planner_speed_search.md, session 40 (branch narrowretry)). Before: "halffinal"
+#: (no retry) 0.70× but lost that trot (2.17× the cost, 36-lead i, session 39); "halfretry"
+#: (every failure retried) kept it but at 1.11× the final phase's CPU (session 39 (branch
+#: robustfinal)).
+FINAL_HALF_CYCLE = True
 #: `search_gait(final_retry_full=)`: which candidates whose final re-solve ran on half the
 #: knots (`FINAL_HALF_CYCLE`) and did not pass are re-solved cold on the full NLP, that plan
 #: judged instead (`planner.search.final_phase.evaluate_final`): "all" — every infeasible or
@@ -90,8 +91,14 @@ FINAL_RETRY_ALL = "all"
 FINAL_RETRY_NARROW = "narrow"
 FINAL_RETRY_OFF = "off"
 FINAL_RETRIES = (FINAL_RETRY_ALL, FINAL_RETRY_NARROW, FINAL_RETRY_OFF)
-FINAL_RETRY_FULL = FINAL_RETRY_ALL
+#: "narrow" since session 40 (was "all", which only mattered with `--half-cycle`): 3 retries
+#: instead of 47 over the 32 searches, the same gaits (`FINAL_HALF_CYCLE`).
+FINAL_RETRY_FULL = FINAL_RETRY_NARROW
 #: "narrow": a failed criterion counts as narrow when its metric is at most this far past its
 #: limit, relative to the limit (`sim.validate.criterion_excess`: 0.05 is a heading error of
-#: 5.25° against 5°, a speed 10.5 % off against ±10 %); a fall is never narrow.
+#: 5.25° against 5°, a speed 10.5 % off against ±10 %); a fall is never narrow. Chosen from the
+#: 41 retries of session 39 (planner_speed_search.md, 40-a): the one rescue failed by 0.16 %;
+#: failures at 1.8 % and 4.1 % were re-solved to a point whose metric moved (both still failed);
+#: those at 5.2 % and 8.5 % were re-solved to the identical point (the same verdict again), and
+#: every other failure was ≥ 12 % past a limit, a fall or infeasible. Not validated beyond them.
 FINAL_RETRY_MARGIN = 0.05

@@ -707,7 +707,8 @@ def search_gait(
     of its knots (`planner.nlp.half_cycle`); the final re-solves take `final_half_cycle`.
     `final_half_cycle`: `PlannerOptions.half_cycle_solve` of the final re-solves of searched
     candidates, whatever `options` says (default `planner.search.defaults.FINAL_HALF_CYCLE`,
-    off: full-cycle, as measured; `PlannerOptions`' own default, on, is the template path's); a
+    on since session 40, with `final_retry_full` "narrow"; `PlannerOptions`' own default is the
+    template path's); a
     `planner` passed in must have it (`final_options`). The templates the final phase re-solves
     are planned as the template path plans them, with `options`' own `half_cycle_solve`.
     `final_retry_full` (`defaults.FINAL_RETRIES`, default `defaults.FINAL_RETRY_FULL`): which

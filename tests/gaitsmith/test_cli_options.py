@@ -234,7 +234,7 @@ def test_plan_onto_a_full_disk_fails_cleanly_after_the_solve(
 
 @pytest.mark.parametrize(("extra", "expected"), [
     # (search_half_cycle, final_templates, final_half_cycle, the templates' half_cycle_solve)
-    ([], (True, "compete", False, True)),
+    ([], (True, "compete", True, True)),
     (["--search-full-cycle", "--final-templates", "fallback", "--full-cycle"],
      (False, "fallback", False, False)),  # session 37's search exactly
     (["--half-cycle"], (True, "compete", True, True)),

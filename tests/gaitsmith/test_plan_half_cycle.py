@@ -58,8 +58,8 @@ def test_a_body_with_no_mirror_images_is_solved_in_full(tmp_path: Path) -> None:
 
 
 def test_the_help_says_what_the_unset_flag_means() -> None:
-    """Unset, --half-cycle/--full-cycle means half-cycle for the planned gait and full-cycle for
-    --search's final re-solves (`gaitsmith.plan_options.template_half_cycle`,
+    """Unset, --half-cycle/--full-cycle means half-cycle for the planned gait and (since session
+    40) for --search's final re-solves too (`gaitsmith.plan_options.template_half_cycle`,
     `search_final_half_cycle`); given, it sets both."""
     import inspect
 
@@ -68,9 +68,10 @@ def test_the_help_says_what_the_unset_flag_means() -> None:
 
     option = inspect.signature(plan).parameters["half_cycle"].default
     assert option.default is None
-    assert "Default: half-cycle for the planned gait (and the templates --search re-solves), " \
-        "full-cycle for the searched candidates --search re-solves; given, it sets both" \
+    assert "Default: half-cycle for the planned gait, the templates --search re-solves and the " \
+        "searched candidates it re-solves (a candidate whose half-cycle plan fails the MuJoCo " \
+        "check narrowly is re-solved on all knots); given, it sets both" \
         in " ".join(option.help.split())
-    assert (template_half_cycle(None), search_final_half_cycle(None)) == (True, False)
+    assert (template_half_cycle(None), search_final_half_cycle(None)) == (True, True)
     for given in (True, False):
         assert template_half_cycle(given) is search_final_half_cycle(given) is given

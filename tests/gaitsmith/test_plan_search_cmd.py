@@ -36,13 +36,16 @@ def test_plan_search_writes_the_gait_and_its_log(tmp_path: Path) -> None:
         "bound", "gallop_rotary", "gallop_transverse", "pronk")
     log = out.with_suffix(".search.csv").read_text().splitlines()
     assert log[0].startswith("generation,best_cost") and log[1].startswith("0,")
-    # the final re-solves: the candidates full-cycle unless --half-cycle is given
-    # (FINAL_HALF_CYCLE), a template as the template path plans it (half-cycle where it fits);
-    # the gait file and the search log say which the written plan was
-    assert search["final_half_cycle"] is False
+    # the final re-solves: the candidates half-cycle unless --full-cycle is given
+    # (FINAL_HALF_CYCLE, since session 40), a narrow MuJoCo failure re-solved full
+    # (FINAL_RETRY_FULL "narrow"), a template as the template path plans it (half-cycle where
+    # it fits); the gait file and the search log say which the written plan was
+    assert search["final_half_cycle"] is True and search["final_retry_full"] == "narrow"
     half = gait["planner"]["solver"]["half_cycle"]
-    assert half is False or search["fallback_template"] is not None
-    how = "(a symmetric timing on the first half of them" if half else "(full cycle)"
+    assert half is True or search["final_retried"] or search["fallback_template"] is not None
+    how = ("(a symmetric timing on the first half of them" if half else
+           "(full cycle, a retry: its half-cycle plan failed, narrow" if search["final_retried"]
+           else "(full cycle)")
     assert any(line.startswith(f"# final solve: 20 knots {how}") for line in log)
     assert any(line.startswith(f"# final phase: up to {search['final_candidates']} searched")
                for line in log)
@@ -111,7 +114,7 @@ def test_the_coarse_half_cycle_solve_follows_its_flag(
 ) -> None:
     """`plan --search` hands `search_gait` the coarse solves' half-cycle switch: the default
     (`planner.search.defaults.SEARCH_HALF_CYCLE`), on with --search-half-cycle, off with
-    --search-full-cycle; the final re-solves stay full-cycle (`final_half_cycle`)."""
+    --search-full-cycle; the final re-solves follow their own default (`final_half_cycle`)."""
     import planner.search.gait_search as gs
     from gaitsmith.cli import main
     from planner.search.defaults import SEARCH_HALF_CYCLE
@@ -128,20 +131,24 @@ def test_the_coarse_half_cycle_solve_follows_its_flag(
         with pytest.raises(_Recorded):
             main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
                   "-o", str(tmp_path / "g.json")])
-        assert seen[-1] == (expected, False)
+        assert seen[-1] == (expected, True)
 
 
-def test_the_final_re_solves_are_full_cycle_unless_the_flag_is_given(
+def test_the_final_re_solves_are_half_cycle_unless_the_flag_is_given(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """`plan --search` re-solves its final candidates on all knots by default
-    (`planner.search.defaults.FINAL_HALF_CYCLE`), although the template path's default is the
-    half-cycle solve; --half-cycle / --full-cycle given set the final re-solves too."""
+    """`plan --search` re-solves its final candidates on half the knots by default
+    (`planner.search.defaults.FINAL_HALF_CYCLE`, on since session 40, was off), a candidate
+    failing the check narrowly re-solved on all of them (`FINAL_RETRY_FULL` "narrow", was every
+    failed one, "all"); --half-cycle / --full-cycle given set the final re-solves too."""
+    import inspect
+
     import planner.search.gait_search as gs
     from gaitsmith.cli import main
-    from planner.search.defaults import FINAL_HALF_CYCLE
+    from planner.search.defaults import FINAL_HALF_CYCLE, FINAL_RETRY_FULL
 
-    assert FINAL_HALF_CYCLE is False
+    assert FINAL_HALF_CYCLE is True and FINAL_RETRY_FULL == "narrow"
+    assert inspect.signature(gs.search_gait).parameters["final_retry_full"].default == "narrow"
     seen: list[bool] = []
 
     def record(*args: Any, **kwargs: Any) -> Any:
@@ -149,7 +156,7 @@ def test_the_final_re_solves_are_full_cycle_unless_the_flag_is_given(
         raise _Recorded
 
     monkeypatch.setattr(gs, "search_gait", record)
-    for extra, expected in (([], False), (["--half-cycle"], True), (["--full-cycle"], False)):
+    for extra, expected in (([], True), (["--half-cycle"], True), (["--full-cycle"], False)):
         with pytest.raises(_Recorded):
             main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
                   "-o", str(tmp_path / "g.json")])

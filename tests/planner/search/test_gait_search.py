@@ -307,8 +307,8 @@ def test_the_final_planner_takes_final_half_cycle_not_the_options(
     monkeypatch: pytest.MonkeyPatch, own: bool, final: bool | None,
 ) -> None:
     """The final re-solves' `half_cycle_solve` is `final_half_cycle` (default
-    `FINAL_HALF_CYCLE`, off), whatever the options say (`PlannerOptions`' default, on, is the
-    template path's); the coarse solves' is `search_half_cycle`'s."""
+    `FINAL_HALF_CYCLE`, on since session 40), whatever the options say (`PlannerOptions`'
+    default, on, is the template path's); the coarse solves' is `search_half_cycle`'s."""
     options = PlannerOptions(half_cycle_solve=own)
     kwargs = {} if final is None else {"final_half_cycle": final}
     (factory,), built = _planners_of_a_search(monkeypatch, options, **kwargs)
