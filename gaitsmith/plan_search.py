@@ -93,8 +93,9 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
                   f"(basin-CMA, {st.generations} generations, executor {st.executor}, "
                   f"samples scored at {st.search_knots} knots"
                   + (", MuJoCo acceptance" if st.sim_accept else "")
-                  + (", final re-solves on half the knots (--half-cycle)"
-                     if st.final_half_cycle else "") + ")")
+                  + (", final re-solves on half the knots (a narrow MuJoCo failure re-solved "
+                     "on all)" if st.final_half_cycle else ", final re-solves on all knots")
+                  + ")")
 
     def progress(row: SearchLogRow) -> None:
         if row.generation < 0:

@@ -50,7 +50,8 @@ def test_speed_token_sets_the_coarse_checks_speed_tolerance_only() -> None:
 
 def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     base = so.parse_setting("base")
-    assert (base.search_half_cycle, base.final_half_cycle) == (so.SEARCH_HALF_CYCLE, False)
+    assert (base.search_half_cycle, base.final_half_cycle) == (so.SEARCH_HALF_CYCLE, True)
+    assert base.final_retry_full == "narrow"  # the defaults since session 40
     assert so.parse_setting("half").search_half_cycle is True
     assert so.parse_setting("full").search_half_cycle is False
     s = so.parse_setting("half+halffinal")
@@ -281,9 +282,9 @@ def test_replay_truncates_the_record_and_runs_its_final_phase(
     assert (compete["fallback_template"], compete["final_templates"]) == ("walk", "compete")
     assert compete["beaten_search_total"] == fallback["final_total"] > compete["final_total"]
     assert compete["final_solves"] == fallback["final_solves"] + 1
-    assert replayer.options.half_cycle_solve is False
-    half = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30, half_cycle=True)
-    assert half.options.half_cycle_solve is True  # "halffinal": the final re-solves' option
+    assert replayer.options.half_cycle_solve is True  # the default since session 40
+    full = so.FinalReplayer(so.Search("quad12", 0.25, 0), "rows", 30, half_cycle=False)
+    assert full.options.half_cycle_solve is False  # "fullfinal": the final re-solves' option
     with pytest.raises(SystemExit, match=r"--final-choice must be a comma-separated list of "
                                          r"first, cheapest-of-2, cheapest, got 'best'"):
         monkeypatch.setattr(sys, "argv", ["search_outcomes.py", "replay", "x.pkl",

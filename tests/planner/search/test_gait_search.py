@@ -83,7 +83,7 @@ def test_decode_wraps_phases_and_clips_durations() -> None:
 
 @pytest.fixture(scope="module")
 def small_quad_planner() -> GaitPlanner:
-    # the search's final planner: full-cycle unless asked (`final_options`)
+    # the search's final planner: half-cycle unless asked (`final_options`; since session 40)
     return GaitPlanner(robots.load("quad12"), n_knots=20, options=final_options(PlannerOptions()))
 
 
@@ -321,12 +321,13 @@ def test_a_final_planner_that_disagrees_with_final_half_cycle_is_refused_before_
     small_quad_planner: GaitPlanner,
 ) -> None:
     """A final planner passed in must have the final re-solves' `half_cycle_solve` (a planner
-    built with the default options, half-cycle on, would silently re-solve on half the knots)."""
-    assert small_quad_planner.options.half_cycle_solve is False
-    with pytest.raises(PlannerConfigError, match=r"half_cycle_solve=False.*final_half_cycle="
-                       r"True: build it with final_options\(\)") as err:
+    built for the default, half-cycle since session 40, would silently re-solve a
+    `final_half_cycle=False` search's candidates on half the knots)."""
+    assert small_quad_planner.options.half_cycle_solve is True
+    with pytest.raises(PlannerConfigError, match=r"half_cycle_solve=True.*final_half_cycle="
+                       r"False: build it with final_options\(\)") as err:
         search_gait(small_quad_planner.robot, 0.2, n_knots=20, planner=small_quad_planner,
-                    final_half_cycle=True)
+                    final_half_cycle=False)
     assert "\n" not in str(err.value)
 
 
