@@ -164,11 +164,14 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_half_cycle: bool = SEARCH_HALF_CYCLE,
         final_half_cycle: bool = FINAL_HALF_CYCLE,
         final_templates: str = DEFAULT_FINAL_TEMPLATES,
-        final_retry_full: bool = FINAL_RETRY_FULL) -> SearchRun:
+        final_retry_full: bool = FINAL_RETRY_FULL,
+        final_swing_wrench: str | None = None) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
     NLP's; `search_swing_wrench` (not None), `search_max_iter`, `search_tol` (not None) and
-    `search_knots` the coarse solves' only; `coarse_speed_tol` (not None) the coarse MuJoCo
+    `search_knots` the coarse solves' only; `final_swing_wrench` (not None) the candidates'
+    final re-solves' only (`search_gait(final_swing_wrench=)`, the templates keep
+    `swing_wrench`); `coarse_speed_tol` (not None) the coarse MuJoCo
     check's `PassCriteria.speed_rel_tol` (the final check keeps the default);
     `search_half_cycle` the coarse solves' `PlannerOptions.half_cycle_solve`,
     `final_half_cycle` the final re-solves' (`search_gait(final_half_cycle=)`), with
@@ -191,13 +194,15 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_swing_wrench=search_swing_wrench, search_max_iter=search_max_iter,
         search_tol=search_tol, search_knots=search_knots,
         search_half_cycle=search_half_cycle, final_half_cycle=final_half_cycle,
-        final_templates=final_templates, final_retry_full=final_retry_full, **acceptance,
+        final_templates=final_templates, final_retry_full=final_retry_full,
+        final_swing_wrench=final_swing_wrench, **acceptance,
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
     label += "" if abort == "off" else f"+abort{abort}"
     label += "" if swing_wrench == "rows" else f"+swing-{swing_wrench}"
     label += "" if search_swing_wrench in (None, swing_wrench) else f"+coarse-{search_swing_wrench}"
+    label += "" if final_swing_wrench in (None, swing_wrench) else f"+final-{final_swing_wrench}"
     label += "" if cold_start == "stance" else f"+{cold_start}"
     label += "" if compact_rows == DEFAULT_COMPACT_ROWS else f"+rows-{_rows_label(compact_rows)}"
     label += "" if search_max_iter == DEFAULT_SEARCH_MAX_ITER else f"+cap{search_max_iter}"

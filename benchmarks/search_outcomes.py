@@ -33,8 +33,10 @@ final_half_cycle=True, final_retry_full=False)`), "halfretry" (on the first half
 infeasible or failing the check there re-solved on the full NLP: `final_half_cycle=True,
 final_retry_full=True`), "fullfinal" (on the full NLP: `final_half_cycle=False`),
 "fallback" / "compete" (the templates re-solved only when nothing searched passes, or also held
-against the searched winner: `search_gait(final_templates=...)`).
-Measured in docs/results/planner_speed_search.md, sessions 32-37.
+against the searched winner: `search_gait(final_templates=...)`), "finalrows" / "finalbounds"
+(the candidates' final re-solves with the swing wrench by rows or bounds, the templates keep the
+setting's own: `search_gait(final_swing_wrench=...)`).
+Measured in docs/results/planner_speed_search.md, sessions 32-40.
 
     python benchmarks/search_outcomes.py run ... --save DIR
     python benchmarks/search_outcomes.py replay DIR/*.pkl --generations 2,3,4,5,6 --out RUNS.jsonl
@@ -152,8 +154,11 @@ class Setting:
     final_half_cycle: bool = FINAL_HALF_CYCLE
     final_templates: str = DEFAULT_FINAL_TEMPLATES
     final_retry_full: bool = FINAL_RETRY_FULL
+    final_swing_wrench: str | None = None
 
 
+#: the candidates' final re-solves' swing wrench tokens: `search_gait(final_swing_wrench=)`
+FINAL_SWING_TOKENS = {"finalrows": "rows", "finalbounds": "bounds"}
 #: the final re-solve tokens: (final_half_cycle, final_retry_full)
 FINAL_SOLVE_TOKENS = {"fullfinal": (False, FINAL_RETRY_FULL), "halffinal": (True, False),
                       "halfretry": (True, True)}
@@ -213,12 +218,14 @@ def parse_setting(text: str) -> Setting:
             continue
         elif token in FINAL_TEMPLATES:
             key, value = "final_templates", token
+        elif token in FINAL_SWING_TOKENS:
+            key, value = "final_swing_wrench", FINAL_SWING_TOKENS[token]
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
                 f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)}, "
                 "abortK/V, capN, tolX, genK, knotsN, speedX, half, full, "
-                f"{', '.join(FINAL_SOLVE_TOKENS)}, "
+                f"{', '.join(FINAL_SOLVE_TOKENS)}, {', '.join(FINAL_SWING_TOKENS)}, "
                 f"{' or '.join(FINAL_TEMPLATES)}, joined by +")
         if key in fields:
             raise SystemExit(f"--settings: {text!r} sets {key} twice")
@@ -318,7 +325,8 @@ def cmd_run(args: argparse.Namespace) -> None:
                     search_half_cycle=setting.search_half_cycle,
                     final_half_cycle=setting.final_half_cycle,
                     final_templates=setting.final_templates,
-                    final_retry_full=setting.final_retry_full)
+                    final_retry_full=setting.final_retry_full,
+                    final_swing_wrench=setting.final_swing_wrench)
             row = record(search, setting, r, load)
             if save is not None:
                 with (save / recording_name(search.key, setting.name)).open("wb") as fh:
@@ -364,6 +372,9 @@ class FinalReplayer:
     half_cycle: bool = FINAL_HALF_CYCLE
     #: a candidate failed on half the knots re-solved on the full NLP (`final_retry_full`)
     retry_full: bool = FINAL_RETRY_FULL
+    #: the candidates' final re-solves' swing wrench (`search_gait(final_swing_wrench=)`; None:
+    #: `swing_wrench`)
+    final_swing_wrench: str | None = None
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
@@ -371,20 +382,21 @@ class FinalReplayer:
                                                       speed_m_s=self.search.speed_m_s)
         #: the templates are solved as the template path plans them (`final_tasks`)
         self.template_half_cycle = self.options.half_cycle_solve
-        self.options = final_options(self.options, self.half_cycle)
+        self.template_swing_wrench = self.options.swing_wrench
+        self.options = final_options(self.options, self.half_cycle, self.final_swing_wrench)
         self.seeds: dict[str, robots.ContactSchedule] = acceptance.get("seed_schedules", {})
         factory = acceptance["final_acceptance"]
         self.spec = FinalPlannerSpec.new(self.robot, self.knots, self.options,
                                          self.search.speed_m_s, factory)
         self.planner = GaitPlanner(self.robot, self.knots, self.options)
         self.check = factory()
-        self.cache: dict[tuple[bool | float | None, ...], FinalOutcome] = {}
+        self.cache: dict[tuple[bool | float | str | None, ...], FinalOutcome] = {}
 
     def outcomes(self, tasks: Sequence[FinalTask]) -> Iterator[FinalOutcome]:
         for task in tasks:
             sch = task.schedule
-            key = (task.half_cycle, task.retry_full, sch.period_s, *sch.touchdown_phase,
-                   *sch.duty_factor)
+            key = (task.half_cycle, task.retry_full, task.swing_wrench, sch.period_s,
+                   *sch.touchdown_phase, *sch.duty_factor)
             if key not in self.cache:
                 self.cache[key] = evaluate_task(self.planner, self.check, task)
             yield self.cache[key]
@@ -409,7 +421,8 @@ class FinalReplayer:
         own = {name: self.seeds.get(name) or make_schedule(self.robot, name) for name in names}
         tasks, searched, rival = ordered_final_tasks(
             self.spec, space, cut, candidates, start, seed_results, own, choice, templates,
-            self.template_half_cycle, self.half_cycle and self.retry_full)
+            self.template_half_cycle, self.half_cycle and self.retry_full,
+            self.template_swing_wrench)
         c0 = time.process_time()
         tipping = TippingCost.for_robot(self.robot, DEFAULT_TIPPING_WEIGHT)
 
@@ -470,7 +483,7 @@ def cmd_replay(args: argparse.Namespace) -> None:
             raise SystemExit(f"replay: cannot read recording {name}: {e}") from None
     out = Path(args.out)
     done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
-    replayers: dict[tuple[str, str, int, bool], FinalReplayer] = {}
+    replayers: dict[tuple[object, ...], FinalReplayer] = {}
     for rec in recs:
         search, setting = Search(**rec["search"]), Setting(**rec["setting"])
         recorded = (setting.final_half_cycle, setting.final_retry_full)
@@ -478,18 +491,22 @@ def cmd_replay(args: argparse.Namespace) -> None:
             REPLAY_FINAL_SOLVES[args.final_half_cycle]]
         # a policy that does not re-solve on half the knots retries nothing
         same = policy == recorded or not (policy[0] or recorded[0])
+        final_swing = (setting.final_swing_wrench if args.final_swing_wrench is None
+                       else args.final_swing_wrench)
+        swing_name = ("" if final_swing == setting.final_swing_wrench else
+                      f"+final{final_swing}")
         for k, c, ch, tm in ((k, c, ch, tm) for tm in rivals for ch in choices for c in cs
                              for k in ks):
             name = replay_setting(setting.name, k, c, ch) + (
                 "" if same else final_solve_token(*policy)) + (
-                "" if tm == setting.final_templates else f"+{tm}")
+                "" if tm == setting.final_templates else f"+{tm}") + swing_name
             if k > rec["generations"] or (search.key, name) in done:
                 continue
-            key = (search.key, setting.swing_wrench, rec["knots"], *policy)
+            key = (search.key, setting.swing_wrench, rec["knots"], *policy, final_swing)
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
                 replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"],
-                                               *policy)
+                                               *policy, final_swing)
             row = {**replayers[key].truncated(rec, k, c, ch, tm), "setting": name}
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
@@ -697,6 +714,11 @@ def main() -> None:
                         " `search_gait(final_retry_full=)`; rows named '+halffinal' / "
                         "'+fullfinal' / '+halfretry' when not as recorded; default: as the "
                         "recorded search did)")
+    p.add_argument("--final-swing-wrench", choices=SWING_WRENCHES, default=None,
+                   help="the candidates' final re-solves' swing wrench (`search_gait("
+                        "final_swing_wrench=)`; the templates keep the recorded search's own; "
+                        "rows named '+finalrows' / '+finalbounds' when not as recorded; "
+                        "default: as the recorded search did)")
     p.add_argument("--final-templates", default=DEFAULT_FINAL_TEMPLATES,
                    help=f"comma-separated: {', '.join(FINAL_TEMPLATES)} (the templates only as "
                         "the fallback, or also held against the searched winner; rows named "

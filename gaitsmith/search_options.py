@@ -27,6 +27,11 @@ EXECUTORS = ("serial", "process", "ray")
 #: written gaits, but the README command 1.07x the CPU and 1.18x the wall time (more 30-knot
 #: re-solves before its gait), so "rows" stays (docs/results/planner_speed_search.md, session 32)
 DEFAULT_SEARCH_SWING_WRENCH = "rows"
+#: `plan --search --final-swing-wrench`'s default, how the final re-solves of the searched
+#: candidates hold a swing foot's wrench at 0 (`search_gait(final_swing_wrench=...)`); the
+#: templates the final phase re-solves are planned as the template path plans them (its
+#: `PlannerOptions.swing_wrench`, "rows") either way
+DEFAULT_FINAL_SWING_WRENCH = "rows"
 
 
 def executor_option() -> Any:
@@ -50,8 +55,15 @@ def tipping_weight_option() -> Any:
 def search_swing_wrench_option() -> Any:
     return typer.Option(DEFAULT_SEARCH_SWING_WRENCH, "--search-swing-wrench",
                         help="how the coarse solves hold a swing foot's wrench at 0: rows | "
-                        "bounds (fewer iterations, other local optima); the final re-solves use "
-                        "rows either way")
+                        "bounds (fewer iterations, other local optima); the final re-solves "
+                        "take --final-swing-wrench")
+
+
+def final_swing_wrench_option() -> Any:
+    return typer.Option(DEFAULT_FINAL_SWING_WRENCH, "--final-swing-wrench",
+                        help="how the final re-solves of the searched candidates hold a swing "
+                        "foot's wrench at 0: rows | bounds; the templates they compete with "
+                        "are planned as plan --gait plans them")
 
 
 def search_half_cycle_option() -> Any:
@@ -87,10 +99,9 @@ def check_final_choice(value: str) -> None:
     check_choice("--final-choice", value, FINAL_CHOICES)
 
 
-def check_search_swing_wrench(value: str) -> None:
+def check_search_swing_wrench(value: str, option: str = "--search-swing-wrench") -> None:
     if value not in SWING_WRENCHES:
-        raise OptionError(f"--search-swing-wrench must be {' or '.join(SWING_WRENCHES)}, "
-                          f"got {value!r}")
+        raise OptionError(f"{option} must be {' or '.join(SWING_WRENCHES)}, got {value!r}")
 
 
 def sim_accept_option() -> Any:

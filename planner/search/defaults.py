@@ -85,3 +85,7 @@ FINAL_HALF_CYCLE = False
 #: 11; its one rescue (bittle8 seed 3) was the same plan to 6.5e-6 judged again — a knife-edge
 #: MuJoCo verdict, which a robust final check would settle on either path.
 FINAL_RETRY_FULL = True
+#: `PlannerOptions.swing_wrench` of the search's final re-solves of its candidates
+#: (`search_gait(final_swing_wrench=)`; None: the options' own, "rows" by default); the templates
+#: the final phase re-solves keep the options' own, as the template path plans them.
+FINAL_SWING_WRENCH: str | None = None

@@ -71,8 +71,9 @@ class FinalPlannerSpec:
 @dataclass(frozen=True)
 class FinalTask:
     """One full-resolution solve of the final phase: a searched candidate (`template` None) or
-    the template `template` (the fallback's, or a rival); `half_cycle` the solve's
-    `GaitPlanner.solve(half_cycle=)` (None: the spec's options); `retry_full`: if the solve ran
+    the template `template` (the fallback's, or a rival); `half_cycle` and `swing_wrench` the
+    solve's `GaitPlanner.solve(half_cycle=, swing_wrench=)` (None: the spec's options; a
+    template is planned as the template path plans it); `retry_full`: if the solve ran
     on half the knots and its plan is infeasible or fails the check, the schedule is re-solved
     cold on the full NLP and that plan is judged instead (`evaluate_final`; the search's
     `final_retry_full`, for its candidates)."""
@@ -82,6 +83,7 @@ class FinalTask:
     template: str | None = None
     half_cycle: bool | None = None
     retry_full: bool = False
+    swing_wrench: str | None = None
 
 
 @dataclass(frozen=True)
@@ -136,19 +138,21 @@ class FinalChoice:
 
 def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                    schedule: ContactSchedule, speed_m_s: float,
-                   half_cycle: bool | None = None, retry_full: bool = False) -> FinalOutcome:
-    """Solve `schedule` cold at the planner's knots (`half_cycle`: `GaitPlanner.solve`'s) and,
+                   half_cycle: bool | None = None, retry_full: bool = False,
+                   swing_wrench: str | None = None) -> FinalOutcome:
+    """Solve `schedule` cold at the planner's knots (`half_cycle`, `swing_wrench`:
+    `GaitPlanner.solve`'s) and,
     if feasible, judge its gait. `retry_full`: if that solve ran on half the knots
     (`stats["half_cycle"]`) and its plan is infeasible or not passed (`ok` not True while a
     check exists), solve it again cold on the full NLP and judge that one (the outcome's
     `half_tried` holds the first attempt): a half-cycle optimum can fail a MuJoCo check that
     the full one passes (docs/results/planner_speed_search.md, 36-lead i)."""
-    first = _solve_and_judge(planner, check, schedule, speed_m_s, half_cycle)
+    first = _solve_and_judge(planner, check, schedule, speed_m_s, half_cycle, swing_wrench)
     if not (retry_full and first.plan.stats.get("half_cycle")):
         return first
     if first.plan.feasible and (check is None or first.ok):
         return first
-    full = _solve_and_judge(planner, check, schedule, speed_m_s, False)
+    full = _solve_and_judge(planner, check, schedule, speed_m_s, False, swing_wrench)
     return replace(full, check_s=first.check_s + full.check_s,
                    solve_cpu_s=first.solve_cpu_s + full.solve_cpu_s,
                    check_cpu_s=first.check_cpu_s + full.check_cpu_s,
@@ -157,10 +161,11 @@ def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
 
 def _solve_and_judge(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                      schedule: ContactSchedule, speed_m_s: float,
-                     half_cycle: bool | None) -> FinalOutcome:
+                     half_cycle: bool | None, swing_wrench: str | None = None) -> FinalOutcome:
     """One cold solve of `schedule` and, if feasible, its gait's verdict (`evaluate_final`)."""
     c0, started = time.process_time(), time.time()
-    solved = planner.solve(schedule, speed_m_s, warm_start=False, half_cycle=half_cycle)
+    solved = planner.solve(schedule, speed_m_s, warm_start=False, half_cycle=half_cycle,
+                           swing_wrench=swing_wrench)
     solve_cpu_s = time.process_time() - c0
     if not solved.feasible:
         return FinalOutcome(solved, 0.0, None, solve_cpu_s, pid=os.getpid(),
@@ -201,9 +206,10 @@ def worker_final_solve(task: FinalTask) -> FinalOutcome:
 def evaluate_task(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                   task: FinalTask) -> FinalOutcome:
     """`task` solved and judged with `planner` and `check` (`evaluate_final` with the task's
-    `half_cycle` and `retry_full`): on a worker, in the search's process and in its replay."""
+    `half_cycle`, `retry_full` and `swing_wrench`): on a worker, in the search's process and in
+    its replay."""
     return evaluate_final(planner, check, task.schedule, task.spec.speed_m_s, task.half_cycle,
-                          task.retry_full)
+                          task.retry_full, task.swing_wrench)
 
 
 def compared_candidates(choice: str, n_tasks: int) -> int:
