@@ -35,6 +35,16 @@ def test_cap_tol_and_gen_tokens_set_the_coarse_options_and_generations() -> None
     assert (base.search_max_iter, base.search_tol, base.generations) == (60, None, None)
 
 
+def test_final_swing_tokens_set_the_candidates_final_re_solves_only() -> None:
+    s = so.parse_setting("coarse-bounds+finalbounds")
+    assert (s.swing_wrench, s.search_swing_wrench, s.final_swing_wrench) == (
+        "rows", "bounds", "bounds")
+    assert so.parse_setting("finalrows").final_swing_wrench == "rows"
+    assert so.parse_setting("base").final_swing_wrench is None
+    with pytest.raises(SystemExit, match="sets final_swing_wrench twice"):
+        so.parse_setting("finalrows+finalbounds")
+
+
 def test_knots_token_sets_the_coarse_knots_only() -> None:
     assert so.parse_setting("base").search_knots == so.DEFAULT_SEARCH_KNOTS == 12
     s = so.parse_setting("knots10+gen4")
@@ -78,7 +88,7 @@ def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     ("speed0", r"'speed0' in 'speed0' needs a number in \(0, 1\) after 'speed'"),
     ("speed1.5", r"needs a number in \(0, 1\) after 'speed'"),
     ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN, speedX, half, full, "
-             r"fullfinal, halffinal, halfretry, fallback or compete"),
+             r"fullfinal, halffinal, halfretry, finalrows, finalbounds, fallback or compete"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:

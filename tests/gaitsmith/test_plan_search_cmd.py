@@ -106,6 +106,33 @@ def test_the_coarse_swing_wrench_is_rows_by_default_and_bounds_when_asked(
         assert seen[-1] == (expected, "rows")
 
 
+def test_the_final_swing_wrench_is_rows_by_default_and_bounds_when_asked(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`plan --search` gives `search_gait` the candidates' final re-solves' swing wrench:
+    `DEFAULT_FINAL_SWING_WRENCH` by default, "bounds" or "rows" with --final-swing-wrench; the
+    options (the templates' and the coarse solves' own) keep "rows" either way, and the gait
+    file's search block says which."""
+    import planner.search.gait_search as gs
+    from gaitsmith.cli import main
+    from gaitsmith.search_options import DEFAULT_FINAL_SWING_WRENCH
+
+    seen: list[tuple[str | None, str]] = []
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.append((kwargs.get("final_swing_wrench"), kwargs["options"].swing_wrench))
+        raise _Recorded
+
+    monkeypatch.setattr(gs, "search_gait", record)
+    for extra, expected in (([], DEFAULT_FINAL_SWING_WRENCH),
+                            (["--final-swing-wrench", "bounds"], "bounds"),
+                            (["--final-swing-wrench", "rows"], "rows")):
+        with pytest.raises(_Recorded):
+            main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
+                  "-o", str(tmp_path / "g.json")])
+        assert seen[-1] == (expected, "rows")
+
+
 def test_the_coarse_half_cycle_solve_follows_its_flag(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

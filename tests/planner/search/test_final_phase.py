@@ -371,16 +371,18 @@ class HalfCyclePlanner:
     """A fake final planner: `solve` plans on half the knots unless asked for the full NLP
     (`half_cycle=False`) or `symmetric` is off (the half path does not apply), cost 1.0 on half
     and 2.0 on all knots; the half plan is infeasible if `half_feasible` is off. It records every
-    `half_cycle` it was asked for."""
+    `half_cycle` it was asked for, and every `swing_wrench`."""
 
     symmetric: bool = True
     half_feasible: bool = True
     asked: list[bool | None] = field(default_factory=list)
+    wrenches: list[str | None] = field(default_factory=list)
 
     def solve(self, schedule: object, speed_m_s: float, warm_start: bool = False,
-              half_cycle: bool | None = None) -> PlanResult:
+              half_cycle: bool | None = None, swing_wrench: str | None = None) -> PlanResult:
         assert warm_start is False  # every final solve is cold
         self.asked.append(half_cycle)
+        self.wrenches.append(swing_wrench)
         half = half_cycle is not False and self.symmetric
         plan = _plan(1.0 if half else 2.0, self.half_feasible or not half)
         plan.stats["half_cycle"] = half
@@ -425,6 +427,19 @@ def test_a_half_cycle_plan_that_fails_the_check_is_re_solved_on_the_full_nlp() -
     by_task = evaluate_task(task_planner, reject_half_cycle,  # type: ignore[arg-type]
                             FinalTask(SPEC, SCHEDULE, retry_full=True))
     assert task_planner.asked == [None, False] and by_task.retried and by_task.ok is True
+
+
+def test_a_task_solves_with_its_own_swing_wrench_the_retry_too() -> None:
+    """`FinalTask.swing_wrench` reaches `GaitPlanner.solve(swing_wrench=)` (None: the final
+    planner's options), on the full-cycle retry as on the first attempt."""
+    for wrench in (None, "bounds", "rows"):
+        planner = HalfCyclePlanner()
+        out = evaluate_task(planner, reject_half_cycle,  # type: ignore[arg-type]
+                            FinalTask(SPEC, SCHEDULE, retry_full=True, swing_wrench=wrench))
+        assert out.retried and planner.wrenches == [wrench, wrench]
+        plain = HalfCyclePlanner()
+        evaluate_final(plain, None, SCHEDULE, 0.2, swing_wrench=wrench)  # type: ignore[arg-type]
+        assert plain.wrenches == [wrench]
 
 
 def test_the_retry_fires_only_when_the_half_path_applied_and_its_plan_failed() -> None:

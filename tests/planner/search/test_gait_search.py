@@ -6,6 +6,7 @@ import math
 import pickle
 from dataclasses import dataclass, replace
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -412,13 +413,42 @@ def test_final_tasks_are_the_candidates_then_the_other_templates_by_cost() -> No
         assert [t.template for t in tasks] == [None, None, *kept]
     # the templates are solved as the template path plans them, the candidates as the options
     tasks, _ = final_tasks(spec, space, records, 2, (x_of["walk"], seeds["walk"]), seeds, own,
-                           template_half_cycle=True)
+                           template_half_cycle=True, template_swing_wrench="rows")
     assert [t.half_cycle for t in tasks] == [None, None, True, True, True]
+    assert [t.swing_wrench for t in tasks] == [None, None, "rows", "rows", "rows"]
     # no check: the candidates only; nothing usable: CMA's start
     tasks, searched = final_tasks(spec, space, records[2:3], 4, (x_of["walk"], seeds["walk"]),
                                   seeds, None)
     assert [t.template for t in tasks] == [None] and searched[0] is seeds["walk"]
     assert identical_schedules(tasks[0].schedule, space.decode(x_of["walk"]))
+
+
+@pytest.mark.parametrize(("own", "final"), [
+    ("rows", None), ("rows", "bounds"), ("bounds", "rows"),
+])
+def test_final_swing_wrench_reaches_the_final_planner_only(
+    monkeypatch: pytest.MonkeyPatch, own: str, final: str | None,
+) -> None:
+    """`final_swing_wrench` is the final planner's `swing_wrench` (`final_options`; None: the
+    options' own); the coarse solves keep the options' own (or `search_swing_wrench`)."""
+    options = PlannerOptions(swing_wrench=own)
+    (factory,), built = _planners_of_a_search(monkeypatch, options, final_swing_wrench=final)
+    assert factory.options.swing_wrench == own
+    assert built == [(20, final_options(options, final_swing_wrench=final))]
+    assert built[0][1].swing_wrench == (final or own)
+
+
+def test_unknown_final_swing_wrench_or_a_planner_without_it_is_one_line() -> None:
+    """An unknown `final_swing_wrench`, or a final planner passed in with another swing wrench
+    than the final re-solves', is a one-line error before any solve."""
+    with pytest.raises(PlannerConfigError,
+                       match=r"final_swing_wrench must be one of rows, bounds.*'free'") as err:
+        search_gait(robots.load("quad12"), 0.25, final_swing_wrench="free")
+    assert "\n" not in str(err.value)
+    stub = SimpleNamespace(n_knots=30, options=final_options(PlannerOptions()))
+    with pytest.raises(PlannerConfigError, match=r"swing_wrench='rows'.*'bounds'.*final_options"):
+        search_gait(robots.load("quad12"), 0.25, planner=stub,  # type: ignore[arg-type]
+                    final_swing_wrench="bounds")
 
 
 def test_unknown_search_swing_wrench_is_one_line_before_any_solve() -> None:
