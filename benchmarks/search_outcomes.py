@@ -16,8 +16,11 @@ searches, how many searches ended better / the same (within 1e-4 relative) / wor
 sign test on better vs worse, and how many searches did not write a MuJoCo-passing gait.
 
 A setting is "+"-joined tokens: "base" (today's defaults), a `PlannerOptions.swing_wrench`
-value (every NLP of the search), "coarse-bounds" ("bounds" in the coarse solves only, the final
-re-solves keep "rows", so final costs compare), a `SEARCH_WARM_STARTS` policy, "abortK/V" (the
+value (the options', so the templates' re-solves; the coarse and the candidates' final solves
+take `SEARCH_SWING_WRENCH` and `FINAL_SWING_WRENCH`, "bounds" since session 40, unless a token
+sets theirs), "coarse-rows" / "coarse-bounds" (the coarse solves' swing wrench,
+`search_gait(search_swing_wrench=...)`; the defaults before session 40 are
+"coarse-rows+finalrows"), a `SEARCH_WARM_STARTS` policy, "abortK/V" (the
 coarse stall abort `StallAbort(K, V)`), "capN" (the coarse solves' IPOPT iteration cap,
 `search_gait(search_max_iter=N)`, default 60), "tolX" (the coarse solves' IPOPT `tol`,
 `search_gait(search_tol=X)`; the final re-solves keep 1e-6), "genK" (K basin-CMA generations
@@ -35,7 +38,7 @@ final_retry_full=True`), "fullfinal" (on the full NLP: `final_half_cycle=False`)
 "fallback" / "compete" (the templates re-solved only when nothing searched passes, or also held
 against the searched winner: `search_gait(final_templates=...)`), "finalrows" / "finalbounds"
 (the candidates' final re-solves with the swing wrench by rows or bounds, the templates keep the
-setting's own: `search_gait(final_swing_wrench=...)`).
+options' own: `search_gait(final_swing_wrench=...)`).
 Measured in docs/results/planner_speed_search.md, sessions 32-40.
 
     python benchmarks/search_outcomes.py run ... --save DIR
@@ -108,8 +111,10 @@ from planner.search.defaults import (
     DEFAULT_TIPPING_WEIGHT,
     FINAL_HALF_CYCLE,
     FINAL_RETRY_FULL,
+    FINAL_SWING_WRENCH,
     FINAL_TEMPLATES,
     SEARCH_HALF_CYCLE,
+    SEARCH_SWING_WRENCH,
 )
 from planner.search.final_phase import (
     FINAL_CHOICE_FIRST,
@@ -142,7 +147,7 @@ class Setting:
 
     name: str
     swing_wrench: str = "rows"
-    search_swing_wrench: str | None = None
+    search_swing_wrench: str | None = SEARCH_SWING_WRENCH
     warm_start: str = "cold"
     abort: str = "off"
     search_max_iter: int = DEFAULT_SEARCH_MAX_ITER
@@ -154,9 +159,11 @@ class Setting:
     final_half_cycle: bool = FINAL_HALF_CYCLE
     final_templates: str = DEFAULT_FINAL_TEMPLATES
     final_retry_full: bool = FINAL_RETRY_FULL
-    final_swing_wrench: str | None = None
+    final_swing_wrench: str | None = FINAL_SWING_WRENCH
 
 
+#: the coarse solves' swing wrench tokens: `search_gait(search_swing_wrench=)`
+COARSE_SWING_TOKENS = {"coarse-rows": "rows", COARSE_BOUNDS: "bounds"}
 #: the candidates' final re-solves' swing wrench tokens: `search_gait(final_swing_wrench=)`
 FINAL_SWING_TOKENS = {"finalrows": "rows", "finalbounds": "bounds"}
 #: the final re-solve tokens: (final_half_cycle, final_retry_full)
@@ -192,8 +199,8 @@ def parse_setting(text: str) -> Setting:
             continue
         if token in SWING_WRENCHES:
             key, value = "swing_wrench", token
-        elif token == COARSE_BOUNDS:
-            key, value = "search_swing_wrench", "bounds"
+        elif token in COARSE_SWING_TOKENS:
+            key, value = "search_swing_wrench", COARSE_SWING_TOKENS[token]
         elif token in SEARCH_WARM_STARTS:
             key, value = "warm_start", token
         elif token.startswith("abort"):
@@ -223,7 +230,8 @@ def parse_setting(text: str) -> Setting:
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
-                f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)}, "
+                f"{', '.join(SWING_WRENCHES)}, {', '.join(COARSE_SWING_TOKENS)}, "
+                f"{', '.join(SEARCH_WARM_STARTS)}, "
                 "abortK/V, capN, tolX, genK, knotsN, speedX, half, full, "
                 f"{', '.join(FINAL_SOLVE_TOKENS)}, {', '.join(FINAL_SWING_TOKENS)}, "
                 f"{' or '.join(FINAL_TEMPLATES)}, joined by +")
@@ -461,6 +469,12 @@ class FinalReplayer:
         }
 
 
+def recorded_setting(rec: dict) -> Setting:
+    """The setting a recording was made with: one made before session 40 has no
+    `final_swing_wrench` (its final re-solves took the options' own: None)."""
+    return Setting(**{"final_swing_wrench": None, **rec["setting"]})
+
+
 def replay_setting(setting: str, k: int, candidates: int,
                    choice: str = FINAL_CHOICE_FIRST) -> str:
     """The name of a replayed row: "SETTING+genK", "+finalC" if C is not the default,
@@ -485,7 +499,7 @@ def cmd_replay(args: argparse.Namespace) -> None:
     done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
     replayers: dict[tuple[object, ...], FinalReplayer] = {}
     for rec in recs:
-        search, setting = Search(**rec["search"]), Setting(**rec["setting"])
+        search, setting = Search(**rec["search"]), recorded_setting(rec)
         recorded = (setting.final_half_cycle, setting.final_retry_full)
         policy = recorded if args.final_half_cycle is None else FINAL_SOLVE_TOKENS[
             REPLAY_FINAL_SOLVES[args.final_half_cycle]]

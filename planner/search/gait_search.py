@@ -659,7 +659,7 @@ def search_gait(
     warm_start: str = "cold",
     seed_schedules: Mapping[str, ContactSchedule] | None = None,
     coarse_abort: StallAbort | None = None,
-    search_swing_wrench: str | None = None,
+    search_swing_wrench: str | None = defaults.SEARCH_SWING_WRENCH,
     search_tol: float | None = None,
     search_inactive_rows: str = defaults.SEARCH_INACTIVE_ROWS,
     final_choice: str = defaults.DEFAULT_FINAL_CHOICE,
@@ -686,7 +686,8 @@ def search_gait(
     `coarse_abort`: stop coarse solves whose constraint violation stalls and rank them last
     (`planner.nlp.iteration_abort`; None, the default: every solve runs to IPOPT's stop).
     `search_swing_wrench`: `PlannerOptions.swing_wrench` of the coarse solves only ("rows" or
-    "bounds"; None, the default: `options.swing_wrench`); the final re-solves take
+    "bounds"; default `planner.search.defaults.SEARCH_SWING_WRENCH`; None: `options.swing_wrench`);
+    the final re-solves take
     `final_swing_wrench` (docs/results/planner_speed_search.md, sessions 32 and 40).
     `final_swing_wrench`: `PlannerOptions.swing_wrench` of the final re-solves of searched
     candidates (default `planner.search.defaults.FINAL_SWING_WRENCH`; None: `options`' own);

@@ -6,7 +6,7 @@ from __future__ import annotations
 import importlib.util
 import math
 import sys
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -40,9 +40,20 @@ def test_final_swing_tokens_set_the_candidates_final_re_solves_only() -> None:
     assert (s.swing_wrench, s.search_swing_wrench, s.final_swing_wrench) == (
         "rows", "bounds", "bounds")
     assert so.parse_setting("finalrows").final_swing_wrench == "rows"
-    assert so.parse_setting("base").final_swing_wrench is None
+    base = so.parse_setting("base")
+    assert (base.swing_wrench, base.search_swing_wrench, base.final_swing_wrench) == (
+        "rows", so.SEARCH_SWING_WRENCH, so.FINAL_SWING_WRENCH) == ("rows", "bounds", "bounds")
+    old = so.parse_setting("coarse-rows+finalrows")  # the defaults before session 40
+    assert (old.search_swing_wrench, old.final_swing_wrench) == ("rows", "rows")
     with pytest.raises(SystemExit, match="sets final_swing_wrench twice"):
         so.parse_setting("finalrows+finalbounds")
+    with pytest.raises(SystemExit, match="sets search_swing_wrench twice"):
+        so.parse_setting("coarse-rows+coarse-bounds")
+    # a recording made before session 40 has no final_swing_wrench: its finals took the
+    # options' own (None), not today's default
+    recorded = {k: v for k, v in asdict(so.parse_setting("base")).items()
+                if k != "final_swing_wrench"}
+    assert so.recorded_setting({"setting": recorded}).final_swing_wrench is None
 
 
 def test_knots_token_sets_the_coarse_knots_only() -> None:
