@@ -15,9 +15,10 @@ generations of the coarse (12-knot) NLP, then the final 30-knot solve of the bes
 (`planner.search.gait_search.SEARCH_WARM_STARTS`; labelled ``knot+nearest-retimed`` etc.;
 measured in docs/results/planner_speed_search.md, session 30).
 `--swing-wrenches rows,bounds` and `--cold-starts stance,balanced` run each path with those
-`PlannerOptions.swing_wrench` / `cold_start` values (docs/results/planner_speed_init.md);
-"coarse-bounds" is "bounds" in the coarse solves only, the final re-solves keep "rows"
-(`search_gait(search_swing_wrench=...)`, planner_speed_search.md session 32).
+`PlannerOptions.swing_wrench` / `cold_start` values in every NLP of the search
+(docs/results/planner_speed_init.md); "coarse-bounds" is "bounds" in the coarse solves only,
+"rows" elsewhere (`search_gait(search_swing_wrench=...)`, planner_speed_search.md session 32);
+"default" (the default) the search's own (`SEARCH_SWING_WRENCH`, `FINAL_SWING_WRENCH`, session 40).
 `--compact-rows "none,torque envelope"` runs each path with `PlannerOptions.compact_rows` = ()
 (the torque envelope's four faces, the form before session 31) and then ("torque envelope",)
 (its two ranged rows, today's default); "+" joins several row names into one value
@@ -73,7 +74,9 @@ from planner.search.defaults import (
     FINAL_RETRY_FULL,
     FINAL_RETRY_NARROW,
     FINAL_RETRY_OFF,
+    FINAL_SWING_WRENCH,
     SEARCH_HALF_CYCLE,
+    SEARCH_SWING_WRENCH,
 )
 from planner.search.executors import ExecutorKind
 from planner.search.gait_search import (
@@ -87,6 +90,9 @@ from planner.search.gait_search import (
 
 #: `--swing-wrenches` value: "bounds" in the coarse solves, "rows" in the final re-solves
 COARSE_BOUNDS = "coarse-bounds"
+#: `--swing-wrenches` value: the search's defaults (`SEARCH_SWING_WRENCH` in the coarse solves,
+#: `FINAL_SWING_WRENCH` in the candidates' final re-solves, "rows" in the templates')
+DEFAULT_WRENCHES = "default"
 
 
 @dataclass(frozen=True)
@@ -159,7 +165,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         warm_start: str = "cold", abort: str = "off", swing_wrench: str = "rows",
         cold_start: str = "stance",
         compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS,
-        search_swing_wrench: str | None = None,
+        search_swing_wrench: str | None = SEARCH_SWING_WRENCH,
         search_max_iter: int = DEFAULT_SEARCH_MAX_ITER,
         search_tol: float | None = None,
         search_knots: int = DEFAULT_SEARCH_KNOTS,
@@ -167,12 +173,15 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_half_cycle: bool = SEARCH_HALF_CYCLE,
         final_half_cycle: bool = FINAL_HALF_CYCLE,
         final_templates: str = DEFAULT_FINAL_TEMPLATES,
-        final_retry_full: str = FINAL_RETRY_FULL) -> SearchRun:
+        final_retry_full: str = FINAL_RETRY_FULL,
+        final_swing_wrench: str | None = FINAL_SWING_WRENCH) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
-    NLP's; `search_swing_wrench` (not None), `search_max_iter`, `search_tol` (not None) and
-    `search_knots` the coarse solves' only; `coarse_speed_tol` (not None) the coarse MuJoCo
-    check's `PassCriteria.speed_rel_tol` (the final check keeps the default);
+    NLP's (the options'); `search_swing_wrench` (None: `swing_wrench`), `search_max_iter`,
+    `search_tol` (not None) and `search_knots` the coarse solves' only; `final_swing_wrench`
+    (None: `swing_wrench`) the candidates' final re-solves' only (`search_gait(
+    final_swing_wrench=)`, the templates keep `swing_wrench`); `coarse_speed_tol` (not None)
+    the coarse MuJoCo check's `PassCriteria.speed_rel_tol` (the final check keeps the default);
     `search_half_cycle` the coarse solves' `PlannerOptions.half_cycle_solve`,
     `final_half_cycle` the final re-solves' (`search_gait(final_half_cycle=)`), with
     `final_retry_full` which failed half-cycle candidates are re-solved full (`search_gait(
@@ -194,13 +203,17 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         search_swing_wrench=search_swing_wrench, search_max_iter=search_max_iter,
         search_tol=search_tol, search_knots=search_knots,
         search_half_cycle=search_half_cycle, final_half_cycle=final_half_cycle,
-        final_templates=final_templates, final_retry_full=final_retry_full, **acceptance,
+        final_templates=final_templates, final_retry_full=final_retry_full,
+        final_swing_wrench=final_swing_wrench, **acceptance,
     )
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
     label += "" if abort == "off" else f"+abort{abort}"
     label += "" if swing_wrench == "rows" else f"+swing-{swing_wrench}"
-    label += "" if search_swing_wrench in (None, swing_wrench) else f"+coarse-{search_swing_wrench}"
+    label += "" if search_swing_wrench == SEARCH_SWING_WRENCH else \
+        f"+coarse-{search_swing_wrench or swing_wrench}"
+    label += "" if final_swing_wrench == FINAL_SWING_WRENCH else \
+        f"+final-{final_swing_wrench or swing_wrench}"
     label += "" if cold_start == "stance" else f"+{cold_start}"
     label += "" if compact_rows == DEFAULT_COMPACT_ROWS else f"+rows-{_rows_label(compact_rows)}"
     label += "" if search_max_iter == DEFAULT_SEARCH_MAX_ITER else f"+cap{search_max_iter}"
@@ -229,6 +242,15 @@ def final_solve_token(half_cycle: bool, retry_full: str) -> str:
     if not half_cycle:
         return "+fullfinal"
     return "+" + next(k for k, (h, r) in FINAL_SOLVE_TOKENS.items() if h and r == retry_full)
+
+
+def swing_wrenches(value: str) -> tuple[str | None, str | None]:
+    """`run`'s (search_swing_wrench, final_swing_wrench) for a `--swing-wrenches` value: the
+    search's defaults, the options' own in every NLP ("rows", "bounds": None), or "bounds" in
+    the coarse solves with "rows" elsewhere."""
+    if value == DEFAULT_WRENCHES:
+        return SEARCH_SWING_WRENCH, FINAL_SWING_WRENCH
+    return ("bounds", None) if value == COARSE_BOUNDS else (None, None)
 
 
 def cli_search_kwargs(robot: robots.Robot, derivatives: str, sim_accept: bool,
@@ -340,10 +362,12 @@ def main() -> None:
     ap.add_argument("--coarse-aborts", default="off",
                     help="comma-separated: off | K/V (stall abort of the coarse solves from "
                          "iteration K above violation V), run alternately per path")
-    ap.add_argument("--swing-wrenches", default="rows",
-                    help=f"comma-separated `PlannerOptions.swing_wrench` values, run alternately "
-                         f"per path ({', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}: bounds in "
-                         f"the coarse solves only)")
+    ap.add_argument("--swing-wrenches", default=DEFAULT_WRENCHES,
+                    help=f"comma-separated, run alternately per path: {DEFAULT_WRENCHES} (the "
+                         f"search's: {SEARCH_SWING_WRENCH} in the coarse solves, "
+                         f"{FINAL_SWING_WRENCH} in the final re-solves, rows in the templates'), "
+                         f"{', '.join(SWING_WRENCHES)} (`PlannerOptions.swing_wrench` of every "
+                         f"NLP) or {COARSE_BOUNDS} (bounds in the coarse solves only)")
     ap.add_argument("--cold-starts", default="stance",
                     help=f"comma-separated `PlannerOptions.cold_start` values, run alternately "
                          f"per path ({', '.join(COLD_STARTS)})")
@@ -355,7 +379,8 @@ def main() -> None:
     paths = _choices(args.derivatives, tuple(DERIVATIVE_PATHS), "--derivatives")
     executors = _choices(args.executors, get_args(ExecutorKind), "--executors")
     warm_starts = _choices(args.warm_starts, SEARCH_WARM_STARTS, "--warm-starts")
-    wrenches = _choices(args.swing_wrenches, (*SWING_WRENCHES, COARSE_BOUNDS), "--swing-wrenches")
+    wrenches = _choices(args.swing_wrenches, (DEFAULT_WRENCHES, *SWING_WRENCHES, COARSE_BOUNDS),
+                        "--swing-wrenches")
     colds = _choices(args.cold_starts, COLD_STARTS, "--cold-starts")
     row_forms = compact_rows_values(args.compact_rows)
     aborts = [a.strip() for a in args.coarse_aborts.split(",") if a.strip()] or ["off"]
@@ -375,12 +400,12 @@ def main() -> None:
                     for cold in colds:
                         for rows in row_forms:
                             for executor in executors:
-                                coarse = wrench == COARSE_BOUNDS
+                                coarse, final = swing_wrenches(wrench)
                                 r = run(args.robot, args.speed, args.generations, args.workers,
                                         args.seed, args.sim_accept, derivatives, executor,
                                         args.knots, warm_start, abort,
-                                        "rows" if coarse else wrench, cold, rows,
-                                        "bounds" if coarse else None)
+                                        wrench if wrench in SWING_WRENCHES else "rows", cold,
+                                        rows, coarse, final_swing_wrench=final)
                                 runs.append(r)
                                 print(report(r, args.target), flush=True)
     for executor in executors:

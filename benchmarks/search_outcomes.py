@@ -16,8 +16,11 @@ searches, how many searches ended better / the same (within 1e-4 relative) / wor
 sign test on better vs worse, and how many searches did not write a MuJoCo-passing gait.
 
 A setting is "+"-joined tokens: "base" (today's defaults), a `PlannerOptions.swing_wrench`
-value (every NLP of the search), "coarse-bounds" ("bounds" in the coarse solves only, the final
-re-solves keep "rows", so final costs compare), a `SEARCH_WARM_STARTS` policy, "abortK/V" (the
+value (the options', so the templates' re-solves; the coarse and the candidates' final solves
+take `SEARCH_SWING_WRENCH` and `FINAL_SWING_WRENCH`, "bounds" since session 40, unless a token
+sets theirs), "coarse-rows" / "coarse-bounds" (the coarse solves' swing wrench,
+`search_gait(search_swing_wrench=...)`; the defaults before session 40 are
+"coarse-rows+finalrows"), a `SEARCH_WARM_STARTS` policy, "abortK/V" (the
 coarse stall abort `StallAbort(K, V)`), "capN" (the coarse solves' IPOPT iteration cap,
 `search_gait(search_max_iter=N)`, default 60), "tolX" (the coarse solves' IPOPT `tol`,
 `search_gait(search_tol=X)`; the final re-solves keep 1e-6), "genK" (K basin-CMA generations
@@ -35,8 +38,10 @@ final_retry_full="all"`), "halfnarrow" (on the first half, only a candidate fail
 there narrowly re-solved on the full NLP: `final_retry_full="narrow"`,
 `defaults.FINAL_RETRY_MARGIN`), "fullfinal" (on the full NLP: `final_half_cycle=False`),
 "fallback" / "compete" (the templates re-solved only when nothing searched passes, or also held
-against the searched winner: `search_gait(final_templates=...)`).
-Measured in docs/results/planner_speed_search.md, sessions 32-37.
+against the searched winner: `search_gait(final_templates=...)`), "finalrows" / "finalbounds"
+(the candidates' final re-solves with the swing wrench by rows or bounds, the templates keep the
+options' own: `search_gait(final_swing_wrench=...)`).
+Measured in docs/results/planner_speed_search.md, sessions 32-40.
 
     python benchmarks/search_outcomes.py run ... --save DIR
     python benchmarks/search_outcomes.py replay DIR/*.pkl --generations 2,3,4,5,6 --out RUNS.jsonl
@@ -111,8 +116,10 @@ from planner.search.defaults import (
     FINAL_RETRY_ALL,
     FINAL_RETRY_FULL,
     FINAL_RETRY_OFF,
+    FINAL_SWING_WRENCH,
     FINAL_TEMPLATES,
     SEARCH_HALF_CYCLE,
+    SEARCH_SWING_WRENCH,
 )
 from planner.search.final_phase import (
     FINAL_CHOICE_FIRST,
@@ -145,7 +152,7 @@ class Setting:
 
     name: str
     swing_wrench: str = "rows"
-    search_swing_wrench: str | None = None
+    search_swing_wrench: str | None = SEARCH_SWING_WRENCH
     warm_start: str = "cold"
     abort: str = "off"
     search_max_iter: int = DEFAULT_SEARCH_MAX_ITER
@@ -157,6 +164,7 @@ class Setting:
     final_half_cycle: bool = FINAL_HALF_CYCLE
     final_templates: str = DEFAULT_FINAL_TEMPLATES
     final_retry_full: str = FINAL_RETRY_FULL
+    final_swing_wrench: str | None = FINAL_SWING_WRENCH
 
     def __post_init__(self) -> None:
         # recordings before session 40 hold the retry as a bool: True was "all", False "off"
@@ -172,6 +180,10 @@ def retry_policy(value: bool | str) -> str:
     return value
 
 
+#: the coarse solves' swing wrench tokens: `search_gait(search_swing_wrench=)`
+COARSE_SWING_TOKENS = {"coarse-rows": "rows", COARSE_BOUNDS: "bounds"}
+#: the candidates' final re-solves' swing wrench tokens: `search_gait(final_swing_wrench=)`
+FINAL_SWING_TOKENS = {"finalrows": "rows", "finalbounds": "bounds"}
 #: `replay --final-half-cycle` values: the final re-solve token each stands for
 REPLAY_FINAL_SOLVES = {"on": "halffinal", "off": "fullfinal", "retry": "halfretry",
                        "narrow": "halfnarrow"}
@@ -203,8 +215,8 @@ def parse_setting(text: str) -> Setting:
             continue
         if token in SWING_WRENCHES:
             key, value = "swing_wrench", token
-        elif token == COARSE_BOUNDS:
-            key, value = "search_swing_wrench", "bounds"
+        elif token in COARSE_SWING_TOKENS:
+            key, value = "search_swing_wrench", COARSE_SWING_TOKENS[token]
         elif token in SEARCH_WARM_STARTS:
             key, value = "warm_start", token
         elif token.startswith("abort"):
@@ -229,12 +241,15 @@ def parse_setting(text: str) -> Setting:
             continue
         elif token in FINAL_TEMPLATES:
             key, value = "final_templates", token
+        elif token in FINAL_SWING_TOKENS:
+            key, value = "final_swing_wrench", FINAL_SWING_TOKENS[token]
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
-                f"{', '.join(SWING_WRENCHES)}, {COARSE_BOUNDS}, {', '.join(SEARCH_WARM_STARTS)}, "
+                f"{', '.join(SWING_WRENCHES)}, {', '.join(COARSE_SWING_TOKENS)}, "
+                f"{', '.join(SEARCH_WARM_STARTS)}, "
                 "abortK/V, capN, tolX, genK, knotsN, speedX, half, full, "
-                f"{', '.join(FINAL_SOLVE_TOKENS)}, "
+                f"{', '.join(FINAL_SOLVE_TOKENS)}, {', '.join(FINAL_SWING_TOKENS)}, "
                 f"{' or '.join(FINAL_TEMPLATES)}, joined by +")
         if key in fields:
             raise SystemExit(f"--settings: {text!r} sets {key} twice")
@@ -345,7 +360,8 @@ def cmd_run(args: argparse.Namespace) -> None:
                     search_half_cycle=setting.search_half_cycle,
                     final_half_cycle=setting.final_half_cycle,
                     final_templates=setting.final_templates,
-                    final_retry_full=setting.final_retry_full)
+                    final_retry_full=setting.final_retry_full,
+                    final_swing_wrench=setting.final_swing_wrench)
             row = record(search, setting, r, load)
             if save is not None:
                 with (save / recording_name(search.key, setting.name)).open("wb") as fh:
@@ -392,6 +408,9 @@ class FinalReplayer:
     #: which candidates failed on half the knots are re-solved on the full NLP
     #: (`final_retry_full`: "all", "narrow", "off")
     retry_full: str = FINAL_RETRY_FULL
+    #: the candidates' final re-solves' swing wrench (`search_gait(final_swing_wrench=)`; None:
+    #: `swing_wrench`)
+    final_swing_wrench: str | None = None
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
@@ -399,7 +418,8 @@ class FinalReplayer:
                                                       speed_m_s=self.search.speed_m_s)
         #: the templates are solved as the template path plans them (`final_tasks`)
         self.template_half_cycle = self.options.half_cycle_solve
-        self.options = final_options(self.options, self.half_cycle)
+        self.template_swing_wrench = self.options.swing_wrench
+        self.options = final_options(self.options, self.half_cycle, self.final_swing_wrench)
         self.seeds: dict[str, robots.ContactSchedule] = acceptance.get("seed_schedules", {})
         factory = acceptance["final_acceptance"]
         self.spec = FinalPlannerSpec.new(self.robot, self.knots, self.options,
@@ -411,8 +431,8 @@ class FinalReplayer:
     def outcomes(self, tasks: Sequence[FinalTask]) -> Iterator[FinalOutcome]:
         for task in tasks:
             sch = task.schedule
-            key = (task.half_cycle, task.retry_full, sch.period_s, *sch.touchdown_phase,
-                   *sch.duty_factor)
+            key = (task.half_cycle, task.retry_full, task.swing_wrench, sch.period_s,
+                   *sch.touchdown_phase, *sch.duty_factor)
             if key not in self.cache:
                 self.cache[key] = evaluate_task(self.planner, self.check, task)
             yield self.cache[key]
@@ -437,7 +457,8 @@ class FinalReplayer:
         own = {name: self.seeds.get(name) or make_schedule(self.robot, name) for name in names}
         tasks, searched, rival = ordered_final_tasks(
             self.spec, space, cut, candidates, start, seed_results, own, choice, templates,
-            self.template_half_cycle, self.retry_full if self.half_cycle else FINAL_RETRY_OFF)
+            self.template_half_cycle, self.retry_full if self.half_cycle else FINAL_RETRY_OFF,
+            self.template_swing_wrench)
         c0 = time.process_time()
         tipping = TippingCost.for_robot(self.robot, DEFAULT_TIPPING_WEIGHT)
 
@@ -476,6 +497,12 @@ class FinalReplayer:
         }
 
 
+def recorded_setting(rec: dict) -> Setting:
+    """The setting a recording was made with: one made before session 40 has no
+    `final_swing_wrench` (its final re-solves took the options' own: None)."""
+    return Setting(**{"final_swing_wrench": None, **rec["setting"]})
+
+
 def replay_setting(setting: str, k: int, candidates: int,
                    choice: str = FINAL_CHOICE_FIRST) -> str:
     """The name of a replayed row: "SETTING+genK", "+finalC" if C is not the default,
@@ -498,26 +525,30 @@ def cmd_replay(args: argparse.Namespace) -> None:
             raise SystemExit(f"replay: cannot read recording {name}: {e}") from None
     out = Path(args.out)
     done = {(row["search"], row["setting"]) for row in _rows(out)} if out.exists() else set()
-    replayers: dict[tuple[str, str, int, bool, str], FinalReplayer] = {}
+    replayers: dict[tuple[object, ...], FinalReplayer] = {}
     for rec in recs:
-        search, setting = Search(**rec["search"]), Setting(**rec["setting"])
+        search, setting = Search(**rec["search"]), recorded_setting(rec)
         recorded = (setting.final_half_cycle, setting.final_retry_full)
         policy = recorded if args.final_half_cycle is None else FINAL_SOLVE_TOKENS[
             REPLAY_FINAL_SOLVES[args.final_half_cycle]]
         # a policy that does not re-solve on half the knots retries nothing
         same = policy == recorded or not (policy[0] or recorded[0])
+        final_swing = (setting.final_swing_wrench if args.final_swing_wrench is None
+                       else args.final_swing_wrench)
+        swing_name = ("" if final_swing == setting.final_swing_wrench else
+                      f"+final{final_swing}")
         for k, c, ch, tm in ((k, c, ch, tm) for tm in rivals for ch in choices for c in cs
                              for k in ks):
             name = replay_setting(setting.name, k, c, ch) + (
                 "" if same else final_solve_token(*policy)) + (
-                "" if tm == setting.final_templates else f"+{tm}")
+                "" if tm == setting.final_templates else f"+{tm}") + swing_name
             if k > rec["generations"] or (search.key, name) in done:
                 continue
-            key = (search.key, setting.swing_wrench, rec["knots"], *policy)
+            key = (search.key, setting.swing_wrench, rec["knots"], *policy, final_swing)
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
                 replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"],
-                                               *policy)
+                                               *policy, final_swing)
             row = {**replayers[key].truncated(rec, k, c, ch, tm), "setting": name}
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
@@ -725,6 +756,11 @@ def main() -> None:
                         "narrowly (narrow; `PlannerOptions.half_cycle_solve`,"
                         " `search_gait(final_retry_full=)`; rows named '+halffinal' / "
                         "'+fullfinal' / '+halfretry' / '+halfnarrow' when not as recorded; "
+                        "default: as the recorded search did)")
+    p.add_argument("--final-swing-wrench", choices=SWING_WRENCHES, default=None,
+                   help="the candidates' final re-solves' swing wrench (`search_gait("
+                        "final_swing_wrench=)`; the templates keep the recorded search's own; "
+                        "rows named '+finalrows' / '+finalbounds' when not as recorded; "
                         "default: as the recorded search did)")
     p.add_argument("--final-templates", default=DEFAULT_FINAL_TEMPLATES,
                    help=f"comma-separated: {', '.join(FINAL_TEMPLATES)} (the templates only as "

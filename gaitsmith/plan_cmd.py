@@ -59,6 +59,7 @@ from gaitsmith.plan_search import SearchSettings, plan_search, user_seed
 from gaitsmith.search_options import (
     executor_option,
     final_choice_option,
+    final_swing_wrench_option,
     final_templates_option,
     search_half_cycle_option,
     search_knots_option,
@@ -225,6 +226,7 @@ def plan(
     tipping_weight: float = tipping_weight_option(),
     sim_accept: bool = sim_accept_option(),
     search_swing_wrench: str = search_swing_wrench_option(),
+    final_swing_wrench: str = final_swing_wrench_option(),
     final_choice: str = final_choice_option(),
     search_half_cycle: bool = search_half_cycle_option(),
     final_templates: str = final_templates_option(),
@@ -252,7 +254,8 @@ def plan(
     settings = SearchSettings(generations, popsize, seed, symmetric, executor, workers,
                               address, search_knots, tipping_weight, sim_accept,
                               search_swing_wrench, final_choice, search_half_cycle,
-                              final_templates, search_final_half_cycle(half_cycle))
+                              final_templates, search_final_half_cycle(half_cycle),
+                              final_swing_wrench)
     check_options(speed, knots, period, duty, mu, search, settings, simulate, cycles)
     check_command(speed, vy, yaw_rate)
     refuse_with_search(search, given)  # --vy, --yaw-rate, --knife-edge, --mirror, ...

@@ -125,6 +125,7 @@ OPTION_ROUTES: tuple[OptionRoute, ...] = (
     OptionRoute("--tipping-weight", "tipping_weight", "", SEARCH),
     OptionRoute("--sim-accept", "sim_accept", "", SEARCH),
     OptionRoute("--search-swing-wrench", "search_swing_wrench", "", SEARCH),
+    OptionRoute("--final-swing-wrench", "final_swing_wrench", "", SEARCH + "; gait-file metadata"),
     OptionRoute("--final-choice", "final_choice", "", SEARCH + "; gait-file metadata"),
     OptionRoute("--search-half-cycle", "search_half_cycle", "", SEARCH + "; gait-file metadata"),
     OptionRoute("--final-templates", "final_templates", "", SEARCH + "; gait-file metadata"),
@@ -172,6 +173,7 @@ def check_options(speed: float | None, knots: int, period: float | None, duty: s
         check_search_options(st.executor, st.generations, st.popsize, st.workers,
                              st.search_knots, st.tipping_weight)
         check_search_swing_wrench(st.search_swing_wrench)
+        check_search_swing_wrench(st.final_swing_wrench, "--final-swing-wrench")
         check_final_choice(st.final_choice)
         check_final_templates(st.final_templates)
     if cycles is not None and (simulate or (search and st.sim_accept)):

@@ -13,7 +13,11 @@ import robots
 from gaitsmith.attitude_options import attitude_settings, resolved_gain
 from gaitsmith.console import console
 from gaitsmith.plan_output import DEFAULT_CYCLES, write_gait
-from gaitsmith.search_options import DEFAULT_SEARCH_SWING_WRENCH, sim_acceptance
+from gaitsmith.search_options import (
+    DEFAULT_FINAL_SWING_WRENCH,
+    DEFAULT_SEARCH_SWING_WRENCH,
+    sim_acceptance,
+)
 from planner.errors import InfeasibleGaitError
 from planner.nlp.config import PlannerOptions
 from planner.search.budget import REASON_NONE_ACCEPTED
@@ -56,6 +60,8 @@ class SearchSettings:
     #: the final re-solves on the first half of a symmetric timing's knots (`--half-cycle`
     #: given; unset: `FINAL_HALF_CYCLE`, `gaitsmith.plan_options.search_final_half_cycle`)
     final_half_cycle: bool = FINAL_HALF_CYCLE
+    #: `PlannerOptions.swing_wrench` of the candidates' final re-solves (`--final-swing-wrench`)
+    final_swing_wrench: str = DEFAULT_FINAL_SWING_WRENCH
 
 
 def user_seed(bot: robots.Robot, gait: str | None, period: float | None, duty: str | None,
@@ -115,7 +121,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         tipping_weight=st.tipping_weight, progress=progress,
         search_swing_wrench=st.search_swing_wrench, final_choice=st.final_choice,
         search_half_cycle=st.search_half_cycle, final_templates=st.final_templates,
-        final_half_cycle=st.final_half_cycle,
+        final_half_cycle=st.final_half_cycle, final_swing_wrench=st.final_swing_wrench,
         seed_schedules=None if seed_schedule is None else {USER_SEED: seed_schedule},
         **sim_acceptance(bot, st.sim_accept, cycles or DEFAULT_CYCLES, entry_cycles,
                          attitude_gain),
@@ -174,6 +180,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
         "search_feasible": result.search_feasible,
         "search_knots": result.search_knots, "tipping_weight": st.tipping_weight,
         "search_swing_wrench": st.search_swing_wrench,
+        "final_swing_wrench": st.final_swing_wrench,
         "search_inactive_rows": SEARCH_INACTIVE_ROWS,  # the final solves': planner.solver
         "tipping_amplification": result.tipping_amplification,
         "sim_accepted": result.accepted, "fallback_template": result.fallback_template,

@@ -110,9 +110,11 @@ class FatropPlanner(GaitPlanner):
         vy_m_s: float = 0.0,
         yaw_rate_rad_s: float = 0.0,
         half_cycle: bool | None = None,
+        swing_wrench: str | None = None,
     ) -> PlanResult:
         """As `GaitPlanner.solve`, by FATROP (warm starts: the primal point only; always the full
-        stage-wise NLP, whatever `half_cycle` says)."""
+        stage-wise NLP, whatever `half_cycle` says, and its built bounds, whatever
+        `swing_wrench` says: nothing is fixed per schedule, `stage_solve_bounds`)."""
         self._check(schedule, speed_m_s, vy_m_s, yaw_rate_rad_s)
         sw = self.stagewise
         if sw is None:  # pragma: no cover - set by _make_solver in __init__

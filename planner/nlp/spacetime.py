@@ -42,7 +42,7 @@ from planner.nlp.assembled_hessian import KnotTerm, assembled_hessian
 from planner.nlp.assembled_jacobian import assembled_jacobian
 from planner.nlp.cold_start import ColdStarter, StartCommand
 from planner.nlp.command import VelocityCommand, check_command
-from planner.nlp.config import FREED_GROUPS, PlannerOptions
+from planner.nlp.config import FREED_GROUPS, SWING_WRENCHES, PlannerOptions
 from planner.nlp.constraints import (
     build_groups,
     group_labels,
@@ -470,11 +470,17 @@ class GaitPlanner:
         vy_m_s: float = 0.0,
         yaw_rate_rad_s: float = 0.0,
         half_cycle: bool | None = None,
+        swing_wrench: str | None = None,
     ) -> PlanResult:
         """Plan one gait cycle at the command (vx = `speed_m_s`, `vy_m_s`, `yaw_rate_rad_s`;
         `planner.nlp.command`). `warm_start`: None → the last solution if any, False → cold.
         `half_cycle`: solve on the first half of the knots where it fits (`_half_cycle_for`);
-        None → `PlannerOptions.half_cycle_solve`."""
+        None → `PlannerOptions.half_cycle_solve`. `swing_wrench`: how this solve holds a swing
+        foot's wrench at 0 (`SWING_WRENCHES`, per-solve bounds only: the NLP is the same);
+        None → `PlannerOptions.swing_wrench`."""
+        if swing_wrench is not None and swing_wrench not in SWING_WRENCHES:
+            raise PlannerConfigError(f"swing_wrench must be one of {', '.join(SWING_WRENCHES)} "
+                                     f"(or None: the options' own), got {swing_wrench!r}")
         self._check(schedule, speed_m_s, vy_m_s, yaw_rate_rad_s)
         p = parameter_vector(
             schedule, self.n_knots, speed_m_s, self.swing_clearance_m, vy_m_s, yaw_rate_rad_s
@@ -492,7 +498,7 @@ class GaitPlanner:
             # this NLP's row count (a warm start may come from a planner with other rows)
             start = WarmStart(start.x, np.zeros_like(self._lbx), np.zeros_like(self._lbg))
         xs, gs = self._x_scale, self._g_scale
-        bounds = self._solve_bounds(schedule)
+        bounds = self._solve_bounds(schedule, swing_wrench or self.options.swing_wrench)
         lbg, ubg = bounds.lbg / gs, bounds.ubg / gs
         half = self._half_cycle_for(schedule, p, start, bounds, vy_m_s, yaw_rate_rad_s, warm,
                                     self.options.half_cycle_solve if half_cycle is None
@@ -666,15 +672,17 @@ class GaitPlanner:
                 self.layout, self.model, self.options, knot, fd_residual)
         return self._cold_starter.start(self.options.cold_start, schedule, command, p)
 
-    def _solve_bounds(self, schedule: ContactSchedule) -> SolveBounds:
+    def _solve_bounds(self, schedule: ContactSchedule, swing_wrench: str | None = None
+                      ) -> SolveBounds:
         """The bounds of a solve of `schedule` (physical units): the built ones, the rows not in
         force freed (`_row_lower_bounds`), with `PlannerOptions.stance_clearance` "free" the stance
-        feet's clearance rows freed (`planner.nlp.stance_clearance`) and with
-        `PlannerOptions.swing_wrench` "bounds" the swing feet's wrench fixed
+        feet's clearance rows freed (`planner.nlp.stance_clearance`) and with `swing_wrench`
+        (None: `PlannerOptions.swing_wrench`) "bounds" the swing feet's wrench fixed
         (`planner.nlp.swing_wrench`). The schedule's contact matrix, which each of them needs
         when its option is on, is computed once."""
+        swing_wrench = swing_wrench or self.options.swing_wrench
         uses = ("line capture" in dict(self._slices), "swing force" in self.options.compact_rows,
-                self.options.swing_wrench == "bounds", self._row_activity is not None,
+                swing_wrench == "bounds", self._row_activity is not None,
                 self.options.stance_clearance == "free")
         contact = schedule.contact_matrix(self.n_knots) if any(uses) else None
         lbg = self._row_lower_bounds(schedule, contact)
@@ -683,7 +691,7 @@ class GaitPlanner:
             lbg = free_stance_clearance(dict(self._slices), contact, lbg)
         lbx, ubx = self._variable_bounds(schedule, contact)
         ubg = self._ubg
-        if self.options.swing_wrench == "bounds":
+        if swing_wrench == "bounds":
             assert contact is not None
             lbx, ubx, lbg = swing_wrench_bounds(
                 self.layout, self.model, contact, dict(self._slices), lbx, ubx, lbg)

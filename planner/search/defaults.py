@@ -103,3 +103,18 @@ FINAL_RETRY_FULL = FINAL_RETRY_NARROW
 #: at 8.4 % failed again, and every other failure was ≥ 12 % past a limit, a fall or
 #: infeasible. Not validated beyond them.
 FINAL_RETRY_MARGIN = 0.05
+#: `PlannerOptions.swing_wrench` of the search's coarse solves (`search_gait(search_swing_wrench=)`,
+#: `plan --search --search-swing-wrench`) and of the final re-solves of its candidates
+#: (`search_gait(final_swing_wrench=)`, `--final-swing-wrench`), whatever the options say (None:
+#: the options' own); the templates the final phase re-solves keep the options' own ("rows",
+#: the template path's), so a rival is the template command's plan. "bounds" (the swing feet's
+#: wrench fixed to 0 by its bounds, `planner.nlp.swing_wrench`) for both since session 40:
+#: over the 32 searches on 8 bodies of session 38, run back to back with "rows", 32 of 32 pass,
+#: the written cost + support term 0.951x paired geometric mean (19 the same, 7 cheaper by
+#: 9-59 %, 6 costlier by 0.1-3.1 %; paired |log ratio| 90th percentile 1.14, seed to seed
+#: 1.46), 0.83x the coarse iterations and 0.88x the CPU; the README search 1.00-1.01x the CPU,
+#: the same trot. Coarse "bounds" with "rows" finals cost that command 1.09-1.11x (its final
+#: phase reads 8 outcomes instead of 6), which kept it off in session 32
+#: (docs/results/planner_speed_search.md, sessions 32 and 40).
+SEARCH_SWING_WRENCH = "bounds"
+FINAL_SWING_WRENCH = "bounds"

@@ -80,8 +80,9 @@ class FinalPlannerSpec:
 @dataclass(frozen=True)
 class FinalTask:
     """One full-resolution solve of the final phase: a searched candidate (`template` None) or
-    the template `template` (the fallback's, or a rival); `half_cycle` the solve's
-    `GaitPlanner.solve(half_cycle=)` (None: the spec's options); `retry_full`
+    the template `template` (the fallback's, or a rival); `half_cycle` and `swing_wrench` the
+    solve's `GaitPlanner.solve(half_cycle=, swing_wrench=)` (None: the spec's options; a
+    template is planned as the template path plans it); `retry_full`
     (`defaults.FINAL_RETRIES`): which half-cycle plans that did not pass are re-solved cold on
     the full NLP, that plan judged instead (`evaluate_final`; the search's `final_retry_full`,
     for its candidates)."""
@@ -91,6 +92,7 @@ class FinalTask:
     template: str | None = None
     half_cycle: bool | None = None
     retry_full: str = FINAL_RETRY_OFF
+    swing_wrench: str | None = None
 
 
 @dataclass(frozen=True)
@@ -198,24 +200,26 @@ def retries(policy: str, failure: str) -> bool:
 def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                    schedule: ContactSchedule, speed_m_s: float,
                    half_cycle: bool | None = None, retry_full: str = FINAL_RETRY_OFF,
-                   margin: float = FINAL_RETRY_MARGIN) -> FinalOutcome:
-    """Solve `schedule` cold at the planner's knots (`half_cycle`: `GaitPlanner.solve`'s) and,
-    if feasible, judge its gait. If that solve ran on half the knots (`stats["half_cycle"]`)
-    and its plan did not pass (`half_failure`: infeasible, or failing the check narrowly —
-    every failed criterion within `margin` of its limit — or clearly), `retry_full`
-    (`defaults.FINAL_RETRIES`) says whether to solve it again cold on the full NLP and judge
-    that one: "all" every such plan, "narrow" only a narrow failure, "off" none (the outcome's
-    `half_tried` holds the first attempt, `half_failure` why). A half-cycle optimum can fail a
-    MuJoCo check by a hair that the same point solved on all knots passes
-    (docs/results/planner_speed_search.md, 36-lead i, session 39 (lead), session 40)."""
-    first = _solve_and_judge(planner, check, schedule, speed_m_s, half_cycle)
+                   swing_wrench: str | None = None, margin: float = FINAL_RETRY_MARGIN
+                   ) -> FinalOutcome:
+    """Solve `schedule` cold at the planner's knots (`half_cycle`, `swing_wrench`:
+    `GaitPlanner.solve`'s) and, if feasible, judge its gait. If that solve ran on half the knots
+    (`stats["half_cycle"]`) and its plan did not pass (`half_failure`: infeasible, or failing
+    the check narrowly — every failed criterion within `margin` of its limit — or clearly),
+    `retry_full` (`defaults.FINAL_RETRIES`) says whether to solve it again cold on the full NLP
+    (the same `swing_wrench`) and judge that one: "all" every such plan, "narrow" only a narrow
+    failure, "off" none (the outcome's `half_tried` holds the first attempt, `half_failure`
+    why). A half-cycle optimum can fail a MuJoCo check by a hair that the same point solved on
+    all knots passes (docs/results/planner_speed_search.md, 36-lead i, session 39 (lead),
+    session 40)."""
+    first = _solve_and_judge(planner, check, schedule, speed_m_s, half_cycle, swing_wrench)
     if not first.plan.stats.get("half_cycle"):
         return first
     failure = half_failure(first, margin) if check is not None or not first.plan.feasible else ""
     first = replace(first, half_failure=failure)
     if not retries(retry_full, failure):
         return first
-    full = _solve_and_judge(planner, check, schedule, speed_m_s, False)
+    full = _solve_and_judge(planner, check, schedule, speed_m_s, False, swing_wrench)
     return replace(full, check_s=first.check_s + full.check_s,
                    solve_cpu_s=first.solve_cpu_s + full.solve_cpu_s,
                    check_cpu_s=first.check_cpu_s + full.check_cpu_s,
@@ -224,10 +228,11 @@ def evaluate_final(planner: GaitPlanner, check: Callable[[Gait], object] | None,
 
 def _solve_and_judge(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                      schedule: ContactSchedule, speed_m_s: float,
-                     half_cycle: bool | None) -> FinalOutcome:
+                     half_cycle: bool | None, swing_wrench: str | None = None) -> FinalOutcome:
     """One cold solve of `schedule` and, if feasible, its gait's verdict (`evaluate_final`)."""
     c0, started = time.process_time(), time.time()
-    solved = planner.solve(schedule, speed_m_s, warm_start=False, half_cycle=half_cycle)
+    solved = planner.solve(schedule, speed_m_s, warm_start=False, half_cycle=half_cycle,
+                           swing_wrench=swing_wrench)
     solve_cpu_s = time.process_time() - c0
     if not solved.feasible:
         return FinalOutcome(solved, 0.0, None, solve_cpu_s, pid=os.getpid(),
@@ -270,10 +275,10 @@ def worker_final_solve(task: FinalTask) -> FinalOutcome:
 def evaluate_task(planner: GaitPlanner, check: Callable[[Gait], object] | None,
                   task: FinalTask) -> FinalOutcome:
     """`task` solved and judged with `planner` and `check` (`evaluate_final` with the task's
-    `half_cycle` and `retry_full`, the default margin): on a worker, in the search's process
-    and in its replay."""
+    `half_cycle`, `retry_full` and `swing_wrench`, the default margin): on a worker, in the
+    search's process and in its replay."""
     return evaluate_final(planner, check, task.schedule, task.spec.speed_m_s, task.half_cycle,
-                          task.retry_full)
+                          task.retry_full, task.swing_wrench)
 
 
 def compared_candidates(choice: str, n_tasks: int) -> int:

@@ -662,7 +662,7 @@ def search_gait(
     warm_start: str = "cold",
     seed_schedules: Mapping[str, ContactSchedule] | None = None,
     coarse_abort: StallAbort | None = None,
-    search_swing_wrench: str | None = None,
+    search_swing_wrench: str | None = defaults.SEARCH_SWING_WRENCH,
     search_tol: float | None = None,
     search_inactive_rows: str = defaults.SEARCH_INACTIVE_ROWS,
     final_choice: str = defaults.DEFAULT_FINAL_CHOICE,
@@ -670,6 +670,7 @@ def search_gait(
     final_templates: str = defaults.DEFAULT_FINAL_TEMPLATES,
     final_half_cycle: bool = defaults.FINAL_HALF_CYCLE,
     final_retry_full: str = defaults.FINAL_RETRY_FULL,
+    final_swing_wrench: str | None = defaults.FINAL_SWING_WRENCH,
 ) -> GaitSearchResult:
     """The best contact timing for `robot` at `speed_m_s`: basin-CMA seeded by the templates.
 
@@ -688,8 +689,13 @@ def search_gait(
     `coarse_abort`: stop coarse solves whose constraint violation stalls and rank them last
     (`planner.nlp.iteration_abort`; None, the default: every solve runs to IPOPT's stop).
     `search_swing_wrench`: `PlannerOptions.swing_wrench` of the coarse solves only ("rows" or
-    "bounds"; None, the default: `options.swing_wrench`); the final re-solves keep `options`',
-    so final costs compare between settings (docs/results/planner_speed_search.md, session 32).
+    "bounds"; default `planner.search.defaults.SEARCH_SWING_WRENCH`; None: `options.swing_wrench`);
+    the final re-solves take
+    `final_swing_wrench` (docs/results/planner_speed_search.md, sessions 32 and 40).
+    `final_swing_wrench`: `PlannerOptions.swing_wrench` of the final re-solves of searched
+    candidates (default `planner.search.defaults.FINAL_SWING_WRENCH`; None: `options`' own);
+    a `planner` passed in must have it (`final_options`). The templates the final phase
+    re-solves keep `options.swing_wrench`, as the template path plans them.
     `search_tol`: IPOPT's `tol` of the coarse solves only (None, the default: `options.tol`);
     the final re-solves keep `options.tol` (planner_speed_search.md, session 33).
     `search_inactive_rows`: `PlannerOptions.inactive_rows` of the coarse solves only (default
@@ -731,6 +737,17 @@ def search_gait(
         raise PlannerConfigError(
             f"planner has half_cycle_solve={planner.options.half_cycle_solve}, the search's final "
             f"re-solves final_half_cycle={final_half_cycle}: build it with final_options()")
+    for name, value in (("search_swing_wrench", search_swing_wrench),
+                        ("final_swing_wrench", final_swing_wrench)):
+        if value is not None and value not in SWING_WRENCHES:
+            raise PlannerConfigError(f"{name} must be one of {', '.join(SWING_WRENCHES)} (or "
+                                     f"None: the options' own), got {value!r}")
+    if planner is not None and planner.options.swing_wrench != (final_swing_wrench
+                                                                 or options.swing_wrench):
+        raise PlannerConfigError(
+            f"planner has swing_wrench={planner.options.swing_wrench!r}, the search's final "
+            f"re-solves {final_swing_wrench or options.swing_wrench!r}: build it with "
+            "final_options()")
     if search_max_iter < 1:
         raise PlannerConfigError(f"search_max_iter must be ≥ 1, got {search_max_iter}")
     if final_candidates is not None and final_candidates < 1:
@@ -738,9 +755,6 @@ def search_gait(
     _check_one_of("warm_start", warm_start, SEARCH_WARM_STARTS)
     if not 0 < sigma_fraction <= 1:
         raise PlannerConfigError(f"sigma_fraction must be in (0, 1], got {sigma_fraction}")
-    if search_swing_wrench is not None and search_swing_wrench not in SWING_WRENCHES:
-        raise PlannerConfigError(f"search_swing_wrench must be one of {', '.join(SWING_WRENCHES)}"
-                                 f" (or None: the options' own), got {search_swing_wrench!r}")
     _check_one_of("search_inactive_rows", search_inactive_rows, INACTIVE_ROWS)
     _check_one_of("final_choice", final_choice, FINAL_CHOICES)
     _check_one_of("final_templates", final_templates, defaults.FINAL_TEMPLATES)
@@ -794,7 +808,8 @@ def search_gait(
     # `planner.search.final_phase`); they build its planner from the same robot and options
     on_workers = executor != "serial"
     spec = FinalPlannerSpec.new(robot if planner is None else planner.robot, n_knots,
-                                final_options(options, final_half_cycle) if planner is None
+                                final_options(options, final_half_cycle, final_swing_wrench)
+                                if planner is None
                                 else planner.options, speed_m_s, final_check)
     t_seed, c_seed = time.perf_counter(), time.process_time()
     with make_executor(executor, factory, workers=workers, address=address) as ex:  # type: ignore[arg-type]
@@ -839,7 +854,8 @@ def search_gait(
             spec, space, pool.records, n_final, (x0, seed_results[best_template]),
             seed_results, seed_schedule if final_check is not None else None,
             final_choice, final_templates, options.half_cycle_solve,
-            final_retry_full if final_half_cycle else defaults.FINAL_RETRY_OFF)
+            final_retry_full if final_half_cycle else defaults.FINAL_RETRY_OFF,
+            options.swing_wrench)
 
         def final_planner() -> tuple[GaitPlanner, float, float]:
             """The final planner (passed in, or built here) and its build's wall and CPU s."""
@@ -895,11 +911,15 @@ def search_gait(
 
 
 def final_options(options: PlannerOptions,
-                  final_half_cycle: bool = defaults.FINAL_HALF_CYCLE) -> PlannerOptions:
+                  final_half_cycle: bool = defaults.FINAL_HALF_CYCLE,
+                  final_swing_wrench: str | None = defaults.FINAL_SWING_WRENCH
+                  ) -> PlannerOptions:
     """The options of the search's final re-solves: `options` with `final_half_cycle` as their
-    `PlannerOptions.half_cycle_solve` (a final planner built outside `search_gait`, e.g.
+    `PlannerOptions.half_cycle_solve` and `final_swing_wrench` (None: the options' own) as their
+    `swing_wrench` (a final planner built outside `search_gait`, e.g.
     `planner.search.speed_sweep`'s, must be built with these)."""
-    return replace(options, half_cycle_solve=final_half_cycle)
+    return replace(options, half_cycle_solve=final_half_cycle,
+                   swing_wrench=final_swing_wrench or options.swing_wrench)
 
 
 def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
@@ -908,6 +928,7 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
                 seed_schedules: Mapping[str, ContactSchedule] | None,
                 read_first: int | None = None, template_half_cycle: bool | None = None,
                 retry_full: str = defaults.FINAL_RETRY_OFF,
+                template_swing_wrench: str | None = None,
                 ) -> tuple[list[FinalTask], list[LocalResult]]:
     """The final phase's tasks in the order `choose_final` reads them, with the search result of
     each one's timing: the `final_candidates` cheapest usable samples of `records`
@@ -917,8 +938,9 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
     at an infinite cost and came in template order), as their own schedules, skipping any
     identical to a candidate — to one of the first `read_first` candidates if given (those the
     final choice always reads: `templates_read_first`), each solved with `template_half_cycle`
-    (`FinalTask.half_cycle`; `search_gait` passes its options' own, so a template is planned as
-    `gaitsmith plan ROBOT --gait NAME` plans it); the candidates with `retry_full`
+    and `template_swing_wrench` (`FinalTask.half_cycle`, `.swing_wrench`; `search_gait` passes
+    its options' own, so a template is planned as `gaitsmith plan ROBOT --gait NAME` plans it);
+    the candidates with `retry_full`
     (`FinalTask.retry_full`, `search_gait(final_retry_full=)`). A search stopped after
     generation k is its recording truncated there (`benchmarks/search_outcomes.py replay`)."""
     candidates = final_candidates_of(records, final_candidates) or [start]
@@ -933,7 +955,8 @@ def final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
         for name in sorted(seed_results, key=lambda n: final_rank(seed_results[n])):
             own_schedule = seed_schedules[name]
             if not any(identical_schedules(own_schedule, t) for t in tried):
-                tasks.append(FinalTask(spec, own_schedule, name, template_half_cycle))
+                tasks.append(FinalTask(spec, own_schedule, name, template_half_cycle,
+                                       swing_wrench=template_swing_wrench))
                 searched.append(seed_results[name])
     return tasks, searched
 
@@ -975,6 +998,7 @@ def ordered_final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
                         final_choice: str, final_templates: str,
                         template_half_cycle: bool | None = None,
                         retry_full: str = defaults.FINAL_RETRY_OFF,
+                        template_swing_wrench: str | None = None,
                         ) -> tuple[list[FinalTask], list[LocalResult], Rival | None]:
     """The final phase's tasks, their search results and `rival` as `choose_final` reads them
     under `final_choice` and `final_templates`: `final_tasks` (skipping the templates
@@ -983,7 +1007,7 @@ def ordered_final_tasks(spec: FinalPlannerSpec, space: TimingSpace,
     tasks, searched = final_tasks(
         spec, space, records, final_candidates, start, seed_results, seed_schedules,
         templates_read_first(final_choice, final_templates, final_candidates),
-        template_half_cycle, retry_full)
+        template_half_cycle, retry_full, template_swing_wrench)
     return final_order(tasks, searched, final_choice, final_templates)
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import importlib.util
 import math
 import sys
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +33,27 @@ def test_cap_tol_and_gen_tokens_set_the_coarse_options_and_generations() -> None
         "bounds", 40, 1e-4, 4)
     base = so.parse_setting("base")
     assert (base.search_max_iter, base.search_tol, base.generations) == (60, None, None)
+
+
+def test_final_swing_tokens_set_the_candidates_final_re_solves_only() -> None:
+    s = so.parse_setting("coarse-bounds+finalbounds")
+    assert (s.swing_wrench, s.search_swing_wrench, s.final_swing_wrench) == (
+        "rows", "bounds", "bounds")
+    assert so.parse_setting("finalrows").final_swing_wrench == "rows"
+    base = so.parse_setting("base")
+    assert (base.swing_wrench, base.search_swing_wrench, base.final_swing_wrench) == (
+        "rows", so.SEARCH_SWING_WRENCH, so.FINAL_SWING_WRENCH) == ("rows", "bounds", "bounds")
+    old = so.parse_setting("coarse-rows+finalrows")  # the defaults before session 40
+    assert (old.search_swing_wrench, old.final_swing_wrench) == ("rows", "rows")
+    with pytest.raises(SystemExit, match="sets final_swing_wrench twice"):
+        so.parse_setting("finalrows+finalbounds")
+    with pytest.raises(SystemExit, match="sets search_swing_wrench twice"):
+        so.parse_setting("coarse-rows+coarse-bounds")
+    # a recording made before session 40 has no final_swing_wrench: its finals took the
+    # options' own (None), not today's default
+    recorded = {k: v for k, v in asdict(so.parse_setting("base")).items()
+                if k != "final_swing_wrench"}
+    assert so.recorded_setting({"setting": recorded}).final_swing_wrench is None
 
 
 def test_knots_token_sets_the_coarse_knots_only() -> None:
@@ -79,7 +100,8 @@ def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     ("speed0", r"'speed0' in 'speed0' needs a number in \(0, 1\) after 'speed'"),
     ("speed1.5", r"needs a number in \(0, 1\) after 'speed'"),
     ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN, speedX, half, full, "
-             r"fullfinal, halffinal, halfretry, halfnarrow, fallback or compete"),
+             r"fullfinal, halffinal, halfretry, halfnarrow, finalrows, finalbounds, fallback "
+             r"or compete"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:

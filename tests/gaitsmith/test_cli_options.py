@@ -64,6 +64,8 @@ PLAN_MISTAKES = [
     (["--search", "--executor", "gpu"], "--executor must be serial, process or ray"),
     (["--search", "--search-swing-wrench", "free"],
      "--search-swing-wrench must be rows or bounds, got 'free'"),
+    (["--search", "--final-swing-wrench", "free"],
+     "--final-swing-wrench must be rows or bounds, got 'free'"),
     (["--search", "--final-choice", "best"],
      "--final-choice must be one of first, cheapest-of-2, cheapest, got 'best'"),
     (["--search", "--final-templates", "always"],

@@ -86,14 +86,16 @@ def test_the_search_acceptance_gets_the_asked_gain_or_the_rule(
         assert seen[-1] == expected
 
 
-def test_the_coarse_swing_wrench_is_rows_by_default_and_bounds_when_asked(
+def test_the_coarse_swing_wrench_is_the_searchs_default_or_the_one_asked(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """`plan --search` gives `search_gait` the coarse solves' swing wrench: "rows" by default
-    (docs/results/planner_speed_search.md, session 32), "bounds" with --search-swing-wrench
-    bounds; the final planner's options keep "rows" either way."""
+    """`plan --search` gives `search_gait` the coarse solves' swing wrench: the search's default
+    (`SEARCH_SWING_WRENCH`, "bounds" since session 40; docs/results/planner_speed_search.md),
+    or the one --search-swing-wrench asks; the options (the templates') keep "rows" either
+    way."""
     import planner.search.gait_search as gs
     from gaitsmith.cli import main
+    from planner.search.defaults import SEARCH_SWING_WRENCH
 
     seen: list[tuple[str | None, str]] = []
 
@@ -102,7 +104,36 @@ def test_the_coarse_swing_wrench_is_rows_by_default_and_bounds_when_asked(
         raise _Recorded
 
     monkeypatch.setattr(gs, "search_gait", record)
-    for extra, expected in (([], "rows"), (["--search-swing-wrench", "bounds"], "bounds")):
+    assert SEARCH_SWING_WRENCH == "bounds"
+    for extra, expected in (([], SEARCH_SWING_WRENCH),
+                            (["--search-swing-wrench", "rows"], "rows"),
+                            (["--search-swing-wrench", "bounds"], "bounds")):
+        with pytest.raises(_Recorded):
+            main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
+                  "-o", str(tmp_path / "g.json")])
+        assert seen[-1] == (expected, "rows")
+
+
+def test_the_final_swing_wrench_is_the_searchs_default_or_the_one_asked(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`plan --search` gives `search_gait` the candidates' final re-solves' swing wrench:
+    `DEFAULT_FINAL_SWING_WRENCH` ("bounds" since session 40) by default, "bounds" or "rows"
+    with --final-swing-wrench; the options (the templates') keep "rows" either way."""
+    import planner.search.gait_search as gs
+    from gaitsmith.cli import main
+    from gaitsmith.search_options import DEFAULT_FINAL_SWING_WRENCH
+
+    seen: list[tuple[str | None, str]] = []
+
+    def record(*args: Any, **kwargs: Any) -> Any:
+        seen.append((kwargs.get("final_swing_wrench"), kwargs["options"].swing_wrench))
+        raise _Recorded
+
+    monkeypatch.setattr(gs, "search_gait", record)
+    for extra, expected in (([], DEFAULT_FINAL_SWING_WRENCH),
+                            (["--final-swing-wrench", "bounds"], "bounds"),
+                            (["--final-swing-wrench", "rows"], "rows")):
         with pytest.raises(_Recorded):
             main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
                   "-o", str(tmp_path / "g.json")])

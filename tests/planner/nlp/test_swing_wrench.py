@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import robots
+from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult, SolveBounds
 from planner.nlp.swing_wrench import swing_wrench_bounds
@@ -154,3 +155,25 @@ def test_solve_bounds_compute_the_contact_matrix_once(monkeypatch: pytest.Monkey
     assert calls == [pl.n_knots]
     for a, b in zip((once.lbx, once.ubx, once.lbg), separate, strict=True):
         assert np.array_equal(a, b)
+
+
+def test_a_solve_may_hold_the_swing_wrench_its_own_way(quad_planner: GaitPlanner) -> None:
+    """`GaitPlanner.solve(swing_wrench=)` overrides the options' own for one solve (the search's
+    final re-solves, `search_gait(final_swing_wrench=)`): the bounds are those of a planner
+    built with it, and a rows planner asked for "bounds" solves the trot as a bounds planner
+    does (the same iterations and cost); an unknown value is a one-line error."""
+    pl = quad_planner
+    schedule = make_schedule(pl.robot, "trot")
+    bounded = GaitPlanner(pl.robot, pl.n_knots, PlannerOptions(swing_wrench="bounds"))
+    for asked_for, built_with in ((pl._solve_bounds(schedule, "bounds"),
+                                   bounded._solve_bounds(schedule)),
+                                  (bounded._solve_bounds(schedule, "rows"),
+                                   pl._solve_bounds(schedule))):
+        for field in ("lbx", "ubx", "lbg", "ubg"):
+            assert np.array_equal(getattr(asked_for, field), getattr(built_with, field))
+    asked = pl.solve(schedule, 0.25, warm_start=False, swing_wrench="bounds")
+    built = bounded.solve(schedule, 0.25, warm_start=False)
+    assert asked.feasible and built.feasible
+    assert asked.iterations == built.iterations and asked.cost == built.cost
+    with pytest.raises(PlannerConfigError, match=r"swing_wrench must be one of rows, bounds"):
+        pl.solve(schedule, 0.25, warm_start=False, swing_wrench="free")

@@ -61,7 +61,8 @@ SCHEDULE = make_schedule(ROBOT, "trot")
 class Fake:
     """A fake final task: sleeps `delay_s`, then returns a plan tagged `cost`, `feasible`, with
     the verdict `ok` (None: not checked); `pid_dir` records which process started it;
-    `interrupt` raises KeyboardInterrupt instead (as IPOPT does on Ctrl-C, `GaitPlanner.solve`)."""
+    `interrupt` raises KeyboardInterrupt instead (as IPOPT does on Ctrl-C, `GaitPlanner.solve`),
+    once the task of cost `after_cost` has started (its file in `pid_dir`; None: at once)."""
 
     cost: float
     delay_s: float
@@ -69,6 +70,7 @@ class Fake:
     pid_dir: str = ""
     interrupt: bool = False
     feasible: bool = True
+    after_cost: float | None = None
 
 
 def _plan(cost: float, feasible: bool) -> PlanResult:
@@ -84,6 +86,11 @@ def fake_final(fake: Fake) -> FinalOutcome:
     if fake.pid_dir:
         Path(fake.pid_dir, f"{os.getpid()}-{fake.cost:g}").touch()
     time.sleep(fake.delay_s)
+    if fake.after_cost is not None:  # a loaded machine may start the other worker late
+        deadline = time.monotonic() + 30.0
+        while not any(p.name.endswith(f"-{fake.after_cost:g}") for p in Path(fake.pid_dir).iterdir()
+                      ) and time.monotonic() < deadline:
+            time.sleep(0.01)
     if fake.interrupt:
         raise KeyboardInterrupt("IPOPT stopped (User_Requested_Stop)")
     return FinalOutcome(_plan(fake.cost, fake.feasible), 0.01, fake.ok if fake.feasible else None)
@@ -269,7 +276,7 @@ def test_an_interrupted_final_phase_leaves_no_worker_and_stays_an_interruption(
     """Ctrl-C during candidate 1's solve while candidate 2 still runs on the other worker: the
     rule raises KeyboardInterrupt (not "infeasible"), and closing the executor stops the worker
     still solving instead of waiting for it."""
-    fakes = [Fake(1.0, 0.5, True, str(tmp_path), interrupt=True),
+    fakes = [Fake(1.0, 0.5, True, str(tmp_path), interrupt=True, after_cost=2.0),
              Fake(2.0, 120.0, True, str(tmp_path))]
     t0 = time.perf_counter()
     with pytest.raises(KeyboardInterrupt):
@@ -379,16 +386,18 @@ class HalfCyclePlanner:
     """A fake final planner: `solve` plans on half the knots unless asked for the full NLP
     (`half_cycle=False`) or `symmetric` is off (the half path does not apply), cost 1.0 on half
     and 2.0 on all knots; the half plan is infeasible if `half_feasible` is off. It records every
-    `half_cycle` it was asked for."""
+    `half_cycle` it was asked for, and every `swing_wrench`."""
 
     symmetric: bool = True
     half_feasible: bool = True
     asked: list[bool | None] = field(default_factory=list)
+    wrenches: list[str | None] = field(default_factory=list)
 
     def solve(self, schedule: object, speed_m_s: float, warm_start: bool = False,
-              half_cycle: bool | None = None) -> PlanResult:
+              half_cycle: bool | None = None, swing_wrench: str | None = None) -> PlanResult:
         assert warm_start is False  # every final solve is cold
         self.asked.append(half_cycle)
+        self.wrenches.append(swing_wrench)
         half = half_cycle is not False and self.symmetric
         plan = _plan(1.0 if half else 2.0, self.half_feasible or not half)
         plan.stats["half_cycle"] = half
@@ -433,6 +442,19 @@ def test_a_half_cycle_plan_that_fails_the_check_is_re_solved_on_the_full_nlp() -
     by_task = evaluate_task(task_planner, reject_half_cycle,  # type: ignore[arg-type]
                             FinalTask(SPEC, SCHEDULE, retry_full="all"))
     assert task_planner.asked == [None, False] and by_task.retried and by_task.ok is True
+
+
+def test_a_task_solves_with_its_own_swing_wrench_the_retry_too() -> None:
+    """`FinalTask.swing_wrench` reaches `GaitPlanner.solve(swing_wrench=)` (None: the final
+    planner's options), on the full-cycle retry as on the first attempt."""
+    for wrench in (None, "bounds", "rows"):
+        planner = HalfCyclePlanner()
+        out = evaluate_task(planner, reject_half_cycle,  # type: ignore[arg-type]
+                            FinalTask(SPEC, SCHEDULE, retry_full="all", swing_wrench=wrench))
+        assert out.retried and planner.wrenches == [wrench, wrench]
+        plain = HalfCyclePlanner()
+        evaluate_final(plain, None, SCHEDULE, 0.2, swing_wrench=wrench)  # type: ignore[arg-type]
+        assert plain.wrenches == [wrench]
 
 
 def test_the_retry_fires_only_when_the_half_path_applied_and_its_plan_failed() -> None:

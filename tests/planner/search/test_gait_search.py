@@ -6,6 +6,7 @@ import math
 import pickle
 from dataclasses import dataclass, replace
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -16,7 +17,12 @@ from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
-from planner.search.defaults import FINAL_HALF_CYCLE, SEARCH_HALF_CYCLE
+from planner.search.defaults import (
+    FINAL_HALF_CYCLE,
+    FINAL_SWING_WRENCH,
+    SEARCH_HALF_CYCLE,
+    SEARCH_SWING_WRENCH,
+)
 from planner.search.executors import SerialExecutor
 from planner.search.gait_search import (
     DEFAULT_TIPPING_WEIGHT,
@@ -213,14 +219,16 @@ def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
 ) -> None:
     """`rotor_reserve` and `swing_clearance_m` reach every NLP of the search: the workers'
     coarse planners (through the picklable factory the process/Ray workers get) and the final
-    full-resolution planner (which writes the gait file's metadata); `max_iter` and
-    `inactive_rows` ("rows" for the coarse solves) and `half_cycle_solve` (`SEARCH_HALF_CYCLE`)
-    are the only options the search changes for its coarse NLP."""
+    full-resolution planner (which writes the gait file's metadata); `max_iter`,
+    `inactive_rows` ("rows" for the coarse solves), `half_cycle_solve` (`SEARCH_HALF_CYCLE`) and
+    `swing_wrench` (`SEARCH_SWING_WRENCH`) are the only options the search changes for its
+    coarse NLP."""
     options = PlannerOptions(rotor_reserve=0.15, swing_clearance_m=0.018)
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=50)
     assert factory.n_knots == 12
     assert factory.options == replace(options, max_iter=50, inactive_rows="rows",
-                                      half_cycle_solve=SEARCH_HALF_CYCLE)
+                                      half_cycle_solve=SEARCH_HALF_CYCLE,
+                                      swing_wrench=SEARCH_SWING_WRENCH)
     assert built == [(20, final_options(options))]
 
 
@@ -230,8 +238,9 @@ def test_the_search_planners_carry_the_rotor_reserve_and_swing_clearance(
 def test_search_swing_wrench_reaches_the_coarse_solves_only(
     monkeypatch: pytest.MonkeyPatch, own: str, coarse: str | None,
 ) -> None:
-    """`search_swing_wrench` is the coarse NLP's `swing_wrench`; the final planner keeps the
-    options' own (so final costs compare between settings); None: the options' own for both."""
+    """`search_swing_wrench` is the coarse NLP's `swing_wrench` (None: the options' own); the
+    final planner takes `final_swing_wrench` (here its default, `final_options`'), whatever
+    the coarse solves use."""
     options = PlannerOptions(swing_wrench=own)
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=60,
                                               search_swing_wrench=coarse)
@@ -254,7 +263,8 @@ def test_coarse_solves_keep_rows_and_the_final_planner_the_options_inactive_rows
     kwargs = {} if coarse is None else {"search_inactive_rows": coarse}
     (factory,), built = _planners_of_a_search(monkeypatch, options, search_max_iter=60, **kwargs)
     assert factory.options == replace(options, max_iter=60, inactive_rows=coarse or "rows",
-                                      half_cycle_solve=SEARCH_HALF_CYCLE)
+                                      half_cycle_solve=SEARCH_HALF_CYCLE,
+                                      swing_wrench=SEARCH_SWING_WRENCH)
     assert built == [(20, final_options(options))]
 
 
@@ -273,7 +283,8 @@ def test_coarse_solves_keep_the_stance_clearance_rows_and_the_mu_oracle(
     assert factory.options.cold_mu_centrality == "none"
     assert factory.options == replace(options, max_iter=60, inactive_rows="rows",
                                       stance_clearance="rows", cold_mu_centrality="none",
-                                      half_cycle_solve=SEARCH_HALF_CYCLE)
+                                      half_cycle_solve=SEARCH_HALF_CYCLE,
+                                      swing_wrench=SEARCH_SWING_WRENCH)
     assert built == [(20, final_options(options))]
     assert built[0][1].stance_clearance == clearance
     assert built[0][1].cold_mu_centrality == centrality
@@ -297,7 +308,8 @@ def test_search_tol_reaches_the_coarse_solves_only(
                                               search_tol=tol)
     assert factory.options == replace(options, max_iter=40, inactive_rows="rows",
                                       tol=options.tol if tol is None else tol,
-                                      half_cycle_solve=SEARCH_HALF_CYCLE)
+                                      half_cycle_solve=SEARCH_HALF_CYCLE,
+                                      swing_wrench=SEARCH_SWING_WRENCH)
     assert built == [(20, final_options(options))]
 
 
@@ -313,7 +325,8 @@ def test_the_final_planner_takes_final_half_cycle_not_the_options(
     kwargs = {} if final is None else {"final_half_cycle": final}
     (factory,), built = _planners_of_a_search(monkeypatch, options, **kwargs)
     final_half = FINAL_HALF_CYCLE if final is None else final
-    assert built == [(20, replace(options, half_cycle_solve=final_half))]
+    assert built == [(20, replace(options, half_cycle_solve=final_half,
+                                  swing_wrench=FINAL_SWING_WRENCH))]
     assert factory.options.half_cycle_solve is SEARCH_HALF_CYCLE
 
 
@@ -413,13 +426,44 @@ def test_final_tasks_are_the_candidates_then_the_other_templates_by_cost() -> No
         assert [t.template for t in tasks] == [None, None, *kept]
     # the templates are solved as the template path plans them, the candidates as the options
     tasks, _ = final_tasks(spec, space, records, 2, (x_of["walk"], seeds["walk"]), seeds, own,
-                           template_half_cycle=True)
+                           template_half_cycle=True, template_swing_wrench="rows")
     assert [t.half_cycle for t in tasks] == [None, None, True, True, True]
+    assert [t.swing_wrench for t in tasks] == [None, None, "rows", "rows", "rows"]
     # no check: the candidates only; nothing usable: CMA's start
     tasks, searched = final_tasks(spec, space, records[2:3], 4, (x_of["walk"], seeds["walk"]),
                                   seeds, None)
     assert [t.template for t in tasks] == [None] and searched[0] is seeds["walk"]
     assert identical_schedules(tasks[0].schedule, space.decode(x_of["walk"]))
+
+
+@pytest.mark.parametrize(("own", "final"), [
+    ("rows", None), ("rows", "bounds"), ("bounds", "rows"),
+])
+def test_final_swing_wrench_reaches_the_final_planner_only(
+    monkeypatch: pytest.MonkeyPatch, own: str, final: str | None,
+) -> None:
+    """`final_swing_wrench` is the final planner's `swing_wrench` (`final_options`; None: the
+    options' own); the coarse solves keep theirs (`search_swing_wrench`, here the options')."""
+    options = PlannerOptions(swing_wrench=own)
+    (factory,), built = _planners_of_a_search(monkeypatch, options, search_swing_wrench=None,
+                                              final_swing_wrench=final)
+    assert factory.options.swing_wrench == own
+    assert built == [(20, final_options(options, final_swing_wrench=final))]
+    assert built[0][1].swing_wrench == (final or own)
+
+
+def test_unknown_final_swing_wrench_or_a_planner_without_it_is_one_line() -> None:
+    """An unknown `final_swing_wrench`, or a final planner passed in with another swing wrench
+    than the final re-solves', is a one-line error before any solve."""
+    with pytest.raises(PlannerConfigError,
+                       match=r"final_swing_wrench must be one of rows, bounds.*'free'") as err:
+        search_gait(robots.load("quad12"), 0.25, final_swing_wrench="free")
+    assert "\n" not in str(err.value)
+    stub = SimpleNamespace(n_knots=30,
+                           options=final_options(PlannerOptions(), final_swing_wrench="rows"))
+    with pytest.raises(PlannerConfigError, match=r"swing_wrench='rows'.*'bounds'.*final_options"):
+        search_gait(robots.load("quad12"), 0.25, planner=stub,  # type: ignore[arg-type]
+                    final_swing_wrench="bounds")
 
 
 def test_unknown_search_swing_wrench_is_one_line_before_any_solve() -> None:
