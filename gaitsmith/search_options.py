@@ -72,7 +72,9 @@ def search_half_cycle_option() -> Any:
                         help="solve each symmetric sample's coarse NLP on the first half of its "
                         "knots, the second half its mirror image (half the KKT system), or on "
                         "all of them; the final re-solves follow --half-cycle/--full-cycle "
-                        "(unset: all knots)")
+                        "(unset: the candidates and templates on half the knots where the "
+                        "timing is symmetric, a candidate failing the check narrowly re-solved "
+                        "on all)")
 
 
 def final_choice_option() -> Any:
