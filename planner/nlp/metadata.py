@@ -124,6 +124,9 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
             "inactive_rows": o.inactive_rows,
             # solved on the first half of the knots (`planner.nlp.half_cycle`)
             "half_cycle": bool(result.stats.get("half_cycle", False)),
+            # how the solve held the swing feet's wrench at 0 (`GaitPlanner.solve(swing_wrench=)`:
+            # the search's final re-solves may differ from the options)
+            "swing_wrench": str(result.stats.get("swing_wrench", o.swing_wrench)),
         },
         "active_limits": [[name, float(v)] for name, v in result.binding],
         "servo_load": servo_load(planner, result),

@@ -539,6 +539,8 @@ class GaitPlanner:
         result = dataclasses.replace(result, vy_m_s=float(vy_m_s),
                                      yaw_rate_rad_s=float(yaw_rate_rad_s))
         result.stats["half_cycle"] = half is not None  # solved on the first half's knots
+        # how this solve held the swing feet's wrench at 0 (the gait file's, whatever the options)
+        result.stats["swing_wrench"] = swing_wrench or self.options.swing_wrench
         if result.feasible:
             self._last = result.warm_start
         return result

@@ -8,6 +8,7 @@ import pytest
 import robots
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
+from planner.nlp.metadata import planner_metadata
 from planner.nlp.spacetime import GaitPlanner, PlanResult, SolveBounds
 from planner.nlp.swing_wrench import swing_wrench_bounds
 from planner.templates import make_schedule
@@ -175,5 +176,10 @@ def test_a_solve_may_hold_the_swing_wrench_its_own_way(quad_planner: GaitPlanner
     built = bounded.solve(schedule, 0.25, warm_start=False)
     assert asked.feasible and built.feasible
     assert asked.iterations == built.iterations and asked.cost == built.cost
+    # the gait file says how the written plan was solved, not what the options say
+    assert planner_metadata(pl, asked)["solver"]["swing_wrench"] == "bounds"
+    assert planner_metadata(bounded, built)["solver"]["swing_wrench"] == "bounds"
+    rows = bounded.solve(schedule, 0.25, warm_start=False, swing_wrench="rows")
+    assert planner_metadata(bounded, rows)["solver"]["swing_wrench"] == "rows"
     with pytest.raises(PlannerConfigError, match=r"swing_wrench must be one of rows, bounds"):
         pl.solve(schedule, 0.25, warm_start=False, swing_wrench="free")
