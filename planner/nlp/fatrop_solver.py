@@ -151,7 +151,9 @@ class FatropPlanner(GaitPlanner):
             result,
             vy_m_s=float(vy_m_s),
             yaw_rate_rad_s=float(yaw_rate_rad_s),
-            stats={**result.stats, "fatrop": dict(stats.get("fatrop", {}))},
+            # the built bounds: the swing wrench held by the schedule's rows (gait-file metadata)
+            stats={**result.stats, "fatrop": dict(stats.get("fatrop", {})),
+                   "swing_wrench": "rows"},
         )
         if result.feasible:
             self._last = result.warm_start

@@ -102,6 +102,7 @@ def test_fatrop_planner_keeps_ipopts_optimum() -> None:
     """End to end (stage maps, bounds, FATROP's manual structure, the verdict on the planner's
     NLP): started at IPOPT's optimum, a few FATROP iterations stay on it."""
     from planner.nlp.fatrop_solver import FatropPlanner
+    from planner.nlp.metadata import planner_metadata
     from planner.nlp.spacetime import GaitPlanner
 
     robot = robots.load("quad12")
@@ -119,3 +120,6 @@ def test_fatrop_planner_keeps_ipopts_optimum() -> None:
     assert res.max_violation <= FEASIBILITY_TOL
     assert not res.feasible and res.status.startswith("fatrop_return_flag")
     assert abs(res.cost - ref.cost) <= 1e-4 * abs(ref.cost)
+    # FATROP solves with the built bounds: asked for "bounds", the swing wrench is still the rows'
+    asked = fatrop.solve(schedule, 0.25, warm_start=ref.warm_start, swing_wrench="bounds")
+    assert planner_metadata(fatrop, asked)["solver"]["swing_wrench"] == "rows"
