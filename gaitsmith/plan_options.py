@@ -29,7 +29,7 @@ from gaitsmith.search_options import (
     check_final_choice,
     check_final_templates,
     check_search_options,
-    check_search_swing_wrench,
+    check_swing_wrench,
 )
 from gaitsmith.stance_options import STANCE_COMPLIANCE_KEY, StanceShaped
 from planner.nlp.config import (
@@ -172,8 +172,8 @@ def check_options(speed: float | None, knots: int, period: float | None, duty: s
     if search:
         check_search_options(st.executor, st.generations, st.popsize, st.workers,
                              st.search_knots, st.tipping_weight)
-        check_search_swing_wrench(st.search_swing_wrench)
-        check_search_swing_wrench(st.final_swing_wrench, "--final-swing-wrench")
+        check_swing_wrench("--search-swing-wrench", st.search_swing_wrench)
+        check_swing_wrench("--final-swing-wrench", st.final_swing_wrench)
         check_final_choice(st.final_choice)
         check_final_templates(st.final_templates)
     if cycles is not None and (simulate or (search and st.sim_accept)):

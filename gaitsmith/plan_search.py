@@ -13,11 +13,7 @@ import robots
 from gaitsmith.attitude_options import attitude_settings, resolved_gain
 from gaitsmith.console import console
 from gaitsmith.plan_output import DEFAULT_CYCLES, write_gait
-from gaitsmith.search_options import (
-    DEFAULT_FINAL_SWING_WRENCH,
-    DEFAULT_SEARCH_SWING_WRENCH,
-    sim_acceptance,
-)
+from gaitsmith.search_options import sim_acceptance
 from planner.errors import InfeasibleGaitError
 from planner.nlp.config import PlannerOptions
 from planner.search.budget import REASON_NONE_ACCEPTED
@@ -25,8 +21,10 @@ from planner.search.defaults import (
     DEFAULT_FINAL_CHOICE,
     DEFAULT_FINAL_TEMPLATES,
     FINAL_HALF_CYCLE,
+    FINAL_SWING_WRENCH,
     SEARCH_HALF_CYCLE,
     SEARCH_INACTIVE_ROWS,
+    SEARCH_SWING_WRENCH,
 )
 from planner.templates import default_gait_for
 from planner.user_schedule import command_schedule
@@ -50,7 +48,7 @@ class SearchSettings:
     tipping_weight: float
     sim_accept: bool
     #: `PlannerOptions.swing_wrench` of the coarse solves (`--search-swing-wrench`)
-    search_swing_wrench: str = DEFAULT_SEARCH_SWING_WRENCH
+    search_swing_wrench: str = SEARCH_SWING_WRENCH
     #: how the final phase picks its winner (`--final-choice`)
     final_choice: str = DEFAULT_FINAL_CHOICE
     #: the coarse solves on the first half of a symmetric sample's knots (`--search-half-cycle`)
@@ -61,7 +59,7 @@ class SearchSettings:
     #: given; unset: `FINAL_HALF_CYCLE`, `gaitsmith.plan_options.search_final_half_cycle`)
     final_half_cycle: bool = FINAL_HALF_CYCLE
     #: `PlannerOptions.swing_wrench` of the candidates' final re-solves (`--final-swing-wrench`)
-    final_swing_wrench: str = DEFAULT_FINAL_SWING_WRENCH
+    final_swing_wrench: str = FINAL_SWING_WRENCH
 
 
 def user_seed(bot: robots.Robot, gait: str | None, period: float | None, duty: str | None,

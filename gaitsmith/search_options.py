@@ -23,16 +23,6 @@ from planner.search.defaults import (
 )
 
 EXECUTORS = ("serial", "process", "ray")
-#: `plan --search --search-swing-wrench` and `--final-swing-wrench`'s defaults, how the coarse
-#: solves and the candidates' final re-solves hold a swing foot's wrench at 0: the search's own
-#: (`planner.search.defaults.SEARCH_SWING_WRENCH`, `FINAL_SWING_WRENCH`, "bounds" since session
-#: 40; the templates the final phase re-solves are planned as the template path plans them,
-#: "rows"). Session 32 measured "bounds" in the coarse solves alone: 0.80x the iterations and
-#: 0.90x the CPU over 18 searches, but the README command 1.07x the CPU (more 30-knot re-solves
-#: before its gait; today 1.09-1.11x); with the final re-solves on bounds too it is 1.00-1.01x
-#: (docs/results/planner_speed_search.md, sessions 32 and 40)
-DEFAULT_SEARCH_SWING_WRENCH = SEARCH_SWING_WRENCH
-DEFAULT_FINAL_SWING_WRENCH = FINAL_SWING_WRENCH
 
 
 def executor_option() -> Any:
@@ -54,14 +44,14 @@ def tipping_weight_option() -> Any:
 
 
 def search_swing_wrench_option() -> Any:
-    return typer.Option(DEFAULT_SEARCH_SWING_WRENCH, "--search-swing-wrench",
+    return typer.Option(SEARCH_SWING_WRENCH, "--search-swing-wrench",
                         help="how the coarse solves hold a swing foot's wrench at 0: rows | "
                         "bounds (fewer iterations; another draw of the search's course); the "
                         "final re-solves take --final-swing-wrench")
 
 
 def final_swing_wrench_option() -> Any:
-    return typer.Option(DEFAULT_FINAL_SWING_WRENCH, "--final-swing-wrench",
+    return typer.Option(FINAL_SWING_WRENCH, "--final-swing-wrench",
                         help="how the final re-solves of the searched candidates hold a swing "
                         "foot's wrench at 0: rows | bounds; the templates they compete with "
                         "are planned as plan --gait plans them")
@@ -102,7 +92,7 @@ def check_final_choice(value: str) -> None:
     check_choice("--final-choice", value, FINAL_CHOICES)
 
 
-def check_search_swing_wrench(value: str, option: str = "--search-swing-wrench") -> None:
+def check_swing_wrench(option: str, value: str) -> None:
     if value not in SWING_WRENCHES:
         raise OptionError(f"{option} must be {' or '.join(SWING_WRENCHES)}, got {value!r}")
 

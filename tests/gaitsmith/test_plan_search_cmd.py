@@ -118,11 +118,12 @@ def test_the_final_swing_wrench_is_the_searchs_default_or_the_one_asked(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """`plan --search` gives `search_gait` the candidates' final re-solves' swing wrench:
-    `DEFAULT_FINAL_SWING_WRENCH` ("bounds" since session 40) by default, "bounds" or "rows"
-    with --final-swing-wrench; the options (the templates') keep "rows" either way."""
+    `planner.search.defaults.FINAL_SWING_WRENCH` ("bounds" since session 40) by default,
+    "bounds" or "rows" with --final-swing-wrench; the options (the templates') keep "rows"
+    either way."""
     import planner.search.gait_search as gs
     from gaitsmith.cli import main
-    from gaitsmith.search_options import DEFAULT_FINAL_SWING_WRENCH
+    from planner.search.defaults import FINAL_SWING_WRENCH
 
     seen: list[tuple[str | None, str]] = []
 
@@ -131,7 +132,7 @@ def test_the_final_swing_wrench_is_the_searchs_default_or_the_one_asked(
         raise _Recorded
 
     monkeypatch.setattr(gs, "search_gait", record)
-    for extra, expected in (([], DEFAULT_FINAL_SWING_WRENCH),
+    for extra, expected in (([], FINAL_SWING_WRENCH),
                             (["--final-swing-wrench", "bounds"], "bounds"),
                             (["--final-swing-wrench", "rows"], "rows")):
         with pytest.raises(_Recorded):
