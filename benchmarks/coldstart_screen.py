@@ -107,8 +107,9 @@ def _lifted(self: cs.ColdStarter, kind: str, schedule: robots.ContactSchedule,
     return _start(self, kind, schedule, command, p)
 
 
-def _bounds(self: st.GaitPlanner, schedule: robots.ContactSchedule) -> st.SolveBounds:
-    b = _solve_bounds(self, schedule)
+def _bounds(self: st.GaitPlanner, schedule: robots.ContactSchedule,
+            swing_wrench: str | None = None) -> st.SolveBounds:
+    b = _solve_bounds(self, schedule, swing_wrench)
     if not EXTRA.get("_freeclr"):
         return b
     # the same rows `PlannerOptions(stance_clearance="free")` frees
