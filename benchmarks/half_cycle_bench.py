@@ -13,6 +13,11 @@ paths take the same iterates; "—" for a schedule that is not symmetric, which 
 a template the NLP refuses at the speed, e.g. a stand, is printed as refused). `--search-cap`:
 the search's coarse iteration cap (`DEFAULT_SEARCH_MAX_ITER`) instead of the NLP's own.
 Measured in docs/results/planner_speed_search.md, session 36 (lead).
+
+`--against FIELD=VALUE[,FIELD=VALUE…]` compares two half-cycle planners instead: the first
+column is the planner above with `half_cycle_solve` on, the second the same with those
+`PlannerOptions` fields replaced (strings, e.g. ``swing_wrench=bounds``; the asymmetry column
+is then the first one's). docs/results/planner_speed_coldstart.md, session 41.
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ from gait_search_bench import cli_search_options
 
 import robots
 from planner.errors import PlannerConfigError
+from planner.nlp.config import PlannerOptions
 from planner.nlp.half_cycle import HalfCycleNLP
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.gait_search import DEFAULT_SEARCH_MAX_ITER
@@ -68,7 +74,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--gaits", default=None, help="templates (default: all of the robot's)")
     ap.add_argument("--reps", type=int, default=1)
     ap.add_argument("--search-cap", action="store_true")
+    ap.add_argument("--against", default=None,
+                    help="FIELD=VALUE[,…]: half-cycle planner vs the same with these options")
     args = ap.parse_args(argv)
+    against = _fields(args.against) if args.against is not None else None
     try:
         knots = [int(k) for k in args.knots.split(",")]
     except ValueError:
@@ -90,12 +99,18 @@ def main(argv: list[str] | None = None) -> None:
         options = dataclasses.replace(options, max_iter=DEFAULT_SEARCH_MAX_ITER)
     print(f"{args.robot} at {args.speed} m/s, {time.strftime('%H:%M:%S', time.gmtime())} UTC, "
           f"load {os.getloadavg()[0]:.2f}")
-    print("| N | gait | full it | full cost | half it | half cost | rel. cost diff | CPU "
-          "full / half [s] | ratio | reduced | full's asymmetry |")
+    first, second = ("full", "half") if against is None else ("half", args.against)
+    print(f"| N | gait | {first} it | {first} cost | {second} it | {second} cost | rel. cost diff "
+          f"| CPU {first} / {second} [s] | ratio | reduced | {first}'s asymmetry |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for n in knots:
-        full = GaitPlanner(robot, n, dataclasses.replace(options, half_cycle_solve=False))
-        half = GaitPlanner(robot, n, dataclasses.replace(options, half_cycle_solve=True))
+        if against is None:
+            full = GaitPlanner(robot, n, dataclasses.replace(options, half_cycle_solve=False))
+            half = GaitPlanner(robot, n, dataclasses.replace(options, half_cycle_solve=True))
+        else:  # "full" is the first half-cycle planner, "half" the one with `against`
+            full = GaitPlanner(robot, n, dataclasses.replace(options, half_cycle_solve=True))
+            half = GaitPlanner(robot, n, dataclasses.replace(options, half_cycle_solve=True,
+                                                             **against))
         for gait in gaits:
             schedule = make_schedule(robot, gait)
             for rep in range(args.reps):
@@ -107,7 +122,8 @@ def main(argv: list[str] | None = None) -> None:
                     break
                 a, b = out[id(full)], out[id(half)]
                 rel = (b.result.cost - a.result.cost) / max(abs(a.result.cost), 1e-12)
-                asym = (asymmetry(half, a.result.warm_start.x) if b.result.stats["half_cycle"]
+                mapped = half if against is None else full
+                asym = (asymmetry(mapped, a.result.warm_start.x) if b.result.stats["half_cycle"]
                         else None)  # a schedule that is not symmetric has no mirror image
                 print(f"| {n} | {gait} | {a.result.iterations} | {a.result.cost:.8g}"
                       f"{'' if a.result.feasible else ' (infeasible)'} | {b.result.iterations} | "
@@ -116,6 +132,22 @@ def main(argv: list[str] | None = None) -> None:
                       f"{b.cpu_s / max(a.cpu_s, 1e-9):.2f} | {b.result.stats['half_cycle']} | "
                       + ("—" if asym is None else f"{asym:.1e}") + " |", flush=True)
     print(f"load at the end {os.getloadavg()[0]:.2f}")
+
+
+def _fields(text: str) -> dict[str, str]:
+    """``FIELD=VALUE,…`` as `PlannerOptions` keywords (string values: the option fields that
+    take a name, e.g. ``swing_wrench``, ``cold_mu_centrality``), checked by `PlannerOptions`."""
+    out: dict[str, str] = {}
+    for item in filter(None, text.split(",")):
+        key, sep, value = item.partition("=")
+        if not sep or key not in {f.name for f in dataclasses.fields(PlannerOptions)}:
+            raise SystemExit(f"--against: {item!r} is not FIELD=VALUE of a PlannerOptions field")
+        out[key] = value
+    try:
+        dataclasses.replace(PlannerOptions(), **out)  # type: ignore[arg-type]
+    except PlannerConfigError as exc:
+        raise SystemExit(f"--against: {exc}") from None
+    return out
 
 
 if __name__ == "__main__":
