@@ -261,6 +261,12 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "default-sc-free": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(stance_clearance="free")
     ),
+    # docs/results/planner_speed_coldstart.md, session 41: the template path's defaults with the
+    # swing feet's wrench fixed by bounds, alone and with the reciprocal μ-oracle centrality
+    "default-swb": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(swing_wrench="bounds")),
+    "default-swb-recip": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(swing_wrench="bounds", cold_mu_centrality="reciprocal")
+    ),
     "knot-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(compact_rows=())),
     "knot-compact": lambda robot, n: GaitPlanner(
         robot, n, _full_cycle(compact_rows=COMPACT_ROWS)
