@@ -142,6 +142,8 @@ def _fields(text: str) -> dict[str, str]:
         key, sep, value = item.partition("=")
         if not sep or key not in {f.name for f in dataclasses.fields(PlannerOptions)}:
             raise SystemExit(f"--against: {item!r} is not FIELD=VALUE of a PlannerOptions field")
+        if not isinstance(getattr(PlannerOptions(), key), str):
+            raise SystemExit(f"--against: {key} is not a field that takes a name")
         out[key] = value
     try:
         dataclasses.replace(PlannerOptions(), **out)  # type: ignore[arg-type]

@@ -25,6 +25,7 @@ def _run(*args: str) -> subprocess.CompletedProcess[str]:
     (["--against", "swing_wrench"], "--against: 'swing_wrench' is not FIELD=VALUE"),
     (["--against", "no_such=1"], "--against: 'no_such=1' is not FIELD=VALUE"),
     (["--against", "swing_wrench=both"], "--against: planner option swing_wrench='both'"),
+    (["--against", "half_cycle_solve=False"], "--against: half_cycle_solve is not a field"),
 ])
 def test_bad_options_are_one_line(args: list[str], message: str) -> None:
     proc = _run(*args)
