@@ -270,7 +270,8 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     ),
     # docs/results/planner_speed_ipopt.md, session 41: warm starts mapped onto the new schedule
     # (`PlannerOptions.warm_retime`), the swing feet's wrench held by bounds in warm solves
-    # (`warm_swing_wrench`), warm solves on the half-cycle NLP (`warm_half_cycle`)
+    # (`warm_swing_wrench`), warm solves on the half-cycle NLP (`warm_half_cycle`, the default
+    # since: "default-warm-half" is "default", "default-warm-full" the warm solves before)
     "default-warm-whole": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(warm_retime="whole")
     ),
@@ -286,8 +287,15 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "default-warm-half": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(warm_half_cycle=True)
     ),
+    "default-warm-full": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_half_cycle=False)
+    ),
     "default-warm-foot-half": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(warm_retime="per foot", warm_half_cycle=True)
+    ),
+    "default-warm-foot-swb-half": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_retime="per foot", warm_swing_wrench="bounds",
+                                 warm_half_cycle=True)
     ),
     "knot-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(compact_rows=())),
     "knot-compact": lambda robot, n: GaitPlanner(
@@ -505,6 +513,7 @@ def warm_chain(robot: robots.Robot, planners: dict[str, GaitPlanner], paths: lis
     warm_cpu: dict[str, list[float]] = {}
     checks: dict[str, str] = {}
     halves: dict[str, int] = {}
+    results: dict[str, list[PlanResult]] = {}
     for path in paths:
         planner = planners[path]
         planner.solve(base, speed, warm_start=False)  # the chain starts from this optimum
@@ -514,6 +523,7 @@ def warm_chain(robot: robots.Robot, planners: dict[str, GaitPlanner], paths: lis
             chained.append(planner.solve(s, speed))
             cpu.append(time.process_time() - t0)
         warm_cpu[path] = cpu
+        results[path] = chained
         warm[path] = ([r.solve_time_s for r in chained], [r.iterations for r in chained])
         halves[path] = sum(bool(r.stats.get("half_cycle")) for r in chained)
         same = lower = 0
@@ -524,10 +534,25 @@ def warm_chain(robot: robots.Robot, planners: dict[str, GaitPlanner], paths: lis
             same += ok
             lower += bool(ok and c.feasible and rel < -SAME_COST_RTOL)
             if not ok:
-                off.append(f"s{i} {rel:+.1e}" if w.feasible == c.feasible
-                           else f"s{i} verdict {w.status} vs cold {c.status}")
+                off.append(f"s{i} {rel:+.1e}" if w.feasible == c.feasible else (
+                    f"s{i} {'feasible' if w.feasible else 'infeasible'} ({w.status}, worst "
+                    f"violation {w.max_violation:.1e}) vs cold "
+                    f"{'feasible' if c.feasible else 'infeasible'} ({c.status}, "
+                    f"{c.max_violation:.1e}), rel {rel:+.1e}"))
         checks[path] = (f"same optimum as cold {same}/{n_warm} ({lower} lower)"
                         + (f"; off: {', '.join(off)}" if off else ""))
+        if path != base_name:  # against the baseline's own warm chain
+            rels = [(w.cost - b.cost) / max(abs(b.cost), 1e-12)
+                    for w, b in zip(chained, results[base_name], strict=True)
+                    if w.feasible and b.feasible]
+            verdicts = sum(w.feasible == b.feasible
+                           for w, b in zip(chained, results[base_name], strict=True))
+            checks[path] += (f"; against {base_name}'s warm solves: same verdict {verdicts}/"
+                             f"{n_warm}, cost within {SAME_COST_RTOL:g} "
+                             f"{sum(abs(r) <= SAME_COST_RTOL for r in rels)}/{len(rels)}, "
+                             f"{sum(r < -SAME_COST_RTOL for r in rels)} lower, "
+                             f"{sum(r > SAME_COST_RTOL for r in rels)} higher, worst |rel| "
+                             f"{max((abs(r) for r in rels), default=0.0):.1e}")
     cold_its = [c.iterations for c in cold]
     print(f"  warm chain of {n_warm} ({gait}, {'symmetric' if symmetric else 'perturbed'}); "
           f"cold solves of the same schedules ({base_name}): median "

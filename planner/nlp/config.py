@@ -102,6 +102,12 @@ DEFAULT_COLD_START = "stance"
 #: `planner.search.defaults.FINAL_HALF_CYCLE`, whatever the options say
 #: (`gaitsmith plan --half-cycle/--full-cycle` given explicitly sets both)
 DEFAULT_HALF_CYCLE_SOLVE = True
+#: `PlannerOptions.warm_half_cycle`'s default: a warm solve on a symmetric schedule from a start
+#: on the mirror subspace takes the half-cycle NLP too (with the warm IPOPT options). Over 32
+#: warm solves of symmetric perturbed chains (quad12 trot, hex18 tripod, N = 30, two seeds
+#: each) the same optimum as the full warm solve on 32 (worst 4.4e-5 relative; hex18 the same
+#: iterates, 3.7e-11) at 0.49–0.53× its CPU (docs/results/planner_speed_ipopt.md, session 41)
+DEFAULT_WARM_HALF_CYCLE = True
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -417,8 +423,11 @@ class PlannerOptions:
       is given `swing_wrench` explicitly keeps it).
     - `warm_half_cycle`: a warm solve on a half-cycle symmetric schedule from a start on the
       mirror subspace may use the half-cycle NLP (`half_cycle_solve`) with the warm IPOPT
-      options (a reduced IPOPT instance of its own); off: warm solves take the full NLP when
-      the warm options differ from the cold ones.
+      options (a reduced IPOPT instance of its own, created at its first warm solve); off:
+      warm solves take the full NLP when the warm options differ from the cold ones (before
+      session 41). On by default (`DEFAULT_WARM_HALF_CYCLE`); `warm_retime` and
+      `warm_swing_wrench` are off ("none", "same"): each moved some hex18 warm solves to
+      another local optimum than the full warm solve's.
     Measured in docs/results/planner_speed_ipopt.md (session 41).
     """
 
@@ -467,7 +476,7 @@ class PlannerOptions:
     cold_mu_centrality: str = DEFAULT_COLD_MU_CENTRALITY
     warm_retime: str = "none"
     warm_swing_wrench: str = "same"
-    warm_half_cycle: bool = False
+    warm_half_cycle: bool = DEFAULT_WARM_HALF_CYCLE
 
     def __post_init__(self) -> None:
         checks = {
