@@ -103,10 +103,11 @@ DEFAULT_COLD_START = "stance"
 #: (`gaitsmith plan --half-cycle/--full-cycle` given explicitly sets both)
 DEFAULT_HALF_CYCLE_SOLVE = True
 #: `PlannerOptions.warm_half_cycle`'s default: a warm solve on a symmetric schedule from a start
-#: on the mirror subspace takes the half-cycle NLP too (with the warm IPOPT options). Over 32
-#: warm solves of symmetric perturbed chains (quad12 trot, hex18 tripod, N = 30, two seeds
-#: each) the same optimum as the full warm solve on 32 (worst 4.4e-5 relative; hex18 the same
-#: iterates, 3.7e-11) at 0.49–0.53× its CPU (docs/results/planner_speed_ipopt.md, session 41)
+#: on the mirror subspace takes the half-cycle NLP too (with the warm IPOPT options). Over 40
+#: warm solves of symmetric perturbed chains (quad12 trot, hex18 tripod, N = 30, five chains)
+#: the same verdict as the full warm solve on 40, its cost within 1e-4 on 39 (one +1.5e-4, both
+#: below the cold solve's) at 0.48–0.53× its CPU (docs/results/planner_speed_ipopt.md,
+#: session 41)
 DEFAULT_WARM_HALF_CYCLE = True
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
