@@ -71,6 +71,10 @@ OPTION_FLAGS: dict[str, dict[str, Any]] = {
     "push6": {k: 1e-6 for k in ("warm_start_bound_push", "warm_start_slack_bound_push",
                                 "warm_start_mult_bound_push")},
     "mono": {"mu_strategy": "monotone"},
+    "nowsip": {"warm_start_init_point": "no"},
+    "mubased": {"bound_mult_init_method": "mu-based"},
+    "lsduals": {"least_square_init_duals": "yes"},
+    "bp3": {k: 1e-3 for k in ("bound_push", "bound_frac", "slack_bound_push", "slack_bound_frac")},
     "tol5": {"tol": 1e-5},
     "tol4": {"tol": 1e-4},
     "print5": {"print_level": 5, "print_timing_statistics": "no"},
@@ -90,6 +94,7 @@ class Variant:
     fix: bool = False
     fix_rates: bool = False
     swing_wrench: str | None = None
+    centred: bool = False
 
     @classmethod
     def parse(cls, name: str) -> Variant:
@@ -97,7 +102,7 @@ class Variant:
         if start not in ("prev", "retimed", "perfoot"):
             raise SystemExit(f"variant {name!r}: start {start!r} is not prev/retimed/perfoot")
         duals, extra, cold, half, fix, rates = "drop", {}, False, False, False, False
-        wrench = None
+        wrench, centred = None, False
         for flag in flags:
             if flag in ("keep", "keepz"):
                 duals = flag
@@ -113,9 +118,11 @@ class Variant:
                 rates = True
             elif flag == "swb":
                 wrench = "bounds"
+            elif flag == "centre":
+                centred = True
             else:
                 raise SystemExit(f"variant {name!r}: unknown flag {flag!r}")
-        return cls(name, start, duals, extra, cold, half, fix, rates, wrench)
+        return cls(name, start, duals, extra, cold, half, fix, rates, wrench, centred)
 
 
 def changed_rows(planner: GaitPlanner, x: np.ndarray, p_from: np.ndarray, p_to: np.ndarray,
@@ -156,6 +163,32 @@ def fd_rates(planner: GaitPlanner, x: np.ndarray, p: np.ndarray) -> np.ndarray:
     return out
 
 
+def centred_duals(planner: GaitPlanner, x: np.ndarray, schedule: robots.ContactSchedule,
+                  speed: float, mu: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bound and inequality multipliers on the central path at `x`: μ / (distance to the
+    nearer finite bound) in the solver's scaled units, signed as CasADi's (upper +, lower −);
+    equality rows 0. Returned in physical units (`GaitPlanner.solve` scales them)."""
+    b = planner._solve_bounds(schedule)
+    xs, gs = planner._x_scale, planner._g_scale
+    push = spacetime.TUNED_WARM_BOUND_PUSH
+
+    def side(v: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        d_lo = np.where(np.isfinite(lo), v - lo, np.inf)
+        d_hi = np.where(np.isfinite(hi), hi - v, np.inf)
+        floor = push * np.maximum(1.0, np.abs(v))
+        z_lo = mu / np.maximum(d_lo, floor)
+        z_hi = mu / np.maximum(d_hi, floor)
+        out = np.where(d_hi < d_lo, z_hi, -z_lo)
+        out[(~np.isfinite(lo) & ~np.isfinite(hi)) | (lo == hi)] = 0.0
+        return out
+
+    p = parameter_vector(schedule, planner.n_knots, speed, planner.swing_clearance_m)
+    g = np.asarray(planner._evaluate(x / xs, p)[0]).ravel()
+    lam_x = side(x / xs, b.lbx / xs, b.ubx / xs) / xs  # solver's λ̃ = λ·xs
+    lam_g = side(g / gs, b.lbg / gs, b.ubg / gs) / gs
+    return lam_x, lam_g
+
+
 def make_start(planner: GaitPlanner, v: Variant, prev: PlanResult,
                s_from: robots.ContactSchedule, s_to: robots.ContactSchedule,
                speed: float) -> WarmStart:
@@ -173,6 +206,8 @@ def make_start(planner: GaitPlanner, v: Variant, prev: PlanResult,
     if v.fix_rates:
         x = fd_rates(planner, x, parameter_vector(s_to, n, speed, planner.swing_clearance_m))
     lam_x, lam_g = prev.warm_start.lam_x.copy(), prev.warm_start.lam_g.copy()
+    if v.centred:
+        lam_x, lam_g = centred_duals(planner, x, s_to, speed, v.ipopt.get("mu_init", 1e-3))
     if v.duals == "keepz":
         clear = planner.swing_clearance_m
         rows, cols = changed_rows(planner, x, parameter_vector(s_from, n, speed, clear),
