@@ -9,7 +9,9 @@ Usage (also what basin-CMA calls in its inner loop)::
 The schedule (contact activity per knot, swing clearance profile), speed and period are NLP
 parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal
 point (the multipliers restart, `WARM_START_DUALS`), pushed inside its bounds as
-`ipopt_options` says for `PlannerOptions.ipopt_tuning`.
+`ipopt_options` says for `PlannerOptions.ipopt_tuning`; `PlannerOptions.warm_retime` can map it
+onto the new schedule first (`planner.nlp.warm_start`), and a symmetric warm solve takes the
+half-cycle NLP (`PlannerOptions.warm_half_cycle`).
 
 IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the NLP un-expanded and
 hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
