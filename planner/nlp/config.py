@@ -106,7 +106,7 @@ DEFAULT_HALF_CYCLE_SOLVE = True
 #: on the mirror subspace takes the half-cycle NLP too (with the warm IPOPT options). Over 40
 #: warm solves of symmetric perturbed chains (quad12 trot, hex18 tripod, N = 30, five chains)
 #: the same verdict as the full warm solve on 40, its cost within 1e-4 on 39 (one +1.5e-4, both
-#: below the cold solve's) at 0.48–0.53× its CPU (docs/results/planner_speed_ipopt.md,
+#: below the cold solve's) at 0.50–0.52× its CPU per chain (docs/results/planner_speed_ipopt.md,
 #: session 41)
 DEFAULT_WARM_HALF_CYCLE = True
 #: upper bound of `PlannerOptions.knot_threads`
