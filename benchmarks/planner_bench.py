@@ -22,11 +22,13 @@ The `compare` section runs the solver paths named by ``--paths`` (default ``expa
 the whole NLP expanded to SX, and the per-knot derivatives of `planner.nlp.solver_cache`; the
 first is the baseline, `PATHS` lists them all) in one run on the same schedules: every template
 of the robot and `--random` random schedules, cold, then a chain of `--warm` perturbed warm
-solves. It prints per path median/min/max solve time, iterations, ms/iteration and the ratio
-against the baseline, the build times (with an empty disk cache and from the cache) and whether
-each path reaches the baseline's optimum (same feasibility verdict, cost within 1e-4 relative or
-lower) over the solves that converged; a pair in which either solve stopped at the iteration cap
-is counted apart, with its cost difference, and not called the same optimum.
+solves (`--symmetric`: perturbations that keep the schedule half-cycle symmetric), each compared
+against the baseline's cold solve of the same schedule. It prints per path median/min/max solve
+time, iterations, ms/iteration and the ratio against the baseline, the build times (with an
+empty disk cache and from the cache) and whether each path reaches the baseline's optimum
+(same feasibility verdict, cost within 1e-4 relative or lower) over the solves that converged;
+a pair in which either solve stopped at the iteration cap is counted apart, with its cost
+difference, and not called the same optimum.
 """
 
 from __future__ import annotations
@@ -55,7 +57,12 @@ from planner.nlp import spacetime
 from planner.nlp.config import COMPACT_ROWS, PlannerOptions
 from planner.nlp.constraints import knot_function
 from planner.nlp.spacetime import GaitPlanner, PlanResult
-from planner.templates import default_gait_for, make_schedule, templates_for
+from planner.templates import (
+    default_gait_for,
+    make_schedule,
+    mirror_permutation,
+    templates_for,
+)
 
 SAME_COST_RTOL = 1e-4
 
@@ -267,6 +274,35 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "default-swb-recip": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(swing_wrench="bounds", cold_mu_centrality="reciprocal")
     ),
+    # docs/results/planner_speed_ipopt.md, session 41: warm starts mapped onto the new schedule
+    # (`PlannerOptions.warm_retime`), the swing feet's wrench held by bounds in warm solves
+    # (`warm_swing_wrench`), warm solves on the half-cycle NLP (`warm_half_cycle`, the default
+    # since: "default-warm-half" is "default", "default-warm-full" the warm solves before)
+    "default-warm-whole": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_retime="whole")
+    ),
+    "default-warm-foot": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_retime="per foot")
+    ),
+    "default-warm-swb": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_swing_wrench="bounds")
+    ),
+    "default-warm-foot-swb": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_retime="per foot", warm_swing_wrench="bounds")
+    ),
+    "default-warm-half": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_half_cycle=True)
+    ),
+    "default-warm-full": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_half_cycle=False)
+    ),
+    "default-warm-foot-half": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_retime="per foot", warm_half_cycle=True)
+    ),
+    "default-warm-foot-swb-half": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_retime="per foot", warm_swing_wrench="bounds",
+                                 warm_half_cycle=True)
+    ),
     "knot-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(compact_rows=())),
     "knot-compact": lambda robot, n: GaitPlanner(
         robot, n, _full_cycle(compact_rows=COMPACT_ROWS)
@@ -332,9 +368,11 @@ def compare(
     seed: int,
     paths: list[str],
     only_templates: list[str] | None = None,
+    symmetric: bool = False,
 ) -> None:
     """Solver paths side by side on the same schedules, in one run (module docstring);
-    `only_templates`: these of the robot's templates instead of all."""
+    `only_templates`: these of the robot's templates instead of all; `symmetric`: the warm
+    chain's schedules stay half-cycle symmetric (`warm_chain`)."""
     robot = robots.load(robot_name)
     print(f"{robot_name} N={n_knots} ({', '.join(paths)}; baseline {paths[0]})")
     planners = _build_paths(robot, n_knots, paths)
@@ -434,22 +472,108 @@ def compare(
             f"bit-identical x {identical[path]}/{verdicts}"
         )
     if n_warm:
-        warm_rng = np.random.default_rng(seed + 1)
-        chain = [perturbed(base, warm_rng) for _ in range(n_warm)]
-        warm: dict[str, tuple[list[float], list[int]]] = {}
-        warm_cpu: dict[str, float] = {}
-        for path in paths:
-            planner = planners[path]
-            planner.solve(base, speed, warm_start=False)  # the chain starts from this optimum
+        warm_chain(robot, planners, paths, base, gait, speed, n_warm, seed, symmetric)
+
+
+def symmetric_perturbed(schedule: robots.ContactSchedule, image: tuple[int, ...],
+                        rng: np.random.Generator) -> robots.ContactSchedule:
+    """`perturbed` drawn per mirror pair (`image`: each foot's mirror image): a foot and its
+    image keep one duty factor and touchdowns half a cycle apart, so the schedule stays
+    half-cycle symmetric (the half-cycle NLP fits it)."""
+    phases, duty = list(schedule.touchdown_phase), list(schedule.duty_factor)
+    done: set[int] = set()
+    for f, g in enumerate(image):
+        if f in done:
+            continue
+        d = float(np.clip(duty[f] + rng.uniform(-0.03, 0.03), 0.3, 0.95))
+        td = float((phases[f] + rng.uniform(-0.03, 0.03)) % 1.0)
+        duty[f], phases[f] = d, td
+        if g != f:
+            duty[g], phases[g] = d, float((td + 0.5) % 1.0)
+        done |= {f, g}
+    return robots.ContactSchedule(schedule.period_s * float(rng.uniform(0.95, 1.05)),
+                                  schedule.feet, tuple(phases), tuple(duty))
+
+
+def warm_chain(robot: robots.Robot, planners: dict[str, GaitPlanner], paths: list[str],
+               base: robots.ContactSchedule, gait: str, speed: float, n_warm: int, seed: int,
+               symmetric: bool) -> None:
+    """The warm chain: `n_warm` perturbed schedules (`symmetric`: `symmetric_perturbed`), each
+    solved from the previous optimum, per path; every solve compared against the cold solve of
+    the same schedule by the baseline path (same verdict, cost within `SAME_COST_RTOL` relative
+    or lower)."""
+    warm_rng = np.random.default_rng(seed + 1)
+    image = mirror_permutation(robot) if symmetric else None
+    if symmetric and image is None:
+        raise SystemExit(f"--symmetric: {robot.name} has no left-right mirror map")
+    chain = [perturbed(base, warm_rng) if image is None
+             else symmetric_perturbed(base, image, warm_rng) for _ in range(n_warm)]
+    base_name = paths[0]
+    cold: list[PlanResult] = []
+    cold_cpu = []
+    for s in chain:
+        t0 = time.process_time()
+        cold.append(planners[base_name].solve(s, speed, warm_start=False))
+        cold_cpu.append(time.process_time() - t0)
+    warm: dict[str, tuple[list[float], list[int]]] = {}
+    warm_cpu: dict[str, list[float]] = {}
+    checks: dict[str, str] = {}
+    halves: dict[str, int] = {}
+    results: dict[str, list[PlanResult]] = {}
+    for path in paths:
+        planner = planners[path]
+        planner.solve(base, speed, warm_start=False)  # the chain starts from this optimum
+        chained, cpu = [], []
+        for s in chain:
             t0 = time.process_time()
-            chained = [planner.solve(s, speed) for s in chain]
-            warm_cpu[path] = time.process_time() - t0
-            warm[path] = ([r.solve_time_s for r in chained], [r.iterations for r in chained])
-        print(f"  warm chain of {n_warm} ({gait}, perturbed):")
-        for path in paths:
-            ratio = statistics.median(warm[path][0]) / statistics.median(warm[base_name][0])
-            print(f"    {path}: {_spread(*warm[path])}, /{base_name} median {ratio:.2f}; process "
-                  f"CPU {_cpu_ms_per_it([warm_cpu[path]], warm[path][1]):.1f} ms/it")
+            chained.append(planner.solve(s, speed))
+            cpu.append(time.process_time() - t0)
+        warm_cpu[path] = cpu
+        results[path] = chained
+        warm[path] = ([r.solve_time_s for r in chained], [r.iterations for r in chained])
+        halves[path] = sum(bool(r.stats.get("half_cycle")) for r in chained)
+        same = lower = 0
+        off = []
+        for i, (w, c) in enumerate(zip(chained, cold, strict=True)):
+            rel = (w.cost - c.cost) / max(abs(c.cost), 1e-12)
+            ok = w.feasible == c.feasible and (not c.feasible or rel <= SAME_COST_RTOL)
+            same += ok
+            lower += bool(ok and c.feasible and rel < -SAME_COST_RTOL)
+            if not ok:
+                off.append(f"s{i} {rel:+.1e}" if w.feasible == c.feasible else (
+                    f"s{i} {'feasible' if w.feasible else 'infeasible'} ({w.status}, worst "
+                    f"violation {w.max_violation:.1e}) vs cold "
+                    f"{'feasible' if c.feasible else 'infeasible'} ({c.status}, "
+                    f"{c.max_violation:.1e}), rel {rel:+.1e}"))
+        checks[path] = (f"same optimum as cold {same}/{n_warm} ({lower} lower)"
+                        + (f"; off: {', '.join(off)}" if off else ""))
+        if path != base_name:  # against the baseline's own warm chain
+            rels = [(w.cost - b.cost) / max(abs(b.cost), 1e-12)
+                    for w, b in zip(chained, results[base_name], strict=True)
+                    if w.feasible and b.feasible]
+            verdicts = sum(w.feasible == b.feasible
+                           for w, b in zip(chained, results[base_name], strict=True))
+            checks[path] += (f"; against {base_name}'s warm solves: same verdict {verdicts}/"
+                             f"{n_warm}, cost within {SAME_COST_RTOL:g} "
+                             f"{sum(abs(r) <= SAME_COST_RTOL for r in rels)}/{len(rels)}, "
+                             f"{sum(r < -SAME_COST_RTOL for r in rels)} lower, "
+                             f"{sum(r > SAME_COST_RTOL for r in rels)} higher, worst |rel| "
+                             f"{max((abs(r) for r in rels), default=0.0):.1e}")
+    cold_its = [c.iterations for c in cold]
+    print(f"  warm chain of {n_warm} ({gait}, {'symmetric' if symmetric else 'perturbed'}); "
+          f"cold solves of the same schedules ({base_name}): median "
+          f"{statistics.median(cold_its):.0f} it, CPU median {statistics.median(cold_cpu):.2f} s "
+          f"(total {sum(cold_cpu):.2f} s, {sum(cold_its)} it), "
+          f"{sum(bool(c.stats.get('half_cycle')) for c in cold)} half-cycle:")
+    for path in paths:
+        ratio = statistics.median(warm[path][0]) / statistics.median(warm[base_name][0])
+        its = warm[path][1]
+        print(f"    {path}: {_spread(*warm[path])}, /{base_name} median {ratio:.2f}; process "
+              f"CPU {_cpu_ms_per_it(warm_cpu[path], its):.1f} ms/it, median "
+              f"{statistics.median(warm_cpu[path]):.2f} s, total {sum(warm_cpu[path]):.2f} s "
+              f"(/cold {sum(warm_cpu[path]) / sum(cold_cpu):.2f}, iterations /cold "
+              f"{sum(its) / max(1, sum(cold_its)):.2f}); {halves[path]} half-cycle; "
+              f"{checks[path]}")
 
 
 def main() -> None:
@@ -476,6 +600,8 @@ def main() -> None:
     ap.add_argument(
         "--templates", default=None, help="`compare`: only these templates (comma-separated)"
     )
+    ap.add_argument("--symmetric", action="store_true",
+                    help="`compare`: a warm chain of half-cycle symmetric perturbations")
     args = ap.parse_args()
     only = None if args.templates is None else [t.strip() for t in args.templates.split(",")]
     paths = [p.strip() for p in args.paths.split(",") if p.strip()]
@@ -491,17 +617,17 @@ def main() -> None:
     if args.section in ("all", "compare"):
         if args.robot in ("both", "quad12"):
             compare("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed, paths,
-                    only)
+                    only, args.symmetric)
         if args.robot in ("both", "hex18"):
             compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed, paths,
-                    only)
+                    only, args.symmetric)
         if args.robot not in ("both", "quad12", "hex18"):
             try:
                 gait = default_gait_for(robots.load(args.robot))
             except robots.RobotsError as exc:
                 ap.error(f"--robot {args.robot!r}: {exc}")
             compare(args.robot, gait, args.speed, args.knots, args.random, args.warm, args.seed,
-                    paths, only)
+                    paths, only, args.symmetric)
 
 
 if __name__ == "__main__":

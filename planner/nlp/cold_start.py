@@ -127,10 +127,21 @@ class ColdStarter:
         x = initial_guess(layout, self.model, schedule)
         if kind == "stance":
             return x
-        n = layout.n_knots
         base, q, f = layout.unpack(x)
         if kind == "stride":
             q = self._stride_joints(schedule, command, q)
+        return self.consistent(layout.pack(base, q, f), schedule, command, p)
+
+    def consistent(self, x: np.ndarray, schedule: ContactSchedule, command: StartCommand,
+                   p: np.ndarray) -> np.ndarray:
+        """`x`'s poses with the rest made to meet the equality rows as "balanced" does (module
+        docstring): the rates the cyclic differences of the poses, the stance feet's wrench the
+        least change from `x`'s forces (zero moments) that zeroes the Newton–Euler rows, the
+        torques the inverse dynamics, the goal slopes the spline's. Used for cold starts and
+        for warm starts re-timed onto another schedule (`planner.nlp.warm_start`)."""
+        layout = self.layout
+        n = layout.n_knots
+        base, q, f = (np.array(v) for v in layout.unpack(x))
         x = layout.pack(base, q, f)
         # rates: the NLP's own cyclic differences of these poses, the "finite differences" rows
         # (vel − D₁·pose, then acc − D₂·pose, knot-major as the blocks) at zero rates negated

@@ -62,6 +62,10 @@ DEFAULT_COMPACT_ROWS = ("torque envelope",)
 COLD_STARTS = ("stance", "balanced", "stride")
 #: values of `PlannerOptions.swing_wrench` (`planner.nlp.swing_wrench`)
 SWING_WRENCHES = ("rows", "bounds")
+#: values of `PlannerOptions.warm_retime` (`planner.nlp.warm_start`)
+WARM_RETIMES = ("none", "whole", "per foot")
+#: values of `PlannerOptions.warm_swing_wrench`: "same" (the solve's own, `swing_wrench`)
+WARM_SWING_WRENCHES = ("same", *SWING_WRENCHES)
 #: values of `PlannerOptions.cold_mu_centrality`: IPOPT's ``quality_function_centrality``
 COLD_MU_CENTRALITIES = ("none", "reciprocal")
 #: `PlannerOptions.cold_mu_centrality`'s default (the search's coarse solves use
@@ -98,6 +102,13 @@ DEFAULT_COLD_START = "stance"
 #: `planner.search.defaults.FINAL_HALF_CYCLE`, whatever the options say
 #: (`gaitsmith plan --half-cycle/--full-cycle` given explicitly sets both)
 DEFAULT_HALF_CYCLE_SOLVE = True
+#: `PlannerOptions.warm_half_cycle`'s default: a warm solve on a symmetric schedule from a start
+#: on the mirror subspace takes the half-cycle NLP too (with the warm IPOPT options). Over 40
+#: warm solves of symmetric perturbed chains (quad12 trot, hex18 tripod, N = 30, five chains)
+#: the same verdict as the full warm solve on 40, its cost within 1e-4 on 39 (one +1.5e-4, both
+#: below the cold solve's) at 0.50–0.52× its CPU per chain (docs/results/planner_speed_ipopt.md,
+#: session 41)
+DEFAULT_WARM_HALF_CYCLE = True
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -403,6 +414,22 @@ class PlannerOptions:
       the adaptive μ oracle avoid μ far below the iterate's complementarity spread
       (docs/results/planner_speed_coldstart.md). The search's coarse solves use
       `planner.search.defaults.SEARCH_COLD_MU_CENTRALITY` whatever this says.
+    - `warm_retime`: how a warm start that knows its schedule (`WarmStart.schedule`: the
+      planner's last solution, a `PlanResult.warm_start`) is mapped onto another schedule
+      before the solve (`planner.nlp.warm_start`): "none" (as it is), "whole" (every quantity
+      at the same phase, rates by the period ratio: `planner.nlp.variables.retimed_start`),
+      "per foot" (each leg's quantities by the phase since its foot's touchdown).
+    - `warm_swing_wrench`: how a warm solve holds the swing feet's wrench at 0: "same" (as
+      `swing_wrench` or `solve(swing_wrench=)` say) or one of `SWING_WRENCHES` (a solve that
+      is given `swing_wrench` explicitly keeps it).
+    - `warm_half_cycle`: a warm solve on a half-cycle symmetric schedule from a start on the
+      mirror subspace may use the half-cycle NLP (`half_cycle_solve`) with the warm IPOPT
+      options (a reduced IPOPT instance of its own, created at its first warm solve); off:
+      warm solves take the full NLP when the warm options differ from the cold ones (before
+      session 41). On by default (`DEFAULT_WARM_HALF_CYCLE`); `warm_retime` and
+      `warm_swing_wrench` are off ("none", "same"): each moved some hex18 warm solves to
+      another local optimum than the full warm solve's.
+    Measured in docs/results/planner_speed_ipopt.md (session 41).
     """
 
     mu: float = 0.5
@@ -448,6 +475,9 @@ class PlannerOptions:
     inactive_rows: str = DEFAULT_INACTIVE_ROWS
     stance_clearance: str = DEFAULT_STANCE_CLEARANCE
     cold_mu_centrality: str = DEFAULT_COLD_MU_CENTRALITY
+    warm_retime: str = "none"
+    warm_swing_wrench: str = "same"
+    warm_half_cycle: bool = DEFAULT_WARM_HALF_CYCLE
 
     def __post_init__(self) -> None:
         checks = {
@@ -500,7 +530,9 @@ class PlannerOptions:
         for name, choices in (("cold_start", COLD_STARTS), ("swing_wrench", SWING_WRENCHES),
                               ("inactive_rows", INACTIVE_ROWS),
                               ("cold_mu_centrality", COLD_MU_CENTRALITIES),
-                              ("stance_clearance", STANCE_CLEARANCES)):
+                              ("stance_clearance", STANCE_CLEARANCES),
+                              ("warm_retime", WARM_RETIMES),
+                              ("warm_swing_wrench", WARM_SWING_WRENCHES)):
             value = getattr(self, name)
             if value not in choices:
                 raise PlannerConfigError(

@@ -287,6 +287,11 @@ class HalfCycleNLP:
     rows: RowSelection
     solver: Any
     abort: Any | None = None
+    #: the reduced NLP and its nlpsol options, for an IPOPT instance with the warm options
+    #: (`PlannerOptions.warm_half_cycle`), created at its first warm solve
+    nlp: dict[str, Any] | None = None
+    solver_options: dict[str, Any] | None = None
+    warm_solver: Any | None = None
 
 
 def reduced_nlp(mirror: VariableMirror, rows: RowSelection, x: Any, p: Any, f: Any, g: Any,

@@ -9,7 +9,9 @@ Usage (also what basin-CMA calls in its inner loop)::
 The schedule (contact activity per knot, swing clearance profile), speed and period are NLP
 parameters, so changing them never rebuilds anything. Warm starts reuse the previous primal
 point (the multipliers restart, `WARM_START_DUALS`), pushed inside its bounds as
-`ipopt_options` says for `PlannerOptions.ipopt_tuning`.
+`ipopt_options` says for `PlannerOptions.ipopt_tuning`; `PlannerOptions.warm_retime` can map it
+onto the new schedule first (`planner.nlp.warm_start`), and a symmetric warm solve takes the
+half-cycle NLP (`PlannerOptions.warm_half_cycle`).
 
 IPOPT's derivatives (`PlannerOptions.derivatives`): "knot" (default) keeps the NLP un-expanded and
 hands CasADi one knot's Jacobian and Hessian, cached on disk per robot (`planner.nlp.solver_cache`);
@@ -78,10 +80,12 @@ from planner.nlp.variables import (
     initial_guess,
     make_symbols,
     parameter_vector,
+    retimed_start,
     swing_force_upper_bounds,
     variable_bounds,
     variable_scale,
 )
+from planner.nlp.warm_start import per_foot_applies, per_foot_retimed
 from robots import ContactSchedule, Gait, Robot, Velocity
 
 _USER_STOP = ("User_Requested_Stop",)
@@ -190,11 +194,13 @@ class SolveBounds:
 
 @dataclass(frozen=True)
 class WarmStart:
-    """A primal/dual point to start IPOPT from."""
+    """A primal/dual point to start IPOPT from; `schedule`: the schedule it solves, if known
+    (`PlannerOptions.warm_retime` maps it onto another one)."""
 
     x: np.ndarray
     lam_x: np.ndarray
     lam_g: np.ndarray
+    schedule: ContactSchedule | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -489,6 +495,10 @@ class GaitPlanner:
         solver = self._solver_for(warm=start is not None)  # before t0: a one-off build
         t0 = time.perf_counter()
         warm = start is not None
+        if swing_wrench is None and warm and self.options.warm_swing_wrench != "same":
+            swing_wrench = self.options.warm_swing_wrench
+        if start is not None:
+            start = self._retimed(start, schedule)
         if start is None:
             x0 = self._cold_start(schedule, p, StartCommand(
                 VelocityCommand(float(speed_m_s), float(vy_m_s), float(yaw_rate_rad_s)),
@@ -507,7 +517,7 @@ class GaitPlanner:
         self._used_abort = abort
         with _sigint_watch() as interrupted:
             if half is not None:
-                sol, stats = self._solve_half_cycle(half, start, p, bounds)
+                sol, stats = self._solve_half_cycle(half, start, p, bounds, warm)
             else:
                 if abort is not None:
                     abort.arm(lbg, ubg)
@@ -545,6 +555,22 @@ class GaitPlanner:
             self._last = result.warm_start
         return result
 
+    def _retimed(self, start: WarmStart, schedule: ContactSchedule) -> WarmStart:
+        """`start` mapped onto `schedule` as `PlannerOptions.warm_retime` says (unchanged when
+        "none", when its schedule is unknown or the same, or when it is another NLP's)."""
+        retime = self.options.warm_retime
+        source = start.schedule
+        if (retime == "none" or source is None or source == schedule
+                or start.x.shape != self._lbx.shape or source.feet != schedule.feet):
+            return start
+        if retime == "whole" or not per_foot_applies(source, schedule):
+            n = self.n_knots
+            x = retimed_start(self.layout, start.x, source.period_s, schedule.period_s,
+                              source.contact_matrix(n), schedule.contact_matrix(n))
+        else:
+            x = per_foot_retimed(self.layout, self.robot, start.x, source, schedule)
+        return WarmStart(x, start.lam_x, start.lam_g, schedule)
+
     def _half_cycle_for(self, schedule: ContactSchedule, p: np.ndarray, start: WarmStart,
                         bounds: SolveBounds, vy_m_s: float, yaw_rate_rad_s: float, warm: bool,
                         wanted: bool) -> HalfCycleNLP | None:
@@ -557,7 +583,8 @@ class GaitPlanner:
             return None
         if vy_m_s != 0.0 or yaw_rate_rad_s != 0.0 or self.options.nondimensional:
             return None
-        if warm and ipopt_options(self.options, True) != ipopt_options(self.options, False):
+        if (warm and not self.options.warm_half_cycle
+                and ipopt_options(self.options, True) != ipopt_options(self.options, False)):
             return None  # the reduced instance uses the cold options
         feet = mirror_permutation(self.robot)
         if feet is None or not schedule_symmetric(schedule, feet, self.n_knots):
@@ -618,10 +645,21 @@ class GaitPlanner:
         if abort is not None:
             opts["iteration_callback"] = abort
         solver = ca.nlpsol("spacetime_half", "ipopt", nlp, opts)
-        return HalfCycleNLP(mirror, rows, solver, abort)
+        return HalfCycleNLP(mirror, rows, solver, abort, nlp, opts)
+
+    def _half_solver(self, half: HalfCycleNLP, warm: bool) -> Any:
+        """The reduced NLP's IPOPT instance for a cold or a warm solve (`_solver_for`)."""
+        warm_options = ipopt_options(self.options, True)
+        if not warm or warm_options == ipopt_options(self.options, False) or half.nlp is None:
+            return half.solver
+        if half.warm_solver is None:
+            opts = {**(half.solver_options or {}), "ipopt": warm_options}
+            half.warm_solver = ca.nlpsol("spacetime_half_warm", "ipopt", half.nlp, opts)
+        return half.warm_solver
 
     def _solve_half_cycle(self, half: HalfCycleNLP, start: WarmStart, p: np.ndarray,
-                          bounds: SolveBounds) -> tuple[dict[str, Any], dict[str, Any]]:
+                          bounds: SolveBounds, warm: bool = False
+                          ) -> tuple[dict[str, Any], dict[str, Any]]:
         """One solve of the reduced NLP, returned as the full NLP's solution (physical units;
         the dropped rows' multipliers 0, the cost f = 2·f̃) and IPOPT's statistics (the
         iteration log's objective doubled too: the full NLP's)."""
@@ -629,7 +667,8 @@ class GaitPlanner:
         lbg, ubg = r.weight * bounds.lbg[r.keep], r.weight * bounds.ubg[r.keep]
         if half.abort is not None:
             half.abort.arm(lbg, ubg)
-        raw = half.solver(x0=start.x[m.half], lam_x0=start.lam_x[m.half],
+        solver = self._half_solver(half, warm)
+        raw = solver(x0=start.x[m.half], lam_x0=start.lam_x[m.half],
                           lam_g0=start.lam_g[r.keep], p=p, lbx=bounds.lbx[m.half],
                           ubx=bounds.ubx[m.half], lbg=lbg, ubg=ubg)
         sol = {
@@ -638,7 +677,7 @@ class GaitPlanner:
             "lam_g": r.lam_full(np.asarray(raw["lam_g"]).ravel(), self._lbg.size),
             "f": 2.0 * float(raw["f"]),
         }
-        stats = dict(half.solver.stats())
+        stats = dict(solver.stats())
         iterations = stats.get("iterations")
         if isinstance(iterations, dict) and "obj" in iterations:  # the full NLP's objective
             stats["iterations"] = {**iterations, "obj": [2.0 * v for v in iterations["obj"]]}
@@ -661,6 +700,10 @@ class GaitPlanner:
         """The start of a cold solve (`PlannerOptions.cold_start`, `planner.nlp.cold_start`)."""
         if self.options.cold_start == "stance":
             return initial_guess(self.layout, self.model, schedule)
+        return self._starter().start(self.options.cold_start, schedule, command, p)
+
+    def _starter(self) -> ColdStarter:
+        """The planner's `ColdStarter` (built at first use)."""
         if self._cold_starter is None:
             fd = dict(self._slices)["finite differences"]
             scale = self._x_scale
@@ -672,7 +715,7 @@ class GaitPlanner:
                 self.model)
             self._cold_starter = ColdStarter(
                 self.layout, self.model, self.options, knot, fd_residual)
-        return self._cold_starter.start(self.options.cold_start, schedule, command, p)
+        return self._cold_starter
 
     def _solve_bounds(self, schedule: ContactSchedule, swing_wrench: str | None = None
                       ) -> SolveBounds:
@@ -808,7 +851,7 @@ class GaitPlanner:
             max_violation=max_violation,
             binding=binding,
             message=message,
-            warm_start=WarmStart(x, lam_x, lam_g),
+            warm_start=WarmStart(x, lam_x, lam_g, schedule),
             optimal=optimal,
             stats={
                 "return_status": status,
