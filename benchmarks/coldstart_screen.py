@@ -77,12 +77,14 @@ def _options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
     return out
 
 
-def _targeted(x: np.ndarray, lam_x: np.ndarray, lam_g: np.ndarray) -> Any:
+def _targeted(x: np.ndarray, lam_x: np.ndarray, lam_g: np.ndarray,
+              schedule: Any = None) -> Any:
     """``_z0``: a cold start's zero multipliers become z0 where the start sits on or past a
-    bound of an inequality row or a variable (lower side negative, CasADi's sign)."""
+    bound of an inequality row or a variable (lower side negative, CasADi's sign); `schedule`:
+    `WarmStart.schedule`, passed through."""
     z0 = EXTRA.get("_z0")
     if z0 is None or np.any(lam_x) or np.any(lam_g) or "planner" not in CURRENT:
-        return _warm_start(x, lam_x, lam_g)
+        return _warm_start(x, lam_x, lam_g, schedule)
     planner, schedule, speed = CURRENT["planner"], CURRENT["schedule"], CURRENT["speed"]
     p = parameter_vector(schedule, planner.n_knots, speed, planner.swing_clearance_m, 0.0, 0.0)
     b = planner._solve_bounds(schedule)
@@ -96,7 +98,7 @@ def _targeted(x: np.ndarray, lam_x: np.ndarray, lam_g: np.ndarray) -> Any:
     xl = box & np.isfinite(b.lbx) & (x - b.lbx <= 1e-6 * np.maximum(1.0, np.abs(b.lbx)))
     xu = box & np.isfinite(b.ubx) & (b.ubx - x <= 1e-6 * np.maximum(1.0, np.abs(b.ubx)))
     lam_x[xl], lam_x[xu] = -z0, z0
-    return _warm_start(x, lam_x, lam_g)
+    return _warm_start(x, lam_x, lam_g, schedule)
 
 
 def _lifted(self: cs.ColdStarter, kind: str, schedule: robots.ContactSchedule,
