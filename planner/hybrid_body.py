@@ -5,7 +5,7 @@ dog").
 `hybrid_robot(source, target, feet, alpha, folder)` writes a robot folder whose MJCF is the
 source's tree with every matched number moved a fraction `alpha` towards the target: body
 positions, geom sizes/positions/fromto, site positions, and the compiled inertials (mass,
-centre of mass, principal inertia). The servo map (robot.toml) stays the source's, so the joint
+centre of mass, inertia tensor). The servo map (robot.toml) stays the source's, so the joint
 and foot names and order are the source's at every alpha; the target itself is planned with its
 own files at the end of the series.
 
@@ -187,6 +187,14 @@ def _nlerp(a: np.ndarray, b: np.ndarray, alpha: float) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
+def _inertia_tensor(iquat: np.ndarray, principal: np.ndarray) -> np.ndarray:
+    """The 3×3 inertia tensor in the body frame from MuJoCo's principal axes and moments."""
+    mat = np.zeros(9)
+    mujoco.mju_quat2Mat(mat, np.asarray(iquat, dtype=float))
+    rot = mat.reshape(3, 3)
+    return rot @ np.diag(np.asarray(principal, dtype=float)) @ rot.T
+
+
 def _rotation(axis: np.ndarray, angle_rad: float) -> tuple[np.ndarray, np.ndarray]:
     """(quaternion, 3×3 matrix) of a rotation by `angle_rad` about `axis`."""
     quat = np.zeros(4)
@@ -252,8 +260,15 @@ def hybrid_spec(source: Robot, target: Robot, pairs: BodyPairs, alpha: float) ->
         bs.quat = _nlerp(bs.quat, bt.quat, alpha)
         bs.mass = float(_lerp(bs.mass, bt.mass, alpha))
         bs.ipos = _lerp(bs.ipos, bt.ipos, alpha)
-        bs.iquat = _nlerp(bs.iquat, bt.iquat, alpha)
-        bs.inertia = _lerp(bs.inertia, bt.inertia, alpha)  # principal moments, axes nlerped
+        # the inertia tensors (about each body's centre of mass, in its frame) blended, not
+        # their principal moments and axes: two bodies' principal frames pair up arbitrarily,
+        # and a quaternion between them made a left–right symmetric pair's blend asymmetric
+        # (quad12 → spotmicro at α = 1/3: the torso's axes tilted about x, products of inertia
+        # the mirror image does not have)
+        tensor = _lerp(_inertia_tensor(bs.iquat, bs.inertia),
+                       _inertia_tensor(bt.iquat, bt.inertia), alpha)
+        bs.inertia, bs.iquat = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
+        bs.fullinertia = tensor[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]
         gs, gt = list(bs.geoms), list(bt.geoms)
         if len(gs) == len(gt) and all(a.type == b.type for a, b in zip(gs, gt, strict=True)):
             for a, b in zip(gs, gt, strict=True):
