@@ -474,6 +474,11 @@ def _print_summary(planner: GaitPlanner, result: PlanResult) -> None:
     head = Table(title="solve", show_header=False)
     head.add_row("status", result.status + ("" if result.feasible else "  [red](infeasible)[/]"))
     head.add_row("iterations", str(result.iterations))
+    fallback = result.stats.get("half_cycle_fallback")
+    if fallback:
+        head.add_row("half-cycle solve", (
+            f"dropped: its plan broke the full cycle's rows by {fallback['max_violation']:.1e} "
+            f"(the body's dynamics are not left–right symmetric); solved on all knots"))
     head.add_row("solve time [s]", f"{result.solve_time_s:.3f}")
     head.add_row("objective", f"{result.cost:.6g}")
     weights = planner.options.weights.as_dict()

@@ -124,6 +124,11 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
             "inactive_rows": o.inactive_rows,
             # solved on the first half of the knots (`planner.nlp.half_cycle`)
             "half_cycle": bool(result.stats.get("half_cycle", False)),
+            # a half-cycle solve whose plan broke the full cycle's rows, dropped for a full one
+            # (`planner.nlp.spacetime._half_cycle_broken`): how far it broke them
+            **({"half_cycle_dropped_violation": float(
+                result.stats["half_cycle_fallback"]["max_violation"])}
+               if result.stats.get("half_cycle_fallback") else {}),
             # how the solve held the swing feet's wrench at 0 (`GaitPlanner.solve(swing_wrench=)`:
             # the search's final re-solves may differ from the options)
             "swing_wrench": str(result.stats.get("swing_wrench", o.swing_wrench)),

@@ -130,6 +130,19 @@ TUNED_WARM_BOUND_PUSH = 1e-3
 TUNED_WARM_MU_INIT = 1e-3
 
 
+def _half_cycle_broken(result: PlanResult) -> bool:
+    """A half-cycle solve whose reduced NLP converged (`Solve_Succeeded` or acceptable) to a
+    point that the full NLP's rows reject (worst violation past `diagnostics.FEASIBILITY_TOL`).
+    On a body whose rows are mirror images of each other the expanded point meets the second
+    half's rows as the reduced NLP met the first half's (`planner.nlp.half_cycle`), so this says
+    the body is not: joints and feet mirror (`robot_variable_mirror`), its dynamics do not
+    (seen on a retargeting hybrid of quad12 and spotmicro: dynamics rows violated by 1.5e-2)."""
+    status = str(result.stats.get("return_status", ""))
+    converged = status in (*diagnostics.OPTIMAL_STATUSES, "Solved_To_Acceptable_Level")
+    return (converged and not result.feasible
+            and result.max_violation > diagnostics.FEASIBILITY_TOL)
+
+
 def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
     """IPOPT's options for a cold or a warm solve under `PlannerOptions.ipopt_tuning`.
 
@@ -491,6 +504,7 @@ class GaitPlanner:
         p = parameter_vector(
             schedule, self.n_knots, speed_m_s, self.swing_clearance_m, vy_m_s, yaw_rate_rad_s
         )
+        asked = (warm_start, swing_wrench)  # for a full-cycle fallback (`_half_cycle_broken`)
         start = self._last if warm_start is None or warm_start is True else warm_start or None
         solver = self._solver_for(warm=start is not None)  # before t0: a one-off build
         t0 = time.perf_counter()
@@ -551,6 +565,18 @@ class GaitPlanner:
         result.stats["half_cycle"] = half is not None  # solved on the first half's knots
         # how this solve held the swing feet's wrench at 0 (the gait file's, whatever the options)
         result.stats["swing_wrench"] = swing_wrench or self.options.swing_wrench
+        if half is not None and not aborted and _half_cycle_broken(result):
+            # the reduced NLP converged to a point the full NLP rejects: this body's rows are not
+            # mirror images of each other (its masses or inertias, say, are not left–right
+            # symmetric, though its joints are), so no half-cycle solve of it can be trusted
+            self._half_cycle = False
+            full = self.solve(schedule, speed_m_s, asked[0], vy_m_s=vy_m_s,
+                              yaw_rate_rad_s=yaw_rate_rad_s, half_cycle=False,
+                              swing_wrench=asked[1])
+            full.stats["half_cycle_fallback"] = {
+                "iterations": result.iterations, "solve_time_s": result.solve_time_s,
+                "max_violation": result.max_violation}
+            return dataclasses.replace(full, solve_time_s=elapsed + full.solve_time_s)
         if result.feasible:
             self._last = result.warm_start
         return result

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 from typing import Any
 
 import casadi as ca
+import mujoco
 import numpy as np
 import pytest
 
 import robots
 from planner.nlp import half_cycle as hc
 from planner.nlp.config import PlannerOptions
+from planner.nlp.metadata import planner_metadata
 from planner.nlp.spacetime import GaitPlanner
 from planner.nlp.variables import initial_guess, parameter_vector
 from planner.templates import make_schedule, mirror_permutation
@@ -296,3 +299,51 @@ def test_the_half_cycle_solve_with_casadis_own_derivatives(option: dict[str, Any
     assert a.feasible and b.feasible
     assert b.iterations == a.iterations
     assert abs(b.cost - a.cost) <= 1e-9 * abs(a.cost)
+
+
+def _tilted_torso_quad12(folder: Path) -> robots.Robot:
+    """quad12 whose torso inertia has products the mirror image y → −y does not have (its
+    principal axes turned 0.6 rad about x): joints and feet still mirror, the dynamics do not."""
+    builtin = Path(robots.__file__).parent / "quad12"
+    spec = mujoco.MjSpec.from_file(str(builtin / "robot.xml"))
+    spec.compile()
+    spec = mujoco.MjSpec.from_string(spec.to_xml())
+    torso = spec.worldbody.first_body()
+    model = spec.compile()
+    principal = np.diag(model.body_inertia[torso.id])
+    c, s = np.cos(0.6), np.sin(0.6)
+    rot = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    tensor = rot @ principal @ rot.T
+    torso.explicitinertial = True
+    torso.mass = float(model.body_mass[torso.id])
+    torso.ipos = model.body_ipos[torso.id].copy()
+    torso.inertia, torso.iquat = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
+    torso.fullinertia = tensor[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]
+    folder.mkdir(parents=True)
+    (folder / "robot.xml").write_text(spec.to_xml())
+    toml = (builtin / "robot.toml").read_text().replace('name = "quad12"', 'name = "tilted"', 1)
+    (folder / "robot.toml").write_text(toml)
+    return robots.load(folder)
+
+
+def test_a_body_whose_dynamics_do_not_mirror_falls_back_to_the_full_nlp(tmp_path: Path) -> None:
+    """Joints and feet mirror, the torso's inertia does not: the reduced NLP converges to a
+    point the full NLP's dynamics rows reject. The solve falls back to the full NLP (a feasible
+    plan, not "no feasible gait"), says so, and the planner solves it in full from then on."""
+    robot = _tilted_torso_quad12(tmp_path / "tilted")
+    planner = GaitPlanner(robot, 12, PlannerOptions(max_iter=80))
+    schedule = make_schedule(robot, "trot")
+    first = planner.solve(schedule, SPEED_M_S, warm_start=False)
+    assert first.feasible and first.stats["half_cycle"] is False
+    fallback = first.stats["half_cycle_fallback"]
+    assert fallback["max_violation"] > 1e-4 and fallback["iterations"] > 0
+    assert first.solve_time_s >= fallback["solve_time_s"]
+    full = GaitPlanner(robot, 12, PlannerOptions(max_iter=80, half_cycle_solve=False)).solve(
+        schedule, SPEED_M_S, warm_start=False)
+    assert first.cost == full.cost and np.array_equal(first.warm_start.x, full.warm_start.x)
+    solver = planner_metadata(planner, first)["solver"]
+    assert solver["half_cycle"] is False
+    assert solver["half_cycle_dropped_violation"] == fallback["max_violation"]
+    again = planner.solve(schedule, SPEED_M_S, warm_start=False)
+    assert again.stats["half_cycle"] is False and "half_cycle_fallback" not in again.stats
+    assert "half_cycle_dropped_violation" not in planner_metadata(planner, again)["solver"]
