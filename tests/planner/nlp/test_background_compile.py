@@ -150,6 +150,40 @@ def test_a_lock_held_by_another_process_stops_a_second_compile(
     assert _finish(0) == 0 and compiled_knot.load_compiled(entry) is not None
 
 
+def test_another_robots_compile_holding_the_slot_stops_a_second_one(
+    cache: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One background compile per cache folder: while one runs (another key's, here a process
+    holding the slot lock as a compile does), a build starts none and says nothing; once it
+    has ended the next build starts its own, and a compile holds the slot while it runs."""
+    entry = _entry()
+    entry.library.parent.mkdir(parents=True)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import fcntl, os, sys, time; fd = os.open(sys.argv[1], os.O_RDWR "
+         "| os.O_CREAT); fcntl.flock(fd, fcntl.LOCK_EX); print('held', flush=True); "
+         "time.sleep(60)", str(background_compile.slot_path(entry))],
+        stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        outcome, lines = _knot_build(capsys)
+        assert not outcome.compiled and lines == [] and background_compile._started == []
+        assert background_compile.running(entry) is None  # its own key's lock is free again
+        assert not background_compile.attempts_path(entry).exists()  # no attempt counted
+    finally:
+        holder.kill()
+        holder.wait()
+    monkeypatch.setenv("FAKECC_SLEEP", "2")
+    _, lines = _knot_build(capsys)
+    assert len(lines) == 1 and len(background_compile._started) == 1
+    slot = os.open(background_compile.slot_path(entry), os.O_RDWR)
+    try:  # the running compile holds the slot
+        with pytest.raises(BlockingIOError):
+            fcntl.flock(slot, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    finally:
+        os.close(slot)
+    assert _finish(0) == 0 and compiled_knot.load_compiled(entry) is not None
+
+
 def test_a_stale_lock_file_of_a_dead_process_is_taken_over(
     cache: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
