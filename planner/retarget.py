@@ -384,7 +384,8 @@ def retarget(
                     except HybridBodyError as exc:
                         note = f"hybrid series stopped before α={alpha:.2f}: {exc}"
                         break
-                    planner = GaitPlanner(body, n_knots=n_knots, options=options)
+                    planner = GaitPlanner(body, n_knots=n_knots, options=options,
+                                          background_compile=False)  # a one-off body
                     start = map_motion(current, body, LegMatch.identity(body))
                     result = planner.solve(start.schedule, start.speed_m_s,
                                            warm_start(start, planner))

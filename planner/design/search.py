@@ -110,11 +110,13 @@ def peak_torque_ratio(result: PlanResult, robot: Robot) -> float:
 
 
 def plan_body(body: Robot, gait: str, speed_m_s: float, n_knots: int, options: PlannerOptions,
-              warm_start: WarmStart | None = None) -> tuple[GaitPlanner, PlanResult]:
+              warm_start: WarmStart | None = None, *, background_compile: bool = True
+              ) -> tuple[GaitPlanner, PlanResult]:
     """The default-template gait of `body` at `speed_m_s` (period from the body's leg length,
     `planner.templates.default_period_s`): warm-started from `warm_start`, cold if that ends
-    infeasible (or none is given)."""
-    planner = GaitPlanner(body, n_knots, options)
+    infeasible (or none is given). `background_compile`: `GaitPlanner`'s (off for the search's
+    samples: bodies no later command plans)."""
+    planner = GaitPlanner(body, n_knots, options, background_compile=background_compile)
     schedule = make_schedule(body, gait)
     result: PlanResult | None = None
     if warm_start is not None and warm_start.x.shape == (planner.layout.size,):
@@ -174,7 +176,8 @@ class DesignSolver:
                 body = write_design(self.robot, self.space, design, Path(tmp) / "body",
                                     f"{self.robot.name}_sample")
                 planner, result = plan_body(body, self.gait, self.speed_m_s, self.n_knots,
-                                            self.options, task.warm_start)
+                                            self.options, task.warm_start,
+                                            background_compile=False)
             except (DesignError, PlannerConfigError) as exc:
                 return DesignSample(x, math.inf, False, 0, math.inf, design=design,
                                     message=str(exc), binding=(("body", math.inf),))

@@ -406,7 +406,7 @@ def compiled_jacobian_and_hessian(
 
 def knot_jacobian_and_hessian(
     knot: ca.Function, derivatives: str = "knot", directory: Path | None = None,
-    label: str = "",
+    label: str = "", start_compile: bool = True,
 ) -> tuple[ca.Function, ca.Function, CacheOutcome]:
     """J and H of one knot for the planner path `derivatives` (`PlannerOptions.derivatives`):
 
@@ -414,7 +414,7 @@ def knot_jacobian_and_hessian(
       compiler found and the default flags, else J and H built now (`built_jacobian_and_hessian`)
       — and, if there is a C compiler, the compile started in a detached background process for
       the next command (`planner.nlp.background_compile.start`; `label`, the robot's name, is
-      what it says it compiles). Never waits for a compiler.
+      what it says it compiles; not if `start_compile` is False). Never waits for a compiler.
     - "compiled": the compiled entry, compiled now (minutes) if missing or not intact; with no C
       compiler or a failed compile, a one-line warning and J and H built now.
     """
@@ -424,7 +424,8 @@ def knot_jacobian_and_hessian(
         loaded = compiled_knot.load_compiled(entry)
         if loaded is not None:
             return (*loaded, CacheOutcome(entry.library, "hit", compiled=True))
-        background_compile.start(knot, entry, compiler, label)
+        if start_compile:
+            background_compile.start(knot, entry, compiler, label)
     if derivatives == "compiled":
         try:
             return compiled_jacobian_and_hessian(knot, directory, compiler, label)

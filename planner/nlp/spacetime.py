@@ -251,8 +251,13 @@ class GaitPlanner:
     """Spacetime gait optimisation for one robot at a fixed number of knots."""
 
     def __init__(
-        self, robot: Robot, n_knots: int = 30, options: PlannerOptions | None = None
+        self, robot: Robot, n_knots: int = 30, options: PlannerOptions | None = None,
+        *, background_compile: bool = True,
     ) -> None:
+        """`background_compile`: whether a "knot" build that finds no compiled derivatives for
+        this body may start their compile in the background (`planner.nlp.background_compile`);
+        off for bodies no later command will plan (a design search's samples, a retargeting
+        series' hybrids)."""
         if not 8 <= n_knots <= 200:
             raise PlannerConfigError(f"n_knots must be in [8, 200], got {n_knots}")
         t0 = time.perf_counter()
@@ -281,7 +286,8 @@ class GaitPlanner:
         if self.options.derivatives in ("knot", "compiled"):
             plain = knot_function(self.model)
             jac, hess, self.derivative_cache = knot_jacobian_and_hessian(
-                plain, self.options.derivatives, label=robot.name
+                plain, self.options.derivatives, label=robot.name,
+                start_compile=background_compile,
             )
             directions = directions_path(plain, n_knots, self.options)
             known = load_directions(directions)

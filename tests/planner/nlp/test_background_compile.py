@@ -341,3 +341,30 @@ def test_workers_load_the_compiled_entry_and_start_no_compile_beside_a_running_o
     with ProcessExecutor(ToyKnotWorker(), workers=2) as pool:
         got = pool.map(pool.local_solve, [0, 1, 2, 3])
     assert all(compiled and started == 0 for compiled, started in got)
+
+
+def test_a_build_told_not_to_starts_no_compile(
+    cache: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`start_compile=False` (a `GaitPlanner(..., background_compile=False)`: a design sample, a
+    retargeting hybrid): no compile, nothing said, no attempt recorded; the next build may."""
+    _, _, outcome = knot_jacobian_and_hessian(toy_knot(), "knot", label="toy", start_compile=False)
+    assert not outcome.compiled and capsys.readouterr().err == ""
+    assert background_compile._started == []
+    assert not background_compile.attempts_path(_entry()).exists()
+    _, lines = _knot_build(capsys)
+    assert len(lines) == 1 and len(background_compile._started) == 1
+    assert _finish(0) == 0
+
+
+def test_a_planner_of_a_one_off_body_starts_no_compile(
+    cache: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import robots
+    from planner.nlp.spacetime import GaitPlanner
+
+    monkeypatch.setenv("FAKECC_SLEEP", "30")  # whatever starts is killed by `_reap`
+    GaitPlanner(robots.load("quad12"), 8, background_compile=False)
+    assert background_compile._started == [] and "background" not in capsys.readouterr().err
+    GaitPlanner(robots.load("quad12"), 8)
+    assert len(background_compile._started) == 1
