@@ -93,6 +93,20 @@ def _wait_until(condition: Callable[[], bool], timeout_s: float = 30.0) -> None:
         time.sleep(0.05)
 
 
+def _hold_lock(path: Path, with_pid: bool) -> subprocess.Popen[str]:
+    """Another process holding `path`'s ``flock`` (and, `with_pid`, writing its pid into it as a
+    compile does), returned once it holds it; the caller kills it."""
+    record = ("os.write(fd, b'{\"pid\": %d, \"label\": \"toy\", \"started_utc\": \"x\"}' "
+              "% os.getpid()); " if with_pid else "")
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import fcntl, os, sys, time; fd = os.open(sys.argv[1], os.O_RDWR "
+         f"| os.O_CREAT); fcntl.flock(fd, fcntl.LOCK_EX); {record}print('held', flush=True); "
+         "time.sleep(60)", str(path)],
+        stdout=subprocess.PIPE, text=True)
+    assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+    return holder
+
+
 def test_a_knot_build_starts_one_compile_and_the_next_build_loads_it(
     cache: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -127,14 +141,9 @@ def test_a_lock_held_by_another_process_stops_a_second_compile(
 ) -> None:
     entry = _entry()
     entry.library.parent.mkdir(parents=True)
-    holder = subprocess.Popen(  # another process holding the key's lock, as a compile does
-        [sys.executable, "-c", "import fcntl, os, sys, time; fd = os.open(sys.argv[1], os.O_RDWR "
-         "| os.O_CREAT); fcntl.flock(fd, fcntl.LOCK_EX); os.write(fd, b'{\"pid\": %d, \"label\":"
-         " \"toy\", \"started_utc\": \"x\"}' % os.getpid()); print('held', flush=True); "
-         "time.sleep(60)", str(background_compile.lock_path(entry))],
-        stdout=subprocess.PIPE, text=True)
+    # another process holding the key's lock, as a compile does
+    holder = _hold_lock(background_compile.lock_path(entry), with_pid=True)
     try:
-        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
         outcome, lines = _knot_build(capsys)
         assert not outcome.compiled and lines == [] and background_compile._started == []
         now = background_compile.running(entry)
@@ -158,13 +167,8 @@ def test_another_robots_compile_holding_the_slot_stops_a_second_one(
     has ended the next build starts its own, and a compile holds the slot while it runs."""
     entry = _entry()
     entry.library.parent.mkdir(parents=True)
-    holder = subprocess.Popen(
-        [sys.executable, "-c", "import fcntl, os, sys, time; fd = os.open(sys.argv[1], os.O_RDWR "
-         "| os.O_CREAT); fcntl.flock(fd, fcntl.LOCK_EX); print('held', flush=True); "
-         "time.sleep(60)", str(background_compile.slot_path(entry))],
-        stdout=subprocess.PIPE, text=True)
+    holder = _hold_lock(background_compile.slot_path(entry), with_pid=False)
     try:
-        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
         outcome, lines = _knot_build(capsys)
         assert not outcome.compiled and lines == [] and background_compile._started == []
         assert background_compile.running(entry) is None  # its own key's lock is free again
