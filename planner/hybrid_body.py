@@ -187,8 +187,9 @@ def _nlerp(a: np.ndarray, b: np.ndarray, alpha: float) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
-def _inertia_tensor(iquat: np.ndarray, principal: np.ndarray) -> np.ndarray:
-    """The 3×3 inertia tensor in the body frame from MuJoCo's principal axes and moments."""
+def inertia_tensor(iquat: np.ndarray, principal: np.ndarray) -> np.ndarray:
+    """The 3×3 inertia tensor in the body frame from MuJoCo's principal axes and moments
+    (``body_iquat``, ``body_inertia``)."""
     mat = np.zeros(9)
     mujoco.mju_quat2Mat(mat, np.asarray(iquat, dtype=float))
     rot = mat.reshape(3, 3)
@@ -265,8 +266,8 @@ def hybrid_spec(source: Robot, target: Robot, pairs: BodyPairs, alpha: float) ->
         # and a quaternion between them made a left–right symmetric pair's blend asymmetric
         # (quad12 → spotmicro at α = 1/3: the torso's axes tilted about x, products of inertia
         # the mirror image does not have)
-        tensor = _lerp(_inertia_tensor(bs.iquat, bs.inertia),
-                       _inertia_tensor(bt.iquat, bt.inertia), alpha)
+        tensor = _lerp(inertia_tensor(bs.iquat, bs.inertia),
+                       inertia_tensor(bt.iquat, bt.inertia), alpha)
         bs.inertia, bs.iquat = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
         bs.fullinertia = tensor[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]
         gs, gt = list(bs.geoms), list(bt.geoms)

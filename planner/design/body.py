@@ -49,7 +49,12 @@ import mujoco
 import numpy as np
 
 from planner.errors import PlannerError
-from planner.hybrid_body import compiled_spec, make_inertials_explicit, write_robot_folder
+from planner.hybrid_body import (
+    compiled_spec,
+    inertia_tensor,
+    make_inertials_explicit,
+    write_robot_folder,
+)
 from planner.templates import mirror_permutation
 from robots import Robot
 from robots.servo import ServoModel, servo_catalogue
@@ -379,10 +384,7 @@ def _valid_inertia(inertia: np.ndarray) -> bool:
 
 
 def _body_inertia(model: mujoco.MjModel, b: int) -> np.ndarray:
-    rot = np.zeros(9)
-    mujoco.mju_quat2Mat(rot, model.body_iquat[b])
-    r = rot.reshape(3, 3)
-    return np.asarray(r @ np.diag(model.body_inertia[b]) @ r.T, dtype=float)
+    return inertia_tensor(model.body_iquat[b], model.body_inertia[b])
 
 
 def servo_masses(robot: Robot, model: mujoco.MjModel) -> tuple[ServoMass, ...]:
