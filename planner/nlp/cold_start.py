@@ -137,8 +137,9 @@ class ColdStarter:
         """`x`'s poses with the rest made to meet the equality rows as "balanced" does (module
         docstring): the rates the cyclic differences of the poses, the stance feet's wrench the
         least change from `x`'s forces (zero moments) that zeroes the Newton–Euler rows, the
-        torques the inverse dynamics, the goal slopes the spline's. Used for cold starts and
-        for warm starts re-timed onto another schedule (`planner.nlp.warm_start`)."""
+        torques the inverse dynamics, the goal slopes the spline's. The "balanced" and
+        "stride" cold starts end here; benchmarks/warm_start_screen.py's ``fix`` variant applied
+        it to re-timed warm starts (it lost; `planner.nlp.warm_start` does not call it)."""
         layout = self.layout
         n = layout.n_knots
         base, q, f = (np.array(v) for v in layout.unpack(x))
