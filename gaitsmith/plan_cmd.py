@@ -479,6 +479,12 @@ def _print_summary(planner: GaitPlanner, result: PlanResult) -> None:
         head.add_row("half-cycle solve", (
             f"dropped: its plan broke the full cycle's rows by {fallback['max_violation']:.1e} "
             f"(the body's dynamics are not left–right symmetric); solved on all knots"))
+    asymmetry = result.stats.get("half_cycle_asymmetry")
+    if asymmetry:
+        head.add_row("half-cycle solve", (
+            f"not used: the {asymmetry['rows']} rows are not left–right mirror images (defect "
+            f"{asymmetry['defect']:.1e}; the body's masses, inertias or servo limits are not "
+            "symmetric though its joints are); solved on all knots"))
     head.add_row("solve time [s]", f"{result.solve_time_s:.3f}")
     head.add_row("objective", f"{result.cost:.6g}")
     weights = planner.options.weights.as_dict()

@@ -39,8 +39,10 @@ N knots at E·x̃ (a schedule or bound that is not symmetric would show there as
 be hidden). The multipliers of the dropped rows are reported as 0.
 Not used when the command turns or side-steps, the schedule is not symmetric at the knots, the
 start is not on the subspace (a warm start from an asymmetric plan), the variable bounds are not
-mirror images, or the NLP is nondimensional (`PlannerOptions.nondimensional`); the full NLP
-is solved then.
+mirror images, the NLP is nondimensional (`PlannerOptions.nondimensional`), or the full NLP is
+not its own mirror image at a probe point off the subspace (`nlp_mirror_defect`: a body whose
+joints and feet mirror but whose masses, inertias or servo limits do not — its half-cycle plan
+would break the later half's rows); the full NLP is solved then.
 """
 
 from __future__ import annotations
@@ -193,6 +195,75 @@ def robot_variable_mirror(robot: Robot, layout: Layout, flat_feet: tuple[int, ..
                                                       flat_feet))
     except PlannerConfigError:
         return None
+
+
+#: `nlp_mirror_defect` above this (relative to the rows' size) says the NLP is not mirror
+#: symmetric. Measured (`docs/results/planner_speed_template_half.md`, session 42): every built-in
+#: and zoo body ≤ 2.2e-16; quad12 with one shank 1e-4 heavier 2.3e-6, its torso's centre of mass
+#: moved 10 µm sideways 6.0e-5 (its half-cycle plan broke the full cycle's rows by 1.2e-4)
+MIRROR_DEFECT_TOL = 1e-9
+#: the probe point: the start moved by this fraction of each entry's bound span (or of
+#: max(1, |x|) where a bound is infinite), so that it is off the mirror subspace
+MIRROR_PROBE_STEP = 0.01
+
+
+@dataclass(frozen=True)
+class MirrorDefect:
+    """How far the full NLP is from its own mirror image at a probe point: the worst row group
+    (or "objective") and its defect, relative to max(1, the group's largest |row|)."""
+
+    rows: str
+    defect: float
+
+    @property
+    def symmetric(self) -> bool:
+        return self.defect <= MIRROR_DEFECT_TOL
+
+
+def mirror_involution(mirror: VariableMirror) -> tuple[np.ndarray, np.ndarray]:
+    """The full mirror map 𝓜 (knot k ↔ k + N/2, each entry to its y → −y image) as a signed
+    permutation of the full vector: (𝓜x)[i] = sign[i] · x[image[i]]. On the subspace 𝓜x = x;
+    E pairs each later-half entry with its first-half source, and 𝓜 swaps the two."""
+    n = mirror.source.size
+    image, sign = np.arange(n), np.ones(n)
+    paired = mirror.half[mirror.source]
+    later = np.flatnonzero(paired != np.arange(n))
+    image[later], sign[later] = paired[later], mirror.sign[later]
+    image[paired[later]], sign[paired[later]] = later, mirror.sign[later]
+    return image, sign
+
+
+def probe_point(x: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, seed: int = 0) -> np.ndarray:
+    """`x` moved off the mirror subspace by `MIRROR_PROBE_STEP` (seeded: the same probe for
+    the same start)."""
+    x = np.asarray(x, dtype=float)
+    span = np.where(np.isfinite(lbx) & np.isfinite(ubx), ubx - lbx, np.maximum(1.0, np.abs(x)))
+    step = MIRROR_PROBE_STEP * np.where(np.isfinite(span), span, 1.0)
+    return x + step * np.random.default_rng(seed).standard_normal(x.size)
+
+
+def nlp_mirror_defect(f_and_g: ca.Function, mirror: VariableMirror, x: np.ndarray,
+                      p: np.ndarray, groups: Sequence[tuple[str, slice]]) -> MirrorDefect:
+    """Is the full NLP its own mirror image: f(𝓜x) = f(x) and g(𝓜x) a signed permutation of
+    g(x) within each row group? `f_and_g`: (x, p) → (f, g); `x` a point off the subspace
+    (`probe_point`), `p` a half-cycle symmetric schedule's parameters; `groups`: each row
+    group's name and rows. The rows' signed permutation is not needed: within a group the
+    sorted |g| of the two points must agree (a lower bound on the rows' own defect, 0 when the
+    NLP is symmetric). A body whose joints and feet mirror but whose masses, inertias or servo
+    limits do not shows here before any half-cycle solve is spent on it."""
+    image, sign = mirror_involution(mirror)
+    f1, g1 = f_and_g(x, p)
+    f2, g2 = f_and_g(sign * np.asarray(x, dtype=float)[image], p)
+    g1, g2 = np.asarray(g1, dtype=float).ravel(), np.asarray(g2, dtype=float).ravel()
+    worst = MirrorDefect("objective", abs(float(f1) - float(f2)) / max(1.0, abs(float(f1))))
+    for name, rows in groups:
+        a, b = np.sort(np.abs(g1[rows])), np.sort(np.abs(g2[rows]))
+        if a.size == 0:
+            continue
+        defect = float(np.max(np.abs(a - b))) / max(1.0, float(a[-1]), float(b[-1]))
+        if not np.isfinite(defect) or defect > worst.defect:
+            worst = MirrorDefect(name, defect if np.isfinite(defect) else math.inf)
+    return worst
 
 
 def knot_of_row(label: str) -> float | None:

@@ -129,6 +129,10 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
             **({"half_cycle_dropped_violation": float(
                 result.stats["half_cycle_fallback"]["max_violation"])}
                if result.stats.get("half_cycle_fallback") else {}),
+            # a body whose joints and feet mirror but whose NLP does not (masses, inertias,
+            # servo limits): never solved on half the knots (`nlp_mirror_defect`)
+            **({"half_cycle_asymmetry": dict(result.stats["half_cycle_asymmetry"])}
+               if result.stats.get("half_cycle_asymmetry") else {}),
             # how the solve held the swing feet's wrench at 0 (`GaitPlanner.solve(swing_wrench=)`:
             # the search's final re-solves may differ from the options)
             "swing_wrench": str(result.stats.get("swing_wrench", o.swing_wrench)),

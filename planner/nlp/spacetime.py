@@ -54,7 +54,7 @@ from planner.nlp.constraints import (
     stacked_knot,
 )
 from planner.nlp.costs import cost_terms, weighted_objective
-from planner.nlp.half_cycle import HalfCycleNLP
+from planner.nlp.half_cycle import HalfCycleNLP, MirrorDefect
 from planner.nlp.inactive_rows import RowActivity, free_inactive_rows
 from planner.nlp.iteration_abort import AbortCallback, StallAbort
 from planner.nlp.mirror import check_mirror, schedule_symmetric
@@ -382,6 +382,10 @@ class GaitPlanner:
         #: `PlannerOptions.half_cycle_solve`: the reduced NLP, built at the first solve it fits
         #: (False: this body or NLP has none)
         self._half_cycle: HalfCycleNLP | bool | None = None
+        #: why this planner solves in full though its joints and feet mirror: its NLP is not its
+        #: own mirror image (`planner.nlp.half_cycle.nlp_mirror_defect`, found at the first solve
+        #: that would have taken the half-cycle path), else None
+        self.half_cycle_asymmetry: MirrorDefect | None = None
         self._used_abort: AbortCallback | None = None
         self.build_time_s = time.perf_counter() - t0
 
@@ -569,6 +573,8 @@ class GaitPlanner:
         result = dataclasses.replace(result, vy_m_s=float(vy_m_s),
                                      yaw_rate_rad_s=float(yaw_rate_rad_s))
         result.stats["half_cycle"] = half is not None  # solved on the first half's knots
+        if self.half_cycle_asymmetry is not None:  # why a mirrored body solves in full
+            result.stats["half_cycle_asymmetry"] = dataclasses.asdict(self.half_cycle_asymmetry)
         # how this solve held the swing feet's wrench at 0 (the gait file's, whatever the options)
         result.stats["swing_wrench"] = swing_wrench or self.options.swing_wrench
         if half is not None and not aborted and _half_cycle_broken(result):
@@ -635,11 +641,19 @@ class GaitPlanner:
     def _build_half_cycle(self, p: np.ndarray, x0: np.ndarray) -> HalfCycleNLP | None:
         """The reduced NLP of this planner (`planner.nlp.half_cycle`); its rows over the whole
         cycle are classified at a random point of the subspace near `x0` with parameters `p`
-        (a symmetric schedule's). None if the body has no mirror map."""
+        (a symmetric schedule's). None if the body has no mirror map, or if the full NLP is not
+        its own mirror image at a probe point near `x0` (`half_cycle_asymmetry` says where)."""
         from planner.nlp import half_cycle as hc
 
         mirror = hc.robot_variable_mirror(self.robot, self.layout, self.model.flat_feet)
         if mirror is None:
+            return None
+        f_and_g = ca.Function("mirror_probe", [self._nlp["x"], self._nlp["p"]],
+                              [self._nlp["f"], self._nlp["g"]])
+        defect = hc.nlp_mirror_defect(f_and_g, mirror, hc.probe_point(x0, self._lbx, self._ubx),
+                                      p, self._slices)
+        if not defect.symmetric:
+            self.half_cycle_asymmetry = defect
             return None
         keep, cycle_rows = hc.first_half_rows(self._slices, self._labels, self.n_knots)
         weight = [1.0] * len(keep)

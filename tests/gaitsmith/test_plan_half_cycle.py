@@ -57,6 +57,21 @@ def test_a_body_with_no_mirror_images_is_solved_in_full(tmp_path: Path) -> None:
     assert gait["planner"]["solver"]["half_cycle"] is False
 
 
+def test_a_body_whose_masses_do_not_mirror_is_solved_in_full_and_says_why(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from tests.planner.robot_factory import quad12_with_torso_inertial
+
+    # a battery off to one side: the torso's centre of mass 5 mm to the left
+    folder = quad12_with_torso_inertial(tmp_path / "lopsided", "lopsided",
+                                        com_shift_m=(0.0, 0.005, 0.0))
+    gait = _plan(tmp_path, "g", "--gait", "trot", robot=str(folder))
+    solver = gait["planner"]["solver"]
+    assert solver["half_cycle"] is False and "half_cycle_dropped_violation" not in solver
+    assert solver["half_cycle_asymmetry"]["rows"] == "dynamics"
+    out = " ".join(capsys.readouterr().out.split())
+    assert "not used: the dynamics rows are not left–right mirror images" in out
+
+
 def test_the_help_says_what_the_unset_flag_means() -> None:
     """Unset, --half-cycle/--full-cycle means half-cycle for the planned gait and (since session
     40) for --search's final re-solves too (`gaitsmith.plan_options.template_half_cycle`,

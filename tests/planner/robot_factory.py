@@ -181,6 +181,37 @@ def small_quadruped(
     return folder
 
 
+def quad12_with_torso_inertial(folder: Path, name: str, com_shift_m: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                               inertia_turn_x_rad: float = 0.0) -> Path:
+    """The built-in quad12 with its torso's inertial written out, its centre of mass moved by
+    `com_shift_m` and its principal axes turned `inertia_turn_x_rad` about x: joints and feet
+    still mirror, the dynamics do not (unless both are 0). Written to `folder` as `name`."""
+    import mujoco
+    import numpy as np
+
+    import robots
+
+    builtin = Path(robots.__file__).parent / "quad12"
+    spec = mujoco.MjSpec.from_file(str(builtin / "robot.xml"))
+    spec.compile()
+    spec = mujoco.MjSpec.from_string(spec.to_xml())
+    model = spec.compile()
+    torso = spec.worldbody.first_body()
+    c, s = math.cos(inertia_turn_x_rad), math.sin(inertia_turn_x_rad)
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    tensor = turn @ np.diag(model.body_inertia[torso.id]) @ turn.T
+    torso.explicitinertial = True
+    torso.mass = float(model.body_mass[torso.id])
+    torso.ipos = model.body_ipos[torso.id] + np.asarray(com_shift_m, dtype=float)
+    torso.inertia, torso.iquat = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
+    torso.fullinertia = tensor[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]
+    folder.mkdir(parents=True)
+    (folder / "robot.xml").write_text(spec.to_xml())
+    toml = (builtin / "robot.toml").read_text().replace('name = "quad12"', f'name = "{name}"', 1)
+    (folder / "robot.toml").write_text(toml)
+    return folder
+
+
 if __name__ == "__main__":  # pragma: no cover - convenience for the command line
     out = Path(sys.argv[1] if len(sys.argv) > 1 else "robots_out")
     print(star_robot(out / "star5"))

@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import Any
 
 import casadi as ca
-import mujoco
 import numpy as np
 import pytest
 
@@ -18,8 +17,10 @@ from planner.nlp.metadata import planner_metadata
 from planner.nlp.spacetime import GaitPlanner
 from planner.nlp.variables import initial_guess, parameter_vector
 from planner.templates import make_schedule, mirror_permutation
+from tests.planner.robot_factory import quad12_with_torso_inertial
 
 SPEED_M_S = 0.25
+ZOO = Path(__file__).resolve().parents[2] / "zoo"
 
 
 @pytest.fixture(scope="module")
@@ -304,32 +305,80 @@ def test_the_half_cycle_solve_with_casadis_own_derivatives(option: dict[str, Any
 def _tilted_torso_quad12(folder: Path) -> robots.Robot:
     """quad12 whose torso inertia has products the mirror image y → −y does not have (its
     principal axes turned 0.6 rad about x): joints and feet still mirror, the dynamics do not."""
-    builtin = Path(robots.__file__).parent / "quad12"
-    spec = mujoco.MjSpec.from_file(str(builtin / "robot.xml"))
-    spec.compile()
-    spec = mujoco.MjSpec.from_string(spec.to_xml())
-    torso = spec.worldbody.first_body()
-    model = spec.compile()
-    principal = np.diag(model.body_inertia[torso.id])
-    c, s = np.cos(0.6), np.sin(0.6)
-    rot = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-    tensor = rot @ principal @ rot.T
-    torso.explicitinertial = True
-    torso.mass = float(model.body_mass[torso.id])
-    torso.ipos = model.body_ipos[torso.id].copy()
-    torso.inertia, torso.iquat = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
-    torso.fullinertia = tensor[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]
-    folder.mkdir(parents=True)
-    (folder / "robot.xml").write_text(spec.to_xml())
-    toml = (builtin / "robot.toml").read_text().replace('name = "quad12"', 'name = "tilted"', 1)
-    (folder / "robot.toml").write_text(toml)
-    return robots.load(folder)
+    return robots.load(quad12_with_torso_inertial(folder, "tilted", inertia_turn_x_rad=0.6))
 
 
-def test_a_body_whose_dynamics_do_not_mirror_falls_back_to_the_full_nlp(tmp_path: Path) -> None:
-    """Joints and feet mirror, the torso's inertia does not: the reduced NLP converges to a
-    point the full NLP's dynamics rows reject. The solve falls back to the full NLP (a feasible
-    plan, not "no feasible gait"), says so, and the planner solves it in full from then on."""
+def _mirror_defect(planner: GaitPlanner, gait: str) -> hc.MirrorDefect:
+    """`nlp_mirror_defect` of `planner`'s NLP at the probe `_build_half_cycle` uses."""
+    robot = planner.robot
+    mirror = hc.robot_variable_mirror(robot, planner.layout, planner.model.flat_feet)
+    assert mirror is not None
+    schedule = make_schedule(robot, gait)
+    p = parameter_vector(schedule, planner.n_knots, SPEED_M_S, planner.swing_clearance_m)
+    x0 = initial_guess(planner.layout, planner.model, schedule)
+    f_and_g = ca.Function("f_and_g", [planner._nlp["x"], planner._nlp["p"]],
+                          [planner._nlp["f"], planner._nlp["g"]])
+    return hc.nlp_mirror_defect(f_and_g, mirror, hc.probe_point(x0, planner._lbx, planner._ubx),
+                                p, planner._slices)
+
+
+def test_the_full_mirror_map_is_an_involution_that_fixes_the_subspace() -> None:
+    robot = robots.load("quad12")
+    planner = GaitPlanner(robot, 12, PlannerOptions())
+    mirror = hc.robot_variable_mirror(robot, planner.layout, planner.model.flat_feet)
+    assert mirror is not None
+    image, sign = hc.mirror_involution(mirror)
+    assert np.array_equal(np.sort(image), np.arange(image.size))  # a permutation
+    x = np.random.default_rng(1).standard_normal(image.size)
+    assert np.array_equal(sign * (sign * x[image])[image], x)
+    assert not np.array_equal(sign * x[image], x)
+    on = mirror.expand(x[mirror.half])
+    assert np.array_equal(sign * on[image], on)
+
+
+@pytest.mark.parametrize(("name", "gait"), [
+    ("quad12", "trot"), ("hex18", "tripod"), ("biped", "biped_walk"),
+    (str(ZOO / "spotmicro"), "trot"), (str(ZOO / "phantomx18"), "tripod")])
+def test_a_symmetric_body_s_nlp_is_its_own_mirror_image(name: str, gait: str) -> None:
+    defect = _mirror_defect(GaitPlanner(robots.load(name), 12, PlannerOptions()), gait)
+    assert defect.symmetric and defect.defect <= 1e-14
+
+
+def test_a_tilted_inertia_makes_the_dynamics_rows_asymmetric(tmp_path: Path) -> None:
+    robot = _tilted_torso_quad12(tmp_path / "tilted")
+    defect = _mirror_defect(GaitPlanner(robot, 12, PlannerOptions()), "trot")
+    assert defect.rows == "dynamics" and defect.defect > 1e3 * hc.MIRROR_DEFECT_TOL
+    assert not defect.symmetric
+
+
+def test_a_body_whose_nlp_does_not_mirror_is_solved_in_full_without_a_half_cycle_try(
+        tmp_path: Path) -> None:
+    """Joints and feet mirror, the torso's inertia does not: the probe finds it before any
+    half-cycle solve is spent, the plan is the full planner's bit for bit, and the plan and the
+    gait file say why the half-cycle solve was not used."""
+    robot = _tilted_torso_quad12(tmp_path / "tilted")
+    planner = GaitPlanner(robot, 12, PlannerOptions(max_iter=80))
+    schedule = make_schedule(robot, "trot")
+    result = planner.solve(schedule, SPEED_M_S, warm_start=False)
+    assert result.feasible and result.stats["half_cycle"] is False
+    assert "half_cycle_fallback" not in result.stats
+    assert planner.half_cycle_asymmetry is not None
+    assert result.stats["half_cycle_asymmetry"]["rows"] == "dynamics"
+    full = GaitPlanner(robot, 12, PlannerOptions(max_iter=80, half_cycle_solve=False)).solve(
+        schedule, SPEED_M_S, warm_start=False)
+    assert result.cost == full.cost and np.array_equal(result.warm_start.x, full.warm_start.x)
+    assert "half_cycle_asymmetry" not in full.stats  # never probed: no half-cycle solve asked
+    solver = planner_metadata(planner, result)["solver"]
+    assert solver["half_cycle_asymmetry"] == result.stats["half_cycle_asymmetry"]
+
+
+def test_a_body_whose_dynamics_do_not_mirror_falls_back_to_the_full_nlp(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Joints and feet mirror, the torso's inertia does not, and the probe is blinded (an
+    asymmetry it cannot see): the reduced NLP converges to a point the full NLP's dynamics rows
+    reject. The solve falls back to the full NLP (a feasible plan, not "no feasible gait"),
+    says so, and the planner solves it in full from then on."""
+    monkeypatch.setattr(hc, "MIRROR_DEFECT_TOL", np.inf)
     robot = _tilted_torso_quad12(tmp_path / "tilted")
     planner = GaitPlanner(robot, 12, PlannerOptions(max_iter=80))
     schedule = make_schedule(robot, "trot")
