@@ -33,6 +33,7 @@ import robots
 from planner.errors import PlannerError
 from robots import Robot
 from robots.files import atomic_write_text
+from robots.rotation import inertia_tensor, quat_to_mat
 
 _PARALLEL_COS = 0.999  # joint axes this close are the same axis (or its opposite)
 _SAME_QUAT_COS = 0.999  # |q_a·q_b| of two body frames that are the same rotation
@@ -187,22 +188,11 @@ def _nlerp(a: np.ndarray, b: np.ndarray, alpha: float) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
-def inertia_tensor(iquat: np.ndarray, principal: np.ndarray) -> np.ndarray:
-    """The 3×3 inertia tensor in the body frame from MuJoCo's principal axes and moments
-    (``body_iquat``, ``body_inertia``)."""
-    mat = np.zeros(9)
-    mujoco.mju_quat2Mat(mat, np.asarray(iquat, dtype=float))
-    rot = mat.reshape(3, 3)
-    return rot @ np.diag(np.asarray(principal, dtype=float)) @ rot.T
-
-
 def _rotation(axis: np.ndarray, angle_rad: float) -> tuple[np.ndarray, np.ndarray]:
     """(quaternion, 3×3 matrix) of a rotation by `angle_rad` about `axis`."""
     quat = np.zeros(4)
     mujoco.mju_axisAngle2Quat(quat, np.asarray(axis, dtype=float), angle_rad)
-    mat = np.zeros(9)
-    mujoco.mju_quat2Mat(mat, quat)
-    return quat, mat.reshape(3, 3)
+    return quat, quat_to_mat(quat)
 
 
 def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -20,14 +20,7 @@ from typing import Any
 import numpy as np
 
 from robots.errors import RobotConfigError
-
-
-def _quat_to_mat(quat: Any) -> np.ndarray:
-    import mujoco
-
-    out = np.zeros(9)
-    mujoco.mju_quat2Mat(out, np.asarray(quat, dtype=float))
-    return out.reshape(3, 3)
+from robots.rotation import quat_to_mat
 
 
 def resolve_sole(model: Any, spec_leg: Any, leg: Any, toml_file: str, mjcf_file: str) -> Any:
@@ -73,11 +66,11 @@ def sole_frame_local(model: Any, leg: Any) -> tuple[np.ndarray, np.ndarray]:
 
     if leg.sole_geom:
         gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, leg.sole_geom)
-        rot = _quat_to_mat(model.geom_quat[gid])
+        rot = quat_to_mat(model.geom_quat[gid])
         pos = np.array(model.geom_pos[gid], dtype=float)
         return pos - rot[:, 2] * float(model.geom_size[gid][2]), rot
     sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, leg.foot_site)
-    return np.array(model.site_pos[sid], dtype=float), _quat_to_mat(model.site_quat[sid])
+    return np.array(model.site_pos[sid], dtype=float), quat_to_mat(model.site_quat[sid])
 
 
 def sole_pose_world(model: Any, data: Any, leg: Any) -> tuple[np.ndarray, np.ndarray]:

@@ -51,12 +51,12 @@ import numpy as np
 from planner.errors import PlannerError
 from planner.hybrid_body import (
     compiled_spec,
-    inertia_tensor,
     make_inertials_explicit,
     write_robot_folder,
 )
 from planner.templates import mirror_permutation
 from robots import Robot
+from robots.rotation import inertia_tensor, quat_to_mat
 from robots.servo import ServoModel, servo_catalogue
 from robots.toml_schema import read_toml
 
@@ -396,9 +396,7 @@ def servo_masses(robot: Robot, model: mujoco.MjModel) -> tuple[ServoMass, ...]:
         jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.name)
         child = int(model.jnt_bodyid[jid])
         parent = int(model.body_parentid[child])
-        rot = np.zeros(9)
-        mujoco.mju_quat2Mat(rot, model.body_quat[child])
-        in_parent = model.body_pos[child] + rot.reshape(3, 3) @ model.jnt_pos[jid]
+        in_parent = model.body_pos[child] + quat_to_mat(model.body_quat[child]) @ model.jnt_pos[jid]
         mass = joint.servo.mass_kg
         for body, anchor in ((parent, in_parent), (child, model.jnt_pos[jid])):
             if body == 0:
@@ -482,9 +480,7 @@ def _set_inertial(body: mujoco.MjsBody, mass: float, com: np.ndarray, inertia: n
 def _stretch_geom(geom: mujoco.MjsGeom, s_mat: np.ndarray, axis: np.ndarray,
                   scale: float) -> None:
     geom.pos = s_mat @ np.asarray(geom.pos, dtype=float)
-    rot = np.zeros(9)
-    mujoco.mju_quat2Mat(rot, np.asarray(geom.quat, dtype=float))
-    local = rot.reshape(3, 3)
+    local = quat_to_mat(geom.quat)
     size = np.asarray(geom.size, dtype=float).copy()
     if geom.type in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER):
         if abs(float(local[:, 2] @ axis)) > _ALIGNED_COS:

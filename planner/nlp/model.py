@@ -32,6 +32,7 @@ import numpy as np
 from planner.errors import ModelError
 from planner.nlp.rotations import omega_world_matrix, rpy_to_matrix
 from robots import Robot
+from robots.rotation import inertia_tensor, quat_to_mat
 
 
 @dataclass(frozen=True)
@@ -67,12 +68,6 @@ def _axis_rotation(axis: np.ndarray, angle: Any) -> Any:
 
 def _hat_np(v: np.ndarray) -> np.ndarray:
     return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]], dtype=float)
-
-
-def _quat_to_mat(quat: np.ndarray) -> np.ndarray:
-    out = np.zeros(9)
-    mujoco.mju_quat2Mat(out, np.asarray(quat, dtype=float))
-    return out.reshape(3, 3)
 
 
 class RobotModel:
@@ -167,13 +162,11 @@ class RobotModel:
                 _Body(
                     parent=-1 if b == root else index[parent],
                     pos=np.array(mj.body_pos[b], dtype=float),
-                    rot=_quat_to_mat(mj.body_quat[b]),
+                    rot=quat_to_mat(mj.body_quat[b]),
                     joints=tuple(joints),
                     mass_kg=float(mj.body_mass[b]),
                     com_local=np.array(mj.body_ipos[b], dtype=float),
-                    inertia_local=(lambda r, d: r @ np.diag(d) @ r.T)(
-                        _quat_to_mat(mj.body_iquat[b]), np.array(mj.body_inertia[b], dtype=float)
-                    ),
+                    inertia_local=inertia_tensor(mj.body_iquat[b], mj.body_inertia[b]),
                 )
             )
         sites: list[tuple[int, np.ndarray]] = []

@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 
 from robots.errors import RobotsError
+from robots.rotation import quat_to_mat
 from robots.scaffold.convert import load_spec, write_assets
 from robots.scaffold.errors import ScaffoldError
 from robots.scaffold.legs import FoundLeg, find_legs
@@ -87,10 +88,8 @@ def _box_sole(model: mujoco.MjModel, leg: FoundLeg) -> str | None:
     ]
     if boxes != [g]:
         return None
-    rot = np.zeros(9)
-    mujoco.mju_quat2Mat(rot, model.geom_quat[g])
     up = leg.foot.sole_normal_local / np.linalg.norm(leg.foot.sole_normal_local)
-    if float(rot.reshape(3, 3)[:, 2] @ up) < math.cos(SOLE_NORMAL_TOL_RAD):
+    if float(quat_to_mat(model.geom_quat[g])[:, 2] @ up) < math.cos(SOLE_NORMAL_TOL_RAD):
         return None
     return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
 
