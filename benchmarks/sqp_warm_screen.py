@@ -469,6 +469,38 @@ def stagewise_run(args: argparse.Namespace, solver_name: str, hessian: str) -> N
           f"{worst(sol):.1e}", flush=True)
 
 
+def qp_probe(n: int = 300, n_eq: int = 100, n_ineq: int = 200, seed: int = 0) -> None:
+    """qpOASES' Schur-complement method with each linear solver CasADi offers it, against dense
+    and sparse (no Schur) qpOASES, on one random strictly convex sparse QP (`n` variables,
+    `n_eq` equality and `n_ineq` one-sided rows of 6 entries each, boxes ±10): is it the
+    planner's QP or the plugin that fails?"""
+    rng = np.random.default_rng(seed)
+    a = np.zeros((n_eq + n_ineq, n))
+    for row in range(a.shape[0]):
+        a[row, rng.choice(n, 6, replace=False)] = rng.standard_normal(6)
+    m = rng.standard_normal((n, n)) * (rng.random((n, n)) < 0.02)
+    h = ca.DM(m @ m.T + 1e-2 * np.eye(n))
+    a_dm = ca.sparsify(ca.DM(a))
+    g = rng.standard_normal(n)
+    lba = np.r_[np.zeros(n_eq), -np.ones(n_ineq)]
+    uba = np.r_[np.zeros(n_eq), np.full(n_ineq, np.inf)]
+    cases: list[tuple[str, dict[str, Any]]] = [("dense", {}), ("sparse", {"sparse": True})]
+    cases += [(f"schur + {ls}", {"sparse": True, "schur": True, "linsol_plugin": ls})
+              for ls in ("ldl", "qr", "csparse", "mumps", "ma27")]
+    print(f"random convex QP: {n} variables, {n_eq} equalities, {n_ineq} inequalities")
+    for label, extra in cases:
+        try:
+            qp = ca.conic("probe", "qpoases", {"h": h.sparsity(), "a": a_dm.sparsity()},
+                          {"printLevel": "none", "error_on_fail": False, **extra})
+            t0 = time.process_time()
+            qp(h=h, g=g, a=a_dm, lba=lba, uba=uba, lbx=-10, ubx=10)
+            st = qp.stats()
+            outcome = "solved" if st.get("success") else str(st.get("return_status"))
+            print(f"  qpOASES {label}: {outcome}, CPU {time.process_time() - t0:.3f} s")
+        except RuntimeError as exc:
+            print(f"  qpOASES {label}: error: {str(exc).strip().splitlines()[-1][-90:]}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -485,12 +517,17 @@ def main() -> None:
     ap.add_argument("--stagewise", default=None, metavar="QP[:HESS]",
                     help="the stage-wise NLP instead: IPOPT's warm solve and sqpmethod with "
                     "QP (hpipm, fatrop; ipopt: IPOPT alone), in this process (`stagewise_run`)")
+    ap.add_argument("--qp-probe", action="store_true",
+                    help="qpOASES' Schur method on a random convex QP (`qp_probe`) and stop")
     ap.add_argument("--rank", action="store_true",
                     help="print the rank of the reduced NLP's equality Jacobian and stop")
     ap.add_argument("--one", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     args.gait = args.gait or {"quad12": "trot", "hex18": "tripod"}.get(args.robot, "trot")
     args.speed = args.speed if args.speed is not None else {"hex18": 0.15}.get(args.robot, 0.25)
+    if args.qp_probe:
+        qp_probe()
+        return
     if args.stagewise:
         name, _, hess = args.stagewise.partition(":")
         stagewise_run(args, name, hess or "reg")
