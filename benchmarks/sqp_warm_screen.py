@@ -105,6 +105,9 @@ QPS: dict[str, tuple[str, dict[str, Any]]] = {
     # the same with the planner's warm IPOPT options (METIS ordering, μ₀ 1e-3, the pushes; the
     # QP's constant derivatives declared): `sqp_solver` fills them in
     "nlpsol-ipopt-tuned": ("nlpsol", {"nlpsol": "ipopt"}),
+    # "tuned" started hot: the QP's IPOPT from sqpmethod's multipliers with μ₀ 1e-6, monotone μ
+    # and pushes 1e-8 (near the optimum the working set hardly changes)
+    "nlpsol-ipopt-hot": ("nlpsol", {"nlpsol": "ipopt"}),
     "fatrop": ("fatrop", {"structure_detection": "auto"}),
 }
 
@@ -206,9 +209,14 @@ def sqp_solver(half: HalfCycleNLP, v: Variant, tol: float, callback: FirstIterat
     jac_fg = ca.Function("nlp_jac_fg", [x, p], [f, grad_f, g, jg], ["x", "p"],
                          ["f", "grad_f_x", "g", "jac_g_x"])
     qp_options = {**QPS[v.qp][1], **dict(v.qp_extra), "error_on_fail": False}
-    if v.qp == "nlpsol-ipopt-tuned":
+    if v.qp in ("nlpsol-ipopt-tuned", "nlpsol-ipopt-hot"):
         ipopt = {**ipopt_options(PlannerOptions(), True), "print_level": 0, "sb": "yes",
                  "hessian_constant": "yes", "jac_c_constant": "yes", "jac_d_constant": "yes"}
+        if v.qp == "nlpsol-ipopt-hot":
+            ipopt.update({"mu_init": 1e-6, "mu_strategy": "monotone",
+                          **{k: 1e-8 for k in ("warm_start_bound_push",
+                                               "warm_start_slack_bound_push",
+                                               "warm_start_mult_bound_push")}})
         qp_options["nlpsol_options"] = {"print_time": False,
                                         **{f"ipopt.{k}": val for k, val in ipopt.items()}}
     opts: dict[str, Any] = {
