@@ -46,8 +46,7 @@ from pathlib import Path
 from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
-# the dense QPs call BLAS: one thread, as every timing here (OMP_NUM_THREADS alone let a dense
-# qpOASES run take more CPU than wall time)
+# the dense QPs call BLAS: one thread, as every timing here (OpenBLAS and MKL read their own)
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 os.environ.setdefault("GAITSMITH_BACKGROUND_COMPILE", "0")
@@ -558,7 +557,8 @@ def main() -> None:
         env["GAITSMITH_CACHE"] = tmp.name
     common = [sys.executable, __file__, "--robot", args.robot, "--gait", args.gait, "--speed",
               str(args.speed), "--knots", str(args.knots), "--seed", str(args.seed),
-              "--schedule", str(args.schedule), "--options", args.options]
+              "--schedule", str(args.schedule), "--options", args.options,
+              "--timeout", str(args.timeout)]
     ref: dict[str, Any] | None = None
     for v in ["ipopt", *[x.name for x in variants if x.name != "ipopt"]]:
         t0 = time.perf_counter()

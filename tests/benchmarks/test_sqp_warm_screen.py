@@ -54,7 +54,7 @@ def test_the_chain_schedule_is_planner_bench_s_symmetric_chain() -> None:
 @pytest.mark.slow
 def test_a_run_prints_the_reference_a_solve_and_a_capped_variant() -> None:
     proc = subprocess.run(
-        [sys.executable, str(_SCREEN), "--knots", "12", "--timeout", "3",
+        [sys.executable, str(_SCREEN), "--knots", "12", "--timeout", "10",
          "--variants", "qrqp:reg,qpoases:reg"],
         capture_output=True, text=True, timeout=900, check=False)
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -62,8 +62,8 @@ def test_a_run_prints_the_reference_a_solve_and_a_capped_variant() -> None:
     assert any(s.startswith("  cold IPOPT: ") for s in lines)
     ipopt = next(s for s in lines if s.startswith("  ipopt: "))
     assert "same optimum" in ipopt and "NOT" not in ipopt
-    # quad12 N = 12 (session 42): qrqp ends after 2 iterations (zero step), dense qpOASES'
-    # first QP does not finish in 40 s
+    # quad12 N = 12 (session 42): qrqp ends after 2 iterations in 1.1 s (zero step), dense
+    # qpOASES' first QP does not finish in 40 s
     assert any(s.startswith("  qrqp:reg: ") and " it, CPU " in s for s in lines)
     capped = next(s for s in lines if s.startswith("  qpoases:reg: "))
-    assert "no result within the 3 s wall cap" in capped
+    assert "no result within the 10 s wall cap" in capped
