@@ -6,6 +6,7 @@ SIGALRM inside the QP, the screen goes on)."""
 from __future__ import annotations
 
 import importlib.util
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -67,3 +68,6 @@ def test_a_run_prints_the_reference_a_solve_and_a_capped_variant() -> None:
     assert any(s.startswith("  qrqp:reg: ") and " it, CPU " in s for s in lines)
     capped = next(s for s in lines if s.startswith("  qpoases:reg: "))
     assert "no result within the 10 s wall cap" in capped
+    # the cap reached the variant's process (until session 42's fix it ran the 60 s default)
+    total = re.search(r"\((\d+) s with the build and template\)", capped)
+    assert total is not None and int(total.group(1)) < 45, capped
