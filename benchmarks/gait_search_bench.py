@@ -174,7 +174,8 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         final_half_cycle: bool = FINAL_HALF_CYCLE,
         final_templates: str = DEFAULT_FINAL_TEMPLATES,
         final_retry_full: str = FINAL_RETRY_FULL,
-        final_swing_wrench: str | None = FINAL_SWING_WRENCH) -> SearchRun:
+        final_swing_wrench: str | None = FINAL_SWING_WRENCH,
+        option_fields: tuple[tuple[str, Any], ...] = ()) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
     NLP's (the options'); `search_swing_wrench` (None: `swing_wrench`), `search_max_iter`,
@@ -187,10 +188,12 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     `final_retry_full` which failed half-cycle candidates are re-solved full (`search_gait(
     final_retry_full=)`: "all", "narrow", "off");
     `final_templates` whether the templates compete with the searched winner
-    (`search_gait(final_templates=...)`)."""
+    (`search_gait(final_templates=...)`); `option_fields` further `PlannerOptions` fields
+    (name, value) of every NLP, set on the command line's options."""
     robot = robots.load(robot_name)
     options, acceptance = cli_search_options(robot, derivatives, swing_wrench, cold_start,
                                              compact_rows, sim_accept, speed)
+    options = replace(options, **dict(option_fields))
     if coarse_speed_tol is not None and "acceptance" in acceptance:
         coarse = acceptance["acceptance"]
         acceptance["acceptance"] = replace(
@@ -225,6 +228,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if (final_half_cycle, final_retry_full) == (FINAL_HALF_CYCLE, FINAL_RETRY_FULL) \
         else final_solve_token(final_half_cycle, final_retry_full)
     label += "" if final_templates == DEFAULT_FINAL_TEMPLATES else f"+{final_templates}"
+    label += "".join(f"+{name}={value}" for name, value in option_fields)
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 

@@ -109,6 +109,9 @@ DEFAULT_HALF_CYCLE_SOLVE = True
 #: below the cold solve's) at 0.50–0.52× its CPU per chain (docs/results/planner_speed_ipopt.md,
 #: session 41)
 DEFAULT_WARM_HALF_CYCLE = True
+#: `PlannerOptions.separation_unit_leg_lengths`' default: None, the foot-separation rows in
+#: metres (`planner.nlp.foot_separation`)
+DEFAULT_SEPARATION_UNIT_LEG_LENGTHS: float | None = None
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -430,6 +433,11 @@ class PlannerOptions:
       `warm_swing_wrench` are off ("none", "same"): each moved some hex18 warm solves to
       another local optimum than the full warm solve's.
     Measured in docs/results/planner_speed_ipopt.md (session 41).
+    - `separation_unit_leg_lengths`: the length the foot-separation rows
+      (`planner.nlp.foot_separation`, only bodies whose feet stand close: the bipeds) are
+      counted in, in leg lengths; None: metres. The same feasible set; it weighs the rows' violation
+      against the other rows' in IPOPT's filter and their multipliers' start
+      (docs/results/planner_speed_coldstart.md, session 42).
     """
 
     mu: float = 0.5
@@ -478,6 +486,7 @@ class PlannerOptions:
     warm_retime: str = "none"
     warm_swing_wrench: str = "same"
     warm_half_cycle: bool = DEFAULT_WARM_HALF_CYCLE
+    separation_unit_leg_lengths: float | None = DEFAULT_SEPARATION_UNIT_LEG_LENGTHS
 
     def __post_init__(self) -> None:
         checks = {
@@ -515,6 +524,9 @@ class PlannerOptions:
             or (math.isfinite(self.line_capture_margin_leg_lengths)
                 and 0 <= self.line_capture_margin_leg_lengths < 1),
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
+            "separation_unit_leg_lengths": self.separation_unit_leg_lengths is None
+            or (math.isfinite(self.separation_unit_leg_lengths)
+                and 1e-3 <= self.separation_unit_leg_lengths <= 10),
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
@@ -554,6 +566,13 @@ class PlannerOptions:
         if self.swing_clearance_m is not None:
             return self.swing_clearance_m
         return SWING_CLEARANCE_LEG_LENGTHS * leg_length_m
+
+    def separation_unit_m(self, leg_length_m: float) -> float:
+        """The length the foot-separation rows are counted in [m]: 1 (metres) or
+        `separation_unit_leg_lengths` leg lengths."""
+        if self.separation_unit_leg_lengths is None:
+            return 1.0
+        return self.separation_unit_leg_lengths * leg_length_m
 
     def body_clearance_for(self, leg_length_m: float) -> float:
         """Body clearance [m] for legs of `leg_length_m` (the option, or the scaling law)."""
