@@ -87,7 +87,7 @@ import statistics
 import sys
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from scipy.stats import binomtest
@@ -111,6 +111,7 @@ from planner.nlp.config import (
     COLD_MU_CENTRALITIES,
     DEFAULT_COLD_MU_CENTRALITY,
     DEFAULT_SEPARATION_UNIT_LEG_LENGTHS,
+    DEFAULT_SWING_WRENCH,
     SWING_WRENCHES,
 )
 from planner.nlp.spacetime import GaitPlanner, PlanResult
@@ -159,7 +160,7 @@ class Setting:
     """Search options of one setting (see the module docstring for the tokens)."""
 
     name: str
-    swing_wrench: str = "rows"
+    swing_wrench: str = DEFAULT_SWING_WRENCH
     search_swing_wrench: str | None = SEARCH_SWING_WRENCH
     warm_start: str = "cold"
     abort: str = "off"
@@ -440,11 +441,14 @@ class FinalReplayer:
     #: the candidates' final re-solves' swing wrench (`search_gait(final_swing_wrench=)`; None:
     #: `swing_wrench`)
     final_swing_wrench: str | None = None
+    #: further `PlannerOptions` fields of the recorded setting (`option_fields`)
+    fields: tuple[tuple[str, object], ...] = ()
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
         self.options, acceptance = cli_search_options(self.robot, swing_wrench=self.swing_wrench,
                                                       speed_m_s=self.search.speed_m_s)
+        self.options = replace(self.options, **dict(self.fields))
         #: the templates are solved as the template path plans them (`final_tasks`)
         self.template_half_cycle = self.options.half_cycle_solve
         self.template_swing_wrench = self.options.swing_wrench
@@ -528,8 +532,11 @@ class FinalReplayer:
 
 def recorded_setting(rec: dict) -> Setting:
     """The setting a recording was made with: one made before session 40 has no
-    `final_swing_wrench` (its final re-solves took the options' own: None)."""
-    return Setting(**{"final_swing_wrench": None, **rec["setting"]})
+    `final_swing_wrench` (its final re-solves took the options' own: None), one made before
+    session 42 no `cold_mu_centrality` ("none") and no `separation_unit_leg_lengths` (metres:
+    None)."""
+    return Setting(**{"final_swing_wrench": None, "cold_mu_centrality": "none",
+                      "separation_unit_leg_lengths": None, **rec["setting"]})
 
 
 def replay_setting(setting: str, k: int, candidates: int,
@@ -573,11 +580,12 @@ def cmd_replay(args: argparse.Namespace) -> None:
                 "" if tm == setting.final_templates else f"+{tm}") + swing_name
             if k > rec["generations"] or (search.key, name) in done:
                 continue
-            key = (search.key, setting.swing_wrench, rec["knots"], *policy, final_swing)
+            key = (search.key, setting.swing_wrench, rec["knots"], *policy, final_swing,
+                   option_fields(setting))
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
                 replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"],
-                                               *policy, final_swing)
+                                               *policy, final_swing, option_fields(setting))
             row = {**replayers[key].truncated(rec, k, c, ch, tm), "setting": name}
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")

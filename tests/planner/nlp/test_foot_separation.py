@@ -97,7 +97,8 @@ def test_separation_unit_counts_the_rows_in_leg_lengths_and_keeps_the_bound() ->
     from planner.nlp.spacetime import GaitPlanner
 
     bot = robots.load("biped")
-    metres = GaitPlanner(bot, n_knots=8)
+    metres = GaitPlanner(bot, n_knots=8,
+                         options=PlannerOptions(separation_unit_leg_lengths=None))
     unit = GaitPlanner(bot, n_knots=8, options=PlannerOptions(separation_unit_leg_lengths=0.4))
     schedule = ContactSchedule(0.64, bot.foot_names, (0.0, 0.5), (0.6, 0.6))
     p = metres._solver_parameters(schedule, 0.1)
@@ -125,3 +126,22 @@ def test_separation_unit_option_is_checked() -> None:
     for bad in (0.0, -0.4, float("nan"), float("inf"), 20.0):
         with pytest.raises(PlannerConfigError, match="separation_unit_leg_lengths"):
             PlannerOptions(separation_unit_leg_lengths=bad)
+
+
+@pytest.mark.slow
+def test_the_template_paths_defaults_plan_the_bipeds_slow_walk_without_wandering() -> None:
+    """The template path's defaults (`DEFAULT_SWING_WRENCH` "bounds" with the separation rows
+    in `DEFAULT_SEPARATION_UNIT_LEG_LENGTHS`) plan the biped's 0.1 m/s walk, cold on the
+    half-cycle NLP, in 15 iterations; "rows" took 22 and "bounds" with the rows in metres 35
+    (23-118 over re-draws of the start: the swing foot carried across the other,
+    docs/results/planner_speed_coldstart.md, sessions 41-42)."""
+    from planner.nlp.spacetime import GaitPlanner
+    from planner.templates import make_schedule
+
+    bot = robots.load("biped")
+    planner = GaitPlanner(bot, n_knots=30)
+    result = planner.solve(make_schedule(bot, "biped_walk"), 0.1, warm_start=False)
+    assert result.feasible, result.message
+    assert result.stats["half_cycle"] and result.stats["swing_wrench"] == "bounds"
+    assert result.iterations <= 18
+    assert result.cost == pytest.approx(0.2255803, rel=1e-4)  # rows' optimum
