@@ -19,6 +19,13 @@ for the shank above the sole. Without the yaw term the biped's soles yawed 22° 
 toes overlapped by 20 mm. Only pairs whose stance
 separation leaves less than `PAIR_SLACK_LEG_LENGTHS`·L of room get a row (a biped's two feet,
 or a narrow robot's side-by-side feet); feet a body length apart cannot meet and add no rows.
+
+The rows are handed to the solver divided by a unit length (`PlannerOptions.
+separation_unit_leg_lengths`, 0.4 leg lengths by default; metres before session 42): the same
+feasible set, but in metres a violation of a few centimetres weighed little in IPOPT's filter
+beside the dynamics rows, and the biped's half-cycle solves with the swing wrench by bounds carried
+a swing foot across the other and took up to 118 iterations to undo it
+(docs/results/planner_speed_coldstart.md, sessions 41–42). Reports of the group read in that unit.
 """
 
 from __future__ import annotations
