@@ -69,12 +69,13 @@ SWING_WRENCHES = ("rows", "bounds")
 #: +1.0e-4, each another local optimum of the same NLP — geometric mean 0.995, 0.68-0.70x the
 #: iterations (session 41, 41d); the 14 zoo template commands the same MuJoCo verdict on 14
 #: of 14 (41e); quad12 trot cold 16 iterations, 0.45-0.52 s CPU against 19 and 0.52-0.62 s,
-#: hex18 tripod 25 against 40, 0.65-0.68x the CPU (41f). On the bipeds only with the separation
+#: hex18 tripod 25 against 40, 0.65-0.68x the CPU (41f; session 42: 0.52 against 0.61 s, 1.6
+#: against 2.4 s). On the bipeds only with the separation
 #: unit (session 42): the built-in biped's walk at 0.1-0.3 m/s and its run, each over nine
 #: draws of the start, at most 18-26 iterations by command (rows 26-65, "bounds" in
 #: metres 35-118).
-#: Searches (11 of the 32-search list, session 42): the same written gait in 10, one biped
-#: walk 0.52 % cheaper, 11 of 11 passing, 0.95x the CPU; the library and retarget on a small
+#: The 32 searches (session 42): the same written gait within 1e-4 in 31, one biped walk
+#: 0.52 % cheaper, 32 of 32 passing, 0.967x the CPU; the library and retarget on a small
 #: grid: the same verdicts, objectives within 2e-5 (docs/results/planner_speed_coldstart.md).
 DEFAULT_SWING_WRENCH = "bounds"
 #: values of `PlannerOptions.warm_retime` (`planner.nlp.warm_start`)
