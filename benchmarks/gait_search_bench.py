@@ -62,6 +62,7 @@ from planner.nlp.config import (
     COLD_STARTS,
     COMPACT_ROWS,
     DEFAULT_COMPACT_ROWS,
+    DEFAULT_SWING_WRENCH,
     DERIVATIVE_PATHS,
     SWING_WRENCHES,
     PlannerOptions,
@@ -91,7 +92,8 @@ from planner.search.gait_search import (
 #: `--swing-wrenches` value: "bounds" in the coarse solves, "rows" in the final re-solves
 COARSE_BOUNDS = "coarse-bounds"
 #: `--swing-wrenches` value: the search's defaults (`SEARCH_SWING_WRENCH` in the coarse solves,
-#: `FINAL_SWING_WRENCH` in the candidates' final re-solves, "rows" in the templates')
+#: `FINAL_SWING_WRENCH` in the candidates' final re-solves, the options' default
+#: `DEFAULT_SWING_WRENCH` in the templates')
 DEFAULT_WRENCHES = "default"
 
 
@@ -146,7 +148,8 @@ def _children_cpu_s() -> float:
     return use.ru_utime + use.ru_stime
 
 
-def cli_search_options(robot: robots.Robot, derivatives: str = "knot", swing_wrench: str = "rows",
+def cli_search_options(robot: robots.Robot, derivatives: str = "knot",
+                       swing_wrench: str = DEFAULT_SWING_WRENCH,
                        cold_start: str = "stance",
                        compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS,
                        sim_accept: bool = True, speed_m_s: float | None = None
@@ -162,7 +165,7 @@ def cli_search_options(robot: robots.Robot, derivatives: str = "knot", swing_wre
 
 def run(robot_name: str, speed: float, generations: int, workers: int, seed: int,
         sim_accept: bool, derivatives: str, executor: str, knots: int,
-        warm_start: str = "cold", abort: str = "off", swing_wrench: str = "rows",
+        warm_start: str = "cold", abort: str = "off", swing_wrench: str = DEFAULT_SWING_WRENCH,
         cold_start: str = "stance",
         compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS,
         search_swing_wrench: str | None = SEARCH_SWING_WRENCH,
@@ -174,7 +177,8 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
         final_half_cycle: bool = FINAL_HALF_CYCLE,
         final_templates: str = DEFAULT_FINAL_TEMPLATES,
         final_retry_full: str = FINAL_RETRY_FULL,
-        final_swing_wrench: str | None = FINAL_SWING_WRENCH) -> SearchRun:
+        final_swing_wrench: str | None = FINAL_SWING_WRENCH,
+        option_fields: tuple[tuple[str, Any], ...] = ()) -> SearchRun:
     """One `search_gait` as `gaitsmith plan ROBOT --speed V --search` runs it (cold: every
     NLP, the final one included, is built inside the timed call). `swing_wrench` is every
     NLP's (the options'); `search_swing_wrench` (None: `swing_wrench`), `search_max_iter`,
@@ -187,10 +191,12 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     `final_retry_full` which failed half-cycle candidates are re-solved full (`search_gait(
     final_retry_full=)`: "all", "narrow", "off");
     `final_templates` whether the templates compete with the searched winner
-    (`search_gait(final_templates=...)`)."""
+    (`search_gait(final_templates=...)`); `option_fields` further `PlannerOptions` fields
+    (name, value) of every NLP, set on the command line's options."""
     robot = robots.load(robot_name)
     options, acceptance = cli_search_options(robot, derivatives, swing_wrench, cold_start,
                                              compact_rows, sim_accept, speed)
+    options = replace(options, **dict(option_fields))
     if coarse_speed_tol is not None and "acceptance" in acceptance:
         coarse = acceptance["acceptance"]
         acceptance["acceptance"] = replace(
@@ -209,7 +215,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     wall, cpu, wcpu = time.perf_counter() - t0, time.process_time() - c0, _children_cpu_s() - w0
     label = derivatives if warm_start == "cold" else f"{derivatives}+{warm_start}"
     label += "" if abort == "off" else f"+abort{abort}"
-    label += "" if swing_wrench == "rows" else f"+swing-{swing_wrench}"
+    label += "" if swing_wrench == DEFAULT_SWING_WRENCH else f"+swing-{swing_wrench}"
     label += "" if search_swing_wrench == SEARCH_SWING_WRENCH else \
         f"+coarse-{search_swing_wrench or swing_wrench}"
     label += "" if final_swing_wrench == FINAL_SWING_WRENCH else \
@@ -225,6 +231,7 @@ def run(robot_name: str, speed: float, generations: int, workers: int, seed: int
     label += "" if (final_half_cycle, final_retry_full) == (FINAL_HALF_CYCLE, FINAL_RETRY_FULL) \
         else final_solve_token(final_half_cycle, final_retry_full)
     label += "" if final_templates == DEFAULT_FINAL_TEMPLATES else f"+{final_templates}"
+    label += "".join(f"+{name}={value}" for name, value in option_fields)
     return SearchRun(label, executor, wall, result, cpu, wcpu)
 
 
@@ -404,7 +411,9 @@ def main() -> None:
                                 r = run(args.robot, args.speed, args.generations, args.workers,
                                         args.seed, args.sim_accept, derivatives, executor,
                                         args.knots, warm_start, abort,
-                                        wrench if wrench in SWING_WRENCHES else "rows", cold,
+                                        wrench if wrench in SWING_WRENCHES else
+                                        "rows" if wrench == COARSE_BOUNDS else
+                                        DEFAULT_SWING_WRENCH, cold,
                                         rows, coarse, final_swing_wrench=final)
                                 runs.append(r)
                                 print(report(r, args.target), flush=True)

@@ -270,7 +270,11 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     ),
     # docs/results/planner_speed_coldstart.md, session 41: the template path's defaults with the
     # swing feet's wrench fixed by bounds, alone and with the reciprocal μ-oracle centrality
+    # ("default-swb" is "default" since session 42; "default-rows" the defaults before it)
     "default-swb": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(swing_wrench="bounds")),
+    "default-rows": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(swing_wrench="rows", separation_unit_leg_lengths=None)
+    ),
     "default-swb-recip": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(swing_wrench="bounds", cold_mu_centrality="reciprocal")
     ),

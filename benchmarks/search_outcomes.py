@@ -40,8 +40,11 @@ there narrowly re-solved on the full NLP: `final_retry_full="narrow"`,
 "fallback" / "compete" (the templates re-solved only when nothing searched passes, or also held
 against the searched winner: `search_gait(final_templates=...)`), "finalrows" / "finalbounds"
 (the candidates' final re-solves with the swing wrench by rows or bounds, the templates keep the
-options' own: `search_gait(final_swing_wrench=...)`).
-Measured in docs/results/planner_speed_search.md, sessions 32-40.
+options' own: `search_gait(final_swing_wrench=...)`), "none" / "reciprocal" (the options'
+`cold_mu_centrality`: the templates' and the candidates' final re-solves; the coarse solves keep
+`SEARCH_COLD_MU_CENTRALITY`), "sepunitX" (`PlannerOptions.separation_unit_leg_lengths` X, every
+NLP). Measured in docs/results/planner_speed_search.md, sessions 32-40, and
+planner_speed_coldstart.md, session 42.
 
     python benchmarks/search_outcomes.py run ... --save DIR
     python benchmarks/search_outcomes.py replay DIR/*.pkl --generations 2,3,4,5,6 --out RUNS.jsonl
@@ -84,7 +87,7 @@ import statistics
 import sys
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from scipy.stats import binomtest
@@ -104,7 +107,13 @@ from gait_search_bench import (
 
 import robots
 from gaitsmith.options import KNOTS_RANGE
-from planner.nlp.config import SWING_WRENCHES
+from planner.nlp.config import (
+    COLD_MU_CENTRALITIES,
+    DEFAULT_COLD_MU_CENTRALITY,
+    DEFAULT_SEPARATION_UNIT_LEG_LENGTHS,
+    DEFAULT_SWING_WRENCH,
+    SWING_WRENCHES,
+)
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.search.basin_cma import LocalResult
 from planner.search.budget import final_candidate_count, final_candidates_reason
@@ -151,7 +160,7 @@ class Setting:
     """Search options of one setting (see the module docstring for the tokens)."""
 
     name: str
-    swing_wrench: str = "rows"
+    swing_wrench: str = DEFAULT_SWING_WRENCH
     search_swing_wrench: str | None = SEARCH_SWING_WRENCH
     warm_start: str = "cold"
     abort: str = "off"
@@ -165,11 +174,26 @@ class Setting:
     final_templates: str = DEFAULT_FINAL_TEMPLATES
     final_retry_full: str = FINAL_RETRY_FULL
     final_swing_wrench: str | None = FINAL_SWING_WRENCH
+    #: `PlannerOptions.cold_mu_centrality` of the options (the templates' and the candidates'
+    #: final re-solves; the coarse solves keep `SEARCH_COLD_MU_CENTRALITY`)
+    cold_mu_centrality: str = DEFAULT_COLD_MU_CENTRALITY
+    #: `PlannerOptions.separation_unit_leg_lengths` of every NLP
+    separation_unit_leg_lengths: float | None = DEFAULT_SEPARATION_UNIT_LEG_LENGTHS
 
     def __post_init__(self) -> None:
         # recordings before session 40 hold the retry as a bool: True was "all", False "off"
         if isinstance(self.final_retry_full, bool):
             object.__setattr__(self, "final_retry_full", retry_policy(self.final_retry_full))
+
+
+def option_fields(setting: Setting) -> tuple[tuple[str, object], ...]:
+    """The `PlannerOptions` fields a setting sets beyond the command line's defaults."""
+    out: list[tuple[str, object]] = []
+    if setting.cold_mu_centrality != DEFAULT_COLD_MU_CENTRALITY:
+        out.append(("cold_mu_centrality", setting.cold_mu_centrality))
+    if setting.separation_unit_leg_lengths != DEFAULT_SEPARATION_UNIT_LEG_LENGTHS:
+        out.append(("separation_unit_leg_lengths", setting.separation_unit_leg_lengths))
+    return tuple(out)
 
 
 def retry_policy(value: bool | str) -> str:
@@ -243,12 +267,17 @@ def parse_setting(text: str) -> Setting:
             key, value = "final_templates", token
         elif token in FINAL_SWING_TOKENS:
             key, value = "final_swing_wrench", FINAL_SWING_TOKENS[token]
+        elif token in COLD_MU_CENTRALITIES:
+            key, value = "cold_mu_centrality", token
+        elif token.startswith("sepunit"):
+            key, value = "separation_unit_leg_lengths", _number(token, "sepunit", float, text)
         else:
             raise SystemExit(
                 f"--settings: unknown token {token!r} in {text!r}; use base, "
                 f"{', '.join(SWING_WRENCHES)}, {', '.join(COARSE_SWING_TOKENS)}, "
                 f"{', '.join(SEARCH_WARM_STARTS)}, "
                 "abortK/V, capN, tolX, genK, knotsN, speedX, half, full, "
+                f"{', '.join(COLD_MU_CENTRALITIES)}, sepunitX, "
                 f"{', '.join(FINAL_SOLVE_TOKENS)}, {', '.join(FINAL_SWING_TOKENS)}, "
                 f"{' or '.join(FINAL_TEMPLATES)}, joined by +")
         if key in fields:
@@ -361,7 +390,8 @@ def cmd_run(args: argparse.Namespace) -> None:
                     final_half_cycle=setting.final_half_cycle,
                     final_templates=setting.final_templates,
                     final_retry_full=setting.final_retry_full,
-                    final_swing_wrench=setting.final_swing_wrench)
+                    final_swing_wrench=setting.final_swing_wrench,
+                    option_fields=option_fields(setting))
             row = record(search, setting, r, load)
             if save is not None:
                 with (save / recording_name(search.key, setting.name)).open("wb") as fh:
@@ -411,11 +441,14 @@ class FinalReplayer:
     #: the candidates' final re-solves' swing wrench (`search_gait(final_swing_wrench=)`; None:
     #: `swing_wrench`)
     final_swing_wrench: str | None = None
+    #: further `PlannerOptions` fields of the recorded setting (`option_fields`)
+    fields: tuple[tuple[str, object], ...] = ()
 
     def __post_init__(self) -> None:
         self.robot = robots.load(self.search.robot)
         self.options, acceptance = cli_search_options(self.robot, swing_wrench=self.swing_wrench,
                                                       speed_m_s=self.search.speed_m_s)
+        self.options = replace(self.options, **dict(self.fields))
         #: the templates are solved as the template path plans them (`final_tasks`)
         self.template_half_cycle = self.options.half_cycle_solve
         self.template_swing_wrench = self.options.swing_wrench
@@ -499,8 +532,11 @@ class FinalReplayer:
 
 def recorded_setting(rec: dict) -> Setting:
     """The setting a recording was made with: one made before session 40 has no
-    `final_swing_wrench` (its final re-solves took the options' own: None)."""
-    return Setting(**{"final_swing_wrench": None, **rec["setting"]})
+    `final_swing_wrench` (its final re-solves took the options' own: None), one made before
+    session 42 no `cold_mu_centrality` ("none") and no `separation_unit_leg_lengths` (metres:
+    None)."""
+    return Setting(**{"final_swing_wrench": None, "cold_mu_centrality": "none",
+                      "separation_unit_leg_lengths": None, **rec["setting"]})
 
 
 def replay_setting(setting: str, k: int, candidates: int,
@@ -544,11 +580,12 @@ def cmd_replay(args: argparse.Namespace) -> None:
                 "" if tm == setting.final_templates else f"+{tm}") + swing_name
             if k > rec["generations"] or (search.key, name) in done:
                 continue
-            key = (search.key, setting.swing_wrench, rec["knots"], *policy, final_swing)
+            key = (search.key, setting.swing_wrench, rec["knots"], *policy, final_swing,
+                   option_fields(setting))
             if key not in replayers:
                 replayers.clear()  # one search's planner at a time
                 replayers[key] = FinalReplayer(search, setting.swing_wrench, rec["knots"],
-                                               *policy, final_swing)
+                                               *policy, final_swing, option_fields(setting))
             row = {**replayers[key].truncated(rec, k, c, ch, tm), "setting": name}
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")

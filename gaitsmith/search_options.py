@@ -54,7 +54,7 @@ def final_swing_wrench_option() -> Any:
     return typer.Option(FINAL_SWING_WRENCH, "--final-swing-wrench",
                         help="how the final re-solves of the searched candidates hold a swing "
                         "foot's wrench at 0: rows | bounds; the templates they compete with "
-                        "are planned as plan --gait plans them")
+                        "are planned as plan --gait plans them (bounds)")
 
 
 def search_half_cycle_option() -> Any:

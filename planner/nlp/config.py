@@ -62,6 +62,22 @@ DEFAULT_COMPACT_ROWS = ("torque envelope",)
 COLD_STARTS = ("stance", "balanced", "stride")
 #: values of `PlannerOptions.swing_wrench` (`planner.nlp.swing_wrench`)
 SWING_WRENCHES = ("rows", "bounds")
+#: `PlannerOptions.swing_wrench`'s default: "bounds" since session 42 (was "rows"), with
+#: `DEFAULT_SEPARATION_UNIT_LEG_LENGTHS`. Template path (half-cycle, cold, N = 30): over every
+#: template + 20 random schedules of quad12 and hex18, 35 judged: 6 cheaper, 25 within 1e-4, 4
+#: costlier — quad12 wave +3.4 %, hex18 random2 +2.1 %, random7 +8.0e-4, quad12 random3
+#: +1.0e-4, each another local optimum of the same NLP — geometric mean 0.995, 0.68-0.70x the
+#: iterations (session 41, 41d); the 14 zoo template commands the same MuJoCo verdict on 14
+#: of 14 (41e); quad12 trot cold 16 iterations, 0.45-0.52 s CPU against 19 and 0.52-0.62 s,
+#: hex18 tripod 25 against 40, 0.65-0.68x the CPU (41f; session 42: 0.52 against 0.61 s, 1.6
+#: against 2.4 s). On the bipeds only with the separation
+#: unit (session 42): the built-in biped's walk at 0.1-0.3 m/s and its run, each over nine
+#: draws of the start, at most 18-26 iterations by command (rows 26-65, "bounds" in
+#: metres 35-118).
+#: The 32 searches (session 42): the same written gait within 1e-4 in 31, one biped walk
+#: 0.52 % cheaper, 32 of 32 passing, 0.967x the CPU; the library and retarget on a small
+#: grid: the same verdicts, objectives within 2e-5 (docs/results/planner_speed_coldstart.md).
+DEFAULT_SWING_WRENCH = "bounds"
 #: values of `PlannerOptions.warm_retime` (`planner.nlp.warm_start`)
 WARM_RETIMES = ("none", "whole", "per foot")
 #: values of `PlannerOptions.warm_swing_wrench`: "same" (the solve's own, `swing_wrench`)
@@ -109,6 +125,21 @@ DEFAULT_HALF_CYCLE_SOLVE = True
 #: below the cold solve's) at 0.50–0.52× its CPU per chain (docs/results/planner_speed_ipopt.md,
 #: session 41)
 DEFAULT_WARM_HALF_CYCLE = True
+#: `PlannerOptions.separation_unit_leg_lengths`' default: the foot-separation rows
+#: (`planner.nlp.foot_separation`; the bipeds' only) counted in 0.4 leg lengths (0.1 m on the
+#: built-in biped) instead of metres (None, before session 42). In metres a row the cold start sits
+#: on weighs little against the dynamics rows in IPOPT's filter; with the swing wrench by bounds
+#: the half-cycle NLP's first long steps carried the biped's swing foot 31-77 mm across the
+#: other and took ~70 iterations to undo (session 41). Over nine draws of the start, "bounds"
+#: with this unit against "bounds" in metres and "rows" in metres: the biped's walk at 0.1 m/s
+#: 15-18 / 23-118 / 19-26 iterations, 0.15 m/s 14-24 / 19-92 / 21-29, 0.2 m/s 14-20 / 22-36
+#: / 23-46, 0.25 m/s 18-22 / 19-51 / 26-37, 0.3 m/s 22-24 / 20-35 / 28-41, its run 21-26 /
+#: 20-72 / 36-65 (unit 0.1 m; 0.4 L measured at 0.1 and 0.15 m/s); costs within 5e-5 of rows'.
+#: 0.2 L: 12-38 at 0.1 m/s (12-29 elsewhere); 1 L: 14-30 at 0.1 m/s. humanoid20
+#: (`PlannerOptions()`, walk): 18-33 at 0.15 m/s and 25-55 at 0.1 m/s against "bounds" in
+#: metres 16-20 / 21-33 and rows 31-36 / 31-38; its CLI walks 17 / 41 against rows' 37 / 38,
+#: the same verdicts (docs/results/planner_speed_coldstart.md, session 42).
+DEFAULT_SEPARATION_UNIT_LEG_LENGTHS: float | None = 0.4
 #: upper bound of `PlannerOptions.knot_threads`
 MAX_KNOT_THREADS = 64
 
@@ -394,7 +425,8 @@ class PlannerOptions:
       docs/results/planner_speed_init.md measures them.
     - `swing_wrench`: how a swing foot's wrench is held at 0 (`planner.nlp.swing_wrench`):
       "rows" (the schedule's rows and f_z ≥ 0 pin it from both sides) or "bounds" (fixed by
-      its bounds per solve, the rows it pins freed). The same feasible set.
+      its bounds per solve, the rows it pins freed; the default since session 42,
+      `DEFAULT_SWING_WRENCH`). The same feasible set.
     - `inactive_rows`: the equality rows the schedule switches off (a swing foot's "stance
       height", "stance no-slip" over two swing knots, a flat foot's "sole level" and "sole yaw
       hold"; each reads 0 = 0 and makes the constraint Jacobian rank-deficient,
@@ -430,6 +462,11 @@ class PlannerOptions:
       `warm_swing_wrench` are off ("none", "same"): each moved some hex18 warm solves to
       another local optimum than the full warm solve's.
     Measured in docs/results/planner_speed_ipopt.md (session 41).
+    - `separation_unit_leg_lengths`: the length the foot-separation rows
+      (`planner.nlp.foot_separation`, only bodies whose feet stand close: the bipeds) are
+      counted in, in leg lengths; None: metres. The same feasible set; it weighs the rows' violation
+      against the other rows' in IPOPT's filter and their multipliers' start
+      (docs/results/planner_speed_coldstart.md, session 42).
     """
 
     mu: float = 0.5
@@ -471,13 +508,14 @@ class PlannerOptions:
     nlp_hessian: str = DEFAULT_NLP_HESSIAN
     compact_rows: tuple[str, ...] = DEFAULT_COMPACT_ROWS
     cold_start: str = DEFAULT_COLD_START
-    swing_wrench: str = "rows"
+    swing_wrench: str = DEFAULT_SWING_WRENCH
     inactive_rows: str = DEFAULT_INACTIVE_ROWS
     stance_clearance: str = DEFAULT_STANCE_CLEARANCE
     cold_mu_centrality: str = DEFAULT_COLD_MU_CENTRALITY
     warm_retime: str = "none"
     warm_swing_wrench: str = "same"
     warm_half_cycle: bool = DEFAULT_WARM_HALF_CYCLE
+    separation_unit_leg_lengths: float | None = DEFAULT_SEPARATION_UNIT_LEG_LENGTHS
 
     def __post_init__(self) -> None:
         checks = {
@@ -515,6 +553,9 @@ class PlannerOptions:
             or (math.isfinite(self.line_capture_margin_leg_lengths)
                 and 0 <= self.line_capture_margin_leg_lengths < 1),
             "sideways_slip_leg_lengths": 0 <= self.sideways_slip_leg_lengths <= 0.01,
+            "separation_unit_leg_lengths": self.separation_unit_leg_lengths is None
+            or (math.isfinite(self.separation_unit_leg_lengths)
+                and 1e-3 <= self.separation_unit_leg_lengths <= 10),
             "tol": 0 < self.tol < 1,
             "max_iter": self.max_iter is None or 0 < self.max_iter <= MAX_ITERATION_CAP,
             "derivatives": self.derivatives in DERIVATIVE_PATHS,
@@ -554,6 +595,13 @@ class PlannerOptions:
         if self.swing_clearance_m is not None:
             return self.swing_clearance_m
         return SWING_CLEARANCE_LEG_LENGTHS * leg_length_m
+
+    def separation_unit_m(self, leg_length_m: float) -> float:
+        """The length the foot-separation rows are counted in [m]: 1 (metres) or
+        `separation_unit_leg_lengths` leg lengths."""
+        if self.separation_unit_leg_lengths is None:
+            return 1.0
+        return self.separation_unit_leg_lengths * leg_length_m
 
     def body_clearance_for(self, leg_length_m: float) -> float:
         """Body clearance [m] for legs of `leg_length_m` (the option, or the scaling law)."""

@@ -403,10 +403,13 @@ def build_groups(
         *_mean_footprint_groups(model, sym, n, options),
         *_mirror_groups(model, sym, n, options),
     ]
-    separation, separation_lb = foot_separation_rows(model, sym, kq.feet_m, derived)
-    if separation_lb.size:  # neighbouring feet do not cross (`planner.nlp.foot_separation`)
+    # neighbouring feet do not cross (`planner.nlp.foot_separation`), in rows counted in
+    # `separation_unit_m` (metres unless `PlannerOptions.separation_unit_leg_lengths` is set)
+    unit_m = options.separation_unit_m(length)
+    separation, separation_lb = foot_separation_rows(model, sym, kq.feet_m, derived, unit_m)
+    if separation_lb.size:
         groups.append(Group("foot separation", separation, separation_lb,
-                            np.full(separation_lb.size, inf), length))
+                            np.full(separation_lb.size, inf), length / unit_m))
     return spare_flat_foot_ankles(model, groups, n)
 
 

@@ -19,6 +19,13 @@ for the shank above the sole. Without the yaw term the biped's soles yawed 22° 
 toes overlapped by 20 mm. Only pairs whose stance
 separation leaves less than `PAIR_SLACK_LEG_LENGTHS`·L of room get a row (a biped's two feet,
 or a narrow robot's side-by-side feet); feet a body length apart cannot meet and add no rows.
+
+The rows are handed to the solver divided by a unit length (`PlannerOptions.
+separation_unit_leg_lengths`, 0.4 leg lengths by default; metres before session 42): the same
+feasible set, but in metres a violation of a few centimetres weighed little in IPOPT's filter
+beside the dynamics rows, and the biped's half-cycle solves with the swing wrench by bounds carried
+a swing foot across the other and took up to 118 iterations to undo it
+(docs/results/planner_speed_coldstart.md, sessions 41–42). Reports of the group read in that unit.
 """
 
 from __future__ import annotations
@@ -82,8 +89,14 @@ def foot_separation_rows(
     sym: Any,
     feet_m: Any,
     derived: Callable[[ca.Function], ca.Function] = same_function,
+    unit_m: float = 1.0,
 ) -> tuple[Any, np.ndarray]:
-    """(rows P·N: separation − minimum [m], pair by pair for each knot; lower bounds 0)."""
+    """(rows P·N: (separation − minimum) / `unit_m`, pair by pair for each knot; lower bounds 0).
+
+    `unit_m` is the length the rows are counted in (`PlannerOptions.separation_unit_leg_lengths`
+    times the leg length; 1: metres); the feasible set is the same for every unit."""
+    if not unit_m > 0:
+        raise ValueError(f"unit_m must be > 0, got {unit_m!r}")
     pairs = foot_pairs(model)
     if not pairs:
         return ca.MX(0, 1), np.zeros(0)
@@ -121,7 +134,7 @@ def foot_separation_rows(
         gap = need - _extent(model.robot.legs[i], _stance_axes(model, i), u, model.foot_radius_m) \
             - _extent(model.robot.legs[j], _stance_axes(model, j), u, model.foot_radius_m)
         rows.append(float(u[0]) * along + float(u[1]) * lateral - extent(i, u) - extent(j, u) - gap)
-    return ca.vec(ca.vertcat(*rows)), np.zeros(len(pairs) * n)
+    return ca.vec(ca.vertcat(*rows)) / unit_m, np.zeros(len(pairs) * n)
 
 
 def _stance_axes(model: RobotModel, foot: int) -> np.ndarray | None:

@@ -145,6 +145,8 @@ def planner_metadata(planner: GaitPlanner, result: PlanResult) -> dict[str, Any]
         "nondimensional": o.nondimensional,
         "sideways_slip_leg_lengths": o.sideways_slip_leg_lengths,
         **({} if o.rotor_reserve is None else {"rotor_reserve": o.rotor_reserve}),
+        **({} if o.separation_unit_leg_lengths is None
+           else {"separation_unit_leg_lengths": o.separation_unit_leg_lengths}),
         **({} if o.line_capture_margin_leg_lengths is None
            else {"line_capture_margin_leg_lengths": o.line_capture_margin_leg_lengths}),
         **joint_angle_semantics(planner, result),

@@ -106,8 +106,9 @@ FINAL_RETRY_MARGIN = 0.05
 #: `PlannerOptions.swing_wrench` of the search's coarse solves (`search_gait(search_swing_wrench=)`,
 #: `plan --search --search-swing-wrench`) and of the final re-solves of its candidates
 #: (`search_gait(final_swing_wrench=)`, `--final-swing-wrench`), whatever the options say (None:
-#: the options' own); the templates the final phase re-solves keep the options' own ("rows",
-#: the template path's), so a rival is the template command's plan. "bounds" (the swing feet's
+#: the options' own); the templates the final phase re-solves keep the options' own (the template
+#: path's: "rows" until session 42, `planner.nlp.config.DEFAULT_SWING_WRENCH` "bounds" since),
+#: so a rival is the template command's plan. "bounds" (the swing feet's
 #: wrench fixed to 0 by its bounds, `planner.nlp.swing_wrench`) for both since session 40:
 #: over the 32 searches on 8 bodies of session 38, run back to back with "rows", 32 of 32 pass,
 #: the written cost + support term 0.951x paired geometric mean (19 the same, 7 cheaper by

@@ -38,11 +38,12 @@ def test_cap_tol_and_gen_tokens_set_the_coarse_options_and_generations() -> None
 def test_final_swing_tokens_set_the_candidates_final_re_solves_only() -> None:
     s = so.parse_setting("coarse-bounds+finalbounds")
     assert (s.swing_wrench, s.search_swing_wrench, s.final_swing_wrench) == (
-        "rows", "bounds", "bounds")
+        so.DEFAULT_SWING_WRENCH, "bounds", "bounds")
     assert so.parse_setting("finalrows").final_swing_wrench == "rows"
     base = so.parse_setting("base")
     assert (base.swing_wrench, base.search_swing_wrench, base.final_swing_wrench) == (
-        "rows", so.SEARCH_SWING_WRENCH, so.FINAL_SWING_WRENCH) == ("rows", "bounds", "bounds")
+        so.DEFAULT_SWING_WRENCH, so.SEARCH_SWING_WRENCH, so.FINAL_SWING_WRENCH) == (
+        "bounds", "bounds", "bounds")
     old = so.parse_setting("coarse-rows+finalrows")  # the defaults before session 40
     assert (old.search_swing_wrench, old.final_swing_wrench) == ("rows", "rows")
     with pytest.raises(SystemExit, match="sets final_swing_wrench twice"):
@@ -100,8 +101,8 @@ def test_half_tokens_set_the_coarse_and_final_half_cycle_solves() -> None:
     ("speed0", r"'speed0' in 'speed0' needs a number in \(0, 1\) after 'speed'"),
     ("speed1.5", r"needs a number in \(0, 1\) after 'speed'"),
     ("fast", r"unknown token 'fast'.*capN, tolX, genK, knotsN, speedX, half, full, "
-             r"fullfinal, halffinal, halfretry, halfnarrow, finalrows, finalbounds, fallback "
-             r"or compete"),
+             r"none, reciprocal, sepunitX, fullfinal, halffinal, halfretry, halfnarrow, "
+             r"finalrows, finalbounds, fallback or compete"),
 ])
 def test_bad_tokens_are_one_line(text: str, match: str) -> None:
     with pytest.raises(SystemExit, match=match) as err:
@@ -352,3 +353,21 @@ def test_rule_picks_the_replayed_row_the_final_candidate_rule_names(
         so.rule_row(rec, rows, generations)
     with pytest.raises(SystemExit, match=r"recorded with 6 generations, --generations asks"):
         so.rule_row(rec, rows, 7)
+
+
+def test_centrality_and_separation_unit_tokens_set_planner_fields() -> None:
+    s = so.parse_setting("bounds+reciprocal+sepunit0.2")
+    assert (s.swing_wrench, s.cold_mu_centrality, s.separation_unit_leg_lengths) == (
+        "bounds", "reciprocal", 0.2)
+    assert so.option_fields(s) == (("cold_mu_centrality", "reciprocal"),
+                                   ("separation_unit_leg_lengths", 0.2))
+    assert so.option_fields(so.parse_setting("base")) == ()
+    # a recording made before session 42 was planned with the separation rows in metres
+    recorded = {k: v for k, v in asdict(so.parse_setting("base")).items()
+                if k not in ("cold_mu_centrality", "separation_unit_leg_lengths")}
+    old = so.recorded_setting({"setting": recorded})
+    assert so.option_fields(old) == (("separation_unit_leg_lengths", None),)
+    with pytest.raises(SystemExit, match=r"needs a number in \(0, 1\) after 'sepunit'"):
+        so.parse_setting("sepunit2")
+    with pytest.raises(SystemExit, match="sets cold_mu_centrality twice"):
+        so.parse_setting("none+reciprocal")

@@ -91,10 +91,11 @@ def test_the_coarse_swing_wrench_is_the_searchs_default_or_the_one_asked(
 ) -> None:
     """`plan --search` gives `search_gait` the coarse solves' swing wrench: the search's default
     (`SEARCH_SWING_WRENCH`, "bounds" since session 40; docs/results/planner_speed_search.md),
-    or the one --search-swing-wrench asks; the options (the templates') keep "rows" either
-    way."""
+    or the one --search-swing-wrench asks; the options (the templates') keep the template
+    path's default (`DEFAULT_SWING_WRENCH`, "bounds" since session 42) either way."""
     import planner.search.gait_search as gs
     from gaitsmith.cli import main
+    from planner.nlp.config import DEFAULT_SWING_WRENCH
     from planner.search.defaults import SEARCH_SWING_WRENCH
 
     seen: list[tuple[str | None, str]] = []
@@ -111,7 +112,7 @@ def test_the_coarse_swing_wrench_is_the_searchs_default_or_the_one_asked(
         with pytest.raises(_Recorded):
             main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
                   "-o", str(tmp_path / "g.json")])
-        assert seen[-1] == (expected, "rows")
+        assert seen[-1] == (expected, DEFAULT_SWING_WRENCH)
 
 
 def test_the_final_swing_wrench_is_the_searchs_default_or_the_one_asked(
@@ -119,10 +120,11 @@ def test_the_final_swing_wrench_is_the_searchs_default_or_the_one_asked(
 ) -> None:
     """`plan --search` gives `search_gait` the candidates' final re-solves' swing wrench:
     `planner.search.defaults.FINAL_SWING_WRENCH` ("bounds" since session 40) by default,
-    "bounds" or "rows" with --final-swing-wrench; the options (the templates') keep "rows"
-    either way."""
+    "bounds" or "rows" with --final-swing-wrench; the options (the templates') keep the
+    template path's default either way."""
     import planner.search.gait_search as gs
     from gaitsmith.cli import main
+    from planner.nlp.config import DEFAULT_SWING_WRENCH
     from planner.search.defaults import FINAL_SWING_WRENCH
 
     seen: list[tuple[str | None, str]] = []
@@ -138,7 +140,7 @@ def test_the_final_swing_wrench_is_the_searchs_default_or_the_one_asked(
         with pytest.raises(_Recorded):
             main(["plan", "quad12", "--speed", "0.25", "--search", *extra,
                   "-o", str(tmp_path / "g.json")])
-        assert seen[-1] == (expected, "rows")
+        assert seen[-1] == (expected, DEFAULT_SWING_WRENCH)
 
 
 def test_the_coarse_half_cycle_solve_follows_its_flag(

@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 import robots
+from planner.errors import PlannerConfigError
+from planner.nlp.config import PlannerOptions
 from planner.nlp.foot_separation import FOOT_GAP_LEG_LENGTHS, foot_pairs
 from planner.nlp.model import RobotModel
 from robots import ContactSchedule
@@ -86,3 +88,60 @@ def test_planned_biped_walk_keeps_its_soles_apart() -> None:
         left, right = _sole_rectangles(bot, qpos)
         assert left[:, 1].mean() > right[:, 1].mean() + 0.06, k  # left foot stays on the left
         assert _rectangles_separated(left, right), k
+
+
+def test_separation_unit_counts_the_rows_in_leg_lengths_and_keeps_the_bound() -> None:
+    """`PlannerOptions.separation_unit_leg_lengths`: the same rows divided by the unit, the
+    same lower bound 0 (so the same feasible set), and a nondimensional scale that still reads
+    leg lengths."""
+    from planner.nlp.spacetime import GaitPlanner
+
+    bot = robots.load("biped")
+    metres = GaitPlanner(bot, n_knots=8,
+                         options=PlannerOptions(separation_unit_leg_lengths=None))
+    unit = GaitPlanner(bot, n_knots=8, options=PlannerOptions(separation_unit_leg_lengths=0.4))
+    schedule = ContactSchedule(0.64, bot.foot_names, (0.0, 0.5), (0.6, 0.6))
+    p = metres._solver_parameters(schedule, 0.1)
+    rng = np.random.default_rng(0)
+    x = metres.primal_start(np.zeros(metres.layout.size)).x
+    x = np.clip(x + 0.02 * rng.standard_normal(x.size), metres._lbx, metres._ubx)
+    rows = dict(metres._slices)["foot separation"]
+    assert rows == dict(unit._slices)["foot separation"]
+    g_m = np.asarray(metres._evaluate(x, p)[0]).ravel()[rows]
+    g_u = np.asarray(unit._evaluate(x, p)[0]).ravel()[rows]
+    assert np.abs(g_m).max() > 1e-3  # a point where the rows are not all 0
+    np.testing.assert_allclose(g_u, g_m / (0.4 * bot.leg_length_m), rtol=1e-12, atol=1e-15)
+    assert np.array_equal(unit._lbg[rows], metres._lbg[rows])
+    assert np.all(unit._lbg[rows] == 0) and np.all(np.isposinf(unit._ubg[rows]))
+    others = np.ones(metres._lbg.size, dtype=bool)
+    others[rows] = False
+    np.testing.assert_array_equal(np.asarray(unit._evaluate(x, p)[0]).ravel()[others],
+                                  np.asarray(metres._evaluate(x, p)[0]).ravel()[others])
+
+
+def test_separation_unit_option_is_checked() -> None:
+    assert PlannerOptions(separation_unit_leg_lengths=None).separation_unit_m(0.25) == 1.0
+    assert PlannerOptions(separation_unit_leg_lengths=0.4).separation_unit_m(0.25) == \
+        pytest.approx(0.1)
+    for bad in (0.0, -0.4, float("nan"), float("inf"), 20.0):
+        with pytest.raises(PlannerConfigError, match="separation_unit_leg_lengths"):
+            PlannerOptions(separation_unit_leg_lengths=bad)
+
+
+@pytest.mark.slow
+def test_the_template_paths_defaults_plan_the_bipeds_slow_walk_without_wandering() -> None:
+    """The template path's defaults (`DEFAULT_SWING_WRENCH` "bounds" with the separation rows
+    in `DEFAULT_SEPARATION_UNIT_LEG_LENGTHS`) plan the biped's 0.1 m/s walk, cold on the
+    half-cycle NLP, in 15 iterations; "rows" took 22 and "bounds" with the rows in metres 35
+    (23-118 over re-draws of the start: the swing foot carried across the other,
+    docs/results/planner_speed_coldstart.md, sessions 41-42)."""
+    from planner.nlp.spacetime import GaitPlanner
+    from planner.templates import make_schedule
+
+    bot = robots.load("biped")
+    planner = GaitPlanner(bot, n_knots=30)
+    result = planner.solve(make_schedule(bot, "biped_walk"), 0.1, warm_start=False)
+    assert result.feasible, result.message
+    assert result.stats["half_cycle"] and result.stats["swing_wrench"] == "bounds"
+    assert result.iterations <= 18
+    assert result.cost == pytest.approx(0.2255803, rel=1e-4)  # rows' optimum

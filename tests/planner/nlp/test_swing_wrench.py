@@ -44,10 +44,11 @@ def test_bounds_fix_the_swing_wrench_and_free_only_its_rows(quad_planner: GaitPl
 
 def test_bounds_give_the_same_optimum(quad_planner: GaitPlanner) -> None:
     """The feasible set is the same: a trot reaches the rows' optimum (quad12 N = 30: 19 → 16
-    iterations, docs/results/planner_speed_init.md)."""
-    bounded = GaitPlanner(quad_planner.robot, quad_planner.n_knots,
-                          PlannerOptions(swing_wrench="bounds"))
-    a, b = _trot_optima(quad_planner, bounded)
+    iterations, docs/results/planner_speed_init.md; "bounds" is the default since session 42)."""
+    assert quad_planner.options.swing_wrench == "bounds"
+    rows = GaitPlanner(quad_planner.robot, quad_planner.n_knots,
+                       PlannerOptions(swing_wrench="rows"))
+    a, b = _trot_optima(rows, quad_planner)
     assert b.iterations < a.iterations
 
 
@@ -104,7 +105,7 @@ def test_reports_judge_the_bounds_the_solve_used(quad_planner: GaitPlanner) -> N
     done = pl.solve(schedule, 0.25, warm_start=False)
     assert done.feasible, done.message
     p = pl._solver_parameters(schedule, 0.25)
-    built = pl._solve_bounds(schedule)
+    built = pl._solve_bounds(schedule, "rows")  # every row, the swing feet's friction rows too
     stats = {"return_status": "Solve_Succeeded", "iter_count": 0}
 
     def result(x: np.ndarray, bounds: SolveBounds) -> PlanResult:
@@ -163,9 +164,10 @@ def test_a_solve_may_hold_the_swing_wrench_its_own_way(quad_planner: GaitPlanner
     final re-solves, `search_gait(final_swing_wrench=)`): the bounds are those of a planner
     built with it, and a rows planner asked for "bounds" solves the trot as a bounds planner
     does (the same iterations and cost); an unknown value is a one-line error."""
-    pl = quad_planner
+    pl = GaitPlanner(quad_planner.robot, quad_planner.n_knots, PlannerOptions(swing_wrench="rows"))
     schedule = make_schedule(pl.robot, "trot")
-    bounded = GaitPlanner(pl.robot, pl.n_knots, PlannerOptions(swing_wrench="bounds"))
+    bounded = quad_planner  # "bounds", the default since session 42
+    assert bounded.options.swing_wrench == "bounds"
     for asked_for, built_with in ((pl._solve_bounds(schedule, "bounds"),
                                    bounded._solve_bounds(schedule)),
                                   (bounded._solve_bounds(schedule, "rows"),

@@ -107,7 +107,7 @@ def test_per_foot_warm_start_reaches_the_cold_optimum_and_holds_the_wrench_by_bo
     base = make_schedule(quad12, "trot")
     changed = _moved(_moved(base, 0, phase=0.06, duty=0.03, period=1.04), 3, phase=-0.05)
     assert (base.contact_matrix(N) != changed.contact_matrix(N)).any()
-    planner = GaitPlanner(quad12, N, PlannerOptions(warm_retime="per foot",
+    planner = GaitPlanner(quad12, N, PlannerOptions(warm_retime="per foot", swing_wrench="rows",
                                                     warm_swing_wrench="bounds"))
     start = planner.solve(base, 0.25, warm_start=False)
     assert start.feasible, start.message
