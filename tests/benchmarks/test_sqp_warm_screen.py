@@ -63,11 +63,15 @@ def test_a_run_prints_the_reference_a_solve_and_a_capped_variant() -> None:
     assert any(s.startswith("  cold IPOPT: ") for s in lines)
     ipopt = next(s for s in lines if s.startswith("  ipopt: "))
     assert "same optimum" in ipopt and "NOT" not in ipopt
-    # quad12 N = 12 (session 42): qrqp ends after 2 iterations in 1.1 s (zero step), dense
-    # qpOASES' first QP does not finish in 40 s
-    assert any(s.startswith("  qrqp:reg: ") and " it, CPU " in s for s in lines)
-    capped = next(s for s in lines if s.startswith("  qpoases:reg: "))
-    assert "no result within the 10 s wall cap" in capped
-    # the cap reached the variant's process (until session 42's fix it ran the 60 s default)
-    total = re.search(r"\((\d+) s with the build and template\)", capped)
-    assert total is not None and int(total.group(1)) < 45, capped
+    # each variant either ends (a result line) or is stopped by the 10 s cap: which one depends
+    # on the NLP (quad12 N = 12: with the swing wrench by rows qrqp ended after 2 iterations in
+    # 1.1 s, with bounds, the default since session 42, it is capped; dense qpOASES is capped)
+    for name in ("qrqp:reg", "qpoases:reg"):
+        line = next(s for s in lines if s.startswith(f"  {name}: "))
+        if "no result within" not in line:
+            assert " it, CPU " in line, line
+            continue
+        assert "no result within the 10 s wall cap" in line
+        # the cap reached the variant's process (until session 42's fix it ran the 60 s default)
+        total = re.search(r"\((\d+) s with the build and template\)", line)
+        assert total is not None and int(total.group(1)) < 45, line
