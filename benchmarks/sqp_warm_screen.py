@@ -40,7 +40,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -57,6 +56,7 @@ import numpy as np
 import robots
 from planner.nlp.config import PlannerOptions
 from planner.nlp.half_cycle import HalfCycleNLP
+from planner.nlp.iteration_abort import IterationCallback
 from planner.nlp.spacetime import GaitPlanner, PlanResult, ipopt_options
 from planner.templates import make_schedule, mirror_permutation
 
@@ -148,40 +148,20 @@ class Variant:
 callback_t0 = [0.0]
 
 
-class FirstIterate(ca.Callback):  # type: ignore[misc]
+class FirstIterate(IterationCallback):
     """An iteration callback recording the process CPU and wall time of every iterate."""
 
     def __init__(self, nx: int, ng: int, np_: int) -> None:
-        ca.Callback.__init__(self)
-        self.sizes = (nx, ng, np_)
         self.cpu: list[float] = []
         self.wall: list[float] = []
-        self.construct("sqp_iterates", {})
+        super().__init__("sqp_iterates", nx, ng, np_)
 
-    def get_n_in(self) -> int:
-        return int(ca.nlpsol_n_out())
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_name_in(self, i: int) -> str:
-        return str(ca.nlpsol_out(i))
-
-    def get_name_out(self, i: int) -> str:
-        return "ret"
-
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        nx, ng, np_ = self.sizes
-        n = ca.nlpsol_out(i)
-        size = {"f": 1, "lam_p": np_}.get(n, ng if n in ("g", "lam_g") else nx)
-        return ca.Sparsity.dense(size, 1)
-
-    def eval(self, arg: Sequence[Any]) -> list[Any]:
+    def at_iterate(self, values: dict[str, np.ndarray]) -> bool:
         self.cpu.append(time.process_time())
         self.wall.append(time.perf_counter())
         print(f"      iterate {len(self.cpu) - 1} at solve CPU "
               f"{self.cpu[-1] - callback_t0[0]:.1f} s", file=sys.stderr, flush=True)
-        return [0]
+        return False
 
 
 def sqp_solver(half: HalfCycleNLP, v: Variant, tol: float, callback: FirstIterate | None

@@ -50,27 +50,20 @@ class StallAbort:
         return bool(recent) and inf_pr[k] >= self.fall_factor * min(recent)
 
 
-class AbortCallback(ca.Callback):  # type: ignore[misc]
-    """CasADi ``iteration_callback`` evaluating a `StallAbort` on g̃'s bound violation.
+class IterationCallback(ca.Callback):  # type: ignore[misc]
+    """The interface of CasADi's ``iteration_callback``: at each iterate the solver's outputs
+    (x, f, g, lam_x, lam_g, lam_p, as `ca.nlpsol_out` names them) come in and one flag goes out
+    (1 stops the solve). A subclass sets its own attributes, then calls this ``__init__`` (which
+    constructs the CasADi function), and implements `at_iterate`."""
 
-    Call `arm(lbg, ubg)` with the scaled row bounds before each solve; `fired` tells whether
-    the rule stopped the last one, `inf_pr` holds its violations per iteration."""
-
-    def __init__(self, rule: StallAbort, n_x: int, n_g: int, n_p: int) -> None:
+    def __init__(self, name: str, n_x: int, n_g: int, n_p: int) -> None:
         ca.Callback.__init__(self)
-        self.rule = rule
-        self._sizes = {"x": n_x, "lam_x": n_x, "g": n_g, "lam_g": n_g, "p": n_p, "lam_p": n_p,
-                       "f": 1}
-        self._lbg = np.full(n_g, -np.inf)
-        self._ubg = np.full(n_g, np.inf)
-        self._g_index = ca.nlpsol_out().index("g")
-        self.inf_pr: list[float] = []
-        self.fired = False
-        self.construct("stall_abort", {})
+        self._sizes = {"x": n_x, "lam_x": n_x, "g": n_g, "lam_g": n_g, "lam_p": n_p, "f": 1}
+        self.construct(name, {})
 
-    def arm(self, lbg: np.ndarray, ubg: np.ndarray) -> None:
-        self._lbg, self._ubg = np.asarray(lbg, dtype=float), np.asarray(ubg, dtype=float)
-        self.inf_pr, self.fired = [], False
+    def at_iterate(self, values: dict[str, np.ndarray]) -> bool:
+        """Whether to stop the solve at this iterate (`values`: the outputs by name)."""
+        raise NotImplementedError
 
     def get_n_in(self) -> int:
         return int(ca.nlpsol_n_out())
@@ -85,16 +78,39 @@ class AbortCallback(ca.Callback):  # type: ignore[misc]
         return "stop"
 
     def get_sparsity_in(self, i: int) -> Any:
-        n = self._sizes[str(ca.nlpsol_out(i))]
-        return ca.Sparsity.scalar() if n == 1 and ca.nlpsol_out(i) == "f" else \
-            ca.Sparsity.dense(n)
+        name = str(ca.nlpsol_out(i))
+        return ca.Sparsity.scalar() if name == "f" else ca.Sparsity.dense(self._sizes[name])
 
     def eval(self, arg: Sequence[Any]) -> list[int]:
-        g = np.asarray(arg[self._g_index], dtype=float).ravel()
+        values = {str(ca.nlpsol_out(i)): np.asarray(a, dtype=float).ravel()
+                  for i, a in enumerate(arg)}
+        return [1 if self.at_iterate(values) else 0]
+
+
+class AbortCallback(IterationCallback):
+    """CasADi ``iteration_callback`` evaluating a `StallAbort` on g̃'s bound violation.
+
+    Call `arm(lbg, ubg)` with the scaled row bounds before each solve; `fired` tells whether
+    the rule stopped the last one, `inf_pr` holds its violations per iteration."""
+
+    def __init__(self, rule: StallAbort, n_x: int, n_g: int, n_p: int) -> None:
+        self.rule = rule
+        self._lbg = np.full(n_g, -np.inf)
+        self._ubg = np.full(n_g, np.inf)
+        self.inf_pr: list[float] = []
+        self.fired = False
+        super().__init__("stall_abort", n_x, n_g, n_p)
+
+    def arm(self, lbg: np.ndarray, ubg: np.ndarray) -> None:
+        self._lbg, self._ubg = np.asarray(lbg, dtype=float), np.asarray(ubg, dtype=float)
+        self.inf_pr, self.fired = [], False
+
+    def at_iterate(self, values: dict[str, np.ndarray]) -> bool:
+        g = values["g"]
         viol = np.maximum(np.maximum(self._lbg - g, g - self._ubg), 0.0)
         self.inf_pr.append(float(np.max(viol)) if viol.size else 0.0)
         self.fired = self.rule.fires(self.inf_pr)
-        return [1 if self.fired else 0]
+        return self.fired
 
 
-__all__ = ["AbortCallback", "StallAbort"]
+__all__ = ["AbortCallback", "IterationCallback", "StallAbort"]
