@@ -291,6 +291,10 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "default-warm-swb": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(warm_swing_wrench="bounds")
     ),
+    # session 42 (lead): under the flipped cold default ("bounds"), warm solves by rows
+    "default-warm-rows": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(warm_swing_wrench="rows")
+    ),
     "default-warm-foot-swb": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(warm_retime="per foot", warm_swing_wrench="bounds")
     ),
