@@ -3,7 +3,6 @@ handed to the searches' `PlannerOptions.compact_rows`."""
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -13,16 +12,11 @@ import pytest
 
 import planner.search.gait_search
 from planner.nlp.config import COMPACT_ROWS, DEFAULT_COMPACT_ROWS
+from tests.benchmarks import load_script
 from tests.gaitsmith.capture import Started, captured_kwargs
 from tests.zoo.fixtures import ZOO
 
-# the benchmark is a script beside the packages, not an installed module: load it from its file
-_BENCH_PY = Path(__file__).resolve().parents[2] / "benchmarks" / "gait_search_bench.py"
-_SPEC = importlib.util.spec_from_file_location("gait_search_bench", _BENCH_PY)
-assert _SPEC is not None and _SPEC.loader is not None
-bench = importlib.util.module_from_spec(_SPEC)
-sys.modules[_SPEC.name] = bench  # dataclasses resolve their module by name
-_SPEC.loader.exec_module(bench)
+bench = load_script("gait_search_bench")
 
 
 def test_compact_rows_values_parse_none_single_and_joined_names() -> None:

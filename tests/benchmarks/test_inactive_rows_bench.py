@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
 
@@ -10,15 +9,10 @@ import pytest
 
 import robots
 from planner.templates import default_gait_for
+from tests.benchmarks import load_script
 from tests.zoo.fixtures import ZOO
 
-# the benchmark is a script beside the packages, not an installed module: load it from its file
-_BENCH_PY = Path(__file__).resolve().parents[2] / "benchmarks" / "inactive_rows_bench.py"
-_SPEC = importlib.util.spec_from_file_location("inactive_rows_bench", _BENCH_PY)
-assert _SPEC is not None and _SPEC.loader is not None
-bench = importlib.util.module_from_spec(_SPEC)
-sys.modules[_SPEC.name] = bench
-_SPEC.loader.exec_module(bench)
+bench = load_script("inactive_rows_bench")
 
 
 def test_log_path_of_a_robot_given_as_a_folder_stays_in_the_work_folder(tmp_path: Path) -> None:

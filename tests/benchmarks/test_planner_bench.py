@@ -3,22 +3,14 @@ half-cycle symmetric (so the half-cycle NLP fits it), the plain one does not (se
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 
 import robots
 from planner.nlp.mirror import schedule_symmetric
 from planner.templates import make_schedule, mirror_permutation
+from tests.benchmarks import load_script
 
-_BENCH_PY = Path(__file__).resolve().parents[2] / "benchmarks" / "planner_bench.py"
-_SPEC = importlib.util.spec_from_file_location("planner_bench", _BENCH_PY)
-assert _SPEC is not None and _SPEC.loader is not None
-bench = importlib.util.module_from_spec(_SPEC)
-sys.modules["planner_bench"] = bench
-_SPEC.loader.exec_module(bench)
+bench = load_script("planner_bench")
 
 
 def test_symmetric_perturbations_stay_half_cycle_symmetric() -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import subprocess
 import sys
@@ -11,16 +10,13 @@ from types import SimpleNamespace
 
 import numpy as np
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "retry_points.py"
+from tests.benchmarks import BENCHMARKS, load_script
+
+BENCH = BENCHMARKS / "retry_points.py"
 
 
 def _module():  # type: ignore[no-untyped-def]
-    sys.path.insert(0, str(BENCH.parent))
-    spec = importlib.util.spec_from_file_location("retry_points", BENCH)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("retry_points")
 
 
 def _plan(feasible: bool, shift: float) -> SimpleNamespace:

@@ -3,7 +3,6 @@ to the search; `replay` truncates a recording after generation k and runs its fi
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import sys
 from dataclasses import asdict, replace
@@ -17,14 +16,9 @@ import robots
 from planner.search.final_phase import FinalOutcome
 from planner.search.gait_search import TimingResult, TimingSpace
 from planner.templates import make_schedule
+from tests.benchmarks import load_script
 
-_DIR = Path(__file__).resolve().parents[2] / "benchmarks"
-sys.path.insert(0, str(_DIR))  # search_outcomes imports gait_search_bench from beside it
-_SPEC = importlib.util.spec_from_file_location("search_outcomes", _DIR / "search_outcomes.py")
-assert _SPEC is not None and _SPEC.loader is not None
-so = importlib.util.module_from_spec(_SPEC)
-sys.modules[_SPEC.name] = so  # dataclasses resolve their module by name
-_SPEC.loader.exec_module(so)
+so = load_script("search_outcomes")  # imports gait_search_bench from beside it
 
 
 def test_cap_tol_and_gen_tokens_set_the_coarse_options_and_generations() -> None:

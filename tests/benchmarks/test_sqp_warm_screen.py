@@ -5,20 +5,16 @@ SIGALRM inside the QP, the screen goes on)."""
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-_SCREEN = Path(__file__).resolve().parents[2] / "benchmarks" / "sqp_warm_screen.py"
-_SPEC = importlib.util.spec_from_file_location("sqp_warm_screen", _SCREEN)
-assert _SPEC is not None and _SPEC.loader is not None
-screen = importlib.util.module_from_spec(_SPEC)
-sys.modules["sqp_warm_screen"] = screen
-_SPEC.loader.exec_module(screen)
+from tests.benchmarks import BENCHMARKS, load_script
+
+_SCREEN = BENCHMARKS / "sqp_warm_screen.py"
+screen = load_script("sqp_warm_screen")
 
 
 def test_variant_names_parse() -> None:
