@@ -483,6 +483,22 @@ def compare(
         warm_chain(robot, planners, paths, base, gait, speed, n_warm, seed, symmetric)
 
 
+def add_chain_arguments(ap: argparse.ArgumentParser) -> None:
+    """The screens' common options (warm_start_screen, sqp_warm_screen): the robot, its gait and
+    speed (`chain_defaults` fills them), N and the chain's seed."""
+    ap.add_argument("--robot", default="quad12")
+    ap.add_argument("--gait", default=None, help="default: trot (quad12), tripod (hex18)")
+    ap.add_argument("--speed", type=float, default=None)
+    ap.add_argument("--knots", type=int, default=30)
+    ap.add_argument("--seed", type=int, default=0)
+
+
+def chain_defaults(args: argparse.Namespace) -> None:
+    """`args.gait` and `args.speed` when not given: trot (tripod on hex18), 0.25 m/s (0.15)."""
+    args.gait = args.gait or {"quad12": "trot", "hex18": "tripod"}.get(args.robot, "trot")
+    args.speed = args.speed if args.speed is not None else {"hex18": 0.15}.get(args.robot, 0.25)
+
+
 def symmetric_perturbed(schedule: robots.ContactSchedule, image: tuple[int, ...],
                         rng: np.random.Generator) -> robots.ContactSchedule:
     """`perturbed` drawn per mirror pair (`image`: each foot's mirror image): a foot and its

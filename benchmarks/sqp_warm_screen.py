@@ -61,7 +61,12 @@ from planner.nlp.spacetime import GaitPlanner, PlanResult, ipopt_options
 from planner.templates import make_schedule, mirror_permutation
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from planner_bench import SAME_COST_RTOL, symmetric_perturbed
+from planner_bench import (
+    SAME_COST_RTOL,
+    add_chain_arguments,
+    chain_defaults,
+    symmetric_perturbed,
+)
 
 HESSIANS: dict[str, dict[str, Any]] = {
     "exact": {"hessian_approximation": "exact"},
@@ -491,11 +496,7 @@ def qp_probe(n: int = 300, n_eq: int = 100, n_ineq: int = 200, seed: int = 0) ->
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--robot", default="quad12")
-    ap.add_argument("--gait", default=None, help="default: trot (quad12), tripod (hex18)")
-    ap.add_argument("--speed", type=float, default=None)
-    ap.add_argument("--knots", type=int, default=30)
-    ap.add_argument("--seed", type=int, default=0)
+    add_chain_arguments(ap)
     ap.add_argument("--schedule", type=int, default=0, help="which schedule of the chain")
     ap.add_argument("--variants", default="qrqp:reg")
     ap.add_argument("--timeout", type=float, default=60.0, help="wall seconds per SQP variant")
@@ -510,8 +511,7 @@ def main() -> None:
                     help="print the rank of the reduced NLP's equality Jacobian and stop")
     ap.add_argument("--one", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
-    args.gait = args.gait or {"quad12": "trot", "hex18": "tripod"}.get(args.robot, "trot")
-    args.speed = args.speed if args.speed is not None else {"hex18": 0.15}.get(args.robot, 0.25)
+    chain_defaults(args)
     if args.qp_probe:
         qp_probe()
         return

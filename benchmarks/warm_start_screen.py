@@ -54,7 +54,13 @@ from planner.nlp.warm_start import per_foot_retimed
 from planner.templates import make_schedule, mirror_permutation
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from planner_bench import SAME_COST_RTOL, perturbed, symmetric_perturbed
+from planner_bench import (
+    SAME_COST_RTOL,
+    add_chain_arguments,
+    chain_defaults,
+    perturbed,
+    symmetric_perturbed,
+)
 
 OPTION_FLAGS: dict[str, dict[str, Any]] = {
     "mu1": {"mu_init": 1e-1},
@@ -283,20 +289,16 @@ def run_variant(planner: GaitPlanner, v: Variant, base: robots.ContactSchedule,
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--robot", default="quad12")
-    ap.add_argument("--gait", default=None, help="default: trot (quad12), tripod (hex18)")
-    ap.add_argument("--speed", type=float, default=None)
-    ap.add_argument("--knots", type=int, default=30)
+    add_chain_arguments(ap)
     ap.add_argument("--warm", type=int, default=8)
-    ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--symmetric", action="store_true")
     ap.add_argument("--variants", default="prev,retimed,perfoot")
     ap.add_argument("--diagnose", action="store_true",
                     help="print the worst violated groups at each variant's first start")
     ap.add_argument("--quiet", action="store_true")
     args = ap.parse_args()
-    gait = args.gait or {"quad12": "trot", "hex18": "tripod"}.get(args.robot, "trot")
-    speed = args.speed if args.speed is not None else {"hex18": 0.15}.get(args.robot, 0.25)
+    chain_defaults(args)
+    gait, speed = args.gait, args.speed
     variants = [Variant.parse(v) for v in args.variants.split(",") if v]
     robot = robots.load(args.robot)
     print(f"{args.robot} {gait} {speed} m/s N={args.knots}, chain of {args.warm} "
