@@ -447,10 +447,15 @@ class GaitPlanner:
             x = np.clip(x, self._lbx, self._ubx)
         return WarmStart(x, np.zeros_like(x), np.zeros(self._lbg.shape))
 
+    def _warm_options_differ(self) -> bool:
+        """Do warm solves take other IPOPT options than cold ones (`ipopt_options`)? Then they
+        need their own IPOPT instance (`_solver_for`, `_half_solver`)."""
+        return ipopt_options(self.options, True) != ipopt_options(self.options, False)
+
     def _solver_for(self, warm: bool) -> Any:
         """The IPOPT instance for a cold or a warm solve: one instance when the tuning uses the
         same options for both, else the warm one is created at the first warm solve."""
-        if not warm or ipopt_options(self.options, True) == ipopt_options(self.options, False):
+        if not warm or not self._warm_options_differ():
             return self._solver
         if self._warm_solver is None:
             self._warm_solver = self._make_solver(warm=True)
@@ -622,7 +627,7 @@ class GaitPlanner:
         if vy_m_s != 0.0 or yaw_rate_rad_s != 0.0 or self.options.nondimensional:
             return None
         if (warm and not self.options.warm_half_cycle
-                and ipopt_options(self.options, True) != ipopt_options(self.options, False)):
+                and self._warm_options_differ()):
             return None  # the reduced instance uses the cold options
         feet = mirror_permutation(self.robot)
         if feet is None or not schedule_symmetric(schedule, feet, self.n_knots):
@@ -695,11 +700,10 @@ class GaitPlanner:
 
     def _half_solver(self, half: HalfCycleNLP, warm: bool) -> Any:
         """The reduced NLP's IPOPT instance for a cold or a warm solve (`_solver_for`)."""
-        warm_options = ipopt_options(self.options, True)
-        if not warm or warm_options == ipopt_options(self.options, False) or half.nlp is None:
+        if not warm or not self._warm_options_differ() or half.nlp is None:
             return half.solver
         if half.warm_solver is None:
-            opts = {**(half.solver_options or {}), "ipopt": warm_options}
+            opts = {**(half.solver_options or {}), "ipopt": ipopt_options(self.options, True)}
             half.warm_solver = ca.nlpsol("spacetime_half_warm", "ipopt", half.nlp, opts)
         return half.warm_solver
 
@@ -715,8 +719,8 @@ class GaitPlanner:
             half.abort.arm(lbg, ubg)
         solver = self._half_solver(half, warm)
         raw = solver(x0=start.x[m.half], lam_x0=start.lam_x[m.half],
-                          lam_g0=start.lam_g[r.keep], p=p, lbx=bounds.lbx[m.half],
-                          ubx=bounds.ubx[m.half], lbg=lbg, ubg=ubg)
+                     lam_g0=start.lam_g[r.keep], p=p, lbx=bounds.lbx[m.half],
+                     ubx=bounds.ubx[m.half], lbg=lbg, ubg=ubg)
         sol = {
             "x": m.expand(np.asarray(raw["x"]).ravel()),
             "lam_x": m.expand(np.asarray(raw["lam_x"]).ravel()),
