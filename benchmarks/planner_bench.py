@@ -265,6 +265,11 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     # fits, as `gaitsmith plan` plans) and with the stance feet's clearance rows freed
     # (`PlannerOptions.stance_clearance`)
     "default": lambda robot, n: GaitPlanner(robot, n, PlannerOptions()),
+    # docs/results/planner_speed_rows.md, session 43: the servo goals as variables of their own
+    # (`PlannerOptions.servo_goal_form`), a smaller MUMPS factor for the same NLP
+    "default-lifted-goals": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(servo_goal_form="lifted")
+    ),
     "default-sc-free": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(stance_clearance="free")
     ),

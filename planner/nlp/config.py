@@ -78,6 +78,11 @@ SWING_WRENCHES = ("rows", "bounds")
 #: 0.52 % cheaper, 32 of 32 passing, 0.967x the CPU; the library and retarget on a small
 #: grid: the same verdicts, objectives within 2e-5 (docs/results/planner_speed_coldstart.md).
 DEFAULT_SWING_WRENCH = "bounds"
+#: values of `PlannerOptions.servo_goal_form`: "direct" (the servo-goal rows read q, τ, q̇) or
+#: "lifted" (the goal g = q + τ/k_p + (d/k_p)·q̇ a variable of its own, tied by an equality row;
+#: the goal rows read g). The same feasible set; MUMPS' factor flops 0.71-0.82x on quad12 and
+#: hex18 (docs/results/planner_speed_rows.md, session 43)
+SERVO_GOAL_FORMS = ("direct", "lifted")
 #: values of `PlannerOptions.warm_retime` (`planner.nlp.warm_start`)
 WARM_RETIMES = ("none", "whole", "per foot")
 #: values of `PlannerOptions.warm_swing_wrench`: "same" (the solve's own, `swing_wrench`)
@@ -516,6 +521,7 @@ class PlannerOptions:
     warm_swing_wrench: str = "same"
     warm_half_cycle: bool = DEFAULT_WARM_HALF_CYCLE
     separation_unit_leg_lengths: float | None = DEFAULT_SEPARATION_UNIT_LEG_LENGTHS
+    servo_goal_form: str = "direct"
 
     def __post_init__(self) -> None:
         checks = {
@@ -573,7 +579,8 @@ class PlannerOptions:
                               ("cold_mu_centrality", COLD_MU_CENTRALITIES),
                               ("stance_clearance", STANCE_CLEARANCES),
                               ("warm_retime", WARM_RETIMES),
-                              ("warm_swing_wrench", WARM_SWING_WRENCHES)):
+                              ("warm_swing_wrench", WARM_SWING_WRENCHES),
+                              ("servo_goal_form", SERVO_GOAL_FORMS)):
             value = getattr(self, name)
             if value not in choices:
                 raise PlannerConfigError(
@@ -585,6 +592,12 @@ class PlannerOptions:
                 raise PlannerConfigError(
                     f"planner option {name}={getattr(self, name)!r} is out of range{hint}"
                 )
+
+    @property
+    def lifted_goals(self) -> bool:
+        """Is the servo goal a variable of its own (`servo_goal_form` "lifted" with
+        `servo_goals` on)?"""
+        return self.servo_goal_form == "lifted" and self.servo_goals
 
     def max_iter_for(self, n_variables: int) -> int:
         """IPOPT's iteration cap for an NLP of `n_variables`: the option, or `iteration_cap`."""

@@ -610,6 +610,13 @@ def _servo_goal_groups(
         + kq.tau_nm / ca.repmat(ca.DM(kp), 1, n)
         + kq.qd * ca.repmat(ca.DM(damping / kp), 1, n)
     )
+    lifted: list[Group] = []
+    if sym.goal is not None:
+        # `PlannerOptions.servo_goal_form` "lifted": the goal is a variable tied to its
+        # formula; the rows below read it (one entry per joint and knot instead of three)
+        lifted = [Group("servo goal", ca.vec(sym.goal - goal), np.zeros(nj * n),
+                        np.zeros(nj * n))]
+        goal = sym.goal
     lo, hi = model.joint_limits_rad()
     margin = options.joint_limit_margins_rad(lo, hi)
     omega0 = ca.DM([j.servo.no_load_speed_rad_s for j in model.robot.joints])
@@ -634,6 +641,7 @@ def _servo_goal_groups(
     rate = ca.vertcat(*[ca.vec(d / ca.repmat(omega0, 1, n)) for d in samples])
     rows = nj * n * len(samples)
     return [
+        *lifted,
         Group("servo goal limits", ca.vec(goal), np.tile(lo + margin, n), np.tile(hi - margin, n)),
         Group(
             "servo goal spline",
@@ -648,6 +656,23 @@ def _servo_goal_groups(
             np.full(rows, GOAL_SPEED_INSIDE * options.speed_margin),
         ),
     ]
+
+
+def fill_servo_goals(layout: Layout, model: RobotModel, options: PlannerOptions,
+                     x: np.ndarray) -> np.ndarray:
+    """`x` (physical units) with its servo-goal block (`Layout.lifted_goals`) set to
+    q + τ/k_p + (d/k_p)·q̇ of its own q, τ and lifted q̇: a start on the "servo goal" rows
+    (unchanged without the block)."""
+    if not layout.lifted_goals:
+        return x
+    from planner.nlp.servo_loop import loop_arrays, servo_loops
+
+    kp, damping = loop_arrays(servo_loops(model.robot, options.servo_settings))
+    out = np.array(x, dtype=float).ravel()
+    qd = layout.view(out, "vel")[:, 6:]
+    layout.view(out, "goal")[:] = (layout.view(out, "q") + layout.view(out, "tau") / kp
+                                   + qd * (damping / kp))
+    return out
 
 
 def group_labels(
@@ -681,6 +706,7 @@ def group_labels(
         "swing force": per_foot,
         "friction": per_foot * 4,
         "joint speed": per_joint,
+        "servo goal": per_joint,
         "servo goal limits": per_joint,
         "servo goal spline": per_joint,
         "servo goal speed": [

@@ -144,6 +144,7 @@ def element_images(layout: Layout, joint_image: tuple[int, ...], joint_sign: tup
         "tau": (jimg, jsgn),
         "goal_slope": (jimg, jsgn),
         "moments": (flat_img, np.tile(MOMENT_SIGN, len(flat_feet))),
+        "goal": (jimg, jsgn) if layout.lifted_goals else (jimg[:0], jsgn[:0]),
     }
     for name in BLOCKS:
         img, sgn = images[name]

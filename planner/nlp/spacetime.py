@@ -47,6 +47,7 @@ from planner.nlp.command import VelocityCommand, check_command
 from planner.nlp.config import FREED_GROUPS, SWING_WRENCHES, PlannerOptions
 from planner.nlp.constraints import (
     build_groups,
+    fill_servo_goals,
     group_labels,
     knot_function,
     knot_quantities,
@@ -264,10 +265,12 @@ class GaitPlanner:
         self.robot = robot
         self.n_knots = n_knots
         self.model = RobotModel(robot)
-        self.layout = Layout.of(self.model, n_knots)
         options = options or PlannerOptions()
-        # the iteration cap of this NLP's size (`planner.nlp.config.iteration_cap`) unless set
-        self.options = dataclasses.replace(options, max_iter=options.max_iter_for(self.layout.size))
+        self.layout = Layout.of(self.model, n_knots, options.lifted_goals)
+        # the iteration cap of this NLP's size (`planner.nlp.config.iteration_cap`) unless set;
+        # the lifted servo goals (`PlannerOptions.servo_goal_form`) do not count: the same cap
+        n_capped = self.layout.size - self.layout.width("goal") * n_knots
+        self.options = dataclasses.replace(options, max_iter=options.max_iter_for(n_capped))
         # nondimensional NLP: the solver sees x / x_scale and g / g_scale (see variable_scale)
         nondim = self.options.nondimensional
         self._x_scale = (
@@ -536,6 +539,9 @@ class GaitPlanner:
         elif not WARM_START_DUALS:
             # this NLP's row count (a warm start may come from a planner with other rows)
             start = WarmStart(start.x, np.zeros_like(self._lbx), np.zeros_like(self._lbg))
+        if self.layout.lifted_goals:  # the start on the "servo goal" rows, whatever its source
+            start = dataclasses.replace(
+                start, x=fill_servo_goals(self.layout, self.model, self.options, start.x))
         xs, gs = self._x_scale, self._g_scale
         bounds = self._solve_bounds(schedule, swing_wrench or self.options.swing_wrench)
         lbg, ubg = bounds.lbg / gs, bounds.ubg / gs

@@ -206,6 +206,11 @@ def stage_functions(
         raise PlannerConfigError(
             "the stage-wise NLP does not support rotor_reserve yet; use the IPOPT planner"
         )
+    if options.lifted_goals:
+        raise PlannerConfigError(
+            "the stage-wise NLP does not support servo_goal_form 'lifted' (its goals are a "
+            "stage state already); use servo_goal_form 'direct' or the IPOPT planner"
+        )
     bounds = [form for form in options.compact_rows if form != "torque envelope"]
     if bounds:
         raise PlannerConfigError(

@@ -53,7 +53,7 @@ def cyclic_shift(m: Any, k: int) -> Any:
     return m if k == 0 else ca.horzcat(m[:, k:], m[:, :k])
 
 #: The decision vector's blocks in packing order (`Layout`); the names are `Symbols`' fields.
-BLOCKS = ("base", "q", "forces", "vel", "acc", "tau", "goal_slope", "moments")
+BLOCKS = ("base", "q", "forces", "vel", "acc", "tau", "goal_slope", "moments", "goal")
 _POSE_DOFS = ("x", "y", "z", "roll", "pitch", "yaw")
 
 
@@ -65,25 +65,30 @@ class Layout:
     knot-major (knot k's entries together, `width` of them per knot): base pose (6), joint
     angles (J), contact forces (3 per foot), pose rates and accelerations (6 + J each), joint
     torques (J), servo-goal slopes (J), and M the flat feet's contact moments (3 per flat foot,
-    units of m·g·L; `planner.nlp.flat_foot`), absent without flat feet. `block`, `indices` and
-    `view` locate a block; every module reads and writes x through them.
+    units of m·g·L; `planner.nlp.flat_foot`), absent without flat feet, and G the servo goals
+    [rad] (one per joint, `PlannerOptions.servo_goal_form` "lifted"), absent otherwise: last,
+    so every other block sits where it does without them. `block`, `indices` and `view`
+    locate a block; every module reads and writes x through them.
     """
 
     n_knots: int
     n_joints: int
     n_feet: int
     n_flat_feet: int = 0
+    lifted_goals: bool = False
 
     @classmethod
-    def of(cls, model: RobotModel, n_knots: int) -> Layout:
-        """The layout of `model`'s NLP at `n_knots` knots (its joints, feet and flat feet)."""
-        return cls(n_knots, model.n_joints, model.n_feet, len(model.flat_feet))
+    def of(cls, model: RobotModel, n_knots: int, lifted_goals: bool = False) -> Layout:
+        """The layout of `model`'s NLP at `n_knots` knots (its joints, feet and flat feet);
+        `lifted_goals`: with the servo goals' block (`PlannerOptions.lifted_goals`)."""
+        return cls(n_knots, model.n_joints, model.n_feet, len(model.flat_feet), lifted_goals)
 
     def width(self, name: str) -> int:
         """Entries per knot of block `name` (one of `BLOCKS`)."""
         nj = self.n_joints
         widths = {"base": 6, "q": nj, "forces": 3 * self.n_feet, "vel": 6 + nj, "acc": 6 + nj,
-                  "tau": nj, "goal_slope": nj, "moments": 3 * self.n_flat_feet}
+                  "tau": nj, "goal_slope": nj, "moments": 3 * self.n_flat_feet,
+                  "goal": nj if self.lifted_goals else 0}
         if name not in widths:
             raise PlannerConfigError(
                 f"decision vector block {name!r}: use one of {', '.join(BLOCKS)}")
@@ -155,6 +160,7 @@ class Layout:
             "tau": [f"torque {j}" for j in joints],
             "goal_slope": [f"goal slope {j}" for j in joints],
             "moments": [f"foot {f} m{a}" for f in flat for a in "xyz"],
+            "goal": [f"servo goal {j}" for j in joints] if self.lifted_goals else [],
         }
         out = []
         for name in BLOCKS:
@@ -176,12 +182,14 @@ class Layout:
         tau: np.ndarray | None = None,
         goal_slope: np.ndarray | None = None,
         moments: np.ndarray | None = None,
+        goal: np.ndarray | None = None,
     ) -> np.ndarray:
         """Flat vector from its blocks (each N × width, or anything of that size, knot-major);
-        a block not given is zeros (the lifted ones: consistent with a constant pose at rest)."""
+        a block not given is zeros (the lifted ones: consistent with a constant pose at rest;
+        not the servo goals, which `GaitPlanner.solve` sets from q, τ, q̇ before a solve)."""
         x = np.zeros(self.size)
         given = {"base": base, "q": q, "forces": forces, "vel": vel, "acc": acc, "tau": tau,
-                 "goal_slope": goal_slope, "moments": moments}
+                 "goal_slope": goal_slope, "moments": moments, "goal": goal}
         for name, value in given.items():
             if value is None:
                 continue
@@ -214,6 +222,7 @@ class Symbols:
     period_s: Any
     moments: Any = None  # 3·F_flat × N flat-foot moments (units of m·g·L), None without
     motion: MotionSymbols | None = None  # the velocity command's block (`planner.nlp.command`)
+    goal: Any = None  # J × N servo goals [rad] (`Layout.lifted_goals`), None without
 
 
 def time_unit_s(leg_length_m: float, gravity_m_s2: float = 9.81) -> float:
@@ -275,6 +284,7 @@ def make_symbols(layout: Layout, scale: np.ndarray | None = None) -> Symbols:
         p[2 * nf * n + 1],
         moments,
         MotionSymbols.from_parameters(p[2 * nf * n], p[2 * nf * n + 2 :]),
+        block("goal") if layout.lifted_goals else None,
     )
 
 
