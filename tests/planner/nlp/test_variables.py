@@ -13,7 +13,7 @@ N, J, F, F_FLAT = 5, 3, 2, 1
 LAYOUT = Layout(N, J, F, F_FLAT)
 #: entries per knot of every block, written out (the module docstring's order)
 WIDTHS = {"base": 6, "q": J, "forces": 3 * F, "vel": 6 + J, "acc": 6 + J, "tau": J,
-          "goal_slope": J, "moments": 3 * F_FLAT}
+          "goal_slope": J, "moments": 3 * F_FLAT, "goal": 0}
 
 
 def test_blocks_tile_the_vector_in_order() -> None:
@@ -48,7 +48,8 @@ def test_pack_view_and_unpack_round_trip() -> None:
     blocks = {name: rng.normal(size=(N, WIDTHS[name])) for name in BLOCKS}
     x = LAYOUT.pack(blocks["base"], blocks["q"], blocks["forces"].reshape(N, F, 3),
                     vel=blocks["vel"], acc=blocks["acc"], tau=blocks["tau"],
-                    goal_slope=blocks["goal_slope"], moments=blocks["moments"])
+                    goal_slope=blocks["goal_slope"], moments=blocks["moments"],
+                    goal=blocks["goal"])
     for name in BLOCKS:
         np.testing.assert_array_equal(LAYOUT.view(x, name), blocks[name])
     base, q, f = LAYOUT.unpack(x)
@@ -61,6 +62,24 @@ def test_pack_view_and_unpack_round_trip() -> None:
     assert not lean[LAYOUT.block("vel").start :].any()  # the lifted blocks default to zeros
     with pytest.raises(PlannerConfigError, match="block 'tau' has 4 entries, expected 15"):
         LAYOUT.pack(base, q, f, tau=np.zeros(4))
+
+
+def test_lifted_goals_block_comes_last() -> None:
+    """`PlannerOptions.servo_goal_form` "lifted": one goal per joint and knot after every other
+    block, which stay where they were."""
+    lifted = Layout(N, J, F, F_FLAT, lifted_goals=True)
+    for name in BLOCKS[:-1]:
+        assert lifted.block(name) == LAYOUT.block(name), name
+    assert lifted.block("goal") == slice(LAYOUT.size, LAYOUT.size + J * N)
+    assert lifted.size == LAYOUT.size + J * N
+    labels = lifted.labels(("hip", "knee", "ankle"), flat_feet=(1,))
+    assert labels[lifted.indices("goal")[4, 1]] == "servo goal knee@knot 4"
+    sym = make_symbols(lifted)
+    assert sym.goal is not None and sym.goal.shape == (J, N)
+    assert make_symbols(LAYOUT).goal is None
+    x = lifted.pack(np.zeros((N, 6)), np.zeros((N, J)), np.zeros((N, F, 3)),
+                    goal=np.ones((N, J)))
+    np.testing.assert_array_equal(lifted.view(x, "goal"), 1.0)
 
 
 def test_labels_name_every_entry_where_it_sits() -> None:
