@@ -45,6 +45,7 @@ import os
 import resource
 import time
 from dataclasses import dataclass, replace
+from itertools import product
 from typing import Any, get_args
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -64,6 +65,7 @@ from planner.nlp.config import (
     DEFAULT_COMPACT_ROWS,
     DEFAULT_SWING_WRENCH,
     DERIVATIVE_PATHS,
+    SERVO_GOAL_FORMS,
     SWING_WRENCHES,
     PlannerOptions,
 )
@@ -382,7 +384,11 @@ def main() -> None:
                     help=f"comma-separated `PlannerOptions.compact_rows` values, run alternately "
                          f"per path: none or names joined by + ({', '.join(COMPACT_ROWS)})")
     ap.add_argument("--target", type=float, default=60.0, help="target wall time [s]")
+    ap.add_argument("--servo-goal-forms", default="direct",
+                    help=f"comma-separated `PlannerOptions.servo_goal_form` values, each a "
+                         f"search of its own ({', '.join(SERVO_GOAL_FORMS)})")
     args = ap.parse_args()
+    goal_forms = _choices(args.servo_goal_forms, SERVO_GOAL_FORMS, "--servo-goal-forms")
     paths = _choices(args.derivatives, tuple(DERIVATIVE_PATHS), "--derivatives")
     executors = _choices(args.executors, get_args(ExecutorKind), "--executors")
     warm_starts = _choices(args.warm_starts, SEARCH_WARM_STARTS, "--warm-starts")
@@ -400,23 +406,19 @@ def main() -> None:
         f"{time.strftime('%Y-%m-%d %H:%M:%S', time.gmtime())} UTC", flush=True
     )
     runs: list[SearchRun] = []
-    for derivatives in paths:
-        for warm_start in warm_starts:
-            for abort in aborts:
-                for wrench in wrenches:
-                    for cold in colds:
-                        for rows in row_forms:
-                            for executor in executors:
-                                coarse, final = swing_wrenches(wrench)
-                                r = run(args.robot, args.speed, args.generations, args.workers,
-                                        args.seed, args.sim_accept, derivatives, executor,
-                                        args.knots, warm_start, abort,
-                                        wrench if wrench in SWING_WRENCHES else
-                                        "rows" if wrench == COARSE_BOUNDS else
-                                        DEFAULT_SWING_WRENCH, cold,
-                                        rows, coarse, final_swing_wrench=final)
-                                runs.append(r)
-                                print(report(r, args.target), flush=True)
+    for derivatives, warm_start, abort, wrench, cold, rows, form, executor in product(
+            paths, warm_starts, aborts, wrenches, colds, row_forms, goal_forms, executors):
+        coarse, final = swing_wrenches(wrench)
+        r = run(args.robot, args.speed, args.generations, args.workers,
+                args.seed, args.sim_accept, derivatives, executor,
+                args.knots, warm_start, abort,
+                wrench if wrench in SWING_WRENCHES else
+                "rows" if wrench == COARSE_BOUNDS else
+                DEFAULT_SWING_WRENCH, cold,
+                rows, coarse, final_swing_wrench=final,
+                option_fields=() if form == "direct" else (("servo_goal_form", form),))
+        runs.append(r)
+        print(report(r, args.target), flush=True)
     for executor in executors:
         same = [r for r in runs if r.executor == executor]
         for r in same[1:]:

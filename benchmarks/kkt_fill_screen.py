@@ -293,10 +293,11 @@ def running_sums(d: KKTData) -> KKTData:
         **_more_vars(d, extra))
 
 
-def _more_vars(d: KKTData, extra: int) -> dict[str, Any]:
+def _more_vars(d: KKTData, extra: int, kind: str = "") -> dict[str, Any]:
     if d.var_kind is None or d.var_joint is None:
         return {}
-    return {"var_kind": np.r_[d.var_kind, np.full(extra, "", dtype=d.var_kind.dtype)],
+    return {"var_kind": np.r_[d.var_kind.astype(object), np.full(extra, kind, dtype=object)]
+            .astype(str),
             "var_joint": np.r_[d.var_joint, np.full(extra, -1)]}
 
 
@@ -361,7 +362,77 @@ def lifted_goals(d: KKTData) -> KKTData:
         row_group=np.r_[d.row_group, np.full(rows, "servo goal")],
         row_knot=np.r_[d.row_knot, [k for k, _ in slots]],
         row_label=None if d.row_label is None else np.r_[d.row_label, np.full(rows, "")],
-        var_knot=np.r_[d.var_knot, [k for k, _ in slots]], **_more_vars(d, extra))
+        var_knot=np.r_[d.var_knot, [k for k, _ in slots]], **_more_vars(d, extra, "g"))
+
+
+def first_order_spline(d: KKTData) -> KKTData:
+    """On lifted goals (`lifted_goals`): the spline's cyclic tridiagonal rows (second order:
+    knot k reads k − 1 and k + 1) in first-order form with the spline's second derivative M
+    at every knot a variable: per interval k two rows, M_k and M_{k+1} each equal to the
+    Hermite cubic's second derivative at its ends (reading g_k, s_k, g_{k+1}, s_{k+1}): the C²
+    condition, so the same spline. The interval's four variables are read off its speed-sample
+    rows. A structural probe: signs across the mirrored wrap are not kept."""
+    if d.var_kind is None:
+        raise ValueError("first_order_spline needs var_kind")
+    kind = d.var_kind
+    spline = np.flatnonzero(d.row_group == "servo goal spline")
+    speed = np.flatnonzero(d.row_group == "servo goal speed")
+    if not np.any(kind == "g"):
+        raise ValueError("first_order_spline needs lifted goals")
+    # h from a spline row: coefficient on its own s (4/ω₀) over that on a g (3/(h·ω₀))
+    e = np.flatnonzero(d.j_rows == spline[0])
+    home = d.row_knot[spline[0]]
+    cs = [abs(v) for c, v in zip(d.j_cols[e], d.j_vals[e], strict=True)
+          if kind[c] == "s" and d.var_knot[c] == home]
+    cg = [abs(v) for c, v in zip(d.j_cols[e], d.j_vals[e], strict=True) if kind[c] == "g"]
+    h = 3.0 * cs[0] / (4.0 * cg[0])
+    intervals: dict[tuple[int, ...], tuple[int, int, int, int]] = {}
+    for r in speed:
+        cols = d.j_cols[d.j_rows == r]
+        if cols.size != 4:
+            continue
+        k = d.row_knot[r]
+        g0 = [int(c) for c in cols if kind[c] == "g" and d.var_knot[c] == k]
+        g1 = [int(c) for c in cols if kind[c] == "g" and d.var_knot[c] != k]
+        s0 = [int(c) for c in cols if kind[c] == "s" and d.var_knot[c] == k]
+        s1 = [int(c) for c in cols if kind[c] == "s" and d.var_knot[c] != k]
+        if len(g0) == len(g1) == len(s0) == len(s1) == 1:
+            intervals[tuple(sorted(cols.tolist()))] = (g0[0], s0[0], g1[0], s1[0])
+    dropped = drop_rows(d, d.row_group == "servo goal spline")
+    n, m = dropped.n, dropped.m
+    m_of: dict[int, int] = {}  # g column → its knot's M variable
+    knots: list[int] = []
+    for g0, _, g1, _ in intervals.values():
+        for g in (g0, g1):
+            if g not in m_of:
+                m_of[g] = n
+                knots.append(int(d.var_knot[g]))
+                n += 1
+    add_r: list[int] = []
+    add_c: list[int] = []
+    add_v: list[float] = []
+    for g0, s0, g1, s1 in intervals.values():
+        # M_k = (6(g1 − g0)/h − 4 s0 − 2 s1)/h ;  M_{k+1} = (−6(g1 − g0)/h + 2 s0 + 4 s1)/h
+        for mv, coeffs in ((m_of[g0], (6, -6, 4, 2)), (m_of[g1], (-6, 6, -2, -4))):
+            a_g0, a_g1, a_s0, a_s1 = coeffs
+            add_r += [m] * 5
+            add_c += [mv, g0, g1, s0, s1]
+            add_v += [1.0, a_g0 / h**2, a_g1 / h**2, a_s0 / h, a_s1 / h]
+            m += 1
+    extra, more = n - dropped.n, m - dropped.m
+    return _replace(
+        dropped, n=n, m=m, j_rows=np.r_[dropped.j_rows, add_r].astype(int),
+        j_cols=np.r_[dropped.j_cols, add_c].astype(int), j_vals=np.r_[dropped.j_vals, add_v],
+        grad=np.r_[dropped.grad, np.zeros(extra)], x0=np.r_[dropped.x0, np.zeros(extra)],
+        lbx=np.r_[dropped.lbx, np.full(extra, -np.inf)],
+        ubx=np.r_[dropped.ubx, np.full(extra, np.inf)],
+        lbg=np.r_[dropped.lbg, np.zeros(more)], ubg=np.r_[dropped.ubg, np.zeros(more)],
+        row_group=np.r_[dropped.row_group, np.full(more, "spline ends")],
+        row_knot=np.r_[dropped.row_knot, np.full(more, -1)],
+        var_knot=np.r_[dropped.var_knot, knots],
+        row_label=None if dropped.row_label is None
+        else np.r_[dropped.row_label, np.full(more, "")],
+        **_more_vars(dropped, extra, "M"))
 
 
 def lifted_feet(d: KKTData) -> KKTData:
@@ -457,6 +528,27 @@ def relabelled(d: KKTData, seed: int) -> KKTData:
         var_joint=None if d.var_joint is None else d.var_joint[xp])
 
 
+def knot_major(d: KKTData) -> KKTData:
+    """The same matrices with the variables and the rows sorted by knot (stable: within a knot
+    in their order), the all-knot rows and variables of no knot last: a symmetric permutation
+    (the same factor with the same pivot order) that hands METIS the chain in order."""
+    home = home_knots(d)
+    big = d.n_knots + 1
+    xp = np.lexsort((np.arange(d.n), np.where(d.var_knot >= 0, d.var_knot, big)))
+    wide = all_knot_rows(d)
+    gp = np.lexsort((np.arange(d.m), np.where((home >= 0) & ~wide, home, big)))
+    xi, gi = np.argsort(xp), np.argsort(gp)
+    hr, hc = xi[d.h_rows], xi[d.h_cols]
+    return _replace(
+        d, j_rows=gi[d.j_rows], j_cols=xi[d.j_cols], h_rows=np.maximum(hr, hc),
+        h_cols=np.minimum(hr, hc), grad=d.grad[xp], x0=d.x0[xp], lbx=d.lbx[xp], ubx=d.ubx[xp],
+        lbg=d.lbg[gp], ubg=d.ubg[gp], row_group=d.row_group[gp], row_knot=d.row_knot[gp],
+        row_label=None if d.row_label is None else d.row_label[gp],
+        var_knot=d.var_knot[xp],
+        var_kind=None if d.var_kind is None else d.var_kind[xp],
+        var_joint=None if d.var_joint is None else d.var_joint[xp])
+
+
 def variants(d: KKTData, which: str) -> dict[str, KKTData]:
     """The screen's variants of `d` by name (`which`: "all", or names joined by commas;
     "drop:GROUP" drops one group)."""
@@ -472,6 +564,8 @@ def variants(d: KKTData, which: str) -> dict[str, KKTData]:
         "lifted servo goals": lambda: lifted_goals(d),
         "lifted feet": lambda: lifted_feet(d),
         "lifted servo goals and feet": lambda: lifted_feet(lifted_goals(d)),
+        "first-order spline": lambda: first_order_spline(d),
+        "knot-major order": lambda: knot_major(d),
         "no inequality rows": lambda: drop_rows(d, d.lbg != d.ubg),
     }
     for g in groups:
@@ -605,6 +699,8 @@ def kkt_data(planner: Any, half: bool) -> KKTData:
             if name in ("q", "tau"):
                 kind_full[idx] = name
                 joint_full[idx] = np.arange(layout.width(name))[None, :]
+            if name == "goal_slope":
+                kind_full[idx] = "s"
             if name == "vel":
                 kind_full[idx[:, 6:]] = "qd"
                 joint_full[idx[:, 6:]] = np.arange(layout.n_joints)[None, :]
@@ -714,6 +810,8 @@ def main(argv: list[str] | None = None) -> None:
                          "(METIS' spread): median and range of flops and doubles")
     ap.add_argument("--on", choices=("direct", "lifted"), default="direct",
                     help="the variants' base: the NLP's KKT, or with the servo goals lifted")
+    ap.add_argument("--servo-goal-form", default="direct",
+                    help="the planner's `PlannerOptions.servo_goal_form` (real solves)")
     ap.add_argument("--time-reps", type=int, default=0,
                     help="only time the variants: this many proxy runs each, alternating, "
                          "every numeric factorisation's MUMPS wall time pooled")
@@ -729,6 +827,7 @@ def main(argv: list[str] | None = None) -> None:
 
     robot = robots.load(args.robot)
     options, _ = cli_search_options(robot, speed_m_s=args.speed)
+    options = dataclasses.replace(options, servo_goal_form=args.servo_goal_form)
     if args.templates:
         factorisations_per_iteration(robot, args, options)
         return

@@ -83,6 +83,9 @@ DEFAULT_SWING_WRENCH = "bounds"
 #: the goal rows read g). The same feasible set; MUMPS' factor flops 0.71-0.82x on quad12 and
 #: hex18 (docs/results/planner_speed_rows.md, session 43)
 SERVO_GOAL_FORMS = ("direct", "lifted")
+#: `PlannerOptions.servo_goal_form`'s default: "direct" (the NLP before session 43); "lifted"
+#: met the per-schedule bar on quad12 and hex18 (proposed, not flipped here)
+DEFAULT_SERVO_GOAL_FORM = "direct"
 #: values of `PlannerOptions.warm_retime` (`planner.nlp.warm_start`)
 WARM_RETIMES = ("none", "whole", "per foot")
 #: values of `PlannerOptions.warm_swing_wrench`: "same" (the solve's own, `swing_wrench`)
@@ -521,7 +524,7 @@ class PlannerOptions:
     warm_swing_wrench: str = "same"
     warm_half_cycle: bool = DEFAULT_WARM_HALF_CYCLE
     separation_unit_leg_lengths: float | None = DEFAULT_SEPARATION_UNIT_LEG_LENGTHS
-    servo_goal_form: str = "direct"
+    servo_goal_form: str = DEFAULT_SERVO_GOAL_FORM
 
     def __post_init__(self) -> None:
         checks = {
