@@ -164,3 +164,32 @@ def test_relabelled_and_proxy(screen) -> None:  # type: ignore[no-untyped-def]
                                "sb": "yes"})
     assert run.sizes["eq"] == d.m - 1 and run.sizes["ineq"] == 1
     assert run.log.factorisations >= 1 and run.log.doubles and run.log.doubles[0] > 0
+
+
+def test_knot_major_is_a_relabelling(screen) -> None:  # type: ignore[no-untyped-def]
+    d = _chain(screen)
+    km = screen.knot_major(d)
+    assert km.n == d.n and km.m == d.m and km.j_rows.size == d.j_rows.size
+    np.testing.assert_array_equal(np.sort(km.j_vals), np.sort(d.j_vals))
+    assert np.all(np.diff(km.var_knot) >= 0)  # variables by knot
+    rows = km.row_knot[km.row_group != "drift"]
+    assert np.all(np.diff(rows) >= 0) and km.row_group[-1] == "drift"  # all-knot rows last
+
+
+def test_lifted_feet_same_rows(screen) -> None:  # type: ignore[no-untyped-def]
+    """A no-slip row on knots k and k+1 reads two foot variables whose rows carry its entries."""
+    d = _chain(screen)
+    labels = np.asarray([f"foot a@knot {k}" if g == "differences" else ""
+                         for g, k in zip(d.row_group, d.row_knot, strict=True)])
+    groups = np.where(d.row_group == "differences", "stance no-slip", d.row_group)
+    d = screen._replace(d, row_group=groups, row_label=labels)
+    lf = screen.lifted_feet(d)
+    assert lf.n == d.n + K and lf.m == d.m + K  # one foot variable per knot (same columns)
+    rng = np.random.default_rng(2)
+    x = rng.normal(size=d.n)
+    a, al = _dense(d), _dense(lf)
+    feet = np.array([-(al[r, : d.n] @ x) for r in range(d.m, lf.m)])  # P = its row's entries
+    xl = np.r_[x, feet]
+    np.testing.assert_allclose(al[: d.m] @ xl, a @ x, atol=1e-12)
+    slip = np.flatnonzero(lf.row_group == "stance no-slip")
+    assert all(np.count_nonzero(al[r]) == 2 for r in slip)
