@@ -644,7 +644,9 @@ class _Recorder:
 
 def recording_planner(robot: Any, n_knots: int, options: Any, mumps_print_level: int) -> Any:
     """A `GaitPlanner` (IPOPT's options + ``mumps_print_level``) whose solves record the
-    arguments and result of their IPOPT call (``planner.recorder``)."""
+    arguments and result of their IPOPT call (``planner.recorder``). The option is added by
+    replacing `planner.nlp.spacetime.ipopt_options` for the rest of the process (a benchmark
+    script's process: every later planner prints MUMPS' statistics too)."""
     from planner.nlp import spacetime
 
     base_options = spacetime.ipopt_options
