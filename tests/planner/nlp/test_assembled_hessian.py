@@ -132,7 +132,10 @@ def test_assembled_hessian_is_the_derivative_of_the_assembled_gradient() -> None
 def test_assembled_hessian_calls_one_knot_hessian_map_and_no_knot_derivative() -> None:
     planner = GaitPlanner(robots.load("quad12"), 8, PlannerOptions(nlp_hessian="assembled"))
     called = planner._solver.get_function("nlp_hess_l").get_function()
-    assert [c for c in called if c.endswith("H_knot")] == ["map8_H_knot"], called
+    # the knot's H is "H_knot", or "gaitsmith_H_<hash>" when the test cache (a developer's own
+    # $GAITSMITH_CACHE) holds the compiled knot derivatives
+    h_maps = [c for c in called if c.endswith("H_knot") or "gaitsmith_H_" in c]
+    assert len(h_maps) == 1 and h_maps[0].startswith("map8_"), called
     assert not [c for c in called if c.endswith("_knot") and c.startswith(("fwd", "adj"))]
 
 
