@@ -63,6 +63,7 @@ from planner.nlp.config import (
     COLD_STARTS,
     COMPACT_ROWS,
     DEFAULT_COMPACT_ROWS,
+    DEFAULT_SERVO_GOAL_FORM,
     DEFAULT_SWING_WRENCH,
     DERIVATIVE_PATHS,
     SERVO_GOAL_FORMS,
@@ -384,7 +385,7 @@ def main() -> None:
                     help=f"comma-separated `PlannerOptions.compact_rows` values, run alternately "
                          f"per path: none or names joined by + ({', '.join(COMPACT_ROWS)})")
     ap.add_argument("--target", type=float, default=60.0, help="target wall time [s]")
-    ap.add_argument("--servo-goal-forms", default="direct",
+    ap.add_argument("--servo-goal-forms", default=DEFAULT_SERVO_GOAL_FORM,
                     help=f"comma-separated `PlannerOptions.servo_goal_form` values, each a "
                          f"search of its own ({', '.join(SERVO_GOAL_FORMS)})")
     args = ap.parse_args()
@@ -416,7 +417,7 @@ def main() -> None:
                 "rows" if wrench == COARSE_BOUNDS else
                 DEFAULT_SWING_WRENCH, cold,
                 rows, coarse, final_swing_wrench=final,
-                option_fields=() if form == "direct" else (("servo_goal_form", form),))
+                option_fields=(("servo_goal_form", form),))
         runs.append(r)
         print(report(r, args.target), flush=True)
     for executor in executors:

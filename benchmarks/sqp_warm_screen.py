@@ -387,7 +387,7 @@ def stagewise_run(args: argparse.Namespace, solver_name: str, hessian: str) -> N
 
     robot = robots.load(args.robot)
     options = PlannerOptions(normal_force_rate_weights_per_t0=None, compact_rows=(),
-                             derivatives="expanded", nlp_jacobian="ad")
+                             derivatives="expanded", nlp_jacobian="ad", servo_goal_form="direct")
     model = RobotModel(robot)
     layout = Layout.of(model, args.knots)
     t0 = time.process_time()

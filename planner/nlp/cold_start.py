@@ -42,6 +42,7 @@ import numpy as np
 from planner.errors import PlannerConfigError
 from planner.nlp.command import VelocityCommand
 from planner.nlp.config import COLD_STARTS, PlannerOptions
+from planner.nlp.constraints import fill_servo_goals
 from planner.nlp.model import RobotModel
 from planner.nlp.variables import Layout, initial_guess, swing_height_profile
 from robots import ContactSchedule
@@ -126,7 +127,7 @@ class ColdStarter:
         layout = self.layout
         x = initial_guess(layout, self.model, schedule)
         if kind == "stance":
-            return x
+            return fill_servo_goals(layout, self.model, self.options, x)
         base, q, f = layout.unpack(x)
         if kind == "stride":
             q = self._stride_joints(schedule, command, q)
@@ -155,8 +156,9 @@ class ColdStarter:
         slopes = self._goal_slopes(q, vel[6:, :].T, tau, schedule)
         if not self.options.servo_goals:
             slopes = np.zeros_like(slopes)  # fixed at 0 by their bounds
-        return layout.pack(base, q, f, vel=vel.T, acc=acc.T, tau=tau, goal_slope=slopes,
-                           moments=moments)
+        # the lifted servo goals (`PlannerOptions.servo_goal_form`) from these q, τ and q̇
+        return fill_servo_goals(layout, self.model, self.options, layout.pack(
+            base, q, f, vel=vel.T, acc=acc.T, tau=tau, goal_slope=slopes, moments=moments))
 
     # -- pieces ------------------------------------------------------------------------------
 

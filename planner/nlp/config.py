@@ -83,9 +83,12 @@ DEFAULT_SWING_WRENCH = "bounds"
 #: the goal rows read g). The same feasible set; MUMPS' factor flops 0.71-0.82x on quad12 and
 #: hex18 (docs/results/planner_speed_rows.md, session 43)
 SERVO_GOAL_FORMS = ("direct", "lifted")
-#: `PlannerOptions.servo_goal_form`'s default: "direct" (the NLP before session 43); "lifted"
-#: met the per-schedule bar on quad12 and hex18 (proposed, not flipped here)
-DEFAULT_SERVO_GOAL_FORM = "direct"
+#: `PlannerOptions.servo_goal_form`'s default since session 43: "lifted". The per-schedule bar
+#: met (templates + 20 random schedules: quad12 12/12 and hex18 23/23 at the same optimum, worst
+#: 4.8e-6, the capped ones capped alike; seven zoo robots the same verdicts, costs within 8e-7);
+#: cold solves 0.83-0.92x the CPU on quad12 trot and hex18 tripod (compiled), warm chains
+#: 0.79-0.93x; hex18's README search neutral (0.95-1.14x). "direct" is the NLP before.
+DEFAULT_SERVO_GOAL_FORM = "lifted"
 #: values of `PlannerOptions.warm_retime` (`planner.nlp.warm_start`)
 WARM_RETIMES = ("none", "whole", "per foot")
 #: values of `PlannerOptions.warm_swing_wrench`: "same" (the solve's own, `swing_wrench`)

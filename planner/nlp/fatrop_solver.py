@@ -62,9 +62,10 @@ class FatropPlanner(GaitPlanner):
         # the base class builds the planner's MX NLP (its rows judge every result); "expanded"
         # keeps it from building IPOPT's knot derivatives, which FATROP does not use
         # the stage-wise rows are the groups' own rows (`planner.nlp.stagewise`): no
-        # `compact_rows`
+        # `compact_rows`; the servo goals are a stage state already: not lifted
         super().__init__(robot, n_knots, dataclasses.replace(
             options, derivatives="expanded", nlp_jacobian="ad", compact_rows=(),
+            servo_goal_form="direct",
         ))
 
     def stage_solve_bounds(self) -> SolveBounds:

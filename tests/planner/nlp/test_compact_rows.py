@@ -247,6 +247,7 @@ def test_stagewise_refuses_rows_as_bounds() -> None:
 
     model = RobotModel(robots.load("quad12"))
     with pytest.raises(PlannerConfigError, match="compact_rows joint speed"):
-        stage_functions(model, N, PlannerOptions(compact_rows=("joint speed", "torque envelope")))
+        stage_functions(model, N, PlannerOptions(compact_rows=("joint speed", "torque envelope"),
+                                                 servo_goal_form="direct"))
     labels = group_labels(model, N, ("torque envelope",))
     assert len(labels["torque envelope"]) == 2 * model.n_joints * N

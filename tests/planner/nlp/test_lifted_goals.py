@@ -25,13 +25,14 @@ N = 8
 @pytest.fixture(scope="module")
 def pair() -> tuple[GaitPlanner, GaitPlanner]:
     robot = robots.load("quad12")
-    return (GaitPlanner(robot, N, PlannerOptions()),
+    return (GaitPlanner(robot, N, PlannerOptions(servo_goal_form="direct")),
             GaitPlanner(robot, N, PlannerOptions(servo_goal_form="lifted")))
 
 
 def test_option_values() -> None:
-    assert PlannerOptions().servo_goal_form == "direct"
-    assert not PlannerOptions().lifted_goals
+    assert PlannerOptions().servo_goal_form == "lifted"  # the default since session 43
+    assert PlannerOptions().lifted_goals
+    assert not PlannerOptions(servo_goal_form="direct").lifted_goals
     assert PlannerOptions(servo_goal_form="lifted").lifted_goals
     assert not PlannerOptions(servo_goal_form="lifted", servo_goals=False).lifted_goals
     with pytest.raises(PlannerConfigError, match="servo_goal_form"):

@@ -48,7 +48,8 @@ def test_stage_rows_are_the_planner_rows_at_any_point(robot_name: str, gait: str
     the rows it adds (gap-closing dynamics, wrap-around copies), which hold as equalities."""
     robot = robots.load(robot_name)
     model = RobotModel(robot)
-    options = PlannerOptions(normal_force_rate_weights_per_t0=None)  # no stage-wise form
+    options = PlannerOptions(normal_force_rate_weights_per_t0=None,  # no stage-wise form
+                             servo_goal_form="direct")  # goals: a stage state already
     layout = Layout(N_KNOTS, model.n_joints, model.n_feet)
     planner_nlp, lbg, ubg = _planner_nlp(model, layout, options)
     schedule = make_schedule(robot, gait)
@@ -88,11 +89,11 @@ def test_stage_rows_are_the_planner_rows_at_any_point(robot_name: str, gait: str
 def test_a_row_over_every_knot_is_refused() -> None:
     robot = robots.load("quad12")
     model = RobotModel(robot)
-    options = PlannerOptions(mean_footprint_leg_lengths=0.2)
+    options = PlannerOptions(mean_footprint_leg_lengths=0.2, servo_goal_form="direct")
     layout = Layout(N_KNOTS, model.n_joints, model.n_feet)
     with pytest.raises(PlannerConfigError, match="mean_footprint"):
         build_stagewise(model, N_KNOTS, options, layout)
-    rate = PlannerOptions(normal_force_rate_weights_per_t0=5.0)
+    rate = PlannerOptions(normal_force_rate_weights_per_t0=5.0, servo_goal_form="direct")
     with pytest.raises(PlannerConfigError, match="normal_force_rate"):
         build_stagewise(model, N_KNOTS, rate, layout)
 
@@ -107,7 +108,8 @@ def test_fatrop_planner_keeps_ipopts_optimum() -> None:
 
     robot = robots.load("quad12")
     schedule = make_schedule(robot, "trot")
-    no_rate = PlannerOptions(normal_force_rate_weights_per_t0=None)  # no stage-wise form
+    no_rate = PlannerOptions(normal_force_rate_weights_per_t0=None,  # no stage-wise form
+                             servo_goal_form="direct")
     ref = GaitPlanner(robot, N_KNOTS, no_rate).solve(schedule, 0.25, warm_start=False)
     assert ref.feasible
     fatrop = FatropPlanner(robot, N_KNOTS, PlannerOptions(max_iter=3,
