@@ -47,6 +47,9 @@ GRAVITY_M_S2 = 9.81
 DERIVATIVE_PATHS = ("knot", "expanded", "compiled")
 #: values of `PlannerOptions.ipopt_tuning` (`planner.nlp.spacetime.ipopt_options`)
 IPOPT_TUNINGS = ("tuned", "session21")
+#: IPOPT options `PlannerOptions.ipopt_extra` may not set: the planner's own plumbing (how it
+#: passes starts and scales), which an override would silently break
+IPOPT_EXTRA_RESERVED = ("warm_start_init_point", "linear_solver", "print_level", "max_iter", "sb")
 #: values of `PlannerOptions.nlp_jacobian`
 NLP_JACOBIANS = ("ad", "assembled")
 #: values of `PlannerOptions.nlp_hessian`
@@ -473,6 +476,11 @@ class PlannerOptions:
       `warm_swing_wrench` are off ("none", "same"): each moved some hex18 warm solves to
       another local optimum than the full warm solve's.
     Measured in docs/results/planner_speed_ipopt.md (session 41).
+    - `ipopt_extra`: IPOPT options (name, value) set on top of `ipopt_tuning`'s, cold and warm
+      solves alike (`planner.nlp.spacetime.ipopt_options`); () (default) adds none. For
+      screening IPOPT's options on the planner as users run it (benchmarks/tail_screen.py,
+      planner_speed_ipopt.md session 43); not `IPOPT_EXTRA_RESERVED`, and `tol` and
+      `max_iter` have fields of their own.
     - `separation_unit_leg_lengths`: the length the foot-separation rows
       (`planner.nlp.foot_separation`, only bodies whose feet stand close: the bipeds) are
       counted in, in leg lengths; None: metres. The same feasible set; it weighs the rows' violation
@@ -528,6 +536,7 @@ class PlannerOptions:
     warm_half_cycle: bool = DEFAULT_WARM_HALF_CYCLE
     separation_unit_leg_lengths: float | None = DEFAULT_SEPARATION_UNIT_LEG_LENGTHS
     servo_goal_form: str = DEFAULT_SERVO_GOAL_FORM
+    ipopt_extra: tuple[tuple[str, float | int | str], ...] = ()
 
     def __post_init__(self) -> None:
         checks = {
@@ -576,6 +585,7 @@ class PlannerOptions:
             and 1 <= self.knot_threads <= MAX_KNOT_THREADS,
             "nlp_jacobian": self.nlp_jacobian in NLP_JACOBIANS,
             "nlp_hessian": self.nlp_hessian in NLP_HESSIANS,
+            "ipopt_extra": _ipopt_extra_ok(self.ipopt_extra),
             "compact_rows": isinstance(self.compact_rows, tuple)
             and all(r in COMPACT_ROWS for r in self.compact_rows)
             and len(set(self.compact_rows)) == len(self.compact_rows),
@@ -594,7 +604,10 @@ class PlannerOptions:
         for name, ok in checks.items():
             if not ok:
                 hint = (f" (a tuple of distinct names from {', '.join(COMPACT_ROWS)})"
-                        if name == "compact_rows" else "")
+                        if name == "compact_rows" else
+                        " (a tuple of distinct (IPOPT option, number or string) pairs, none of "
+                        f"{', '.join(IPOPT_EXTRA_RESERVED)} or tol)"
+                        if name == "ipopt_extra" else "")
                 raise PlannerConfigError(
                     f"planner option {name}={getattr(self, name)!r} is out of range{hint}"
                 )
@@ -633,3 +646,20 @@ class PlannerOptions:
         span = np.asarray(upper_rad, dtype=float) - np.asarray(lower_rad, dtype=float)
         margin = np.maximum(self.joint_limit_margin_rad, self.joint_limit_margin_fraction * span)
         return np.minimum(margin, 0.25 * span)
+
+
+def _ipopt_extra_ok(extra: object) -> bool:
+    """`PlannerOptions.ipopt_extra` is a tuple of distinct (name, number or string) pairs that
+    set none of `IPOPT_EXTRA_RESERVED` nor ``tol`` (the field `PlannerOptions.tol`)."""
+    if not isinstance(extra, tuple):
+        return False
+    names: list[str] = []
+    for item in extra:
+        if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str)
+                and isinstance(item[1], (int, float, str)) and not isinstance(item[1], bool)):
+            return False
+        if isinstance(item[1], float) and not math.isfinite(item[1]):
+            return False
+        names.append(item[0])
+    return (len(set(names)) == len(names)
+            and not set(names) & {*IPOPT_EXTRA_RESERVED, "tol"})

@@ -192,6 +192,7 @@ def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
             "mu_init": TUNED_WARM_MU_INIT if tuned_warm else 1e-2,
         }
     )
+    ipopt.update(dict(options.ipopt_extra))  # `PlannerOptions.ipopt_extra`: () adds nothing
     return ipopt
 
 

@@ -68,3 +68,31 @@ def test_tuned_warm_start_reaches_the_same_optimum_in_fewer_iterations_than_cold
         assert warm.cost <= other.cost * (1 + SAME_COST_RTOL), (warm.cost, other.cost)
     assert warm.iterations <= cold.iterations, (warm.iterations, cold.iterations)
     assert warm.iterations < old_warm.iterations, (warm.iterations, old_warm.iterations)
+
+
+def test_ipopt_extra_sets_options_on_cold_and_warm_solves_alike() -> None:
+    plain = PlannerOptions()
+    extra = PlannerOptions(ipopt_extra=(("alpha_for_y", "dual-and-full"),
+                                        ("first_hessian_perturbation", 1e-6)))
+    for warm in (False, True):
+        got, want = ipopt_options(extra, warm), ipopt_options(plain, warm)
+        assert got.pop("alpha_for_y") == "dual-and-full"
+        assert got.pop("first_hessian_perturbation") == 1e-6
+        assert got == want  # nothing else moved
+    # an option the tuning sets is replaced, not duplicated
+    assert ipopt_options(PlannerOptions(ipopt_extra=(("mu_init", 0.1),)), False)["mu_init"] == 0.1
+
+
+@pytest.mark.parametrize("extra", [
+    (("tol", 1e-4),),  # `PlannerOptions.tol`'s
+    (("warm_start_init_point", "no"),),  # the planner's plumbing
+    (("max_iter", 10),),
+    (("alpha_for_y", "full"), ("alpha_for_y", "primal")),  # twice
+    (("mu_init", float("nan")),),
+    (("honor_original_bounds", True),),  # a bool is not an IPOPT value
+    [("mu_init", 0.1)],  # not a tuple
+    (("mu_init",),),
+])
+def test_ipopt_extra_refuses_what_it_must_not_set(extra: object) -> None:
+    with pytest.raises(PlannerConfigError, match="ipopt_extra"):
+        PlannerOptions(ipopt_extra=extra)  # type: ignore[arg-type]
