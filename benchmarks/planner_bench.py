@@ -316,6 +316,25 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
         robot, n, PlannerOptions(warm_retime="per foot", warm_swing_wrench="bounds",
                                  warm_half_cycle=True)
     ),
+    # docs/results/planner_speed_ipopt.md, session 43 (benchmarks/tail_screen.py): the defaults
+    # with IPOPT's last iterations changed — the y step (``alpha_for_y``), the adaptive μ's
+    # affine corrector, a looser stopping test (`PlannerOptions.ipopt_extra`, `tol`)
+    "default-afy-pf": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(ipopt_extra=(("alpha_for_y", "primal-and-full"),))
+    ),
+    "default-corr-affine": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(ipopt_extra=(("corrector_type", "affine"),))
+    ),
+    "default-pf-affine": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(ipopt_extra=(("alpha_for_y", "primal-and-full"),
+                                              ("corrector_type", "affine")))
+    ),
+    "default-affine-fhp6": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(ipopt_extra=(("corrector_type", "affine"),
+                                              ("first_hessian_perturbation", 1e-6)))
+    ),
+    "default-tol1e-5": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(tol=1e-5)),
+    "default-tol1e-4": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(tol=1e-4)),
     "knot-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(compact_rows=())),
     "knot-compact": lambda robot, n: GaitPlanner(
         robot, n, _full_cycle(compact_rows=COMPACT_ROWS)

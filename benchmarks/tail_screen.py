@@ -48,10 +48,9 @@ import robots
 from planner.errors import PlannerConfigError
 from planner.nlp.config import PlannerOptions
 from planner.nlp.spacetime import GaitPlanner, PlanResult
-from planner.templates import make_schedule, mirror_permutation, templates_for
+from planner.templates import default_gait_for, make_schedule, mirror_permutation, templates_for
 
-#: the chains' default template and speed per robot
-DEFAULT_GAIT = {"quad12": "trot", "hex18": "tripod"}
+#: the chains' default speed per robot (0.25 m/s for others); the template: the robot's default
 DEFAULT_SPEED_M_S = {"hex18": 0.15}
 
 
@@ -135,13 +134,14 @@ def report(title: str, names: list[str], rows: list[tuple[str, dict[str, Solve]]
     base_it = sum(s[base].iterations for _, s in rows)
     for n in names:
         its = [s[n].iterations for _, s in rows]
-        cpu = sum(s[n].cpu_s for _, s in rows)
+        total_cpu_s = sum(s[n].cpu_s for _, s in rows)
         differ = sum(s[n].feasible != s[base].feasible for _, s in rows)
         short = sum(not s[n].optimal for _, s in rows)
         rels = [(s[n].cost - s[base].cost) / max(abs(s[base].cost), 1e-12)
                 for _, s in rows if s[n].feasible and s[base].feasible]
-        print(f"| {n} | {sum(its)} | {statistics.median(its) if its else 0:g} | {cpu:.2f} | "
-              f"{cpu / max(base_cpu, 1e-9):.3f} | {sum(its) / max(base_it, 1):.3f} | {differ} | "
+        print(f"| {n} | {sum(its)} | {statistics.median(its) if its else 0:g} | "
+              f"{total_cpu_s:.2f} | {total_cpu_s / max(base_cpu, 1e-9):.3f} | "
+              f"{sum(its) / max(base_it, 1):.3f} | {differ} | "
               f"{short} | {sum(r > 1e-4 for r in rels)} (worst {max(rels, default=0):+.1e}) | "
               f"{sum(r < -1e-4 for r in rels)} |", flush=True)
 
@@ -174,7 +174,7 @@ def main(argv: list[str] | None = None) -> None:
     a = ap.parse_args(argv)
     speed = a.speed if a.speed is not None else DEFAULT_SPEED_M_S.get(a.robot, 0.25)
     robot = robots.load(a.robot)
-    gait = a.gait or DEFAULT_GAIT.get(a.robot, "trot")
+    gait = a.gait or default_gait_for(robot)
     base_options, _ = cli_search_options(robot, speed_m_s=speed)
     variants = [parse_variant(v, base_options) for v in a.variants]
     names = [v.name for v in variants]
