@@ -333,6 +333,9 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
         robot, n, PlannerOptions(ipopt_extra=(("corrector_type", "affine"),
                                               ("first_hessian_perturbation", 1e-6)))
     ),
+    "default-warm-corr-affine": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(ipopt_extra=(("warm:corrector_type", "affine"),))
+    ),
     "default-tol1e-5": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(tol=1e-5)),
     "default-tol1e-4": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(tol=1e-4)),
     "knot-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(compact_rows=())),

@@ -50,6 +50,8 @@ IPOPT_TUNINGS = ("tuned", "session21")
 #: IPOPT options `PlannerOptions.ipopt_extra` may not set: the planner's own plumbing (how it
 #: passes starts and scales), which an override would silently break
 IPOPT_EXTRA_RESERVED = ("warm_start_init_point", "linear_solver", "print_level", "max_iter", "sb")
+#: `PlannerOptions.ipopt_extra`: a name "warm:NAME" sets IPOPT's NAME in warm solves only
+WARM_ONLY_PREFIX = "warm:"
 #: values of `PlannerOptions.nlp_jacobian`
 NLP_JACOBIANS = ("ad", "assembled")
 #: values of `PlannerOptions.nlp_hessian`
@@ -477,7 +479,8 @@ class PlannerOptions:
       another local optimum than the full warm solve's.
     Measured in docs/results/planner_speed_ipopt.md (session 41).
     - `ipopt_extra`: IPOPT options (name, value) set on top of `ipopt_tuning`'s, cold and warm
-      solves alike (`planner.nlp.spacetime.ipopt_options`); () (default) adds none. For
+      solves alike (`planner.nlp.spacetime.ipopt_options`), or only warm ones when the name
+      is "warm:NAME" (`WARM_ONLY_PREFIX`); () (default) adds none. For
       screening IPOPT's options on the planner as users run it (benchmarks/tail_screen.py,
       planner_speed_ipopt.md session 43); not `IPOPT_EXTRA_RESERVED`, and `tol` and
       `max_iter` have fields of their own.
@@ -660,6 +663,6 @@ def _ipopt_extra_ok(extra: object) -> bool:
             return False
         if isinstance(item[1], float) and not math.isfinite(item[1]):
             return False
-        names.append(item[0])
+        names.append(item[0].removeprefix(WARM_ONLY_PREFIX))
     return (len(set(names)) == len(names)
             and not set(names) & {*IPOPT_EXTRA_RESERVED, "tol"})

@@ -44,7 +44,7 @@ from planner.nlp.assembled_hessian import KnotTerm, assembled_hessian
 from planner.nlp.assembled_jacobian import assembled_jacobian
 from planner.nlp.cold_start import ColdStarter, StartCommand
 from planner.nlp.command import VelocityCommand, check_command
-from planner.nlp.config import FREED_GROUPS, SWING_WRENCHES, PlannerOptions
+from planner.nlp.config import FREED_GROUPS, SWING_WRENCHES, WARM_ONLY_PREFIX, PlannerOptions
 from planner.nlp.constraints import (
     build_groups,
     fill_servo_goals,
@@ -192,7 +192,12 @@ def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
             "mu_init": TUNED_WARM_MU_INIT if tuned_warm else 1e-2,
         }
     )
-    ipopt.update(dict(options.ipopt_extra))  # `PlannerOptions.ipopt_extra`: () adds nothing
+    for name, value in options.ipopt_extra:  # `PlannerOptions.ipopt_extra`: () adds nothing
+        if name.startswith(WARM_ONLY_PREFIX):
+            if warm:  # "warm:NAME": warm solves only
+                ipopt[name.removeprefix(WARM_ONLY_PREFIX)] = value
+        else:
+            ipopt[name] = value
     return ipopt
 
 

@@ -96,3 +96,16 @@ def test_ipopt_extra_sets_options_on_cold_and_warm_solves_alike() -> None:
 def test_ipopt_extra_refuses_what_it_must_not_set(extra: object) -> None:
     with pytest.raises(PlannerConfigError, match="ipopt_extra"):
         PlannerOptions(ipopt_extra=extra)  # type: ignore[arg-type]
+
+
+def test_ipopt_extra_warm_only_names_reach_warm_solves_only() -> None:
+    options = PlannerOptions(ipopt_extra=(("warm:corrector_type", "affine"),
+                                          ("alpha_for_y", "primal-and-full")))
+    cold, warm = ipopt_options(options, False), ipopt_options(options, True)
+    assert "corrector_type" not in cold and warm["corrector_type"] == "affine"
+    assert cold["alpha_for_y"] == warm["alpha_for_y"] == "primal-and-full"
+    assert not any(k.startswith("warm:") for k in (*cold, *warm))
+    with pytest.raises(PlannerConfigError, match="ipopt_extra"):  # one option set twice
+        PlannerOptions(ipopt_extra=(("warm:mu_init", 0.1), ("mu_init", 0.1)))
+    with pytest.raises(PlannerConfigError, match="ipopt_extra"):
+        PlannerOptions(ipopt_extra=(("warm:max_iter", 3),))
