@@ -510,12 +510,9 @@ def hessian_diagonal(d: KKTData) -> KKTData:
     return _replace(d, h_rows=d.h_rows[on], h_cols=d.h_cols[on], h_vals=d.h_vals[on])
 
 
-def relabelled(d: KKTData, seed: int) -> KKTData:
-    """The same matrices with variables and rows in a random order (a symmetric permutation of
-    the KKT matrix: the same factor in exact arithmetic with the same ordering; METIS' ordering
-    depends on the labels, so this samples its spread)."""
-    rng = np.random.default_rng(seed)
-    xp, gp = rng.permutation(d.n), rng.permutation(d.m)
+def permuted(d: KKTData, xp: np.ndarray, gp: np.ndarray) -> KKTData:
+    """`d` with its variables in the order `xp` and its rows in the order `gp` (new position →
+    old index): a symmetric permutation of the KKT matrix, H kept in its lower triangle."""
     xi, gi = np.argsort(xp), np.argsort(gp)  # new index of old variable / row
     hr, hc = xi[d.h_rows], xi[d.h_cols]
     return _replace(
@@ -528,6 +525,15 @@ def relabelled(d: KKTData, seed: int) -> KKTData:
         var_joint=None if d.var_joint is None else d.var_joint[xp])
 
 
+def relabelled(d: KKTData, seed: int) -> KKTData:
+    """The same matrices with variables and rows in a random order (a symmetric permutation of
+    the KKT matrix: the same factor in exact arithmetic with the same ordering; METIS' ordering
+    depends on the labels, so this samples its spread)."""
+    rng = np.random.default_rng(seed)
+    xp, gp = rng.permutation(d.n), rng.permutation(d.m)
+    return permuted(d, xp, gp)
+
+
 def knot_major(d: KKTData) -> KKTData:
     """The same matrices with the variables and the rows sorted by knot (stable: within a knot
     in their order), the all-knot rows and variables of no knot last: a symmetric permutation
@@ -537,16 +543,7 @@ def knot_major(d: KKTData) -> KKTData:
     xp = np.lexsort((np.arange(d.n), np.where(d.var_knot >= 0, d.var_knot, big)))
     wide = all_knot_rows(d)
     gp = np.lexsort((np.arange(d.m), np.where((home >= 0) & ~wide, home, big)))
-    xi, gi = np.argsort(xp), np.argsort(gp)
-    hr, hc = xi[d.h_rows], xi[d.h_cols]
-    return _replace(
-        d, j_rows=gi[d.j_rows], j_cols=xi[d.j_cols], h_rows=np.maximum(hr, hc),
-        h_cols=np.minimum(hr, hc), grad=d.grad[xp], x0=d.x0[xp], lbx=d.lbx[xp], ubx=d.ubx[xp],
-        lbg=d.lbg[gp], ubg=d.ubg[gp], row_group=d.row_group[gp], row_knot=d.row_knot[gp],
-        row_label=None if d.row_label is None else d.row_label[gp],
-        var_knot=d.var_knot[xp],
-        var_kind=None if d.var_kind is None else d.var_kind[xp],
-        var_joint=None if d.var_joint is None else d.var_joint[xp])
+    return permuted(d, xp, gp)
 
 
 def variants(d: KKTData, which: str) -> dict[str, KKTData]:
