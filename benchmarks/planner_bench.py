@@ -28,7 +28,10 @@ time, iterations, ms/iteration and the ratio against the baseline, the build tim
 empty disk cache and from the cache) and whether each path reaches the baseline's optimum
 (same feasibility verdict, cost within 1e-4 relative or lower) over the solves that converged;
 a pair in which either solve stopped at the iteration cap is counted apart, with its cost
-difference, and not called the same optimum.
+difference, and not called the same optimum. Each path builds into an empty temporary disk cache,
+so "knot" paths run the uncompiled knot derivatives (a robot's first command); `--cache DIR`
+builds them from DIR instead (after `gaitsmith cache build ROBOT`: the compiled ones, what later
+commands get; the build line says which).
 """
 
 from __future__ import annotations
@@ -353,12 +356,42 @@ def _fatrop_planner(robot: robots.Robot, n_knots: int) -> GaitPlanner:
     return FatropPlanner(robot, n_knots)
 
 
+def _build_from_cache(
+    robot: robots.Robot, n_knots: int, names: list[str], cache: Path
+) -> dict[str, GaitPlanner]:
+    """Each path built once from the disk cache `cache` (`--cache`: a user's cache, e.g. after
+    `gaitsmith cache build ROBOT`): the planners a later command gets, with the compiled knot
+    derivatives where the cache holds them. Prints each build time and what the cache gave
+    (hit or built; compiled or not)."""
+    planners: dict[str, GaitPlanner] = {}
+    previous = os.environ.get("GAITSMITH_CACHE")
+    os.environ["GAITSMITH_CACHE"] = str(cache)
+    try:
+        for name in names:
+            t0 = time.process_time()
+            planners[name] = PATHS[name](robot, n_knots)
+            cpu = time.process_time() - t0
+            status = planners[name].derivative_cache
+            got = ("" if status is None else
+                   f" ({status.status}, {'compiled' if status.compiled else 'not compiled'})")
+            print(f"  build {name}: from {cache} {planners[name].build_time_s:.2f} s "
+                  f"(CPU {cpu:.2f} s){got}")
+    finally:
+        if previous is None:
+            os.environ.pop("GAITSMITH_CACHE", None)
+        else:
+            os.environ["GAITSMITH_CACHE"] = previous
+    return planners
+
+
 def _build_paths(
-    robot: robots.Robot, n_knots: int, names: list[str]
+    robot: robots.Robot, n_knots: int, names: list[str], cache: Path | None = None
 ) -> dict[str, GaitPlanner]:
     """Each path built twice into a disk cache of its own, the first time empty (cold), the
     second from what the first wrote (cached); prints both build times, wall and process CPU.
-    Returns the cached-build planners."""
+    Returns the cached-build planners. With `cache`: `_build_from_cache` instead."""
+    if cache is not None:
+        return _build_from_cache(robot, n_knots, names, cache)
     planners: dict[str, GaitPlanner] = {}
     with tempfile.TemporaryDirectory(prefix="planner_bench_cache_") as cache:
         previous = os.environ.get("GAITSMITH_CACHE")
@@ -404,13 +437,15 @@ def compare(
     paths: list[str],
     only_templates: list[str] | None = None,
     symmetric: bool = False,
+    cache: Path | None = None,
 ) -> None:
     """Solver paths side by side on the same schedules, in one run (module docstring);
     `only_templates`: these of the robot's templates instead of all; `symmetric`: the warm
-    chain's schedules stay half-cycle symmetric (`warm_chain`)."""
+    chain's schedules stay half-cycle symmetric (`warm_chain`); `cache`: build from this disk
+    cache (`_build_from_cache`) instead of empty temporary ones."""
     robot = robots.load(robot_name)
     print(f"{robot_name} N={n_knots} ({', '.join(paths)}; baseline {paths[0]})")
-    planners = _build_paths(robot, n_knots, paths)
+    planners = _build_paths(robot, n_knots, paths, cache)
     base_name = paths[0]
     rng = np.random.default_rng(seed)
     schedules: list[tuple[str, robots.ContactSchedule]] = []
@@ -653,7 +688,15 @@ def main() -> None:
     )
     ap.add_argument("--symmetric", action="store_true",
                     help="`compare`: a warm chain of half-cycle symmetric perturbations")
+    ap.add_argument(
+        "--cache", type=Path, default=None,
+        help="`compare`: build every path from this disk cache (e.g. ~/.cache/gaitsmith after "
+        "`gaitsmith cache build ROBOT`: the compiled knot derivatives a user's later commands "
+        "get) instead of empty temporary ones (the uncompiled path, and the build times cold "
+        "and cached)")
     args = ap.parse_args()
+    if args.cache is not None and not args.cache.is_dir():
+        ap.error(f"--cache {args.cache}: not a folder (a GAITSMITH_CACHE, e.g. ~/.cache/gaitsmith)")
     only = None if args.templates is None else [t.strip() for t in args.templates.split(",")]
     paths = [p.strip() for p in args.paths.split(",") if p.strip()]
     unknown = [p for p in paths if p not in PATHS]
@@ -668,17 +711,17 @@ def main() -> None:
     if args.section in ("all", "compare"):
         if args.robot in ("both", "quad12"):
             compare("quad12", "trot", 0.25, args.knots, args.random, args.warm, args.seed, paths,
-                    only, args.symmetric)
+                    only, args.symmetric, args.cache)
         if args.robot in ("both", "hex18"):
             compare("hex18", "tripod", 0.15, args.knots, args.random, args.warm, args.seed, paths,
-                    only, args.symmetric)
+                    only, args.symmetric, args.cache)
         if args.robot not in ("both", "quad12", "hex18"):
             try:
                 gait = default_gait_for(robots.load(args.robot))
             except robots.RobotsError as exc:
                 ap.error(f"--robot {args.robot!r}: {exc}")
             compare(args.robot, gait, args.speed, args.knots, args.random, args.warm, args.seed,
-                    paths, only, args.symmetric)
+                    paths, only, args.symmetric, args.cache)
 
 
 if __name__ == "__main__":
