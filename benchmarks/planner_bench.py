@@ -59,6 +59,7 @@ from planner.errors import PlannerConfigError
 from planner.nlp import spacetime
 from planner.nlp.config import COMPACT_ROWS, PlannerOptions
 from planner.nlp.constraints import knot_function
+from planner.nlp.solver_cache import cache_folder
 from planner.nlp.spacetime import GaitPlanner, PlanResult
 from planner.templates import (
     default_gait_for,
@@ -364,9 +365,7 @@ def _build_from_cache(
     derivatives where the cache holds them. Prints each build time and what the cache gave
     (hit or built; compiled or not)."""
     planners: dict[str, GaitPlanner] = {}
-    previous = os.environ.get("GAITSMITH_CACHE")
-    os.environ["GAITSMITH_CACHE"] = str(cache)
-    try:
+    with cache_folder(cache):
         for name in names:
             t0 = time.process_time()
             planners[name] = PATHS[name](robot, n_knots)
@@ -376,11 +375,6 @@ def _build_from_cache(
                    f" ({status.status}, {'compiled' if status.compiled else 'not compiled'})")
             print(f"  build {name}: from {cache} {planners[name].build_time_s:.2f} s "
                   f"(CPU {cpu:.2f} s){got}")
-    finally:
-        if previous is None:
-            os.environ.pop("GAITSMITH_CACHE", None)
-        else:
-            os.environ["GAITSMITH_CACHE"] = previous
     return planners
 
 
@@ -393,13 +387,11 @@ def _build_paths(
     if cache is not None:
         return _build_from_cache(robot, n_knots, names, cache)
     planners: dict[str, GaitPlanner] = {}
-    with tempfile.TemporaryDirectory(prefix="planner_bench_cache_") as cache:
-        previous = os.environ.get("GAITSMITH_CACHE")
-        try:
-            for name in names:
-                # its own folder: paths sharing the knot's J and H would otherwise find the
-                # first path's in the cache and their "empty cache" build would not be cold
-                os.environ["GAITSMITH_CACHE"] = str(Path(cache) / name)
+    with tempfile.TemporaryDirectory(prefix="planner_bench_cache_") as folder:
+        for name in names:
+            # its own folder: paths sharing the knot's J and H would otherwise find the first
+            # path's in the cache and their "empty cache" build would not be cold
+            with cache_folder(Path(folder) / name):
                 t0 = time.process_time()
                 cold = PATHS[name](robot, n_knots)
                 cold_cpu = time.process_time() - t0
@@ -408,17 +400,12 @@ def _build_paths(
                 t0 = time.process_time()
                 planners[name] = PATHS[name](robot, n_knots)
                 cached_cpu = time.process_time() - t0
-                status = planners[name].derivative_cache
-                print(
-                    f"  build {name}: empty cache {cold_s:.2f} s (CPU {cold_cpu:.2f} s) | from "
-                    f"the cache {planners[name].build_time_s:.2f} s (CPU {cached_cpu:.2f} s)"
-                    + (f" ({status.status})" if status is not None else "")
-                )
-        finally:
-            if previous is None:
-                os.environ.pop("GAITSMITH_CACHE", None)
-            else:
-                os.environ["GAITSMITH_CACHE"] = previous
+            status = planners[name].derivative_cache
+            print(
+                f"  build {name}: empty cache {cold_s:.2f} s (CPU {cold_cpu:.2f} s) | from "
+                f"the cache {planners[name].build_time_s:.2f} s (CPU {cached_cpu:.2f} s)"
+                + (f" ({status.status})" if status is not None else "")
+            )
     return planners
 
 

@@ -33,8 +33,6 @@ import os
 import pickle
 import tempfile
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -45,26 +43,12 @@ import robots
 from gaitsmith.stance_options import stance_shaped
 from planner.errors import PlannerConfigError
 from planner.nlp.config import CostWeights, PlannerOptions
+from planner.nlp.solver_cache import cache_folder
 from planner.nlp.spacetime import GaitPlanner
 from planner.search.executors import _tune_worker_malloc
 from planner.search.gait_search import DEFAULT_SEARCH_KNOTS, DEFAULT_SEARCH_MAX_ITER, TimingSpace
 
 PATHS = ("knot", "compiled")
-
-
-@contextmanager
-def cache_folder(path: str | None) -> Iterator[None]:
-    """``$GAITSMITH_CACHE`` set to `path` (None: unchanged) while the block runs."""
-    before = os.environ.get("GAITSMITH_CACHE")
-    if path is not None:
-        os.environ["GAITSMITH_CACHE"] = path
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop("GAITSMITH_CACHE", None)
-        else:
-            os.environ["GAITSMITH_CACHE"] = before
 
 
 def build(robot: robots.Robot, options: PlannerOptions, path: str, empty: str) -> GaitPlanner:

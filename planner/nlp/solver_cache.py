@@ -41,7 +41,8 @@ import json
 import os
 import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib import metadata as importlib_metadata
 from pathlib import Path
@@ -272,6 +273,22 @@ def cache_dir() -> Path:
     """Where cached knot derivatives live: ``$GAITSMITH_CACHE`` or ``~/.cache/gaitsmith``."""
     env = os.environ.get("GAITSMITH_CACHE")
     return Path(env).expanduser() if env else Path.home() / ".cache" / "gaitsmith"
+
+
+@contextmanager
+def cache_folder(path: str | Path | None) -> Iterator[None]:
+    """``$GAITSMITH_CACHE`` (`cache_dir`) set to `path` (None: unchanged) while the block runs,
+    then put back as it was (benchmarks building planners into caches of their own)."""
+    before = os.environ.get("GAITSMITH_CACHE")
+    if path is not None:
+        os.environ["GAITSMITH_CACHE"] = str(path)
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop("GAITSMITH_CACHE", None)
+        else:
+            os.environ["GAITSMITH_CACHE"] = before
 
 
 def _gaitsmith_version() -> str:

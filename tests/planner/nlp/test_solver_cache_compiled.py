@@ -18,6 +18,8 @@ from planner.nlp.config import PlannerOptions
 from planner.nlp.constraints import knot_function
 from planner.nlp.model import RobotModel
 from planner.nlp.solver_cache import (
+    cache_dir,
+    cache_folder,
     jacobian_and_hessian,
     knot_cache_key,
     knot_jacobian_and_hessian,
@@ -202,3 +204,20 @@ def _sx_planner(robot: robots.Robot, cache: Path) -> GaitPlanner:
         os.environ["GAITSMITH_CACHE"] = previous
     assert planner.derivative_cache is not None and not planner.derivative_cache.compiled
     return planner
+
+
+def test_cache_folder_sets_and_restores_the_cache(tmp_path: Path,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """`cache_folder`: `cache_dir` is the given folder inside the block and what it was after
+    (an unset variable stays unset, also when the block raises); None leaves it alone."""
+    monkeypatch.delenv("GAITSMITH_CACHE", raising=False)
+    with pytest.raises(RuntimeError), cache_folder(tmp_path / "a"):
+        assert cache_dir() == tmp_path / "a"
+        raise RuntimeError
+    assert "GAITSMITH_CACHE" not in os.environ
+    monkeypatch.setenv("GAITSMITH_CACHE", str(tmp_path / "own"))
+    with cache_folder(None):
+        assert cache_dir() == tmp_path / "own"
+    with cache_folder(tmp_path / "b"):
+        assert cache_dir() == tmp_path / "b"
+    assert cache_dir() == tmp_path / "own"
