@@ -293,6 +293,26 @@ def running_sums(d: KKTData) -> KKTData:
         **_more_vars(d, extra))
 
 
+def _with_equalities(d: KKTData, keep: np.ndarray | None, add_r: list[int], add_c: list[int],
+                     add_v: list[float], n: int, group: str, row_knots: Any, var_knots: Any,
+                     kind: str = "") -> KKTData:
+    """`d` with its Jacobian entries `keep` (None: all) and the new entries (`add_r`, `add_c`,
+    `add_v`), n − d.n free variables appended (start 0, no gradient; knots `var_knots`, kind
+    `kind`) and one equality row (= 0) of `group` per entry of `row_knots` (their knots)."""
+    extra, more = n - d.n, len(row_knots)
+    mask = np.ones(d.j_rows.size, dtype=bool) if keep is None else keep
+    return _replace(
+        d, n=n, m=d.m + more, j_rows=np.r_[d.j_rows[mask], add_r].astype(int),
+        j_cols=np.r_[d.j_cols[mask], add_c].astype(int), j_vals=np.r_[d.j_vals[mask], add_v],
+        grad=np.r_[d.grad, np.zeros(extra)], x0=np.r_[d.x0, np.zeros(extra)],
+        lbx=np.r_[d.lbx, np.full(extra, -np.inf)], ubx=np.r_[d.ubx, np.full(extra, np.inf)],
+        lbg=np.r_[d.lbg, np.zeros(more)], ubg=np.r_[d.ubg, np.zeros(more)],
+        row_group=np.r_[d.row_group, np.full(more, group)],
+        row_knot=np.r_[d.row_knot, row_knots], var_knot=np.r_[d.var_knot, var_knots],
+        row_label=None if d.row_label is None else np.r_[d.row_label, np.full(more, "")],
+        **_more_vars(d, extra, kind))
+
+
 def _more_vars(d: KKTData, extra: int, kind: str = "") -> dict[str, Any]:
     if d.var_kind is None or d.var_joint is None:
         return {}
@@ -351,18 +371,9 @@ def lifted_goals(d: KKTData) -> KKTData:
             add_c.append(c)
             add_v.append(-v)
         m += 1
-    extra, rows = n - d.n, len(new_rows)
-    keep = ~on_goal
-    return _replace(
-        d, n=n, m=m, j_rows=np.r_[d.j_rows[keep], add_r].astype(int),
-        j_cols=np.r_[d.j_cols[keep], add_c].astype(int), j_vals=np.r_[d.j_vals[keep], add_v],
-        grad=np.r_[d.grad, np.zeros(extra)], x0=np.r_[d.x0, np.zeros(extra)],
-        lbx=np.r_[d.lbx, np.full(extra, -np.inf)], ubx=np.r_[d.ubx, np.full(extra, np.inf)],
-        lbg=np.r_[d.lbg, np.zeros(rows)], ubg=np.r_[d.ubg, np.zeros(rows)],
-        row_group=np.r_[d.row_group, np.full(rows, "servo goal")],
-        row_knot=np.r_[d.row_knot, [k for k, _ in slots]],
-        row_label=None if d.row_label is None else np.r_[d.row_label, np.full(rows, "")],
-        var_knot=np.r_[d.var_knot, [k for k, _ in slots]], **_more_vars(d, extra, "g"))
+    assert len(new_rows) == len(slots) and m == d.m + len(slots)
+    knots = [k for k, _ in slots]
+    return _with_equalities(d, ~on_goal, add_r, add_c, add_v, n, "servo goal", knots, knots, "g")
 
 
 def first_order_spline(d: KKTData) -> KKTData:
@@ -419,20 +430,8 @@ def first_order_spline(d: KKTData) -> KKTData:
             add_c += [mv, g0, g1, s0, s1]
             add_v += [1.0, a_g0 / h**2, a_g1 / h**2, a_s0 / h, a_s1 / h]
             m += 1
-    extra, more = n - dropped.n, m - dropped.m
-    return _replace(
-        dropped, n=n, m=m, j_rows=np.r_[dropped.j_rows, add_r].astype(int),
-        j_cols=np.r_[dropped.j_cols, add_c].astype(int), j_vals=np.r_[dropped.j_vals, add_v],
-        grad=np.r_[dropped.grad, np.zeros(extra)], x0=np.r_[dropped.x0, np.zeros(extra)],
-        lbx=np.r_[dropped.lbx, np.full(extra, -np.inf)],
-        ubx=np.r_[dropped.ubx, np.full(extra, np.inf)],
-        lbg=np.r_[dropped.lbg, np.zeros(more)], ubg=np.r_[dropped.ubg, np.zeros(more)],
-        row_group=np.r_[dropped.row_group, np.full(more, "spline ends")],
-        row_knot=np.r_[dropped.row_knot, np.full(more, -1)],
-        var_knot=np.r_[dropped.var_knot, knots],
-        row_label=None if dropped.row_label is None
-        else np.r_[dropped.row_label, np.full(more, "")],
-        **_more_vars(dropped, extra, "M"))
+    return _with_equalities(dropped, None, add_r, add_c, add_v, n, "spline ends",
+                            np.full(m - dropped.m, -1), knots, "M")
 
 
 def lifted_feet(d: KKTData) -> KKTData:
@@ -475,18 +474,9 @@ def lifted_feet(d: KKTData) -> KKTData:
             add_r.append(int(r))
             add_c.append(key_var[key])
             add_v.append(sign)
-    extra, more = n - d.n, m - d.m
-    keep = ~drop
-    return _replace(
-        d, n=n, m=m, j_rows=np.r_[d.j_rows[keep], add_r].astype(int),
-        j_cols=np.r_[d.j_cols[keep], add_c].astype(int), j_vals=np.r_[d.j_vals[keep], add_v],
-        grad=np.r_[d.grad, np.zeros(extra)], x0=np.r_[d.x0, np.zeros(extra)],
-        lbx=np.r_[d.lbx, np.full(extra, -np.inf)], ubx=np.r_[d.ubx, np.full(extra, np.inf)],
-        lbg=np.r_[d.lbg, np.zeros(more)], ubg=np.r_[d.ubg, np.zeros(more)],
-        row_group=np.r_[d.row_group, np.full(more, "foot position")],
-        row_knot=np.r_[d.row_knot, new_knots], var_knot=np.r_[d.var_knot, new_knots],
-        row_label=None if d.row_label is None else np.r_[d.row_label, np.full(more, "")],
-        **_more_vars(d, extra))
+    assert len(new_knots) == m - d.m
+    return _with_equalities(d, ~drop, add_r, add_c, add_v, n, "foot position", new_knots,
+                            new_knots)
 
 
 def decoupled_knots(d: KKTData) -> KKTData:
