@@ -340,6 +340,11 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "default-warm-corr-affine": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(ipopt_extra=(("warm:corrector_type", "affine"),))
     ),
+    # session 44 (lead): `spacetime.MIN_REFINEMENT_STEPS` 0 is the default; "default-refine1" is
+    # IPOPT's own default (one refinement step on every linear solve), the solves before
+    "default-refine1": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(ipopt_extra=(("min_refinement_steps", 1),))
+    ),
     "default-tol1e-5": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(tol=1e-5)),
     "default-tol1e-4": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(tol=1e-4)),
     "knot-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(compact_rows=())),

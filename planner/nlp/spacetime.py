@@ -125,6 +125,12 @@ WARM_START_DUALS = False
 #: on quad12 N = 12, which glibc maps and unmaps around every factorisation; IPOPT enlarges it
 #: itself should MUMPS report it too small). Measured: docs/results/planner_speed.md, session 29.
 MUMPS_MEM_PERCENT = 100
+#: IPOPT's ``min_refinement_steps`` (its default 1): iterative-refinement steps on every linear
+#: solve even when the residual is already small. 0 refines only when IPOPT's residual test asks
+#: for it: the same iterations and optima on every converged schedule of the bar (quad12 and hex18
+#: templates + 20 random schedules at N = 30, costs within 3.7e-9 / 3.4e-7 relative), 0.91× /
+#: 0.94× the CPU per iteration on the compiled path (docs/results/planner_speed_rows.md, s44 lead).
+MIN_REFINEMENT_STEPS = 0
 #: `ipopt_tuning="tuned"`, warm solves: how far IPOPT pushes the start off its bounds (relative
 #: to max(1, |bound|)) and the bound multipliers' lower limit, instead of 1e-6; and μ₀
 TUNED_WARM_BOUND_PUSH = 1e-3
@@ -165,6 +171,7 @@ def ipopt_options(options: PlannerOptions, warm: bool) -> dict[str, Any]:
         "print_level": options.print_level,
         "linear_solver": options.linear_solver,
         "mu_strategy": "adaptive",
+        "min_refinement_steps": MIN_REFINEMENT_STEPS,
         "sb": "yes",
         "print_timing_statistics": "yes" if options.print_level >= 5 else "no",
     }

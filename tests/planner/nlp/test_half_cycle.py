@@ -227,8 +227,10 @@ def test_the_iteration_abort_stops_a_half_cycle_solve_on_the_full_solves_iterate
         assert stopped.stats["half_cycle"] is True and half.last_solve_aborted
         assert stopped.status == "User_Requested_Stop" and stopped.iterations == 3
         log = stopped.stats["iterations"]
-        np.testing.assert_allclose(log["inf_pr"], ref["inf_pr"][:4], rtol=1e-9, atol=1e-12)
-        np.testing.assert_allclose(log["obj"], ref["obj"][:4], rtol=1e-9)
+        # the same path to the linear solves' accuracy: with refinement on demand
+        # (`spacetime.MIN_REFINEMENT_STEPS`) the two KKT systems' solves agree to ≈ 1e-7
+        np.testing.assert_allclose(log["inf_pr"], ref["inf_pr"][:4], rtol=1e-6, atol=1e-12)
+        np.testing.assert_allclose(log["obj"], ref["obj"][:4], rtol=1e-6)
     finally:
         half.set_iteration_abort(None)
     again = half.solve(schedule, SPEED_M_S, warm_start=False)

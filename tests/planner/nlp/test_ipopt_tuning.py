@@ -109,3 +109,23 @@ def test_ipopt_extra_warm_only_names_reach_warm_solves_only() -> None:
         PlannerOptions(ipopt_extra=(("warm:mu_init", 0.1), ("mu_init", 0.1)))
     with pytest.raises(PlannerConfigError, match="ipopt_extra"):
         PlannerOptions(ipopt_extra=(("warm:max_iter", 3),))
+
+
+def test_refinement_on_demand_keeps_the_iterations_and_the_optimum() -> None:
+    """`spacetime.MIN_REFINEMENT_STEPS` 0 (IPOPT refines a linear solve only when its residual
+    test asks) against IPOPT's own 1: the same optimum in as many iterations (± 1) on a cold and
+    a warm solve (docs/results/planner_speed_rows.md, session 44)."""
+    robot = robots.load("quad12")
+    base, changed = _changed_trot(robot)
+    results = {}
+    for steps in (0, 1):
+        options = PlannerOptions(ipopt_extra=(("min_refinement_steps", steps),))
+        assert ipopt_options(options, False)["min_refinement_steps"] == steps
+        planner = GaitPlanner(robot, N_KNOTS, options, background_compile=False)
+        cold = planner.solve(base, 0.25, warm_start=False)
+        results[steps] = (cold, planner.solve(changed, 0.25))
+    assert ipopt_options(PlannerOptions(), False)["min_refinement_steps"] == 0
+    for on_demand, always in zip(results[0], results[1], strict=True):
+        assert on_demand.feasible and always.feasible
+        assert abs(on_demand.iterations - always.iterations) <= 1  # the bar: 1 of 35 moved by 1
+        assert on_demand.cost == pytest.approx(always.cost, rel=SAME_COST_RTOL / 10)
