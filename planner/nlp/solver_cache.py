@@ -36,6 +36,7 @@ mismatching entry is rebuilt and replaced, never trusted.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -291,7 +292,10 @@ def cache_folder(path: str | Path | None) -> Iterator[None]:
             os.environ["GAITSMITH_CACHE"] = before
 
 
+@functools.cache
 def _gaitsmith_version() -> str:
+    """The installed package's version (looked up once per process: `importlib.metadata` scans
+    the path's distributions, ≈ 2 ms a call, and a build asks for it per cache key)."""
     try:
         return importlib_metadata.version("gaitsmith")
     except importlib_metadata.PackageNotFoundError:
