@@ -17,8 +17,8 @@ way, alternating repeat by repeat. `--cache DIR`: a cache folder per checkout is
 (e.g. one `gaitsmith cache build` filled) into a temporary folder, once, before the repeats; the
 first repeat of each checkout may fill entries of its own (a "first command") — ignore it when
 comparing second commands. `--end-to-end`: time the whole command (`gaitsmith plan …` as a
-subprocess, wall and the children's CPU) instead; extra plan options such as `--simulate` after
-`--`. CPU times are the ones to compare on a shared machine.
+subprocess, as the console script runs it: wall and the child's CPU) instead; extra plan options
+such as `--simulate` after `--`. CPU times are the ones to compare on a shared machine.
 """
 
 from __future__ import annotations
@@ -113,7 +113,9 @@ def _run(code_dir: Path, cache: Path, cmd: list[str]) -> dict[str, Any]:
 def _end_to_end(code_dir: Path, cache: Path, cmd: list[str]) -> dict[str, Any]:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
-    out = subprocess.run([sys.executable, "-m", "gaitsmith.cli", *cmd], capture_output=True,
+    # as the `gaitsmith` console script runs it
+    script = "import sys; from gaitsmith.cli import main; sys.exit(main())"
+    out = subprocess.run([sys.executable, "-c", script, *cmd], capture_output=True,
                          text=True, check=False, env=_env(code_dir, cache), cwd=code_dir)
     wall = time.perf_counter() - t
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
