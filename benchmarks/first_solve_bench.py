@@ -146,6 +146,8 @@ def _line(label: str, i: int, rec: dict[str, Any]) -> str:
 def _median(values: list[float]) -> float:
     values = sorted(values)
     n = len(values)
+    if n == 0:
+        return float("nan")
     return values[n // 2] if n % 2 else 0.5 * (values[n // 2 - 1] + values[n // 2])
 
 
@@ -159,7 +161,8 @@ def main() -> None:
     parser.add_argument("--cache", type=Path, help="copy each checkout's cache from this folder")
     parser.add_argument("--end-to-end", action="store_true", help="time the whole command")
     parser.add_argument("extra", nargs="*", help="more `gaitsmith plan` options (after --)")
-    args = parser.parse_args()
+    args, unknown = parser.parse_known_args()
+    args.extra = [*args.extra, *(u for u in unknown if u != "--")]  # e.g. -- --simulate
     checkouts = [("this", Path(__file__).resolve().parent.parent)]
     if args.baseline is not None:
         checkouts.append(("baseline", args.baseline.resolve()))
@@ -194,6 +197,8 @@ def main() -> None:
                 continue
             keys = [("built", lambda r: r["built"][1]), ("first", lambda r: r["first"]["cpu_s"]),
                     ("second", lambda r: r["second"]["cpu_s"]),
+                    ("first − second", lambda r: r["first"]["cpu_s"] - r["second"]["cpu_s"]),
+                    ("built + first", lambda r: r["built"][1] + r["first"]["cpu_s"]),
                     ("first wall", lambda r: r["first"]["wall_s"]),
                     ("second wall", lambda r: r["second"]["wall_s"])]
             print(f"{label:>8} median of {len(recs)} (CPU unless wall): " + ", ".join(
