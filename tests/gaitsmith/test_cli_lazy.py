@@ -89,3 +89,28 @@ def test_a_sim_error_raised_in_a_command_is_one_line_and_exit_2() -> None:
     errors: list[str] = []
     assert run_app(app, ["fail"], cli.user_error_types, errors.append, lambda: None) == 2
     assert errors == ["bad servo model"]
+
+
+def test_main_runs_a_command_with_fewer_gc_collections_and_restores_them() -> None:
+    import gc
+
+    before = gc.get_threshold()
+    seen: list[tuple[int, ...]] = []
+    app = typer.Typer()
+
+    @app.command()
+    def probe() -> None:
+        seen.append(gc.get_threshold())
+
+    @app.command()
+    def other() -> None:
+        """(two commands: typer runs a lone one without its name)"""
+
+    saved = cli.app
+    cli.app = app
+    try:
+        assert cli.main(["probe"]) == 0
+    finally:
+        cli.app = saved
+    assert seen == [cli.COMMAND_GC_THRESHOLDS]
+    assert gc.get_threshold() == before
