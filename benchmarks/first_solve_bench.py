@@ -4,13 +4,13 @@
         [--baseline DIR] [--cache DIR] [--end-to-end] [-- extra plan options]
 
 Each repeat is a fresh interpreter that takes its clock first thing, imports `gaitsmith.cli` and
-runs `gaitsmith plan ROBOT --gait GAIT --speed SPEED` in-process; at the command's call of
-`GaitPlanner.solve` it times that solve (the first of the process), then a second cold solve of
-the same schedule, and stops. Printed per repeat (wall / CPU): (a) start-up to the planner built,
-(b) the first solve, (c) the second, the spans inside the first solve that the second does not
-pay (the half-cycle reduced NLP's build, `GaitPlanner._build_half_cycle`; of it the mirror
-probe, `reduced_nlp` and IPOPT's construction), the iterations, the cost and a digest of x (the
-two checkouts must agree).
+runs `gaitsmith plan ROBOT --gait GAIT --speed SPEED` in-process (`gaitsmith.cli.main`); at the
+command's call of `GaitPlanner.solve` it times that solve (the first of the process), then a
+second cold solve of the same schedule, and stops. Printed per repeat (wall / CPU): (a) start-up
+to the planner built, (b) the first solve, (c) the second, the spans inside the first solve that
+the second does not pay (the half-cycle reduced NLP's build, `GaitPlanner._build_half_cycle`; of
+it the mirror probe, `reduced_nlp` and IPOPT's construction), the iterations, the cost and a
+digest of x (the two checkouts must agree).
 
 `--baseline DIR`: another checkout (e.g. `git archive <commit> | tar -x -C DIR`) timed the same
 way, alternating repeat by repeat. `--cache DIR`: a cache folder per checkout is copied from DIR
@@ -85,7 +85,7 @@ half_cycle.nlp_mirror_defect = timed("mirror_probe", half_cycle.nlp_mirror_defec
 half_cycle.reduced_nlp = timed("reduced_nlp", half_cycle.reduced_nlp)
 spacetime.ca.nlpsol = timed("nlpsol", spacetime.ca.nlpsol)
 try:
-    cli.app(sys.argv[1:], standalone_mode=False)
+    cli.main(sys.argv[1:])  # as the console script: its error handling and GC settings too
 except _Done:
     sys.exit(0)
 print(json.dumps({"error": "the command ended without calling GaitPlanner.solve"}))
