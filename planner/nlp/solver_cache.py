@@ -294,10 +294,12 @@ def cache_folder(path: str | Path | None) -> Iterator[None]:
 
 @functools.cache
 def _gaitsmith_version() -> str:
-    """The installed package's version (looked up once per process: `importlib.metadata` scans
-    the path's distributions, ≈ 2 ms a call, and a build asks for it per cache key)."""
+    """The installed package's version (looked up once per process: a build asks for it per
+    cache key; `importlib.metadata` scans the path's distributions each time)."""
+    from planner.nlp.metadata import distribution_version
+
     try:
-        return importlib_metadata.version("gaitsmith")
+        return distribution_version("gaitsmith")
     except importlib_metadata.PackageNotFoundError:
         return "unknown"
 
