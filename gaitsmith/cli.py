@@ -8,6 +8,7 @@ one clear line and exit code 2 — never a traceback.
 
 from __future__ import annotations
 
+import gc
 import importlib
 import importlib.util
 import os
@@ -127,14 +128,21 @@ app = typer.Typer(
 )
 
 
+#: `gc.set_threshold` while `main` runs a command (module comment in `main`)
+COMMAND_GC_THRESHOLDS = (20000, 20, 20)
+
+
 def user_error_types() -> tuple[type[BaseException], ...]:
-    """The error base classes whose message is meant for the user (no traceback)."""
+    """The error base classes whose message is meant for the user (no traceback), of the
+    modules imported so far: `main` asks when an exception reaches it, and a module the command
+    never imported raised nothing. (Importing `sim.errors` up front imported the `sim` package
+    with MuJoCo's validation, ≈ 45 ms of every `gaitsmith plan` without --simulate:
+    docs/results/planner_speed_startup.md, session 44.)"""
     errors: list[type[BaseException]] = [CliError, RobotsError]
     for module, cls in (("planner.errors", "PlannerError"), ("sim.errors", "SimError")):
-        try:
-            errors.append(getattr(importlib.import_module(module), cls))
-        except (ImportError, AttributeError):
-            continue
+        found = getattr(sys.modules.get(module), cls, None)
+        if isinstance(found, type) and issubclass(found, BaseException):
+            errors.append(found)
     return tuple(errors)
 
 
@@ -151,7 +159,16 @@ def main(argv: list[str] | None = None) -> int:
     """Run `gaitsmith`; every user mistake is one line on stderr and a non-zero exit code:
     2 for usage and input errors, 1 for a failed check, 130 for Ctrl-C
     (`robots.cli_usage.run_app`)."""
-    return run_app(app, argv, user_error_types(), _print_error, _print_interrupted)
+    # Python's cyclic GC at its default thresholds (700, 10, 10) ran ≈ 50 young and one full
+    # collection between the import and the planner's build, 25–40 ms of a `gaitsmith plan`
+    # (docs/results/planner_speed_startup.md, session 44); CasADi's and typer's objects are
+    # hardly ever cyclic garbage. Fewer collections while the command runs, then as it was.
+    thresholds = gc.get_threshold()
+    gc.set_threshold(*COMMAND_GC_THRESHOLDS)
+    try:
+        return run_app(app, argv, user_error_types, _print_error, _print_interrupted)
+    finally:
+        gc.set_threshold(*thresholds)
 
 
 if __name__ == "__main__":

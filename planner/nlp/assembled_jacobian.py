@@ -92,7 +92,9 @@ def knots_with_entries(sparsity: ca.Sparsity, rows_per_knot: int, n_knots: int
     """The knots whose columns (`rows_per_knot` per knot, knot-major) hold a structural entry
     of a matrix of `sparsity`, e.g. ∂G/∂Y: the knots whose outputs G reads."""
     filled = np.flatnonzero(np.diff(np.asarray(sparsity.colind(), dtype=int)))
-    return tuple(int(k) for k in np.unique(filled // rows_per_knot) if k < n_knots)
+    # a set, not np.unique: its first call imports numpy.ma (8 ms of a command's first solve,
+    # docs/results/planner_speed_startup.md, session 44)
+    return tuple(sorted(k for k in set((filled // rows_per_knot).tolist()) if k < n_knots))
 
 
 def at_read_knots(exprs: Sequence[Any], call: KnotCall, n_knots: int) -> list[Any]:

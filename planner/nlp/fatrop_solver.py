@@ -43,6 +43,9 @@ FATROP_DEFAULTS: dict[str, Any] = {"mu_init": 1e-2}
 class FatropPlanner(GaitPlanner):
     """A `GaitPlanner` whose NLP is solved stage-wise by FATROP (module docstring)."""
 
+    #: `_make_solver` builds the stage-wise NLP `solve` reads: in `__init__`
+    lazy_full_solver = False
+
     def __init__(
         self,
         robot: Robot,

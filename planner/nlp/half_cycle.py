@@ -289,17 +289,24 @@ def first_half_rows(slices: list[tuple[str, slice]], labels: dict[str, list[str]
     h = n_knots // 2
     keep: list[int] = []
     cycle: list[int] = []
+    # each distinct label parsed once (a group's labels repeat: per face, per sample, …)
+    known: dict[str, float | None] = {}
     for name, sl in slices:
         if name == MIRROR_ROWS:
             continue
         names = labels.get(name)
-        knots = None if names is None or len(names) != sl.stop - sl.start else [
-            knot_of_row(label) for label in names]
-        if knots is None or any(k is None for k in knots):
+        if names is not None and len(names) == sl.stop - sl.start:
+            for label in set(names).difference(known):
+                known[label] = knot_of_row(label)
+            knots = [known[label] for label in names]
+        else:
+            knots = None
+        if knots is None or None in knots:
             cycle.extend(range(sl.start, sl.stop))
             continue
-        keep.extend(row for row, k in zip(range(sl.start, sl.stop), knots, strict=True)
-                    if k is not None and int(k) < h)
+        # int(k) < h for the knots k ≥ 0 of the labels
+        first = np.floor(np.asarray(knots, dtype=float)) < h
+        keep.extend((sl.start + np.flatnonzero(first)).tolist())
     return keep, cycle
 
 
@@ -372,7 +379,8 @@ class HalfCycleNLP:
 
 def reduced_nlp(mirror: VariableMirror, rows: RowSelection, x: Any, p: Any, f: Any, g: Any,
                 jac_g: ca.Function | None, hess_l: ca.Function | None,
-                knot_terms: Sequence[KnotTerm] = (), n_knots: int = 0
+                knot_terms: Sequence[KnotTerm] = (), n_knots: int = 0, *,
+                assembled: tuple[bool, bool] | None = None,
                 ) -> tuple[dict[str, Any], dict[str, ca.Function]]:
     """The reduced NLP's expressions (``x``, ``p``, ``f``, ``g``) and, when the full NLP has
     them, its assembled ``jac_g`` and ``hess_lag`` functions (module docstring) from the full
@@ -385,7 +393,11 @@ def reduced_nlp(mirror: VariableMirror, rows: RowSelection, x: Any, p: Any, f: A
     the kept rows alone (`assembled_jacobian`, `assembled_hessian` with `knots_read_only`),
     instead of calling the full NLP's `jac_g` and `hess_l` (every knot and row, half of them
     thrown away). The same values, bit for bit where measured (quad12, hex18, the biped;
-    tests/planner/nlp/test_half_cycle.py, docs/results/planner_speed_halfeval.md)."""
+    tests/planner/nlp/test_half_cycle.py, docs/results/planner_speed_halfeval.md).
+
+    `assembled`: with `knot_terms`, whether the full NLP has its ``jac_g`` and ``hess_lag``
+    (then `jac_g` and `hess_l` themselves are not used and may be None: the planner builds the
+    full NLP's only for a full solve); None: whether `jac_g` and `hess_l` are given."""
     e = mirror.matrix()
     xr = ca.MX.sym("x_half", mirror.n_reduced)
     pr = ca.MX.sym("p", p.shape[0], p.shape[1])
@@ -399,25 +411,29 @@ def reduced_nlp(mirror: VariableMirror, rows: RowSelection, x: Any, p: Any, f: A
     x_full = ca.mtimes(e, xr)
     w = ca.DM(rows.weight)
     nlp = {"x": xr, "p": pr, "f": 0.5 * objective(x_full, pr), "g": w * rows_of(x_full, pr)}
+    has_jac, has_hess = (jac_g is not None, hess_l is not None) if (
+        assembled is None or not knot_terms) else assembled
     derivatives: dict[str, ca.Function] = {}
-    if jac_g is not None:
+    if has_jac:
         if knot_terms:
             call, jacobian, _ = knot_terms[0]
             g_j, jac = assembled_jacobian(x, p, g[keep], call, jacobian, n_knots,
                                           knots_read_only=True)(x_full, pr)
         else:
+            assert jac_g is not None
             g_j, jac = jac_g(x_full, pr)
             g_j, jac = g_j[keep], jac[keep, :]
         jac_r = ca.mtimes(ca.diag(w), ca.mtimes(jac, e))
         derivatives["jac_g"] = ca.Function("nlp_jac_g", [xr, pr], [w * g_j, jac_r],
                                            ["x", "p"], ["g", "jac_g_x"])
-    if hess_l is not None:
+    if has_hess:
         lam_f = ca.MX.sym("lam_f")
         lam_g = ca.MX.sym("lam_g", rows.keep.size)
         if knot_terms:
             hess = assembled_hessian(x, p, f, g[keep], knot_terms, n_knots,
                                      knots_read_only=True)(x_full, pr, 0.5 * lam_f, w * lam_g)
         else:
+            assert hess_l is not None
             n_rows = int(g.shape[0])
             select = ca.DM.triplet(keep, list(range(rows.keep.size)),
                                    ca.DM.ones(rows.keep.size), n_rows, rows.keep.size)

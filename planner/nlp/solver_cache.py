@@ -36,6 +36,7 @@ mismatching entry is rebuilt and replaced, never trusted.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -291,9 +292,14 @@ def cache_folder(path: str | Path | None) -> Iterator[None]:
             os.environ["GAITSMITH_CACHE"] = before
 
 
+@functools.cache
 def _gaitsmith_version() -> str:
+    """The installed package's version (looked up once per process: a build asks for it per
+    cache key; `importlib.metadata` scans the path's distributions each time)."""
+    from planner.nlp.metadata import distribution_version
+
     try:
-        return importlib_metadata.version("gaitsmith")
+        return distribution_version("gaitsmith")
     except importlib_metadata.PackageNotFoundError:
         return "unknown"
 

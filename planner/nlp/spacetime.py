@@ -32,6 +32,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 from types import FrameType
 from typing import Any
 
@@ -90,6 +91,23 @@ from planner.nlp.warm_start import per_foot_applies, per_foot_retimed
 from robots import ContactSchedule, Gait, Robot, Velocity
 
 _USER_STOP = ("User_Requested_Stop",)
+
+
+@dataclass(frozen=True)
+class _FullParts:
+    """What `GaitPlanner` builds the full NLP's derivatives and solver from at their first use:
+    its symbols, objective and rows (as IPOPT sees them), the knot map's call, the plain knot
+    function, the direction counts an earlier build recorded and where to record this one's
+    (None: recorded already, or not a "knot" build)."""
+
+    x: Any
+    p: Any
+    f: Any
+    g: Any
+    knot_call: Any | None
+    plain: ca.Function | None
+    known: tuple[tuple[int, ...], tuple[int, ...]] | None
+    directions: Path | None
 
 
 @contextmanager
@@ -298,6 +316,8 @@ class GaitPlanner:
         #: derivative directions its solver used, so only those were created ("second command")
         self.directions_cached: bool | None = None
         knot, plain = None, None
+        directions: Path | None = None
+        known: tuple[tuple[int, ...], tuple[int, ...]] | None = None
         self._cold_starter: ColdStarter | None = None  # `_cold_start`, built at first use
         if self.options.derivatives in ("knot", "compiled"):
             plain = knot_function(self.model)
@@ -356,16 +376,15 @@ class GaitPlanner:
             "evaluate", [sym.x, sym.p], [g, kq.tau_nm, kq.qd, *terms.values()]
         )
         self._nlp = {"x": sym.x, "p": sym.p, "f": objective, "g": g_solver}
-        #: `PlannerOptions.nlp_jacobian` "assembled": IPOPT's jac_g (`_make_solver`)
-        self._jac_g: ca.Function | None = None
-        if (
-            self.options.nlp_jacobian == "assembled"
-            and self.knot_derivatives is not None
-            and kq.knot_call is not None
-        ):
-            self._jac_g = assembled_jacobian(
-                sym.x, sym.p, g_solver, kq.knot_call, self.knot_derivatives.jacobian, n_knots
-            )
+        #: what the full NLP's derivatives and IPOPT instance are built from, at their first use
+        #: (`_jac_g`, `_hess_l`, `_solver`): a command that solves on the half-cycle path alone
+        #: (`planner.nlp.half_cycle`) never builds them (docs/results/planner_speed_startup.md,
+        #: session 44)
+        self._full_parts = _FullParts(sym.x, sym.p, objective, g_solver, kq.knot_call,
+                                      plain, known, directions)
+        #: `_jac_g`, `_hess_l` once built (a 1-tuple: the function or None), else None
+        self._jac_g_fn: tuple[ca.Function | None] | None = None
+        self._hess_l_fn: tuple[ca.Function | None] | None = None
         #: the NLP's per-knot calls with their J and H, the knot's first (`assembled_hessian`;
         #: the half-cycle solve evaluates them at the knots its rows read, `_build_half_cycle`)
         self._knot_terms: list[KnotTerm] = []
@@ -374,25 +393,11 @@ class GaitPlanner:
                 kq.knot_call, self.knot_derivatives.jacobian, self.knot_derivatives.hessian
             )
             self._knot_terms = [knot_term, *([] if self.derived is None else self.derived.calls)]
-        #: `PlannerOptions.nlp_hessian` "assembled": IPOPT's hess_lag (`_make_solver`)
-        self._hess_l: ca.Function | None = None
-        if self.options.nlp_hessian == "assembled" and self._knot_terms:
-            self._hess_l = assembled_hessian(
-                sym.x, sym.p, objective, g_solver, self._knot_terms, n_knots
-            )
-        self._solver = self._make_solver()
+        self._solver_instance: Any | None = None  # `_solver`
         self._warm_solver: Any | None = None  # `_solver_for`
-        if self.knot_derivatives is not None and plain is not None:
-            # the next build with this knot, N and options creates only the derivatives used
-            used = used_directions(self._solver, plain.name())
-            # none found: a map CasADi named otherwise (the assembled Jacobian uses no
-            # forward directions of the knot, only the Hessian's)
-            if used != known and (
-                used[0] or (self._jac_g is not None and (used[1] or self._hess_l is not None))
-            ):
-                save_directions(directions, *used)
-        if self.derived is not None:
-            self.derived.save_used(self._solver)
+        self.build_time_s = 0.0  # set at the end; a lazy build (`_solver`) adds its time
+        if not self.lazy_full_solver:
+            self._build_full_solver()
         self._last: WarmStart | None = None
         self._plain_knot = plain
         #: `PlannerOptions.half_cycle_solve`: the reduced NLP, built at the first solve it fits
@@ -404,6 +409,87 @@ class GaitPlanner:
         self.half_cycle_asymmetry: MirrorDefect | None = None
         self._used_abort: AbortCallback | None = None
         self.build_time_s = time.perf_counter() - t0
+
+    #: build the full NLP's derivatives and IPOPT instance at their first use (`_solver`); a
+    #: subclass whose `_make_solver` sets up more than the solver builds them in `__init__`
+    lazy_full_solver = True
+
+    def _assembles_jac_g(self) -> bool:
+        """Does IPOPT get the assembled constraint Jacobian (`_jac_g`)?"""
+        return (self.options.nlp_jacobian == "assembled" and self.knot_derivatives is not None
+                and self._full_parts.knot_call is not None)
+
+    def _assembles_hess_l(self) -> bool:
+        """Does IPOPT get the assembled Lagrangian Hessian (`_hess_l`)?"""
+        return self.options.nlp_hessian == "assembled" and bool(self._knot_terms)
+
+    @property
+    def _jac_g(self) -> ca.Function | None:
+        """`PlannerOptions.nlp_jacobian` "assembled": IPOPT's jac_g of the full NLP
+        (`_make_solver`), built at its first use; else None."""
+        if self._jac_g_fn is None:
+            t0 = time.perf_counter()
+            parts = self._full_parts
+            jac_g = None
+            if self._assembles_jac_g():
+                assert self.knot_derivatives is not None and parts.knot_call is not None
+                jac_g = assembled_jacobian(
+                    parts.x, parts.p, parts.g, parts.knot_call, self.knot_derivatives.jacobian,
+                    self.n_knots,
+                )
+            self._jac_g_fn = (jac_g,)
+            self.build_time_s += time.perf_counter() - t0
+        return self._jac_g_fn[0]
+
+    @property
+    def _hess_l(self) -> ca.Function | None:
+        """`PlannerOptions.nlp_hessian` "assembled": IPOPT's hess_lag of the full NLP
+        (`_make_solver`), built at its first use; else None."""
+        if self._hess_l_fn is None:
+            t0 = time.perf_counter()
+            parts = self._full_parts
+            hess_l = None
+            if self._assembles_hess_l():
+                hess_l = assembled_hessian(
+                    parts.x, parts.p, parts.f, parts.g, self._knot_terms, self.n_knots
+                )
+            self._hess_l_fn = (hess_l,)
+            self.build_time_s += time.perf_counter() - t0
+        return self._hess_l_fn[0]
+
+    @property
+    def _solver(self) -> Any:
+        """The full NLP's IPOPT instance for cold solves (`_make_solver`), built at its first
+        use (its time is added to `build_time_s`)."""
+        if self._solver_instance is None:
+            self._build_full_solver()
+        return self._solver_instance
+
+    @_solver.setter
+    def _solver(self, solver: Any) -> None:
+        """Replace the full NLP's IPOPT instance (None: build it again at its next use)."""
+        self._solver_instance = solver
+
+    def _build_full_solver(self) -> None:
+        """`_solver`'s build; the first one also records the knot derivatives' directions the
+        solver uses, for the next build with this knot, N and options (`used_directions`)."""
+        jac_g, hess_l = self._jac_g, self._hess_l  # their builds count themselves
+        t0 = time.perf_counter()
+        self._solver_instance = self._make_solver()
+        parts = self._full_parts
+        if parts.directions is not None and parts.plain is not None:
+            # the next build with this knot, N and options creates only the derivatives used
+            used = used_directions(self._solver_instance, parts.plain.name())
+            # none found: a map CasADi named otherwise (the assembled Jacobian uses no
+            # forward directions of the knot, only the Hessian's)
+            if used != parts.known and (
+                used[0] or (jac_g is not None and (used[1] or hess_l is not None))
+            ):
+                save_directions(parts.directions, *used)
+            self._full_parts = dataclasses.replace(parts, directions=None)  # recorded once
+            if self.derived is not None:
+                self.derived.save_used(self._solver_instance)
+        self.build_time_s += time.perf_counter() - t0
 
     @property
     def swing_clearance_m(self) -> float:
@@ -440,7 +526,7 @@ class GaitPlanner:
         self._abort = None if rule is None else AbortCallback(
             rule, int(self._nlp["x"].numel()), int(self._nlp["g"].numel()),
             int(self._nlp["p"].numel()))
-        self._solver = self._make_solver()
+        self._solver_instance = None  # rebuilt with the callback at its next use (`_solver`)
         self._warm_solver = None
         if self._half_cycle is not False:
             self._half_cycle = None  # rebuilt with its own callback at its next solve
@@ -537,7 +623,6 @@ class GaitPlanner:
         )
         asked = (warm_start, swing_wrench)  # for a full-cycle fallback (`_half_cycle_broken`)
         start = self._last if warm_start is None or warm_start is True else warm_start or None
-        solver = self._solver_for(warm=start is not None)  # before t0: a one-off build
         t0 = time.perf_counter()
         warm = start is not None
         if swing_wrench is None and warm and self.options.warm_swing_wrench != "same":
@@ -567,6 +652,11 @@ class GaitPlanner:
             if half is not None:
                 sol, stats = self._solve_half_cycle(half, start, p, bounds, warm)
             else:
+                # the full NLP's IPOPT instance, built at its first use: a one-off build, not
+                # this solve's time (a half-cycle solve never builds it)
+                t_build = time.perf_counter()
+                solver = self._solver_for(warm=warm)
+                t0 += time.perf_counter() - t_build
                 if abort is not None:
                     abort.arm(lbg, ubg)
                 # scaled problem: x̃ = x/xs, g̃ = g/gs, λ̃_x = λ_x·xs, λ̃_g = λ_g·gs
@@ -685,23 +775,34 @@ class GaitPlanner:
             rng = np.random.default_rng(0)
             x_half = x0[mirror.half] + 0.01 * rng.standard_normal(mirror.n_reduced)
             x_sym = mirror.expand(x_half)
-            if self._jac_g is not None:
-                g_val, jac = self._jac_g(x_sym, p)
+            cycle = np.asarray(cycle_rows)
+            x_s, p_s, g_s = self._nlp["x"], self._nlp["p"], self._nlp["g"][cycle_rows]
+            if self._knot_terms:
+                # these rows' own assembled Jacobian (a few rows: the full NLP's jac_g is not
+                # built for a half-cycle solve, `_jac_g`), the knots they read only
+                call, jacobian, _ = self._knot_terms[0]
+                jac_f = assembled_jacobian(x_s, p_s, g_s, call, jacobian, self.n_knots,
+                                           knots_read_only=True)
             else:
-                jac_f = ca.Function("full_jac_g", [self._nlp["x"], self._nlp["p"]],
-                                    [self._nlp["g"], ca.jacobian(self._nlp["g"], self._nlp["x"])])
-                g_val, jac = jac_f(x_sym, p)
+                jac_f = ca.Function("cycle_jac_g", [x_s, p_s], [g_s, ca.jacobian(g_s, x_s)])
+            g_val, jac = jac_f(x_sym, p)
             jac_reduced = ca.mtimes(ca.DM(jac), mirror.matrix())
-            more, more_w = hc.classify_cycle_rows(np.asarray(g_val).ravel(), jac_reduced,
-                                                  np.asarray(cycle_rows), self._lbg, self._ubg)
-            keep += more
+            more, more_w = hc.classify_cycle_rows(
+                np.asarray(g_val).ravel(), jac_reduced, np.arange(cycle.size), self._lbg[cycle],
+                self._ubg[cycle])
+            keep += cycle[more].tolist()
             weight += more_w
         order = np.argsort(keep, kind="stable")
         rows = hc.RowSelection(np.asarray(keep, dtype=int)[order],
                                np.asarray(weight, dtype=float)[order])
+        # with the knot's terms the reduced NLP assembles its own J and ∇²L: the full NLP's are
+        # not built for it (`_jac_g`, `_hess_l`), only whether it has them matters
+        full = (None, None) if self._knot_terms else (self._jac_g, self._hess_l)
         nlp, derivatives = hc.reduced_nlp(mirror, rows, self._nlp["x"], self._nlp["p"],
-                                          self._nlp["f"], self._nlp["g"], self._jac_g,
-                                          self._hess_l, self._knot_terms, self.n_knots)
+                                          self._nlp["f"], self._nlp["g"], *full,
+                                          self._knot_terms, self.n_knots,
+                                          assembled=(self._assembles_jac_g(),
+                                                     self._assembles_hess_l()))
         opts: dict[str, Any] = {
             "ipopt": ipopt_options(self.options, False),
             "print_time": False,

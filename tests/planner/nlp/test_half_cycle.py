@@ -398,3 +398,32 @@ def test_a_body_whose_dynamics_do_not_mirror_falls_back_to_the_full_nlp(
     again = planner.solve(schedule, SPEED_M_S, warm_start=False)
     assert again.stats["half_cycle"] is False and "half_cycle_fallback" not in again.stats
     assert "half_cycle_dropped_violation" not in planner_metadata(planner, again)["solver"]
+
+
+def test_a_half_cycle_solve_builds_no_full_nlp_solver_and_plans_the_same() -> None:
+    """The full NLP's assembled J, ∇²L and IPOPT instance are built at their first use
+    (`GaitPlanner._solver`): a half-cycle solve needs none of them (its whole-cycle rows are
+    classified with their own Jacobian), and plans bit for bit as a planner that built them
+    first; a full solve later builds them and its time joins `build_time_s`."""
+    robot = robots.load("quad12")
+    schedule = make_schedule(robot, "trot")
+    lazy = GaitPlanner(robot, 12, PlannerOptions(max_iter=60))
+    eager = GaitPlanner(robot, 12, PlannerOptions(max_iter=60))
+    assert lazy._solver_instance is None and lazy._jac_g_fn is None and lazy._hess_l_fn is None
+    assert eager._solver is not None  # built now, before the half-cycle NLP
+    a = lazy.solve(schedule, SPEED_M_S, warm_start=False)
+    b = eager.solve(schedule, SPEED_M_S, warm_start=False)
+    assert a.stats["half_cycle"] is True and b.stats["half_cycle"] is True
+    assert lazy._solver_instance is None and lazy._jac_g_fn is None and lazy._hess_l_fn is None
+    assert a.iterations == b.iterations and a.cost == b.cost
+    assert np.array_equal(a.warm_start.x, b.warm_start.x)
+    half_a, half_b = lazy._half_cycle, eager._half_cycle
+    assert isinstance(half_a, hc.HalfCycleNLP) and isinstance(half_b, hc.HalfCycleNLP)
+    assert np.array_equal(half_a.rows.keep, half_b.rows.keep)
+    assert np.array_equal(half_a.rows.weight, half_b.rows.weight)
+    built = lazy.build_time_s
+    c = lazy.solve(schedule, SPEED_M_S, warm_start=False, half_cycle=False)
+    d = eager.solve(schedule, SPEED_M_S, warm_start=False, half_cycle=False)
+    assert lazy._solver_instance is not None and lazy.build_time_s > built
+    assert c.iterations == d.iterations and c.cost == d.cost
+    assert np.array_equal(c.warm_start.x, d.warm_start.x)
