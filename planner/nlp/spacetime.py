@@ -56,6 +56,7 @@ from planner.nlp.constraints import (
 )
 from planner.nlp.costs import cost_terms, weighted_objective
 from planner.nlp.half_cycle import HalfCycleNLP, MirrorDefect
+from planner.nlp.hessian_shift import shifted_hessian
 from planner.nlp.inactive_rows import RowActivity, free_inactive_rows
 from planner.nlp.iteration_abort import AbortCallback, StallAbort
 from planner.nlp.mirror import check_mirror, schedule_symmetric
@@ -373,6 +374,14 @@ class GaitPlanner:
             self._hess_l = assembled_hessian(
                 sym.x, sym.p, objective, g_solver, self._knot_terms, n_knots
             )
+        self._hess_l_plain = self._hess_l
+        if self.options.hessian_shift_acc > 0:
+            if self._hess_l is None:
+                raise PlannerConfigError(
+                    "hessian_shift_acc needs the assembled Lagrangian Hessian (nlp_hessian="
+                    "'assembled' with derivatives 'knot' or 'compiled')")
+            self._hess_l = shifted_hessian(self._hess_l, self._acc_mask(),
+                                           self.options.hessian_shift_acc)
         self._solver = self._make_solver()
         self._warm_solver: Any | None = None  # `_solver_for`
         if self.knot_derivatives is not None and plain is not None:
@@ -397,6 +406,12 @@ class GaitPlanner:
         self.half_cycle_asymmetry: MirrorDefect | None = None
         self._used_abort: AbortCallback | None = None
         self.build_time_s = time.perf_counter() - t0
+
+    def _acc_mask(self) -> np.ndarray:
+        """The lifted accelerations' entries of x (`PlannerOptions.hessian_shift_acc`)."""
+        mask = np.zeros(self.layout.size, dtype=bool)
+        mask[self.layout.block("acc")] = True
+        return mask
 
     @property
     def swing_clearance_m(self) -> float:
@@ -692,9 +707,17 @@ class GaitPlanner:
         order = np.argsort(keep, kind="stable")
         rows = hc.RowSelection(np.asarray(keep, dtype=int)[order],
                                np.asarray(weight, dtype=float)[order])
+        # the reduced NLP's Hessian from the full NLP's unshifted one, then shifted itself
+        hess_full = self._hess_l
+        if self.options.hessian_shift_acc > 0 and self._hess_l_plain is not None:
+            hess_full = self._hess_l_plain
         nlp, derivatives = hc.reduced_nlp(mirror, rows, self._nlp["x"], self._nlp["p"],
                                           self._nlp["f"], self._nlp["g"], self._jac_g,
-                                          self._hess_l, self._knot_terms, self.n_knots)
+                                          hess_full, self._knot_terms, self.n_knots)
+        if self.options.hessian_shift_acc > 0 and "hess_lag" in derivatives:
+            derivatives["hess_lag"] = shifted_hessian(
+                derivatives["hess_lag"], self._acc_mask()[mirror.half],
+                self.options.hessian_shift_acc)
         opts: dict[str, Any] = {
             "ipopt": ipopt_options(self.options, False),
             "print_time": False,
