@@ -28,6 +28,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -134,11 +135,11 @@ def main(argv: list[str] | None = None) -> None:
     print(f"load at the end {os.getloadavg()[0]:.2f}")
 
 
-def _fields(text: str) -> dict[str, str | float]:
+def _fields(text: str) -> dict[str, Any]:
     """``FIELD=VALUE,…`` as `PlannerOptions` keywords (the option fields that take a name, e.g.
     ``swing_wrench``, ``cold_mu_centrality``, or a float, e.g. ``hessian_shift_acc``), checked
     by `PlannerOptions`."""
-    out: dict[str, str | float] = {}
+    out: dict[str, Any] = {}
     for item in filter(None, text.split(",")):
         key, sep, value = item.partition("=")
         if not sep or key not in {f.name for f in dataclasses.fields(PlannerOptions)}:
