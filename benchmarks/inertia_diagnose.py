@@ -1,27 +1,29 @@
-"""Why IPOPT corrects the inertia: the reduced Hessian at each iterate of a cold half-cycle solve.
+"""Why IPOPT corrects the inertia: the reduced Hessian at each iterate of one cold solve.
 
     python benchmarks/inertia_diagnose.py [--robot hex18] [--speed 0.15] [--gait tripod]
                                           [--knots 30] [--iters all|8,9,10] [--option F=V …]
+                                          [--random I] [--plain] [--corrected] [--detail]
 
-Solves the template cold on the half-cycle NLP with the options `gaitsmith plan ROBOT --search`
-gives (`gait_search_bench.cli_search_options`, as half_cycle_bench.py), IPOPT writing its
-iterates to a file at ``file_print_level`` 8 (every ``curr_*`` vector in IPOPT's own scaled
-space, the constraint scaling, δ_c and every δ_w it tried). At each iterate k it rebuilds what
-IPOPT factorised: W = ∇²L (the reduced NLP's own ``nlp_hess_l`` at x_k with IPOPT's multipliers,
-σ = 1 here), the equality Jacobian J_c (scaled rows), and the barrier terms
-Σ_x = z_L/(x − x_L) + z_U/(x_U − x) and Σ_s = v_L/(s − d_L) + v_U/(d_U − s) of the bounds and
-inequality slacks. Eliminating the slacks and the inequality multipliers exactly (δ_d included),
-IPOPT's KKT matrix has the inertia it wants iff A = W + Σ_x + J_dᵀ(Σ_s⁻¹ + δ_d)⁻¹J_d is positive
-definite on the null space of J_c (δ_c → 0; J_c's zero rows, the schedule's inactive ones,
-dropped). The null space Z comes from a dense SVD; the smallest eigenvalues of ZᵀAZ are printed
-beside IPOPT's trial δ_w (a correction: a list longer than [0.0]). For every negative
-eigenvalue (or the smallest, if none) its unit eigenvector v is attributed: vᵀAv split into the
-objective's vᵀ∇²f v, each row group's vᵀ(Σ λ_i∇²g_i)v (one ``nlp_hess_l`` call per group, λ
-masked; "stance height" and the "swing clearance" rows, which repeat each other at stance knots
-and carry large opposite multipliers there, are also summed as "foot height"), Σ_x, each
-inequality group's barrier; the objective further into its terms (central differences of the
-planner's weighted terms along E·v); v's squared norm per variable block and its largest
-entries; and the largest negative groups per knot and per row label.
+Solves the template (or planner_bench's `--random` schedule) cold, on the half-cycle NLP where
+it fits (else the full NLP), with the options `gaitsmith plan ROBOT --search` gives
+(`gait_search_bench.cli_search_options`, as half_cycle_bench.py; `--plain`: `PlannerOptions()`,
+planner_bench's "default"), IPOPT writing its iterates to a file at ``file_print_level`` 8
+(every ``curr_*`` vector in IPOPT's own scaled space, the constraint scaling, δ_c and every δ_w
+it tried). At each iterate k it rebuilds what IPOPT factorised: W = ∇²L (the reduced NLP's own
+``nlp_hess_l`` at x_k with IPOPT's multipliers, σ = 1 here), the equality Jacobian J_c (scaled
+rows), and the barrier terms Σ_x = z_L/(x − x_L) + z_U/(x_U − x) and Σ_s = v_L/(s − d_L) +
+v_U/(d_U − s) of the bounds and inequality slacks. Eliminating the slacks and the inequality
+multipliers exactly (δ_d included), IPOPT's KKT matrix has the inertia it wants iff A = W + Σ_x
++ J_dᵀ(Σ_s⁻¹ + δ_d)⁻¹J_d is positive definite on the null space of J_c (δ_c → 0; J_c's zero
+rows, the schedule's inactive ones, dropped). The null space Z comes from a dense SVD; the
+smallest eigenvalues of ZᵀAZ are printed beside IPOPT's trial δ_w (a correction: a list longer
+than [0.0]). For every negative eigenvalue (or the smallest, if none) its unit eigenvector v is
+attributed: vᵀAv split into the objective's vᵀ∇²f v, each row group's vᵀ(Σ λ_i∇²g_i)v (one
+``nlp_hess_l`` call per group, λ masked; "stance height" and the "swing clearance" rows, which
+repeat each other at stance knots and carry large opposite multipliers there, are also summed as
+"foot height"), Σ_x, each inequality group's barrier; the objective further into its terms
+(central differences of the planner's weighted terms along E·v); v's squared norm per variable
+block and its largest entries; and the largest negative groups per knot and per row label.
 docs/results/planner_speed_rows.md, session 44 (branch inertia).
 """
 
@@ -48,7 +50,8 @@ from gait_search_bench import cli_search_options
 from half_cycle_bench import _fields
 
 import robots
-from planner.nlp.half_cycle import HalfCycleNLP
+from planner.nlp.config import PlannerOptions
+from planner.nlp.half_cycle import HalfCycleNLP, RowSelection, VariableMirror
 from planner.nlp.spacetime import GaitPlanner
 from planner.nlp.variables import BLOCKS, parameter_vector
 from planner.templates import make_schedule
@@ -121,12 +124,19 @@ class Diagnosis:
     """The reduced NLP of one solved half-cycle planner and IPOPT's view of it."""
 
     def __init__(self, planner: GaitPlanner, schedule: robots.ContactSchedule, speed: float,
-                 log: IpoptLog) -> None:
-        half = planner._half_cycle
-        if not isinstance(half, HalfCycleNLP):
+                 log: IpoptLog, half_cycle: bool = True) -> None:
+        half = planner._half_cycle if half_cycle else None
+        if half_cycle and not isinstance(half, HalfCycleNLP):
             raise SystemExit("the solve did not take the half-cycle path")
-        self.planner, self.log, self.half = planner, log, half
-        m, r = half.mirror, half.rows
+        self.planner, self.log = planner, log
+        n_x, n_g = planner.layout.size, planner._lbg.size
+        if isinstance(half, HalfCycleNLP):
+            m, r, solver, self.f_factor = half.mirror, half.rows, half.solver, 0.5
+        else:  # the full NLP: E = I, every row, f itself
+            m = VariableMirror(np.arange(n_x), np.ones(n_x), np.arange(n_x))
+            r, solver, self.f_factor = RowSelection(np.arange(n_g), np.ones(n_g)), \
+                planner._solver, 1.0
+        self.mirror = m
         self.p = parameter_vector(schedule, planner.n_knots, speed, planner.swing_clearance_m,
                                   0.0, 0.0)
         bounds = planner._solve_bounds(schedule, planner.options.swing_wrench)
@@ -140,8 +150,8 @@ class Diagnosis:
         self.x_upper = (ubx < 1e19)[self.free]
         self.d_lower = self.lbg[self.ineq] > -1e19
         self.d_upper = ubg[self.ineq] < 1e19
-        self.jac = half.solver.get_function("nlp_jac_g")
-        self.hess = half.solver.get_function("nlp_hess_l")
+        self.jac = solver.get_function("nlp_jac_g")
+        self.hess = solver.get_function("nlp_hess_l")
         group = np.empty(planner._lbg.size, dtype=object)
         label = np.empty(planner._lbg.size, dtype=object)
         for name, sl in planner._slices:
@@ -233,9 +243,9 @@ class Diagnosis:
         return {k: val for k, val in out.items() if k in ("total", "objective") or abs(val) > 0}
 
     def cost_terms(self, k: int, vf: np.ndarray, step: float = 1e-3) -> dict[str, float]:
-        """The objective's curvature along v by weighted term (the reduced NLP's f̃ = f/2),
+        """The objective's curvature along v by weighted term (the half-cycle NLP's f̃ = f/2),
         central differences of the planner's terms at E·x along E·v."""
-        planner, m = self.planner, self.half.mirror
+        planner, m = self.planner, self.mirror
         x, _ = self.point(k)
         v = np.zeros(self.lbx.size)
         v[self.free] = vf
@@ -248,7 +258,7 @@ class Diagnosis:
 
         second = (terms(xf + step * u) - 2 * terms(xf) + terms(xf - step * u)) / step**2
         weights = planner.options.weights.as_dict()
-        return {name: float(0.5 * weights[name] * second[j])
+        return {name: float(self.f_factor * weights[name] * second[j])
                 for j, name in enumerate(planner._term_names) if weights[name]}
 
     def blocks(self, vf: np.ndarray) -> dict[str, float]:
@@ -259,18 +269,30 @@ class Diagnosis:
 
 
 def solve_logged(robot_name: str, speed: float, gait: str, knots: int,
-                 fields: dict[str, Any], log_path: Path) -> tuple[GaitPlanner, Any, Any]:
+                 fields: dict[str, Any], log_path: Path, random: int | None = None,
+                 plain: bool = False) -> tuple[GaitPlanner, Any, Any]:
+    """One cold solve, logged. `random`: planner_bench's random schedule of that index (seed 0,
+    on `gait`'s template) instead of the template; `plain`: `PlannerOptions()` (planner_bench's
+    "default") instead of the command line's search options."""
     robot = robots.load(robot_name)
-    options, _ = cli_search_options(robot, speed_m_s=speed)
+    options = PlannerOptions() if plain else cli_search_options(robot, speed_m_s=speed)[0]
     options = dataclasses.replace(
         options, half_cycle_solve=True, **fields,
         ipopt_extra=(*options.ipopt_extra, ("output_file", str(log_path)),
                      ("file_print_level", 8)))
     planner = GaitPlanner(robot, knots, options)
     schedule = make_schedule(robot, gait)
+    if random is not None:
+        from planner_bench import random_schedule
+
+        rng = np.random.default_rng(0)
+        for _ in range(random + 1):
+            drawn = random_schedule(schedule, rng)
+        schedule = drawn
     c0 = time.process_time()
     result = planner.solve(schedule, speed, warm_start=False)
-    print(f"{robot_name} {gait} {speed} m/s N={knots} {fields or ''}: {result.iterations} it, "
+    name = gait if random is None else f"random{random} (on {gait})"
+    print(f"{robot_name} {name} {speed} m/s N={knots} {fields or ''}: {result.iterations} it, "
           f"cost {result.cost:.10g}, feasible {result.feasible}, half-cycle "
           f"{result.stats['half_cycle']}, CPU {time.process_time() - c0:.2f} s (logging at "
           "level 8 included)", flush=True)
@@ -286,19 +308,29 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--knots", type=int, default=30)
     ap.add_argument("--iters", default="all", help="iterates to analyse: all or k,k,…")
     ap.add_argument("--option", default="", help="FIELD=VALUE[,…] PlannerOptions fields")
+    ap.add_argument("--random", type=int, default=None,
+                    help="planner_bench's random schedule of this index (seed 0) on --gait")
+    ap.add_argument("--plain", action="store_true",
+                    help="PlannerOptions() (planner_bench's default) instead of the CLI's")
+    ap.add_argument("--corrected", action="store_true",
+                    help="only the iterates IPOPT corrected (and the last)")
     ap.add_argument("--detail", action="store_true",
                     help="split the largest λ·∇²g groups by knot and by row label")
     args = ap.parse_args(argv)
     fields = _fields(args.option) if args.option else {}
     with tempfile.TemporaryDirectory() as tmp:
         log_path = Path(tmp) / "ipopt.log"
-        planner, schedule, _ = solve_logged(args.robot, args.speed, args.gait, args.knots,
-                                            fields, log_path)
+        planner, schedule, result = solve_logged(args.robot, args.speed, args.gait,
+                                                 args.knots, fields, log_path, args.random,
+                                                 args.plain)
         with log_path.open() as fh:
             log = parse_log(iter(fh))
-    diag = Diagnosis(planner, schedule, args.speed, log)
+    diag = Diagnosis(planner, schedule, args.speed, log, bool(result.stats["half_cycle"]))
     wanted = (sorted(log.iterates) if args.iters == "all"
               else [int(k) for k in args.iters.split(",")])
+    if args.corrected:
+        last = max(log.iterates)
+        wanted = [k for k in wanted if len(log.delta_w.get(k, [])) > 1 or k == last]
     print("| k | δ_w tried | J_c zero rows | smallest σ(J_c) | lowest eigenvalues of ZᵀAZ |")
     print("|---|---|---|---|---|")
     for k in wanted:
