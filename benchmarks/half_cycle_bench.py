@@ -28,6 +28,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -134,16 +135,24 @@ def main(argv: list[str] | None = None) -> None:
     print(f"load at the end {os.getloadavg()[0]:.2f}")
 
 
-def _fields(text: str) -> dict[str, str]:
-    """``FIELD=VALUE,…`` as `PlannerOptions` keywords (string values: the option fields that
-    take a name, e.g. ``swing_wrench``, ``cold_mu_centrality``), checked by `PlannerOptions`."""
-    out: dict[str, str] = {}
+def _fields(text: str) -> dict[str, Any]:
+    """``FIELD=VALUE,…`` as `PlannerOptions` keywords (the option fields that take a name, e.g.
+    ``swing_wrench``, ``cold_mu_centrality``, or a float, e.g. ``hessian_shift_acc``), checked
+    by `PlannerOptions`."""
+    out: dict[str, Any] = {}
     for item in filter(None, text.split(",")):
         key, sep, value = item.partition("=")
         if not sep or key not in {f.name for f in dataclasses.fields(PlannerOptions)}:
             raise SystemExit(f"--against: {item!r} is not FIELD=VALUE of a PlannerOptions field")
-        if not isinstance(getattr(PlannerOptions(), key), str):
-            raise SystemExit(f"--against: {key} is not a field that takes a name")
+        default = getattr(PlannerOptions(), key)
+        if isinstance(default, float):  # a number, e.g. ``hessian_shift_acc=5e-7``
+            try:
+                out[key] = float(value)
+            except ValueError:
+                raise SystemExit(f"--against: {key}={value!r} is not a number") from None
+            continue
+        if not isinstance(default, str):
+            raise SystemExit(f"--against: {key} is not a field that takes a name or a number")
         out[key] = value
     try:
         dataclasses.replace(PlannerOptions(), **out)  # type: ignore[arg-type]

@@ -285,6 +285,14 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "default-sc-free": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(stance_clearance="free")
     ),
+    # docs/results/planner_speed_rows.md, session 44 (branch inertia): IPOPT's Hessian shifted on
+    # the lifted accelerations (`PlannerOptions.hessian_shift_acc`, the Newton model only)
+    "default-hshift2": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(hessian_shift_acc=2e-7)
+    ),
+    "default-hshift3": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(hessian_shift_acc=3e-7)
+    ),
     # docs/results/planner_speed_coldstart.md, session 41: the template path's defaults with the
     # swing feet's wrench fixed by bounds, alone and with the reciprocal μ-oracle centrality
     # ("default-swb" is "default" since session 42; "default-rows" the defaults before it)

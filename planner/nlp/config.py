@@ -484,6 +484,11 @@ class PlannerOptions:
       screening IPOPT's options on the planner as users run it (benchmarks/tail_screen.py,
       planner_speed_ipopt.md session 43); not `IPOPT_EXTRA_RESERVED`, and `tol` and
       `max_iter` have fields of their own.
+    - `hessian_shift_acc`: add this × IPOPT's objective factor to the diagonal of the Lagrangian
+      Hessian IPOPT is given on the lifted accelerations (`planner.nlp.hessian_shift`): the
+      Newton model only, not the NLP (the same KKT points); 0 (default) adds nothing. Needs
+      `nlp_hessian` "assembled" with "knot" derivatives (docs/results/planner_speed_rows.md,
+      session 44).
     - `separation_unit_leg_lengths`: the length the foot-separation rows
       (`planner.nlp.foot_separation`, only bodies whose feet stand close: the bipeds) are
       counted in, in leg lengths; None: metres. The same feasible set; it weighs the rows' violation
@@ -540,6 +545,7 @@ class PlannerOptions:
     separation_unit_leg_lengths: float | None = DEFAULT_SEPARATION_UNIT_LEG_LENGTHS
     servo_goal_form: str = DEFAULT_SERVO_GOAL_FORM
     ipopt_extra: tuple[tuple[str, float | int | str], ...] = ()
+    hessian_shift_acc: float = 0.0
 
     def __post_init__(self) -> None:
         checks = {
@@ -589,6 +595,8 @@ class PlannerOptions:
             "nlp_jacobian": self.nlp_jacobian in NLP_JACOBIANS,
             "nlp_hessian": self.nlp_hessian in NLP_HESSIANS,
             "ipopt_extra": _ipopt_extra_ok(self.ipopt_extra),
+            "hessian_shift_acc": math.isfinite(self.hessian_shift_acc)
+            and 0 <= self.hessian_shift_acc < 1,
             "compact_rows": isinstance(self.compact_rows, tuple)
             and all(r in COMPACT_ROWS for r in self.compact_rows)
             and len(set(self.compact_rows)) == len(self.compact_rows),

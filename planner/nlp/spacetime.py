@@ -57,6 +57,7 @@ from planner.nlp.constraints import (
 )
 from planner.nlp.costs import cost_terms, weighted_objective
 from planner.nlp.half_cycle import HalfCycleNLP, MirrorDefect
+from planner.nlp.hessian_shift import shifted_hessian
 from planner.nlp.inactive_rows import RowActivity, free_inactive_rows
 from planner.nlp.iteration_abort import AbortCallback, StallAbort
 from planner.nlp.mirror import check_mirror, schedule_symmetric
@@ -393,6 +394,10 @@ class GaitPlanner:
                 kq.knot_call, self.knot_derivatives.jacobian, self.knot_derivatives.hessian
             )
             self._knot_terms = [knot_term, *([] if self.derived is None else self.derived.calls)]
+        if self.options.hessian_shift_acc > 0 and not self._assembles_hess_l():
+            raise PlannerConfigError(
+                "hessian_shift_acc needs the assembled Lagrangian Hessian (nlp_hessian="
+                "'assembled' with derivatives 'knot' or 'compiled')")
         self._solver_instance: Any | None = None  # `_solver`
         self._warm_solver: Any | None = None  # `_solver_for`
         self.build_time_s = 0.0  # set at the end; a lazy build (`_solver`) adds its time
@@ -453,6 +458,9 @@ class GaitPlanner:
                 hess_l = assembled_hessian(
                     parts.x, parts.p, parts.f, parts.g, self._knot_terms, self.n_knots
                 )
+                if self.options.hessian_shift_acc > 0:  # `planner.nlp.hessian_shift`
+                    hess_l = shifted_hessian(hess_l, self._acc_mask(),
+                                             self.options.hessian_shift_acc)
             self._hess_l_fn = (hess_l,)
             self.build_time_s += time.perf_counter() - t0
         return self._hess_l_fn[0]
@@ -490,6 +498,12 @@ class GaitPlanner:
             if self.derived is not None:
                 self.derived.save_used(self._solver_instance)
         self.build_time_s += time.perf_counter() - t0
+
+    def _acc_mask(self) -> np.ndarray:
+        """The lifted accelerations' entries of x (`PlannerOptions.hessian_shift_acc`)."""
+        mask = np.zeros(self.layout.size, dtype=bool)
+        mask[self.layout.block("acc")] = True
+        return mask
 
     @property
     def swing_clearance_m(self) -> float:
@@ -803,6 +817,12 @@ class GaitPlanner:
                                           self._knot_terms, self.n_knots,
                                           assembled=(self._assembles_jac_g(),
                                                      self._assembles_hess_l()))
+        if self.options.hessian_shift_acc > 0 and "hess_lag" in derivatives:
+            # the reduced NLP's own assembled ∇²L, shifted on its accelerations
+            # (`planner.nlp.hessian_shift`)
+            derivatives["hess_lag"] = shifted_hessian(
+                derivatives["hess_lag"], self._acc_mask()[mirror.half],
+                self.options.hessian_shift_acc)
         opts: dict[str, Any] = {
             "ipopt": ipopt_options(self.options, False),
             "print_time": False,

@@ -54,3 +54,15 @@ def test_against_solves_both_on_half_the_knots() -> None:
     cells = [c.strip() for c in rows[0].strip("|").split("|")]
     assert cells[9] == "True"  # the second planner solved on half the knots too
     assert cells[10] == "0.0e+00"  # and the first's solution is its own mirror image
+
+
+def test_against_takes_a_number_for_a_float_field() -> None:
+    from tests.benchmarks import load_script
+
+    bench = load_script("half_cycle_bench")
+    assert bench._fields("hessian_shift_acc=3e-7") == {"hessian_shift_acc": 3e-7}
+    assert bench._fields("swing_wrench=bounds,hessian_shift_acc=0") == {
+        "swing_wrench": "bounds", "hessian_shift_acc": 0.0}
+    for bad in ("hessian_shift_acc=abc", "hessian_shift_acc=-1"):
+        with pytest.raises(SystemExit):
+            bench._fields(bad)
