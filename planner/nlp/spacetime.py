@@ -428,42 +428,50 @@ class GaitPlanner:
         """Does IPOPT get the assembled Lagrangian Hessian (`_hess_l`)?"""
         return self.options.nlp_hessian == "assembled" and bool(self._knot_terms)
 
+    def _built_once(self, slot: str, build: Callable[[], ca.Function | None]
+                    ) -> ca.Function | None:
+        """The function kept in the attribute `slot` (a 1-tuple once built, else None), built
+        by `build` at its first use; the build's time is added to `build_time_s`."""
+        kept: tuple[ca.Function | None] | None = getattr(self, slot)
+        if kept is None:
+            t0 = time.perf_counter()
+            kept = (build(),)
+            setattr(self, slot, kept)
+            self.build_time_s += time.perf_counter() - t0
+        return kept[0]
+
     @property
     def _jac_g(self) -> ca.Function | None:
         """`PlannerOptions.nlp_jacobian` "assembled": IPOPT's jac_g of the full NLP
         (`_make_solver`), built at its first use; else None."""
-        if self._jac_g_fn is None:
-            t0 = time.perf_counter()
+
+        def build() -> ca.Function | None:
             parts = self._full_parts
-            jac_g = None
-            if self._assembles_jac_g():
-                assert self.knot_derivatives is not None and parts.knot_call is not None
-                jac_g = assembled_jacobian(
-                    parts.x, parts.p, parts.g, parts.knot_call, self.knot_derivatives.jacobian,
-                    self.n_knots,
-                )
-            self._jac_g_fn = (jac_g,)
-            self.build_time_s += time.perf_counter() - t0
-        return self._jac_g_fn[0]
+            if not self._assembles_jac_g():
+                return None
+            assert self.knot_derivatives is not None and parts.knot_call is not None
+            return assembled_jacobian(parts.x, parts.p, parts.g, parts.knot_call,
+                                      self.knot_derivatives.jacobian, self.n_knots)
+
+        return self._built_once("_jac_g_fn", build)
 
     @property
     def _hess_l(self) -> ca.Function | None:
         """`PlannerOptions.nlp_hessian` "assembled": IPOPT's hess_lag of the full NLP
         (`_make_solver`), built at its first use; else None."""
-        if self._hess_l_fn is None:
-            t0 = time.perf_counter()
+
+        def build() -> ca.Function | None:
             parts = self._full_parts
-            hess_l = None
-            if self._assembles_hess_l():
-                hess_l = assembled_hessian(
-                    parts.x, parts.p, parts.f, parts.g, self._knot_terms, self.n_knots
-                )
-                if self.options.hessian_shift_acc > 0:  # `planner.nlp.hessian_shift`
-                    hess_l = shifted_hessian(hess_l, self._acc_mask(),
-                                             self.options.hessian_shift_acc)
-            self._hess_l_fn = (hess_l,)
-            self.build_time_s += time.perf_counter() - t0
-        return self._hess_l_fn[0]
+            if not self._assembles_hess_l():
+                return None
+            hess_l = assembled_hessian(parts.x, parts.p, parts.f, parts.g, self._knot_terms,
+                                       self.n_knots)
+            if self.options.hessian_shift_acc > 0:  # `planner.nlp.hessian_shift`
+                hess_l = shifted_hessian(hess_l, self._acc_mask(),
+                                         self.options.hessian_shift_acc)
+            return hess_l
+
+        return self._built_once("_hess_l_fn", build)
 
     @property
     def _solver(self) -> Any:
