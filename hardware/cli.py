@@ -230,7 +230,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run `gaitsmith-play` (`robots.cli_usage.run_app`): a usage mistake is one line on stderr
     and exit code 2, as with `gaitsmith`; the commands report their own hardware errors."""
     try:
-        return run_app(app, argv, (), _print_error, _print_interrupted)
+        return run_app(app, argv, tuple, _print_error, _print_interrupted)
     finally:
         if _LATCHED:  # the run is over (torque off): a late signal must not turn the exit code
             _ignore_stop_signals()  # into "killed" as Python restores default handlers at exit

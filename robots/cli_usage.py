@@ -43,19 +43,18 @@ def usage_message(exc: Exception) -> str:
 def run_app(
     app: typer.Typer,
     argv: Sequence[str] | None,
-    user_errors: tuple[type[BaseException], ...] | Callable[[], tuple[type[BaseException], ...]],
+    user_errors: Callable[[], tuple[type[BaseException], ...]],
     report_error: Callable[[str], None],
     report_interrupted: Callable[[], None],
 ) -> int:
     """Run `app` on `argv` (None: the process's arguments) and return its exit code.
-    `user_errors`: exception classes whose message is meant for the user (reported as one line,
-    exit 2), or a function giving them, called only when an exception reaches here (so it can
-    leave out the classes of modules the command never imported); `report_error` prints one
-    line, `report_interrupted` the Ctrl-C notice."""
+    `user_errors`: gives the exception classes whose message is meant for the user (reported as
+    one line, exit 2), called only when an exception reaches here (so it can leave out the
+    classes of modules the command never imported); `report_error` prints one line,
+    `report_interrupted` the Ctrl-C notice."""
     try:
         code: Any = app(args=list(argv) if argv is not None else None, standalone_mode=False)
-    # evaluated only when an exception arrives here: a tuple of classes either way
-    except (user_errors() if callable(user_errors) else user_errors) as exc:  # noqa: B030
+    except user_errors() as exc:  # evaluated only when an exception arrives
         report_error(str(exc))
         return 2
     except KeyboardInterrupt:
