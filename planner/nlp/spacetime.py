@@ -817,11 +817,11 @@ class GaitPlanner:
         order = np.argsort(keep, kind="stable")
         rows = hc.RowSelection(np.asarray(keep, dtype=int)[order],
                                np.asarray(weight, dtype=float)[order])
-        # with the knot's terms the reduced NLP assembles its own J and ∇²L: the full NLP's are
-        # not built for it (`_jac_g`, `_hess_l`), only whether it has them matters
-        full = (None, None) if self._knot_terms else (self._jac_g, self._hess_l)
+        # the reduced NLP assembles its own J and ∇²L from the knot's terms: the full NLP's are
+        # not built for it (`_jac_g`, `_hess_l`; without knot terms there are none to assemble),
+        # only whether it has them matters
         nlp, derivatives = hc.reduced_nlp(mirror, rows, self._nlp["x"], self._nlp["p"],
-                                          self._nlp["f"], self._nlp["g"], *full,
+                                          self._nlp["f"], self._nlp["g"], None, None,
                                           self._knot_terms, self.n_knots,
                                           assembled=(self._assembles_jac_g(),
                                                      self._assembles_hess_l()))
