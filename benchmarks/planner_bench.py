@@ -361,6 +361,11 @@ PATHS: dict[str, Callable[[robots.Robot, int], GaitPlanner]] = {
     "default-refine1": lambda robot, n: GaitPlanner(
         robot, n, PlannerOptions(ipopt_extra=(("min_refinement_steps", 1),))
     ),
+    # session 45 (lead): `spacetime.FAST_STEP_COMPUTATION` "yes" is the default (no residual
+    # check of the linear solves); "default-checkstep" is IPOPT's own "no", the solves before
+    "default-checkstep": lambda robot, n: GaitPlanner(
+        robot, n, PlannerOptions(ipopt_extra=(("fast_step_computation", "no"),))
+    ),
     "default-tol1e-5": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(tol=1e-5)),
     "default-tol1e-4": lambda robot, n: GaitPlanner(robot, n, PlannerOptions(tol=1e-4)),
     "knot-rows": lambda robot, n: GaitPlanner(robot, n, _full_cycle(compact_rows=())),

@@ -129,3 +129,24 @@ def test_refinement_on_demand_keeps_the_iterations_and_the_optimum() -> None:
         assert on_demand.feasible and always.feasible
         assert abs(on_demand.iterations - always.iterations) <= 1  # the bar: 1 of 35 moved by 1
         assert on_demand.cost == pytest.approx(always.cost, rel=SAME_COST_RTOL / 10)
+
+
+def test_fast_step_computation_keeps_the_iterations_and_the_optimum() -> None:
+    """`spacetime.FAST_STEP_COMPUTATION` "yes" (no residual check of IPOPT's linear solves)
+    against IPOPT's own "no": the same optimum in as many iterations (± 2) on a cold and a warm
+    solve (docs/results/planner_speed_rows.md, session 45)."""
+    robot = robots.load("quad12")
+    base, changed = _changed_trot(robot)
+    results = {}
+    for fast in ("yes", "no"):
+        options = PlannerOptions(ipopt_extra=(("fast_step_computation", fast),))
+        assert ipopt_options(options, False)["fast_step_computation"] == fast
+        planner = GaitPlanner(robot, N_KNOTS, options, background_compile=False)
+        cold = planner.solve(base, 0.25, warm_start=False)
+        results[fast] = (cold, planner.solve(changed, 0.25))
+    assert ipopt_options(PlannerOptions(), True)["fast_step_computation"] == "yes"
+    for fast, checked in zip(results["yes"], results["no"], strict=True):
+        assert fast.feasible and checked.feasible
+        assert abs(fast.iterations - checked.iterations) <= 2  # the bar: 3 of 35 moved by 1–2
+        assert fast.cost == pytest.approx(checked.cost, rel=SAME_COST_RTOL / 10)
+
