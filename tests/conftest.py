@@ -24,6 +24,12 @@ if "GAITSMITH_CACHE" not in os.environ:
     os.environ["GAITSMITH_CACHE"] = _CACHE
     atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 
+# MUMPS writes through gfortran's unit 6, buffered when stdout is not a terminal: a test that
+# captures it at the file descriptor (tests/benchmarks/test_kkt_fill_screen.py) would otherwise
+# leave lines in the buffer that reach the terminal at exit, after pytest's summary. Read by
+# libgfortran when CasADi first loads IPOPT's plugin, so set before any test builds a solver.
+os.environ.setdefault("GFORTRAN_UNBUFFERED_PRECONNECTED", "y")
+
 # forced, not defaulted: a developer's own GAITSMITH_BACKGROUND_COMPILE=1 must not reach the suite;
 # subprocesses (CLI tests, the search's workers) inherit it
 os.environ["GAITSMITH_BACKGROUND_COMPILE"] = "0"
