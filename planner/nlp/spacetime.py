@@ -153,7 +153,7 @@ MIN_REFINEMENT_STEPS = 0
 #: IPOPT's ``fast_step_computation`` (its default "no"): "yes" skips the residual of every
 #: linear solve (so no refinement either; IPOPT's inertia test and line search still judge the
 #: step). The same optima on every converged schedule of the bar (quad12 and hex18 templates +
-#: 20 random schedules at N = 30, costs within 1.0e-7 / 3.9e-7 relative; 3 of 35 converged
+#: 20 random schedules at N = 30, costs within 1.0e-7 / 3.9e-7 relative; 3 of 36 converged
 #: schedules ±1–2 iterations), 0.97× the CPU per iteration on the compiled path
 #: (docs/results/planner_speed_rows.md, session 45 lead).
 FAST_STEP_COMPUTATION = "yes"

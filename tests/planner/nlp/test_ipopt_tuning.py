@@ -111,42 +111,31 @@ def test_ipopt_extra_warm_only_names_reach_warm_solves_only() -> None:
         PlannerOptions(ipopt_extra=(("warm:max_iter", 3),))
 
 
-def test_refinement_on_demand_keeps_the_iterations_and_the_optimum() -> None:
-    """`spacetime.MIN_REFINEMENT_STEPS` 0 (IPOPT refines a linear solve only when its residual
-    test asks) against IPOPT's own 1: the same optimum in as many iterations (± 1) on a cold and
-    a warm solve (docs/results/planner_speed_rows.md, session 44)."""
+@pytest.mark.parametrize(("name", "default", "ipopts", "max_moved"), [
+    # refinement only when IPOPT's residual test asks; the bar: 1 of 35 schedules moved by 1
+    ("min_refinement_steps", 0, 1, 1),
+    # no residual check at all; the bar: 3 of 36 converged schedules moved by 1–2
+    ("fast_step_computation", "yes", "no", 2),
+])
+def test_linear_solve_defaults_keep_the_iterations_and_the_optimum(
+    name: str, default: int | str, ipopts: int | str, max_moved: int
+) -> None:
+    """The planner's defaults for IPOPT's linear solves (`spacetime.MIN_REFINEMENT_STEPS`,
+    `spacetime.FAST_STEP_COMPUTATION`) against IPOPT's own: the same optimum in as many
+    iterations (± `max_moved`) on a cold and a warm solve (docs/results/planner_speed_rows.md,
+    sessions 44 and 45)."""
     robot = robots.load("quad12")
     base, changed = _changed_trot(robot)
+    assert ipopt_options(PlannerOptions(), False)[name] == default
+    assert ipopt_options(PlannerOptions(), True)[name] == default
     results = {}
-    for steps in (0, 1):
-        options = PlannerOptions(ipopt_extra=(("min_refinement_steps", steps),))
-        assert ipopt_options(options, False)["min_refinement_steps"] == steps
+    for value in (default, ipopts):
+        options = PlannerOptions(ipopt_extra=((name, value),))
+        assert ipopt_options(options, False)[name] == value
         planner = GaitPlanner(robot, N_KNOTS, options, background_compile=False)
         cold = planner.solve(base, 0.25, warm_start=False)
-        results[steps] = (cold, planner.solve(changed, 0.25))
-    assert ipopt_options(PlannerOptions(), False)["min_refinement_steps"] == 0
-    for on_demand, always in zip(results[0], results[1], strict=True):
-        assert on_demand.feasible and always.feasible
-        assert abs(on_demand.iterations - always.iterations) <= 1  # the bar: 1 of 35 moved by 1
-        assert on_demand.cost == pytest.approx(always.cost, rel=SAME_COST_RTOL / 10)
-
-
-def test_fast_step_computation_keeps_the_iterations_and_the_optimum() -> None:
-    """`spacetime.FAST_STEP_COMPUTATION` "yes" (no residual check of IPOPT's linear solves)
-    against IPOPT's own "no": the same optimum in as many iterations (± 2) on a cold and a warm
-    solve (docs/results/planner_speed_rows.md, session 45)."""
-    robot = robots.load("quad12")
-    base, changed = _changed_trot(robot)
-    results = {}
-    for fast in ("yes", "no"):
-        options = PlannerOptions(ipopt_extra=(("fast_step_computation", fast),))
-        assert ipopt_options(options, False)["fast_step_computation"] == fast
-        planner = GaitPlanner(robot, N_KNOTS, options, background_compile=False)
-        cold = planner.solve(base, 0.25, warm_start=False)
-        results[fast] = (cold, planner.solve(changed, 0.25))
-    assert ipopt_options(PlannerOptions(), True)["fast_step_computation"] == "yes"
-    for fast, checked in zip(results["yes"], results["no"], strict=True):
-        assert fast.feasible and checked.feasible
-        assert abs(fast.iterations - checked.iterations) <= 2  # the bar: 3 of 35 moved by 1–2
-        assert fast.cost == pytest.approx(checked.cost, rel=SAME_COST_RTOL / 10)
-
+        results[value] = (cold, planner.solve(changed, 0.25))
+    for ours, theirs in zip(results[default], results[ipopts], strict=True):
+        assert ours.feasible and theirs.feasible
+        assert abs(ours.iterations - theirs.iterations) <= max_moved
+        assert ours.cost == pytest.approx(theirs.cost, rel=SAME_COST_RTOL / 10)
