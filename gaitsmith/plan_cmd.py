@@ -361,8 +361,13 @@ def plan(
     if supply_v is not None and result.feasible:
         console.print(voltage_margin(bot, result.joint_torques_nm, supply_v).summary())
     if not result.feasible:
+        # what to do: the limits above say what binds; the search (straight gaits only) tries
+        # other contact timings than the template's
+        retry = ("a lower --speed or --yaw-rate, or another --gait" if vy or yaw_rate
+                 else "a lower --speed, another --gait, or --search (other contact timings)")
         raise InfeasibleGaitError(
-            f"{bot.name} {gait} at {command}: {result.message}; no gait file written",
+            f"{bot.name} {gait} at {command}: {result.message}; no gait file written; "
+            f"try {retry}",
             result.binding,
         )
     gait_obj = planner.to_gait(result, gait, extra_metadata=meta)

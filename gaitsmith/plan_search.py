@@ -130,7 +130,7 @@ def plan_search(bot: robots.Robot, gait: str | None, speed: float, output: Path,
     if not best.feasible:
         raise InfeasibleGaitError(
             f"{bot.name} at {speed} m/s: no feasible gait found; {best.message}; "
-            "no gait file written", best.binding)
+            "no gait file written; try a lower --speed or more --generations", best.binding)
     console.print(
         f"best gait: [bold]{result.label}[/], search cost {result.search_cost:.5g} (best "
         f"template {result.best_template}: {result.best_template_cost:.5g}; both at "

@@ -42,6 +42,7 @@ def test_infeasible_plan_exits_2_without_a_file(
     assert not out.exists()
     err = " ".join(capsys.readouterr().err.split())  # the CLI wraps long messages
     assert "binding limits" in err and "no gait file written" in err
+    assert "try a lower --speed, another --gait, or --search" in err  # what to do
 
 
 def test_unknown_gait_is_a_user_error(tmp_path: Path) -> None:
