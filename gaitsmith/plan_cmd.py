@@ -363,7 +363,7 @@ def plan(
     if not result.feasible:
         # what to do: the limits above say what binds; the search (straight gaits only) tries
         # other contact timings than the template's
-        retry = ("a lower --speed or --yaw-rate, or another --gait" if vy or yaw_rate
+        retry = ("a smaller --speed, --vy or --yaw-rate, or another --gait" if vy or yaw_rate
                  else "a lower --speed, another --gait, or --search (other contact timings)")
         raise InfeasibleGaitError(
             f"{bot.name} {gait} at {command}: {result.message}; no gait file written; "
